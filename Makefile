@@ -1,0 +1,30 @@
+# make run    set up, then drive the car logic and print + plot the result
+# make test   set up, then run the whole suite
+# make bench  set up, then print the benchmarks
+# make gen    regenerate protocol files from protocol/spec.toml
+.PHONY: setup run test bench gen core clean
+
+PY := .venv/bin/python
+
+setup:
+	@bash scripts/setup.sh
+
+run: setup
+	@$(PY) -m roar_sim.scripted_drive --plot out/scripted_drive.png
+
+# pytest exits 5 when it collects no tests; that is a failure of the suite, not a pass.
+test: setup
+	@$(PY) -m pytest -q; rc=$$?; if [ $$rc -eq 5 ]; then echo "no tests collected"; exit 1; fi; exit $$rc
+
+bench: setup
+	@$(PY) -m benchmarks
+
+gen: setup
+	@$(PY) protocol/generate.py
+
+core: setup
+	@$(PY) -m roar_sim.core_build --variant release
+	@$(PY) -m roar_sim.core_build --variant sanitize
+
+clean:
+	rm -rf build out .pytest_cache .hypothesis

@@ -1,0 +1,171 @@
+// extern "C" wrappers over the core, for the host build. Placement new puts each object in the
+// caller's memory; the objects are trivially destructible, so no destroy call is needed.
+#include "roar/c_api.h"
+
+#include <new>
+
+#include "roar/car.h"
+#include "roar/l298n_mixer.h"
+
+using namespace roar;
+
+namespace {
+
+template <typename T>
+T* as(void* p) {
+  return static_cast<T*>(p);
+}
+template <typename T>
+const T* as(const void* p) {
+  return static_cast<const T*>(p);
+}
+
+roar_side_pins_t to_c(const SidePins& s) { return roar_side_pins_t{s.in1, s.in2, s.duty}; }
+
+}  // namespace
+
+extern "C" {
+
+uint32_t roar_core_abi_version(void) { return ROAR_CORE_ABI_VERSION; }
+uint32_t roar_protocol_version(void) { return proto::kMetaProtocolVersion; }
+
+size_t roar_parser_size(void) { return sizeof(ControlParser); }
+void roar_parser_init(void* parser) { new (parser) ControlParser(); }
+
+uint8_t roar_parser_feed(void* parser, uint8_t byte, uint16_t* throttle, uint16_t* steering) {
+  ControlParser* p = as<ControlParser>(parser);
+  const ParseResult r = p->feed(byte);
+  if (r == ParseResult::Ok) {
+    *throttle = p->command().throttle_us;
+    *steering = p->command().steering_us;
+  }
+  return static_cast<uint8_t>(r);
+}
+
+size_t roar_parser_feed_buffer(void* parser, const uint8_t* data, size_t n, roar_parse_event_t* events,
+                               size_t max_events) {
+  ControlParser* p = as<ControlParser>(parser);
+  size_t count = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const ParseResult r = p->feed(data[i]);
+    if (r == ParseResult::None) continue;
+    if (count < max_events) {
+      const bool ok = r == ParseResult::Ok;
+      events[count] = roar_parse_event_t{static_cast<uint32_t>(i), static_cast<uint8_t>(r), 0,
+                                         ok ? p->command().throttle_us : uint16_t(0),
+                                         ok ? p->command().steering_us : uint16_t(0)};
+    }
+    ++count;
+  }
+  return count;
+}
+
+size_t roar_watchdog_size(void) { return sizeof(CommandWatchdog); }
+void roar_watchdog_init(void* wd, uint32_t timeout_us) { new (wd) CommandWatchdog(timeout_us); }
+int roar_watchdog_accept(void* wd, uint16_t throttle, uint16_t steering, uint32_t now_us, uint8_t* event) {
+  WatchdogEvent ev = WatchdogEvent::None;
+  const bool ok = as<CommandWatchdog>(wd)->accept(ControlCommand{throttle, steering}, now_us, &ev);
+  if (event) *event = static_cast<uint8_t>(ev);
+  return ok ? 1 : 0;
+}
+uint8_t roar_watchdog_poll(void* wd, uint32_t now_us) {
+  return static_cast<uint8_t>(as<CommandWatchdog>(wd)->poll(now_us));
+}
+int roar_watchdog_latched(const void* wd) { return as<CommandWatchdog>(wd)->latched() ? 1 : 0; }
+
+size_t roar_brake_size(void) { return sizeof(BrakeFsm); }
+void roar_brake_init(void* fsm, uint16_t neutral_us, uint16_t tap_us, uint32_t step_us) {
+  BrakeConfig cfg;
+  cfg.neutral_us = neutral_us;
+  cfg.tap_us = tap_us;
+  cfg.step_us = step_us;
+  new (fsm) BrakeFsm(cfg);
+}
+uint16_t roar_brake_step(void* fsm, uint16_t command_us, uint32_t now_us, uint32_t frames_started) {
+  return as<BrakeFsm>(fsm)->step(command_us, now_us, frames_started);
+}
+uint8_t roar_brake_phase(const void* fsm) { return static_cast<uint8_t>(as<BrakeFsm>(fsm)->phase()); }
+
+static ChannelCalibration calibration(int16_t trim_us, uint16_t min_us, uint16_t max_us) {
+  ChannelCalibration cal;
+  cal.trim_us = trim_us;
+  cal.min_us = min_us;
+  cal.max_us = max_us;
+  return cal;
+}
+uint16_t roar_map_pulse(uint16_t command_us, int16_t trim_us, uint16_t min_us, uint16_t max_us) {
+  return map_pulse(command_us, calibration(trim_us, min_us, max_us));
+}
+int roar_calibration_valid(int16_t trim_us, uint16_t min_us, uint16_t max_us) {
+  return calibration_valid(calibration(trim_us, min_us, max_us)) ? 1 : 0;
+}
+
+size_t roar_rc_size(void) { return sizeof(RcOverride); }
+void roar_rc_init(void* rc) { new (rc) RcOverride(); }
+void roar_rc_pulse(void* rc, uint8_t channel, uint16_t width_us, uint32_t now_us) {
+  as<RcOverride>(rc)->on_pulse(static_cast<RcChannel>(channel & 1u), width_us, now_us);
+}
+int roar_rc_active(const void* rc, uint32_t now_us) { return as<RcOverride>(rc)->active(now_us) ? 1 : 0; }
+void roar_rc_command(const void* rc, uint16_t* throttle, uint16_t* steering) {
+  const ControlCommand c = as<RcOverride>(rc)->command();
+  *throttle = c.throttle_us;
+  *steering = c.steering_us;
+}
+
+void roar_mix_ackermann(uint16_t throttle_us, uint16_t steering_us, int16_t* left, int16_t* right) {
+  const SideDuties d = mix_ackermann(throttle_us, steering_us);
+  *left = d.left;
+  *right = d.right;
+}
+size_t roar_l298n_size(void) { return sizeof(L298nDriver); }
+void roar_l298n_init(void* drv, uint32_t dead_time_us) { new (drv) L298nDriver(dead_time_us); }
+void roar_l298n_step(void* drv, int16_t left, int16_t right, uint32_t now_us, roar_side_pins_t* left_out,
+                     roar_side_pins_t* right_out) {
+  const DrivePins pins = as<L298nDriver>(drv)->step(SideDuties{left, right}, now_us);
+  *left_out = to_c(pins.left);
+  *right_out = to_c(pins.right);
+}
+
+size_t roar_car_config_size(void) { return sizeof(roar_car_config_t); }
+
+void roar_car_default_config(roar_car_config_t* c) {
+  const CarConfig d;
+  *c = roar_car_config_t{d.failsafe_timeout_us, d.brake.step_us, d.brake.tap_us,
+                         d.throttle.trim_us, d.throttle.min_us, d.throttle.max_us,
+                         d.steering.trim_us, d.steering.min_us, d.steering.max_us,
+                         d.failsafe_enabled, d.brake_fsm_enabled, d.rc_override_enabled, {0, 0, 0}};
+}
+
+size_t roar_car_size(void) { return sizeof(Car); }
+
+int roar_car_init(void* car, const roar_car_config_t* c) {
+  CarConfig cfg;
+  cfg.failsafe_timeout_us = c->failsafe_timeout_us;
+  cfg.brake.step_us = c->brake_step_us;
+  cfg.brake.tap_us = c->brake_tap_us;
+  cfg.throttle = calibration(c->throttle_trim_us, c->throttle_min_us, c->throttle_max_us);
+  cfg.steering = calibration(c->steering_trim_us, c->steering_min_us, c->steering_max_us);
+  cfg.failsafe_enabled = c->failsafe_enabled != 0;
+  cfg.brake_fsm_enabled = c->brake_fsm_enabled != 0;
+  cfg.rc_override_enabled = c->rc_override_enabled != 0;
+  if (!calibration_valid(cfg.throttle) || !calibration_valid(cfg.steering)) return -1;
+  new (car) Car(cfg);
+  return 0;
+}
+
+void roar_car_boot(void* car) { as<Car>(car)->boot(); }
+void roar_car_feed(void* car, const uint8_t* data, size_t n, uint32_t now_us) {
+  for (size_t i = 0; i < n; ++i) as<Car>(car)->feed(data[i], now_us);
+}
+void roar_car_rc_pulse(void* car, uint8_t channel, uint16_t width_us, uint32_t now_us) {
+  as<Car>(car)->rc_pulse(static_cast<RcChannel>(channel & 1u), width_us, now_us);
+}
+void roar_car_step(void* car, uint32_t now_us, uint32_t frames_started, roar_car_outputs_t* out) {
+  Car* c = as<Car>(car);
+  const CarOutputs o = c->step(now_us, frames_started);
+  *out = roar_car_outputs_t{o.throttle_us, o.steering_us, static_cast<uint8_t>(o.source),
+                            static_cast<uint8_t>(o.brake_phase), static_cast<uint8_t>(c->latched() ? 1 : 0), 0};
+}
+size_t roar_car_take_reply(void* car, char* buf, size_t cap) { return as<Car>(car)->take_reply(buf, cap); }
+
+}  // extern "C"

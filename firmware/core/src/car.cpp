@@ -1,0 +1,126 @@
+#include "roar/car.h"
+
+namespace roar {
+namespace {
+
+// Appends src to buf at *len, keeping room for the NUL. Returns false when it does not fit.
+bool append(char* buf, size_t cap, size_t* len, const char* src) {
+  for (; *src; ++src) {
+    if (*len + 1 >= cap) return false;
+    buf[(*len)++] = *src;
+  }
+  buf[*len] = '\0';
+  return true;
+}
+
+bool append_uint(char* buf, size_t cap, size_t* len, uint16_t v) {
+  char digits[6];
+  uint8_t n = 0;
+  do {
+    digits[n++] = static_cast<char>('0' + v % 10u);
+    v = static_cast<uint16_t>(v / 10u);
+  } while (v && n < sizeof(digits) - 1);
+  char text[6];
+  for (uint8_t i = 0; i < n; ++i) text[i] = digits[n - 1 - i];
+  text[n] = '\0';
+  return append(buf, cap, len, text);
+}
+
+}  // namespace
+
+Car::Car(const CarConfig& config)
+    : config_(config),
+      watchdog_(config.failsafe_timeout_us),
+      brake_(config.brake),
+      host_command_(neutral_command()) {}
+
+void Car::boot() { queue(Reply::Ready); }
+
+void Car::queue(Reply kind, ParseResult detail) {
+  if (reply_count_ == kQueue) {
+    ++replies_dropped_;
+    return;
+  }
+  replies_[(reply_head_ + reply_count_) % kQueue] = QueuedReply{kind, detail};
+  ++reply_count_;
+}
+
+void Car::on_watchdog(WatchdogEvent ev) {
+  if (ev == WatchdogEvent::Tripped && !latch_notified_) {
+    queue(Reply::Failsafe);
+    latch_notified_ = true;
+  } else if (ev == WatchdogEvent::Armed) {
+    queue(Reply::Armed);
+    latch_notified_ = false;
+  }
+}
+
+void Car::feed(uint8_t byte, Micros now_us) {
+  const ParseResult r = parser_.feed(byte);
+  if (r == ParseResult::None) return;
+  if (r != ParseResult::Ok) {
+    queue(Reply::Error, r);
+    return;
+  }
+  if (!config_.failsafe_enabled) {
+    host_command_ = parser_.command();
+    return;
+  }
+  WatchdogEvent ev = WatchdogEvent::None;
+  if (watchdog_.accept(parser_.command(), now_us, &ev)) {
+    host_command_ = parser_.command();
+  } else if (!latch_notified_) {  // ignored while latched: say why, once
+    queue(Reply::Failsafe);
+    latch_notified_ = true;
+  }
+  on_watchdog(ev);
+}
+
+CarOutputs Car::step(Micros now_us, uint32_t frames_started) {
+  ControlSource source = ControlSource::Host;
+  if (config_.failsafe_enabled) {
+    on_watchdog(watchdog_.poll(now_us));
+    if (watchdog_.latched()) source = ControlSource::Failsafe;
+  }
+  if (config_.rc_override_enabled && rc_.active(now_us)) source = ControlSource::Rc;
+
+  ControlCommand cmd = source == ControlSource::Host ? host_command_
+                       : source == ControlSource::Rc ? rc_.command()
+                                                     : neutral_command();
+  if (config_.brake_fsm_enabled) cmd.throttle_us = brake_.step(cmd.throttle_us, now_us, frames_started);
+  return CarOutputs{map_pulse(cmd.throttle_us, config_.throttle), map_pulse(cmd.steering_us, config_.steering),
+                    source, brake_.phase()};
+}
+
+size_t Car::take_reply(char* buf, size_t cap) {
+  if (reply_count_ == 0 || cap == 0) return 0;
+  const QueuedReply& q = replies_[reply_head_];
+  size_t len = 0;
+  buf[0] = '\0';
+  bool ok = true;
+  switch (q.kind) {
+    case Reply::Ready:
+      ok = append(buf, cap, &len, proto::kSerialReplyReady) && append(buf, cap, &len, " ") &&
+           append_uint(buf, cap, &len, proto::kMetaProtocolVersion);
+      break;
+    case Reply::Error:
+      ok = append(buf, cap, &len, proto::kSerialReplyError) && append(buf, cap, &len, " ") &&
+           append(buf, cap, &len, parse_result_token(q.detail));
+      break;
+    case Reply::Failsafe:
+      ok = append(buf, cap, &len, proto::kSerialReplyFailsafe);
+      break;
+    case Reply::Armed:
+      ok = append(buf, cap, &len, proto::kSerialReplyArmed);
+      break;
+  }
+  if (!ok || !append(buf, cap, &len, proto::kSerialReplyLineEnd)) {
+    buf[0] = '\0';
+    return 0;
+  }
+  reply_head_ = static_cast<uint8_t>((reply_head_ + 1) % kQueue);
+  --reply_count_;
+  return len;
+}
+
+}  // namespace roar

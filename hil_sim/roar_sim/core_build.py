@@ -1,0 +1,97 @@
+"""Host build of the firmware core (firmware/core): a shared library for ctypes and the native
+C++ test program, each in a plain and a sanitized (-fsanitize=address,undefined) variant.
+
+Builds are incremental (rebuilt when any core source or header is newer) and atomic (written
+to a temporary name, then renamed), so parallel test processes can share them.
+
+    python -m roar_sim.core_build [--variant release|sanitize] [--force]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+CORE = ROOT / "firmware" / "core"
+BUILD = ROOT / "build" / "host"
+
+WARNINGS = ["-Wall", "-Wextra", "-Wpedantic", "-Werror"]
+VARIANTS = {
+    "release": ["-O2"],
+    "sanitize": ["-O1", "-g", "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer"],
+}
+TARGETS = {
+    "library": ("libroarcore.so", ["-shared", "-fPIC"], []),
+    "native_test": ("test_core", [], [CORE / "test" / "test_core.cpp"]),
+}
+
+
+class CoreBuildError(RuntimeError):
+    """The host build failed; str() is one line naming the first compiler error."""
+
+
+def core_sources() -> list[Path]:
+    return sorted((CORE / "src").glob("*.cpp"))
+
+
+def _inputs(extra: list[Path]) -> list[Path]:
+    return core_sources() + sorted((CORE / "include").rglob("*.h")) + sorted((CORE / "test").glob("*.h")) + extra
+
+
+def output_path(target: str = "library", variant: str = "release") -> Path:
+    return BUILD / variant / TARGETS[target][0]
+
+
+def compiler() -> str:
+    cxx = os.environ.get("CXX") or shutil.which("c++") or shutil.which("g++")
+    if not cxx:
+        raise CoreBuildError("no C++ compiler found: install g++ (apt-get install g++) or set CXX")
+    return cxx
+
+
+def build(target: str = "library", variant: str = "release", force: bool = False) -> Path:
+    """Build (if stale) and return the path of the target."""
+    if target not in TARGETS or variant not in VARIANTS:
+        raise CoreBuildError(f"unknown build {target}/{variant}: targets {sorted(TARGETS)}, variants {sorted(VARIANTS)}")
+    name, link_flags, extra = TARGETS[target]
+    out = output_path(target, variant)
+    inputs = _inputs(extra)
+    if not force and out.exists() and out.stat().st_mtime >= max(p.stat().st_mtime for p in inputs):
+        return out
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=name + ".", dir=out.parent)
+    os.close(fd)
+    cmd = [compiler(), "-std=c++17", *WARNINGS, *VARIANTS[variant], *link_flags, "-I", str(CORE / "include"),
+           "-I", str(CORE / "test"), *map(str, core_sources() + extra), "-o", tmp]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        os.unlink(tmp)
+        first = next((ln for ln in proc.stderr.splitlines() if "error" in ln), proc.stderr.strip()[:200])
+        raise CoreBuildError(f"host build of firmware/core failed ({variant}): {first}")
+    os.chmod(tmp, 0o755)
+    os.replace(tmp, out)
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="Build the firmware core for the host.")
+    parser.add_argument("--variant", choices=sorted(VARIANTS), default="release")
+    parser.add_argument("--target", choices=sorted(TARGETS), default="library")
+    parser.add_argument("--force", action="store_true", help="rebuild even when up to date")
+    args = parser.parse_args(argv)
+    try:
+        print(build(args.target, args.variant, args.force).relative_to(ROOT))
+    except CoreBuildError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
