@@ -32,6 +32,18 @@ TARGETS = {
 }
 
 
+# Microcontroller targets: the core must compile for them unchanged. avr-gcc 5.4 (Debian) knows
+# C++17 only as gnu++1z, which is why the core sticks to C++14 features and <stdint.h>.
+CROSS_TARGETS = {
+    "atmega328p": ("avr-g++", ["-std=gnu++1z", "-mmcu=atmega328p", "-DF_CPU=16000000L"], "gcc-avr avr-libc"),
+    "cortex-m4f": ("arm-none-eabi-g++", ["-std=c++17", "-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16",
+                                         "-mfloat-abi=hard"], "gcc-arm-none-eabi libnewlib-arm-none-eabi"),
+    "cortex-m7": ("arm-none-eabi-g++", ["-std=c++17", "-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16",
+                                        "-mfloat-abi=hard"], "gcc-arm-none-eabi libnewlib-arm-none-eabi"),
+}
+HOST_ONLY_SOURCES = {"c_api.cpp"}  # placement new and the C ABI exist for the host build only
+
+
 class CoreBuildError(RuntimeError):
     """The host build failed; str() is one line naming the first compiler error."""
 
@@ -77,6 +89,28 @@ def build(target: str = "library", variant: str = "release", force: bool = False
     os.chmod(tmp, 0o755)
     os.replace(tmp, out)
     return out
+
+
+def cross_compile(target: str) -> list[Path]:
+    """Compile the portable core sources for a microcontroller; returns the object files."""
+    cxx, flags, packages = CROSS_TARGETS[target]
+    if not shutil.which(cxx):
+        raise CoreBuildError(f"{cxx} not found: apt-get install {packages}")
+    out_dir = ROOT / "build" / "cross" / target
+    out_dir.mkdir(parents=True, exist_ok=True)
+    objects = []
+    for src in core_sources():
+        if src.name in HOST_ONLY_SOURCES:
+            continue
+        obj = out_dir / (src.stem + ".o")
+        cmd = [cxx, *flags, "-Os", "-ffunction-sections", "-fdata-sections", "-fno-exceptions", "-fno-rtti",
+               "-Wall", "-Wextra", "-Werror", "-I", str(CORE / "include"), "-c", str(src), "-o", str(obj)]
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+        if proc.returncode != 0:
+            first = next((ln for ln in proc.stderr.splitlines() if "error" in ln), proc.stderr.strip()[:200])
+            raise CoreBuildError(f"{target} build of firmware/core failed: {first}")
+        objects.append(obj)
+    return objects
 
 
 def main(argv: list[str] | None = None) -> int:
