@@ -53,13 +53,18 @@ class Constant:
         return "k" + "".join(part.capitalize() for part in f"{self.section}_{self.key}".split("_"))
 
 
-def load_spec(path: Path = SPEC) -> list[Constant]:
+def _parse_file(path: Path, parse, what: str):
+    """parse(text) of a file, with unreadable or unparsable files reported as one line."""
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        return parse(path.read_text(encoding="utf-8"))
     except OSError as e:
         raise SpecError(f"{path}: cannot read: {e.strerror}") from None
-    except tomllib.TOMLDecodeError as e:
-        raise SpecError(f"{path}: invalid TOML: {e}") from None
+    except ValueError as e:  # TOMLDecodeError and JSONDecodeError are ValueErrors
+        raise SpecError(f"{path.name}: invalid {what}: {e}") from None
+
+
+def load_spec(path: Path = SPEC) -> list[Constant]:
+    data = _parse_file(path, tomllib.loads, "TOML")
     constants = []
     for section, entries in data.items():
         if not NAME.match(section) or not isinstance(entries, dict):
@@ -207,12 +212,7 @@ def render_python(constants: list[Constant]) -> str:
 
 
 def load_vectors(path: Path = VECTORS) -> list[dict]:
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as e:
-        raise SpecError(f"{path}: cannot read: {e.strerror}") from None
-    except json.JSONDecodeError as e:
-        raise SpecError(f"{path.name}: invalid JSON at line {e.lineno}: {e.msg}") from None
+    data = _parse_file(path, json.loads, "JSON")
     tokens = {k.key for k in load_spec() if k.section == "parse_result"} - {"none"}
     cases = data.get("cases") if isinstance(data, dict) else None
     if not isinstance(cases, list) or not cases:
