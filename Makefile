@@ -1,8 +1,9 @@
-# make run    set up, then drive the car logic and print + plot the result
+# make run    set up, then drive the simulated car round a track; print the laps, plot the path
+# make trace  set up, then drive the firmware logic through a scripted session; print + plot pulses
 # make test   set up, then run the whole suite
 # make bench  set up, then print the benchmarks
 # make gen    regenerate protocol files from protocol/spec.toml
-.PHONY: setup run test bench gen core clean
+.PHONY: setup run trace test bench gen core clean
 
 PY := .venv/bin/python
 
@@ -10,6 +11,9 @@ setup:
 	@bash scripts/setup.sh
 
 run: setup
+	@$(PY) -m roar_sim.lap --track oval --laps 2 --plot out/lap.png
+
+trace: setup
 	@$(PY) -m roar_sim.scripted_drive --plot out/scripted_drive.png
 
 # pytest exits 5 when it collects no tests; that is a failure of the suite, not a pass.

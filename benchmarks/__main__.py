@@ -2,9 +2,9 @@
 
 import sys
 
-from benchmarks import parser_throughput
+from benchmarks import parser_throughput, sim_speed
 
-BENCHMARKS = [parser_throughput]
+BENCHMARKS = [parser_throughput, sim_speed]
 
 
 def main() -> int:

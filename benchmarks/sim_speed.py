@@ -1,0 +1,44 @@
+"""Simulation speed in simulated seconds per wall second: bare PyBullet stepping of the same car
+and track, against the full firmware-in-the-loop harness (firmware loop at 1 kHz, ESC/servo
+emulation, physics at 200 Hz, host messages at 50 Hz), lidar off. Target: ratio >= 0.5."""
+
+import time
+
+from roar.protocol import encode
+from roar_sim.harness import PHYSICS_US, SimCar
+from roar_sim.plant import Plant
+from roar_sim.track import oval
+
+TITLE = "simulation speed (simulated s per wall s)"
+SIM_SECONDS = 10.0
+
+
+def bare() -> float:
+    plant = Plant(oval(), dt_s=PHYSICS_US / 1e6)
+    try:
+        start = time.perf_counter()
+        for _ in range(int(SIM_SECONDS / plant.dt_s)):
+            plant.apply(0.3, 0.0, 0.1)
+            plant.step()
+        return SIM_SECONDS / (time.perf_counter() - start)
+    finally:
+        plant.close()
+
+
+def harness() -> float:
+    with SimCar(oval()) as sim:
+        sim.write(encode(1500, 1500))
+        sim.run(0.02)
+        message = encode(1650, 1550)
+        start = time.perf_counter()
+        for _ in range(int(SIM_SECONDS / 0.02)):
+            sim.write(message)
+            sim.run(0.02)
+        return SIM_SECONDS / (time.perf_counter() - start)
+
+
+def run() -> None:
+    b, h = bare(), harness()
+    print(f"bare PyBullet stepping:        {b:8.1f} x real time")
+    print(f"firmware-in-the-loop harness:  {h:8.1f} x real time")
+    print(f"ratio harness / bare:          {h / b:8.2f}   (target >= 0.5)")

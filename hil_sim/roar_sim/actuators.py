@@ -1,0 +1,88 @@
+"""Emulated hobby ESC and steering servo: what the pulses on the car's output pins do.
+
+Both read one pulse per output frame (50 Hz), as the real parts do.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import Enum
+
+from roar.protocol import spec
+
+N = spec.CONTROL_NEUTRAL_US
+HALF_RANGE_US = (spec.CONTROL_MAX_US - spec.CONTROL_MIN_US) / 2  # [us]
+
+
+class EscMode(Enum):
+    NEUTRAL = "neutral"
+    FORWARD = "forward"
+    BRAKE = "brake"
+    REVERSE = "reverse"
+
+
+@dataclass
+class EscOutput:
+    mode: EscMode
+    drive: float  # -1..1 fraction of the motor limit (negative = reverse); 0 when braking or neutral
+    brake: float  # 0..1 brake strength
+
+
+@dataclass
+class HobbyEsc:
+    """A forward/brake/reverse car ESC (the common Traxxas/Hobbywing default).
+
+    * Pulses within `deadband_us` of neutral are neutral (the motor coasts).
+    * Above: forward, proportional.
+    * Below, after driving forward: **brake**, proportional, for as long as it is held. The ESC
+      only reverses after it has seen a below-neutral pulse (brake) and then neutral again.
+    * Below, from rest otherwise: reverse, limited to `reverse_limit` of full power.
+    """
+
+    deadband_us: int = 25  # [us]
+    reverse_limit: float = 0.5  # fraction of forward power allowed in reverse
+    mode: EscMode = EscMode.NEUTRAL
+    reverse_locked: bool = False  # set by forward; cleared by brake followed by neutral
+    _braked: bool = False
+
+    def pulse(self, width_us: int) -> EscOutput:
+        off = width_us - N
+        if abs(off) <= self.deadband_us:
+            if self._braked:
+                self.reverse_locked = False
+                self._braked = False
+            self.mode = EscMode.NEUTRAL
+            return EscOutput(EscMode.NEUTRAL, 0.0, 0.0)
+        amount = min(1.0, (abs(off) - self.deadband_us) / (HALF_RANGE_US - self.deadband_us))
+        if off > 0:
+            self.mode, self.reverse_locked, self._braked = EscMode.FORWARD, True, False
+            return EscOutput(EscMode.FORWARD, amount, 0.0)
+        if self.reverse_locked:
+            self.mode, self._braked = EscMode.BRAKE, True
+            return EscOutput(EscMode.BRAKE, 0.0, amount)
+        self.mode = EscMode.REVERSE
+        return EscOutput(EscMode.REVERSE, -amount * self.reverse_limit, 0.0)
+
+
+@dataclass
+class SteeringServo:
+    """Pulse -> steering angle. Above-neutral pulses steer right (negative angle, yaw clockwise).
+
+    `trim_us` is the servo horn's mechanical offset, `max_angle_rad` the end-points, and
+    `rate_rad_s` the slew limit (a standard servo does 60 degrees in 0.1 s)."""
+
+    trim_us: int = 0  # [us]
+    max_angle_rad: float = 0.4  # [rad] at 1000/2000 us
+    rate_rad_s: float = math.radians(60) / 0.1  # [rad/s]
+    angle_rad: float = 0.0  # [rad] current, left positive
+    target_rad: float = 0.0  # [rad]
+
+    def pulse(self, width_us: int) -> None:
+        frac = (width_us - N - self.trim_us) / HALF_RANGE_US
+        self.target_rad = -max(-1.0, min(1.0, frac)) * self.max_angle_rad
+
+    def advance(self, dt_s: float) -> float:
+        step = self.rate_rad_s * dt_s
+        self.angle_rad += max(-step, min(step, self.target_rad - self.angle_rad))
+        return self.angle_rad

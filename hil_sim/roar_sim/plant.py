@@ -1,0 +1,147 @@
+"""The physical car: PyBullet's 1/10-scale racecar (pybullet_data/racecar/racecar.urdf) on a
+plane with the track's walls. Rear-wheel drive through a motor with a speed and torque limit,
+Ackermann steering on the two hinges, and the sensors a real car would have.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as pb
+import pybullet_data
+
+from roar_sim.track import Track
+
+WHEELBASE_M = 0.325  # [m] hinge axis to rear axle (racecar.urdf)
+TRACK_WIDTH_M = 0.2  # [m] between the steering hinges (racecar.urdf)
+WHEEL_RADIUS_M = 0.05  # [m]
+REAR_WHEELS = (2, 3)  # joint indices in racecar.urdf
+FRONT_WHEELS = (5, 7)
+LEFT_HINGE, RIGHT_HINGE = 4, 6
+LIDAR_LINK = 8  # hokuyo_joint
+MOTOR_MAX_SPEED_RAD_S = 60.0  # [rad/s] wheel speed at full throttle (3 m/s)
+MOTOR_MAX_TORQUE_NM = 1.5  # [N m] per rear wheel
+BRAKE_MAX_TORQUE_NM = 2.0  # [N m] per rear wheel at full brake
+ROLLING_DRAG_NM = 0.02  # [N m] coasting resistance per wheel
+ENCODER_COUNTS_PER_REV = 1024  # [counts]
+WALL_HEIGHT_M, WALL_THICKNESS_M = 0.3, 0.05  # [m] higher than the lidar (0.17 m)
+
+
+@dataclass(frozen=True)
+class CarState:
+    x: float  # [m]
+    y: float  # [m]
+    yaw: float  # [rad] anticlockwise from +x
+    speed: float  # [m/s] along the car's heading, negative when reversing
+    yaw_rate: float  # [rad/s] (IMU gyro z)
+    encoder_counts: int  # rear-left wheel encoder, signed
+
+
+def ackermann_angles(steer_rad: float) -> tuple[float, float]:
+    """(left, right) hinge angles for a virtual centre angle: the inner wheel turns more, so both
+    wheel axes meet on the rear axle line."""
+    if abs(steer_rad) < 1e-6:
+        return 0.0, 0.0
+    radius = WHEELBASE_M / math.tan(steer_rad)  # signed: positive = turning left
+    left = math.atan(WHEELBASE_M / (radius - TRACK_WIDTH_M / 2))
+    right = math.atan(WHEELBASE_M / (radius + TRACK_WIDTH_M / 2))
+    return left, right
+
+
+class Plant:
+    """One PyBullet world (DIRECT, or GUI when gui=True) with one car and a track."""
+
+    def __init__(self, track: Track | None, dt_s: float = 0.005, gui: bool = False) -> None:
+        self.dt_s = dt_s
+        self.client = pb.connect(pb.GUI if gui else pb.DIRECT)
+        c = self.client
+        pb.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=c)
+        pb.setGravity(0, 0, -9.81, physicsClientId=c)
+        pb.setTimeStep(dt_s, physicsClientId=c)
+        pb.loadURDF("plane.urdf", physicsClientId=c)
+        x, y, yaw = track.start_pose if track else (0.0, 0.0, 0.0)
+        self.car = pb.loadURDF("racecar/racecar.urdf", [x, y, 0.05], pb.getQuaternionFromEuler([0, 0, yaw]),
+                               physicsClientId=c)
+        for w in REAR_WHEELS + FRONT_WHEELS:
+            pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL, targetVelocity=0, force=0, physicsClientId=c)
+        self.walls = self._build_walls(track) if track else []
+        self.time_s = 0.0
+
+    def close(self) -> None:
+        if pb.isConnected(self.client):
+            pb.disconnect(self.client)
+
+    def _build_walls(self, track: Track) -> list[int]:
+        """Box segments along both edges; a segment that would lie inside another part of the
+        track (the crossing of a figure-eight) is left out."""
+        c, walls = self.client, []
+        cl = track.centerline
+        n = len(cl)
+        for edge in track.edges():
+            for i in range(n):
+                a, b = edge[i], edge[(i + 1) % n]
+                mid = (a + b) / 2
+                d = np.linalg.norm(cl - mid, axis=1)
+                far = np.abs((np.arange(n) - i + n // 2) % n - n // 2) > 10
+                if np.any(d[far] < track.width_m / 2 - 0.02):
+                    continue
+                length = float(np.linalg.norm(b - a)) + WALL_THICKNESS_M
+                yaw = math.atan2(b[1] - a[1], b[0] - a[0])
+                half = [length / 2, WALL_THICKNESS_M / 2, WALL_HEIGHT_M / 2]
+                shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=c)
+                visual = pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=[0.8, 0.8, 0.8, 1],
+                                              physicsClientId=c)
+                walls.append(pb.createMultiBody(0, shape, visual, [mid[0], mid[1], WALL_HEIGHT_M / 2],
+                                                pb.getQuaternionFromEuler([0, 0, yaw]), physicsClientId=c))
+        return walls
+
+    def apply(self, drive: float, brake: float, steer_rad: float) -> None:
+        """drive -1..1 of the motor limit, brake 0..1, steer_rad the virtual centre angle."""
+        c = self.client
+        for w in REAR_WHEELS:
+            if brake > 0:
+                pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL, targetVelocity=0,
+                                         force=BRAKE_MAX_TORQUE_NM * brake, physicsClientId=c)
+            elif drive != 0:
+                pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL,
+                                         targetVelocity=drive * MOTOR_MAX_SPEED_RAD_S,
+                                         force=MOTOR_MAX_TORQUE_NM * abs(drive) + ROLLING_DRAG_NM, physicsClientId=c)
+            else:
+                pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL, targetVelocity=0, force=ROLLING_DRAG_NM,
+                                         physicsClientId=c)
+        left, right = ackermann_angles(steer_rad)
+        for hinge, angle in ((LEFT_HINGE, left), (RIGHT_HINGE, right)):
+            pb.setJointMotorControl2(self.car, hinge, pb.POSITION_CONTROL, targetPosition=angle, force=10,
+                                     physicsClientId=c)
+
+    def step(self) -> None:
+        pb.stepSimulation(physicsClientId=self.client)
+        self.time_s += self.dt_s
+
+    def state(self) -> CarState:
+        c = self.client
+        (x, y, _), orn = pb.getBasePositionAndOrientation(self.car, physicsClientId=c)
+        (vx, vy, _), (_, _, wz) = pb.getBaseVelocity(self.car, physicsClientId=c)
+        yaw = pb.getEulerFromQuaternion(orn)[2]
+        speed = vx * math.cos(yaw) + vy * math.sin(yaw)
+        wheel_angle = pb.getJointState(self.car, REAR_WHEELS[0], physicsClientId=c)[0]
+        counts = int(wheel_angle / (2 * math.pi) * ENCODER_COUNTS_PER_REV)
+        return CarState(x, y, yaw, speed, wz, counts)
+
+    def wall_contacts(self) -> int:
+        """How many wall bodies the car touches right now."""
+        touching = {pt[2] for pt in pb.getContactPoints(bodyA=self.car, physicsClientId=self.client)}
+        return len(touching & set(self.walls))
+
+    def lidar(self, beams: int = 1080, fov_rad: float = math.radians(270), range_m: float = 10.0) -> np.ndarray:
+        """2D scan from the Hokuyo link: distances [m] from right to left; range_m where nothing is hit."""
+        c = self.client
+        pos, orn = pb.getLinkState(self.car, LIDAR_LINK, physicsClientId=c)[:2]
+        yaw = pb.getEulerFromQuaternion(orn)[2]
+        angles = yaw + np.linspace(-fov_rad / 2, fov_rad / 2, beams)
+        start = np.tile(pos, (beams, 1))
+        end = start + range_m * np.stack([np.cos(angles), np.sin(angles), np.zeros(beams)], axis=1)
+        hits = pb.rayTestBatch(start.tolist(), end.tolist(), physicsClientId=c)
+        return np.array([h[2] * range_m if h[0] >= 0 else range_m for h in hits])

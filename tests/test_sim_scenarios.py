@@ -1,0 +1,140 @@
+"""Software-in-the-loop scenarios: the firmware core drives the emulated ESC/servo and the
+PyBullet car, lockstep and deterministic."""
+
+import math
+
+import pytest
+
+from roar.protocol import encode, spec
+from roar_sim.actuators import EscMode, HobbyEsc, SteeringServo
+from roar_sim.firmware_core import CarConfig, ControlSource
+from roar_sim.harness import SimCar, SimConfig
+from roar_sim.plant import ackermann_angles
+from roar_sim.track import oval
+
+N = spec.CONTROL_NEUTRAL_US
+SEND = spec.TIMING_HOST_SEND_PERIOD_US / 1e6
+
+
+def send_for(sim, message, seconds):
+    for _ in range(round(seconds / SEND)):
+        sim.write(message)
+        sim.run(SEND)
+
+
+def armed(config=None):
+    sim = SimCar(config=config)
+    send_for(sim, encode(N, N), 0.2)
+    return sim
+
+
+@pytest.mark.parametrize("fsm", [True, False])
+def test_forward_then_reverse_needs_the_brake_fsm(fsm):
+    """(1) With the FSM the car ends up moving backwards; without it the forward/brake/reverse
+    ESC only brakes, and the car stops but never reverses."""
+    with armed(SimConfig(firmware=CarConfig(brake_fsm_enabled=fsm))) as sim:
+        send_for(sim, encode(1700, N), 1.5)
+        assert sim.state().speed > 0.8
+        min_speed = math.inf
+        for _ in range(150):
+            send_for(sim, encode(1300, N), SEND)
+            min_speed = min(min_speed, sim.state().speed)
+        if fsm:
+            assert sim.esc_mode == EscMode.REVERSE and sim.state().speed < -0.3
+        else:
+            assert sim.esc_mode == EscMode.BRAKE and abs(sim.state().speed) < 0.05 and min_speed > -0.05
+
+
+def test_silence_sets_neutral_within_the_timeout_and_the_car_comes_to_rest():
+    """(2) Commands stop: the ESC sees neutral within the failsafe timeout (plus one output frame)
+    and the car rolls to a stop."""
+    with armed() as sim:
+        send_for(sim, encode(1750, 1600), 1.5)
+        last_send = sim.time_s - SEND
+        neutral_at = None
+        while sim.time_s < last_send + 1.0:
+            sim.run(0.001)
+            if neutral_at is None and sim.outputs.throttle_us == N and sim.outputs.source == ControlSource.FAILSAFE:
+                neutral_at = sim.time_s
+        limit = (spec.TIMING_FAILSAFE_TIMEOUT_US + spec.TIMING_SERVO_FRAME_US) / 1e6
+        assert neutral_at is not None and neutral_at - last_send <= limit
+        assert sim.read()[-1] == "FAILSAFE"
+        sim.run(4.0)
+        assert abs(sim.state().speed) < 0.05
+
+
+def test_rc_transmitter_wins_over_host():
+    """(3) Receiver pulses present: the manual commands drive the car, not the host's."""
+    with armed() as sim:
+        sim.rc_transmitter((1700, 1200))  # forward, steering left
+        yaw0 = sim.state().yaw
+        send_for(sim, encode(1300, 1800), 2.0)  # the host asks for reverse and right
+        s = sim.state()
+        assert sim.outputs.source == ControlSource.RC
+        assert s.speed > 0.5 and s.yaw - yaw0 > 0.5  # forward and turning left
+
+
+@pytest.mark.parametrize("steer_us, turn", [(1800, "right"), (1200, "left"), (1500, "straight")])
+def test_open_loop_drive_signs(steer_us, turn):
+    """(4) Throttle above neutral drives forward; steering above neutral turns right."""
+    with armed() as sim:
+        s0 = sim.state()
+        send_for(sim, encode(1680, steer_us), 1.5)
+        s = sim.state()
+        heading_progress = (s.x - s0.x) * math.cos(s0.yaw) + (s.y - s0.y) * math.sin(s0.yaw)
+        assert heading_progress > 0.5 and s.speed > 0.3 and s.encoder_counts > 1000
+        dyaw = s.yaw - s0.yaw
+        if turn == "right":
+            assert dyaw < -0.3 and s.yaw_rate < 0
+        elif turn == "left":
+            assert dyaw > 0.3 and s.yaw_rate > 0
+        else:
+            assert abs(dyaw) < 0.05
+
+
+def test_ackermann_inner_wheel_turns_more():
+    left, right = ackermann_angles(0.3)  # turning left: left is the inner wheel
+    assert left > 0.3 > right > 0
+    left, right = ackermann_angles(-0.3)
+    assert right < -0.3 < left < 0
+    assert ackermann_angles(0.0) == (0.0, 0.0)
+
+
+def test_esc_forward_brake_reverse_behaviour():
+    esc = HobbyEsc()
+    assert esc.pulse(1300).mode == EscMode.REVERSE  # from rest: reverse
+    assert esc.pulse(1700).mode == EscMode.FORWARD
+    assert esc.pulse(1300).mode == EscMode.BRAKE  # after forward: brake
+    assert esc.pulse(1300).mode == EscMode.BRAKE  # held: still brake
+    assert esc.pulse(1510).mode == EscMode.NEUTRAL  # inside the deadband
+    out = esc.pulse(1000)
+    assert out.mode == EscMode.REVERSE and out.drive == -esc.reverse_limit
+
+
+def test_servo_rate_limit_trim_and_end_points():
+    servo = SteeringServo(trim_us=20)
+    servo.pulse(2000)
+    assert servo.target_rad == pytest.approx(-servo.max_angle_rad * (480 / 500))
+    angle = servo.advance(0.01)
+    assert angle == pytest.approx(-servo.rate_rad_s * 0.01)
+    for _ in range(100):
+        servo.advance(0.01)
+    assert servo.angle_rad == pytest.approx(servo.target_rad)
+    servo.pulse(5000)
+    assert servo.target_rad == -servo.max_angle_rad
+
+
+def test_lockstep_is_deterministic():
+    def trace():
+        with armed(SimConfig()) as sim:
+            send_for(sim, encode(1700, 1650), 1.0)
+            return sim.state()
+    assert trace() == trace()
+
+
+def test_walls_are_built_and_detected():
+    with SimCar(oval()) as sim:
+        assert len(sim.plant.walls) > 100
+        assert sim.plant.wall_contacts() == 0
+        scan = sim.plant.lidar(beams=90)
+        assert scan.min() < 1.0 and scan.max() <= 10.0  # walls 0.6 m either side
