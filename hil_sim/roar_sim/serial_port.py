@@ -1,0 +1,93 @@
+"""The simulated car as a serial port: a pseudo-terminal whose other end is the firmware logic.
+
+    python -m roar_sim.serial_port [--track oval] [--seconds 0 (= until Ctrl-C)]
+
+prints a path such as /dev/pts/5. Anything that speaks the control message over that port (a
+pyserial script, a terminal program) drives the simulated car in real time, and reads the
+lines the firmware prints (READY, ERR <reason>, FAILSAFE, ARMED), as with a real car on USB.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import termios
+import tty
+
+from roar_sim.firmware_core import CoreLoadError
+from roar_sim.harness import SimCar, SimConfig
+from roar_sim.track import TrackError, get
+
+CHUNK_S = 0.002  # [s] simulated (and, in real time, wall) time between reads of the port
+
+
+class PtyCar:
+    """A SimCar behind a pty. Call pump() repeatedly (or serve()) to move bytes and time."""
+
+    def __init__(self, sim: SimCar) -> None:
+        self.sim = sim
+        self.master, self._slave = os.openpty()
+        tty.setraw(self._slave, termios.TCSANOW)  # bytes pass unchanged: no echo, no line editing
+        os.set_blocking(self.master, False)
+        self.path = os.ttyname(self._slave)
+
+    def pump(self, seconds: float = CHUNK_S) -> None:
+        try:
+            data = os.read(self.master, 4096)
+        except (BlockingIOError, InterruptedError):
+            data = b""
+        if data:
+            self.sim.write(data)
+        self.sim.run(seconds)
+        for line in self.sim.read():
+            try:
+                os.write(self.master, (line + "\n").encode("ascii"))
+            except BlockingIOError:
+                pass  # nobody reads: drop the line, as the firmware does, never block
+
+    def serve(self, seconds: float = 0.0) -> None:
+        """Run until `seconds` of simulated time have passed (0 = forever)."""
+        end = self.sim.time_s + seconds
+        while seconds <= 0 or self.sim.time_s < end:
+            self.pump()
+
+    def close(self) -> None:
+        for fd in (self.master, self._slave):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+        self.sim.close()
+
+    def __enter__(self) -> PtyCar:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--track", default="oval", help="oval, figure-eight or a track .json file (default: oval)")
+    parser.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: run until Ctrl-C)")
+    parser.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
+    args = parser.parse_args(argv)
+    try:
+        car = PtyCar(SimCar(get(args.track), SimConfig(realtime=True, gui=args.gui)))
+    except (TrackError, CoreLoadError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    with car:
+        print(f"simulated car on {car.path} (115200 baud, any setting works); Ctrl-C to stop", flush=True)
+        try:
+            car.serve(args.seconds)
+        except KeyboardInterrupt:
+            pass
+        s = car.sim.state()
+        print(f"stopped after {car.sim.time_s:.1f} s: car at x={s.x:.2f} m, y={s.y:.2f} m, speed {s.speed:.2f} m/s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
