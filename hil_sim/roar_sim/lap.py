@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from roar.protocol import encode, spec
+from roar_sim import plotting
 from roar_sim.actuators import HALF_RANGE_US
 from roar_sim.firmware_core import CoreLoadError
 from roar_sim.harness import SimCar, SimConfig
@@ -132,13 +133,9 @@ def report(result: LapResult) -> str:
     return "\n".join(lines)
 
 
-def plot(result: LapResult, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(8, 6), constrained_layout=True)
+def plot(result: LapResult):
+    """The track and the driven path coloured by speed; returns the figure."""
+    fig, ax = plotting.subplots(figsize=(8, 6))
     left, right = result.track.edges()
     for edge in (left, right):
         closed = np.vstack([edge, edge[:1]])
@@ -155,9 +152,7 @@ def plot(result: LapResult, path: Path) -> None:
     ax.set_title(f"{result.track.name}: laps {times}\nmax cross-track {result.max_cross_track_m:.2f} m, "
                  f"wall contacts {result.wall_contacts}", fontsize=10)
     ax.legend(loc="upper right", fontsize=8)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    return fig
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -173,8 +168,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--laps must be 1..100")
     if not 0.2 <= args.speed <= MAX_SPEED_M_S:
         parser.error(f"--speed must be 0.2..{MAX_SPEED_M_S:.1f} m/s")
-    if args.plot and args.plot.suffix.lower() != ".png":
-        parser.error(f"--plot must name a .png file, got {args.plot}")
+    plotting.check_png_argument(parser, args.plot)
     try:
         track = get(args.track)
         result = drive_laps(track, args.laps, args.speed, SimConfig(realtime=args.realtime, gui=args.gui),
@@ -183,13 +177,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {e}", file=sys.stderr)
         return 1
     print(report(result))
-    if args.plot:
-        try:
-            plot(result, args.plot)
-        except OSError as e:
-            print(f"error: cannot write {args.plot}: {e.strerror}", file=sys.stderr)
-            return 1
-        print(f"plot: {args.plot}")
+    if args.plot and not plotting.save(lambda: plot(result), args.plot):
+        return 1
     return 0 if len(result.lap_times_s) == args.laps else 2
 
 

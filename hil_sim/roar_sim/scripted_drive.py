@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from roar.protocol import ControlError, decode, encode, spec
+from roar_sim import plotting
 from roar_sim.firmware_core import Car, CarOutputs, CoreLoadError
 
 LOOP_US = 1_000  # [us] main-loop period
@@ -128,14 +129,10 @@ def print_trace(trace: Trace, file=None) -> None:
             print(f"{t / 1e6:7.3f}s  {'':5}  {'':5}  {'':8} {'':15} {item}", file=file)
 
 
-def plot(samples, marks, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+def plot(samples, marks):
+    """Both pulse widths over time, failsafe and RC periods shaded; returns the figure."""
     t = [s.t_us / 1e6 for s in samples]
-    fig, ax = plt.subplots(figsize=(11, 4.5), constrained_layout=True)
+    fig, ax = plotting.subplots(figsize=(11, 4.5))
     ax.step(t, [s.out.throttle_us for s in samples], where="post", label="ESC (D5)", lw=1.6)
     ax.step(t, [s.out.steering_us for s in samples], where="post", label="steering servo (D6)", lw=1.2)
     colours = {"FAILSAFE": "#f4cccc", "RC": "#d9ead3"}
@@ -157,17 +154,14 @@ def plot(samples, marks, path: Path) -> None:
     ax.set_ylabel("pulse width [us]")
     ax.set_title("Firmware core: pulses sent to the ESC and servo (red: failsafe, green: RC override)")
     ax.legend(loc="lower right", fontsize=8)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    return fig
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--plot", type=Path, metavar="PNG", help="write a plot of the pulses to this PNG file")
     args = parser.parse_args(argv)
-    if args.plot and args.plot.suffix.lower() != ".png":
-        parser.error(f"--plot must name a .png file, got {args.plot}")
+    plotting.check_png_argument(parser, args.plot)
     try:
         trace = run()
     except CoreLoadError as e:
@@ -179,13 +173,8 @@ def main(argv: list[str] | None = None) -> int:
     if delay is not None:
         print(f"Failsafe: neutral {delay / 1000:.0f} ms after the host's last valid message "
               f"(timeout {spec.TIMING_FAILSAFE_TIMEOUT_US / 1000:.0f} ms, checked every {LOOP_US / 1000:.0f} ms).")
-    if args.plot:
-        try:
-            plot(trace.samples, trace.marks, args.plot)
-        except OSError as e:
-            print(f"error: cannot write {args.plot}: {e.strerror}", file=sys.stderr)
-            return 1
-        print(f"plot: {args.plot}")
+    if args.plot and not plotting.save(lambda: plot(trace.samples, trace.marks), args.plot):
+        return 1
     return 0
 
 
