@@ -134,7 +134,17 @@ def test_lockstep_is_deterministic():
 
 def test_walls_are_built_and_detected():
     with SimCar(oval()) as sim:
-        assert len(sim.plant.walls) > 100
+        assert len(sim.plant.walls) == 1  # one static mesh
         assert sim.plant.wall_contacts() == 0
         scan = sim.plant.lidar(beams=90)
         assert scan.min() < 1.0 and scan.max() <= 10.0  # walls 0.6 m either side
+
+
+def test_driving_into_a_wall_is_detected():
+    with SimCar(oval()) as sim:
+        send_for(sim, encode(N, N), 0.2)
+        contacts = 0
+        for _ in range(150):  # full left lock: the inner wall is 0.6 m away
+            send_for(sim, encode(1700, 1000), SEND)
+            contacts += sim.plant.wall_contacts()
+        assert contacts > 0

@@ -39,6 +39,21 @@ class CarState:
     encoder_counts: int  # rear-left wheel encoder, signed
 
 
+def _add_box(vertices: list, indices: list, a: np.ndarray, b: np.ndarray) -> None:
+    """Append a wall box from a to b (WALL_THICKNESS_M thick, WALL_HEIGHT_M high) as 12 triangles."""
+    direction = (b - a) / max(1e-9, float(np.linalg.norm(b - a)))
+    a, b = a - direction * WALL_THICKNESS_M / 2, b + direction * WALL_THICKNESS_M / 2
+    normal = np.array([-direction[1], direction[0]]) * WALL_THICKNESS_M / 2
+    base = len(vertices)
+    for z in (0.0, WALL_HEIGHT_M):
+        for p in (a - normal, b - normal, b + normal, a + normal):
+            vertices.append([float(p[0]), float(p[1]), z])
+    faces = [(0, 2, 1), (0, 3, 2), (4, 5, 6), (4, 6, 7), (0, 1, 5), (0, 5, 4),
+             (1, 2, 6), (1, 6, 5), (2, 3, 7), (2, 7, 6), (3, 0, 4), (3, 4, 7)]
+    for f in faces:
+        indices.extend(base + k for k in f)
+
+
 def ackermann_angles(steer_rad: float) -> tuple[float, float]:
     """(left, right) hinge angles for a virtual centre angle: the inner wheel turns more, so both
     wheel axes meet on the rear axle line."""
@@ -74,11 +89,13 @@ class Plant:
             pb.disconnect(self.client)
 
     def _build_walls(self, track: Track) -> list[int]:
-        """Box segments along both edges; a segment that would lie inside another part of the
-        track (the crossing of a figure-eight) is left out."""
-        c, walls = self.client, []
+        """One static triangle mesh of wall boxes along both edges (one body keeps the physics
+        fast). A segment that would lie inside another part of the track (the crossing of a
+        figure-eight) is left out."""
         cl = track.centerline
         n = len(cl)
+        vertices: list[list[float]] = []
+        indices: list[int] = []
         for edge in track.edges():
             for i in range(n):
                 a, b = edge[i], edge[(i + 1) % n]
@@ -87,15 +104,13 @@ class Plant:
                 far = np.abs((np.arange(n) - i + n // 2) % n - n // 2) > 10
                 if np.any(d[far] < track.width_m / 2 - 0.02):
                     continue
-                length = float(np.linalg.norm(b - a)) + WALL_THICKNESS_M
-                yaw = math.atan2(b[1] - a[1], b[0] - a[0])
-                half = [length / 2, WALL_THICKNESS_M / 2, WALL_HEIGHT_M / 2]
-                shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=c)
-                visual = pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=[0.8, 0.8, 0.8, 1],
-                                              physicsClientId=c)
-                walls.append(pb.createMultiBody(0, shape, visual, [mid[0], mid[1], WALL_HEIGHT_M / 2],
-                                                pb.getQuaternionFromEuler([0, 0, yaw]), physicsClientId=c))
-        return walls
+                _add_box(vertices, indices, a, b)
+        c = self.client
+        shape = pb.createCollisionShape(pb.GEOM_MESH, vertices=vertices, indices=indices,
+                                        flags=pb.GEOM_FORCE_CONCAVE_TRIMESH, physicsClientId=c)
+        visual = pb.createVisualShape(pb.GEOM_MESH, vertices=vertices, indices=indices,
+                                      rgbaColor=[0.8, 0.8, 0.8, 1], physicsClientId=c)
+        return [pb.createMultiBody(0, shape, visual, [0, 0, 0], physicsClientId=c)]
 
     def apply(self, drive: float, brake: float, steer_rad: float) -> None:
         """drive -1..1 of the motor limit, brake 0..1, steer_rad the virtual centre angle."""
