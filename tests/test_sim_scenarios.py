@@ -148,3 +148,15 @@ def test_driving_into_a_wall_is_detected():
             send_for(sim, encode(1700, 1000), SEND)
             contacts += sim.plant.wall_contacts()
         assert contacts > 0
+
+
+def test_camera_sees_the_walls_and_depth_is_metric():
+    with SimCar(oval()) as sim:
+        sim.run(0.05)
+        rgb, depth = sim.plant.camera(width=80, height=60)
+        assert rgb.shape == (60, 80, 3) and depth.shape == (60, 80)
+        # Walls 0.6 m to each side: the left and right image edges just above the horizon are close.
+        assert float(depth[12, 0]) < 2.0 and float(depth[12, -1]) < 2.0
+        # Straight ahead down the straight to the far bend: farther than the side walls.
+        assert float(depth[18, 32]) > 2.0
+        assert 0.1 < float(depth.min()) and float(depth.max()) <= 10.0 + 1e-3

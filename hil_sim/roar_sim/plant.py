@@ -21,6 +21,7 @@ REAR_WHEELS = (2, 3)  # joint indices in racecar.urdf
 FRONT_WHEELS = (5, 7)
 LEFT_HINGE, RIGHT_HINGE = 4, 6
 LIDAR_LINK = 8  # hokuyo_joint
+CAMERA_LINK = 9  # zed_camera_joint
 MOTOR_MAX_SPEED_RAD_S = 60.0  # [rad/s] wheel speed at full throttle (3 m/s)
 MOTOR_MAX_TORQUE_NM = 1.5  # [N m] per rear wheel
 BRAKE_MAX_TORQUE_NM = 2.0  # [N m] per rear wheel at full brake
@@ -75,7 +76,9 @@ class Plant:
         pb.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=c)
         pb.setGravity(0, 0, -9.81, physicsClientId=c)
         pb.setTimeStep(dt_s, physicsClientId=c)
-        pb.loadURDF("plane.urdf", physicsClientId=c)
+        plane = pb.loadURDF("plane.urdf", physicsClientId=c)
+        # Plain dark asphalt instead of the checker texture: walls stand out for the camera.
+        pb.changeVisualShape(plane, -1, textureUniqueId=-1, rgbaColor=[0.25, 0.25, 0.27, 1], physicsClientId=c)
         x, y, yaw = track.start_pose if track else (0.0, 0.0, 0.0)
         self.car = pb.loadURDF("racecar/racecar.urdf", [x, y, 0.05], pb.getQuaternionFromEuler([0, 0, yaw]),
                                physicsClientId=c)
@@ -111,6 +114,23 @@ class Plant:
         visual = pb.createVisualShape(pb.GEOM_MESH, vertices=vertices, indices=indices,
                                       rgbaColor=[0.8, 0.8, 0.8, 1], physicsClientId=c)
         return [pb.createMultiBody(0, shape, visual, [0, 0, 0], physicsClientId=c)]
+
+    def camera(self, width: int = 160, height: int = 120, fov_deg: float = 70.0,
+               far_m: float = 10.0) -> tuple[np.ndarray, np.ndarray]:
+        """(RGB uint8 HxWx3, depth float32 HxW in metres) from the ZED camera link, looking ahead
+        and slightly down."""
+        c, near = self.client, 0.2  # [m] clips the car's own bumper
+        pos, orn = pb.getLinkState(self.car, CAMERA_LINK, physicsClientId=c)[:2]
+        yaw = pb.getEulerFromQuaternion(orn)[2]
+        forward = np.array([math.cos(yaw), math.sin(yaw), -0.25])
+        view = pb.computeViewMatrix(pos, (np.array(pos) + forward).tolist(), [0, 0, 1])
+        proj = pb.computeProjectionMatrixFOV(fov_deg, width / height, near, far_m)
+        _, _, rgba, depth_buf, _ = pb.getCameraImage(width, height, view, proj, renderer=pb.ER_TINY_RENDERER,
+                                                     physicsClientId=c)
+        rgb = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3]
+        d = np.asarray(depth_buf, dtype=np.float32).reshape(height, width)
+        depth = far_m * near / (far_m - (far_m - near) * d)
+        return rgb, depth
 
     def apply(self, drive: float, brake: float, steer_rad: float) -> None:
         """drive -1..1 of the motor limit, brake 0..1, steer_rad the virtual centre angle."""
