@@ -108,3 +108,13 @@ def test_forward_to_reverse_uses_the_sequence_and_can_be_disabled():
 def test_invalid_calibration_is_refused():
     with pytest.raises(ValueError, match="invalid channel calibration"):
         Car(CarConfig(steering=ChannelCalibration(min_us=1900, max_us=1100)))
+
+
+def test_python_car_config_defaults_mirror_the_core():
+    """The binding's CarConfig restates the core's defaults; they must not drift apart."""
+    from roar_sim.firmware_core import default_config_from_core
+
+    core, py = default_config_from_core(), CarConfig().to_c()
+    for name, _ in core._fields_:
+        if name != "reserved":
+            assert getattr(core, name) == getattr(py, name), name

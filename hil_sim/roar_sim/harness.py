@@ -101,9 +101,8 @@ class SimCar:
                 self.firmware.rc_pulse(1, self._rc[1], t)
             # Output frame start: the ESC and the servo latch the pulses now on the pins.
             self.frames += 1
-            esc = self.esc.pulse(self.outputs.throttle_us)
+            self._esc_out = self.esc.pulse(self.outputs.throttle_us)
             self.servo.pulse(self.outputs.steering_us)
-            self._esc_out = esc
         self.outputs = self.firmware.step(t, self.frames)
         self._replies += [line.rstrip("\n") for line in self.firmware.replies()]
         if t % PHYSICS_US == 0:

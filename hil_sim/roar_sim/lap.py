@@ -43,13 +43,11 @@ class PurePursuit:
     lookahead_gain_s: float = 0.3  # [s]
     max_steer_rad: float = 0.4  # [rad] the servo's end-points
     speed_kp: float = 0.3  # throttle fraction per m/s of error
-    _hint: int | None = None
 
-    def command(self, s: CarState) -> tuple[int, int]:
-        """(throttle_us, steering_us) for the current state."""
+    def command(self, s: CarState, seg: int) -> tuple[int, int]:
+        """(throttle_us, steering_us) for the current state; `seg` is the car's centre-line
+        segment from Track.project."""
         tr = self.track
-        seg, _, _ = tr.project((s.x, s.y), self._hint)
-        self._hint = seg
         ld = self.lookahead_m + self.lookahead_gain_s * max(0.0, s.speed)
         pts, lengths = tr.centerline, tr.segment_lengths
         i, travelled = seg, 0.0
@@ -96,9 +94,9 @@ def drive_laps(track: Track, laps: int = 2, speed: float = 1.5, config: SimConfi
         hint, s_prev, travelled, lap_start = None, 0.0, 0.0, 0.0
         while len(result.lap_times_s) < laps and sim.time_s < timeout_s:
             state = sim.state()
-            sim.write(encode(*controller.command(state)))
-            sim.run(SEND_PERIOD_S)
             hint, s_now, cte = track.project((state.x, state.y), hint)
+            sim.write(encode(*controller.command(state, hint)))
+            sim.run(SEND_PERIOD_S)
             ds = (s_now - s_prev + track.length_m / 2) % track.length_m - track.length_m / 2
             travelled, s_prev = travelled + ds, s_now
             result.cross_track_m.append(cte)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -52,11 +53,17 @@ class Track:
 
     # --- geometry ------------------------------------------------------------------------------
 
-    @property
+    # The track is immutable, so its derived geometry is computed once (project() runs at 50 Hz).
+    @cached_property
     def segment_lengths(self) -> np.ndarray:
         return np.linalg.norm(np.roll(self.centerline, -1, axis=0) - self.centerline, axis=1)
 
-    @property
+    @cached_property
+    def _arc_start(self) -> np.ndarray:
+        """[m] arc length from the first point to the start of each segment."""
+        return np.concatenate([[0.0], np.cumsum(self.segment_lengths)[:-1]])
+
+    @cached_property
     def length_m(self) -> float:
         return float(self.segment_lengths.sum())
 
@@ -90,8 +97,7 @@ class Track:
         d = np.linalg.norm(closest - p, axis=1)
         k = int(np.argmin(d))
         seg = int(idx[k])
-        cum = np.concatenate([[0.0], np.cumsum(self.segment_lengths)])
-        s = float(cum[seg] + t[k] * self.segment_lengths[seg])
+        s = float(self._arc_start[seg] + t[k] * self.segment_lengths[seg])
         cross = ab[k, 0] * (p[1] - a[k, 1]) - ab[k, 1] * (p[0] - a[k, 0])
         return seg, s, float(math.copysign(d[k], cross))
 
