@@ -3,9 +3,11 @@ PyBullet car, lockstep and deterministic."""
 
 import math
 
+import numpy as np
 import pytest
 
 from roar.protocol import encode, spec
+from roar_sim import floor
 from roar_sim.actuators import EscMode, HobbyEsc, SteeringServo
 from roar_sim.firmware_core import CarConfig, ControlSource
 from roar_sim.harness import SimCar, SimConfig
@@ -159,4 +161,42 @@ def test_camera_sees_the_walls_and_depth_is_metric():
         assert float(depth[12, 0]) < 2.0 and float(depth[12, -1]) < 2.0
         # Straight ahead down the straight to the far bend: farther than the side walls.
         assert float(depth[18, 32]) > 2.0
-        assert 0.1 < float(depth.min()) and float(depth.max()) <= 10.0 + 1e-3
+        assert 0.05 <= float(depth.min()) and float(depth.max()) <= 10.0 + 1e-3
+
+
+def _colour_pixels(rgb, colour, tolerance=30):
+    return np.all(np.abs(rgb.astype(int) - colour) < tolerance, axis=2)
+
+
+def test_camera_sees_the_lane_lines():
+    with SimCar(oval()) as sim:
+        sim.run(0.05)
+        rgb, _ = sim.plant.camera(width=160, height=120)
+    lower = rgb[40:]  # the road below the horizon (row 36)
+    yellow = _colour_pixels(lower, floor.CENTRE_LINE_RGB)
+    white = _colour_pixels(lower, floor.EDGE_LINE_RGB)
+    # The dashed centre line runs up the middle of the image, the edge lines on both sides.
+    assert yellow[:, 70:90].sum() > 20 and yellow[:, :40].sum() == 0 and yellow[:, -40:].sum() == 0
+    assert white[:, :80].sum() > 20 and white[:, 80:].sum() > 20
+
+
+def test_no_track_no_lane_lines():
+    with SimCar() as sim:
+        sim.run(0.05)
+        rgb, _ = sim.plant.camera(width=80, height=60)
+    assert not _colour_pixels(rgb, floor.CENTRE_LINE_RGB).any()
+
+
+def test_floor_image_paints_lines_where_the_track_is():
+    track = oval()
+    image = floor.FloorImage(track)
+    left, right = track.edges()
+    start = track.centerline[0]
+    assert tuple(image.rgb[image.pixel(track.centerline[0])]) == floor.CENTRE_LINE_RGB
+    inset = floor.EDGE_LINE_INSET_M / (track.width_m / 2)
+    for edge in (left, right):
+        assert tuple(image.rgb[image.pixel(edge[0] + inset * (start - edge[0]))]) == floor.EDGE_LINE_RGB
+        assert tuple(image.rgb[image.pixel((start + edge[0]) / 2)]) == floor.ASPHALT_RGB
+    # The dashes leave gaps: half of one dash period after a dash starts is asphalt.
+    gap = image.pixel(track.centerline[0] + [0.3, 0.0])  # the oval starts on a straight along +x
+    assert tuple(image.rgb[gap]) == floor.ASPHALT_RGB

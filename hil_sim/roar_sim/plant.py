@@ -12,6 +12,7 @@ import numpy as np
 import pybullet as pb
 import pybullet_data
 
+from roar_sim.floor import add_floor
 from roar_sim.track import Track
 
 WHEELBASE_M = 0.325  # [m] hinge axis to rear axle (racecar.urdf)
@@ -85,7 +86,20 @@ class Plant:
         for w in REAR_WHEELS + FRONT_WHEELS:
             pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL, targetVelocity=0, force=0, physicsClientId=c)
         self.walls = self._build_walls(track) if track else []
+        self.floor = add_floor(track, c) if track else None
         self.time_s = 0.0
+        if gui:
+            self._frame_gui(track)
+
+    def _frame_gui(self, track: Track | None) -> None:
+        """Hide the debug panels and look down on the whole track."""
+        c = self.client
+        pb.configureDebugVisualizer(pb.COV_ENABLE_GUI, 0, physicsClientId=c)
+        centre, size = (0.0, 0.0), 2.0
+        if track is not None:
+            lo, hi = track.centerline.min(axis=0), track.centerline.max(axis=0)
+            centre, size = tuple((lo + hi) / 2), float(max(hi - lo)) + track.width_m
+        pb.resetDebugVisualizerCamera(size, 0, -60, [centre[0], centre[1], 0], physicsClientId=c)
 
     def close(self) -> None:
         if pb.isConnected(self.client):
@@ -119,7 +133,7 @@ class Plant:
                far_m: float = 10.0) -> tuple[np.ndarray, np.ndarray]:
         """(RGB uint8 HxWx3, depth float32 HxW in metres) from the ZED camera link, looking ahead
         and slightly down."""
-        c, near = self.client, 0.2  # [m] clips the car's own bumper
+        c, near = self.client, 0.05  # [m] the car's own body lies behind the camera
         pos, orn = pb.getLinkState(self.car, CAMERA_LINK, physicsClientId=c)[:2]
         yaw = pb.getEulerFromQuaternion(orn)[2]
         forward = np.array([math.cos(yaw), math.sin(yaw), -0.25])
