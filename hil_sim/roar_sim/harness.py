@@ -3,7 +3,7 @@ emulated ESC and servo, which drive the PyBullet car. Host code talks to it with
 it would send a real car.
 
 Lockstep: simulated time advances only in run(); with realtime=True run() also sleeps so that
-simulated time keeps pace with the wall clock.
+simulated time keeps pace with the wall clock (or `speedup` times faster).
 
     firmware loop   1 kHz   Car.step() on the simulated clock (the sim HAL)
     output frames   50 Hz   the ESC and servo latch the pulse at each frame start
@@ -32,6 +32,7 @@ class SimConfig:
     esc: HobbyEsc = field(default_factory=HobbyEsc)
     servo: SteeringServo = field(default_factory=SteeringServo)
     realtime: bool = False
+    speedup: float = 1.0  # simulated seconds per wall second when realtime
     gui: bool = False
 
 
@@ -113,9 +114,10 @@ class SimCar:
 
     def _pace(self) -> None:
         now = time.perf_counter()
+        wall_s = self.t_us / 1e6 / self.config.speedup
         if self._wall_start is None:
-            self._wall_start = now - self.t_us / 1e6
-        ahead = self.t_us / 1e6 - (now - self._wall_start)
+            self._wall_start = now - wall_s
+        ahead = wall_s - (now - self._wall_start)
         if ahead > 0.002:
             time.sleep(ahead)
 

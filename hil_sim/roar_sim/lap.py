@@ -134,18 +134,9 @@ def report(result: LapResult) -> str:
 def plot(result: LapResult):
     """The track and the driven path coloured by speed; returns the figure."""
     fig, ax = plotting.subplots(figsize=(8, 6))
-    left, right = result.track.edges()
-    for edge in (left, right):
-        closed = np.vstack([edge, edge[:1]])
-        ax.plot(closed[:, 0], closed[:, 1], color="black", lw=1.5)
-    cl = np.vstack([result.track.centerline, result.track.centerline[:1]])
-    ax.plot(cl[:, 0], cl[:, 1], color="grey", lw=0.8, ls="--", label="centre line")
+    plotting.draw_track(ax, result.track)
     p = np.array(result.path)
-    sc = ax.scatter(p[:, 0], p[:, 1], c=p[:, 2], s=6, cmap="viridis", label="driven path")
-    fig.colorbar(sc, ax=ax, label="speed [m/s]")
-    ax.set_aspect("equal")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
+    plotting.draw_path(fig, ax, p[:, 0], p[:, 1], p[:, 2])
     times = ", ".join(f"{t:.2f} s" for t in result.lap_times_s)
     ax.set_title(f"{result.track.name}: laps {times}\nmax cross-track {result.max_cross_track_m:.2f} m, "
                  f"wall contacts {result.wall_contacts}", fontsize=10)

@@ -19,6 +19,38 @@ def subplots(**kwargs):
     return plt.subplots(constrained_layout=True, **kwargs)
 
 
+def draw_track(ax, track) -> None:
+    """Walls (black) and centre line (dashed grey) of a track, closed loops."""
+    import numpy as np
+
+    for edge in track.edges():
+        closed = np.vstack([edge, edge[:1]])
+        ax.plot(closed[:, 0], closed[:, 1], color="black", lw=1.5)
+    cl = np.vstack([track.centerline, track.centerline[:1]])
+    ax.plot(cl[:, 0], cl[:, 1], color="grey", lw=0.8, ls="--", label="centre line")
+
+
+def draw_path(fig, ax, x, y, speed) -> None:
+    """The driven path coloured by speed, with equal axes in metres."""
+    sc = ax.scatter(x, y, c=speed, s=6, cmap="viridis", label="driven path")
+    fig.colorbar(sc, ax=ax, label="speed [m/s]")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+
+
+def path_figure(track, trace):
+    """The track (if any) and a trace of (t, x, y, yaw, speed) rows; returns the figure."""
+    fig, ax = subplots(figsize=(8, 6))
+    if track is not None:
+        draw_track(ax, track)
+    t, x, y, _, speed = zip(*trace)
+    draw_path(fig, ax, x, y, speed)
+    ax.set_title(f"{t[-1]:.1f} s simulated, top speed {max(map(abs, speed)):.2f} m/s", fontsize=10)
+    ax.legend(loc="upper right", fontsize=8)
+    return fig
+
+
 def check_png_argument(parser: argparse.ArgumentParser, path: Path | None) -> None:
     if path is not None and path.suffix.lower() != ".png":
         parser.error(f"--plot must name a .png file, got {path}")

@@ -13,6 +13,7 @@ import argparse
 import os
 import sys
 import termios
+import threading
 import tty
 
 from roar_sim.firmware_core import CoreLoadError
@@ -31,6 +32,8 @@ class PtyCar:
         tty.setraw(self._slave, termios.TCSANOW)  # bytes pass unchanged: no echo, no line editing
         os.set_blocking(self.master, False)
         self.path = os.ttyname(self._slave)
+        self._serving = threading.Event()
+        self._thread: threading.Thread | None = None
 
     def pump(self, seconds: float = CHUNK_S) -> None:
         try:
@@ -52,7 +55,23 @@ class PtyCar:
         while seconds <= 0 or self.sim.time_s < end:
             self.pump()
 
+    def start(self) -> PtyCar:
+        """Serve from a background thread until close() (give the SimCar realtime=True)."""
+        self._serving.set()
+        self._thread = threading.Thread(target=self._serve_while_started, name="pty-car", daemon=True)
+        self._thread.start()
+        return self
+
+    def _serve_while_started(self) -> None:
+        while self._serving.is_set():
+            self.pump()
+
     def close(self) -> None:
+        """Unplug: stop serving and close both ends of the pty (the host sees the port vanish)."""
+        self._serving.clear()
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
         for fd in (self.master, self._slave):
             try:
                 os.close(fd)

@@ -1,0 +1,39 @@
+"""One background asyncio loop for the async libraries behind the synchronous API (bleak).
+
+Users call the Vehicle from plain code; BLE work runs on this loop in a daemon thread, so a
+program never needs to know asyncio is involved."""
+
+from __future__ import annotations
+
+import asyncio
+import concurrent.futures
+import threading
+from typing import Awaitable, TypeVar
+
+T = TypeVar("T")
+_loop: asyncio.AbstractEventLoop | None = None
+_lock = threading.Lock()
+
+
+def background_loop() -> asyncio.AbstractEventLoop:
+    global _loop
+    with _lock:
+        if _loop is None or _loop.is_closed():
+            loop = asyncio.new_event_loop()
+            threading.Thread(target=loop.run_forever, name="roar-asyncio", daemon=True).start()
+            _loop = loop
+        return _loop
+
+
+def run_sync(coro: Awaitable[T], timeout_s: float | None = None) -> T:
+    """Run a coroutine on the background loop and wait for its result (re-raising its error).
+    On timeout the coroutine is cancelled and TimeoutError raised."""
+    loop = background_loop()
+    if threading.current_thread().name == "roar-asyncio":
+        raise RuntimeError("run_sync() called from the background loop itself")
+    future = asyncio.run_coroutine_threadsafe(coro, loop)
+    try:
+        return future.result(timeout_s)
+    except concurrent.futures.TimeoutError:
+        future.cancel()
+        raise TimeoutError from None

@@ -1,0 +1,125 @@
+"""Calibration: how [-1, 1] commands become pulse widths, per channel, stored in a TOML file.
+
+    # ~/.config/roar/calibration.toml (or $XDG_CONFIG_HOME/roar/calibration.toml)
+    [throttle]
+    trim_us = 1500     # pulse for 0 (ESC neutral)
+    min_us = 1000      # pulse for -1 (full reverse)
+    max_us = 2000      # pulse for +1 (full forward)
+    reversed = false   # swap the directions (motor wired the other way)
+
+    [steering]         # same keys; +1 steers right, -1 left (ROAR convention)
+    trim_us = 1500
+    ...
+
+`roar calibrate URL` sets these interactively. Missing keys take the defaults above.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import os
+import tomllib
+from pathlib import Path
+
+from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
+
+from roar.protocol import spec
+
+LO, HI, MID = spec.CONTROL_MIN_US, spec.CONTROL_MAX_US, spec.CONTROL_NEUTRAL_US
+
+
+class CalibrationError(ValueError):
+    """An invalid calibration or calibration file; str() is one line."""
+
+
+class ChannelCalibration(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+
+    trim_us: int = MID  # [us] pulse for 0
+    min_us: int = LO  # [us] pulse for -1
+    max_us: int = HI  # [us] pulse for +1
+    reversed: bool = False
+
+    @model_validator(mode="after")
+    def _ordered(self) -> ChannelCalibration:
+        if not LO <= self.min_us <= self.trim_us <= self.max_us <= HI:
+            raise ValueError(f"need {LO} <= min_us <= trim_us <= max_us <= {HI} [us], got min_us={self.min_us}, "
+                             f"trim_us={self.trim_us}, max_us={self.max_us}")
+        if self.min_us == self.max_us:
+            raise ValueError("min_us and max_us must differ")
+        return self
+
+    def to_us(self, value: float) -> int:
+        """[-1, 1] -> [us]: 0 is the trim, -1 min_us, +1 max_us, linear on each side."""
+        v = -value if self.reversed else value
+        span = (self.max_us - self.trim_us) if v >= 0 else (self.trim_us - self.min_us)
+        return int(round(self.trim_us + v * span))
+
+
+class Calibration(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    throttle: ChannelCalibration = ChannelCalibration()
+    steering: ChannelCalibration = ChannelCalibration()
+
+    @classmethod
+    def load(cls, path: str | Path) -> Calibration:
+        path = Path(path)
+        try:
+            data = tomllib.loads(path.read_text(encoding="utf-8"))
+        except OSError as e:
+            raise CalibrationError(f"{path}: cannot read: {e.strerror}") from None
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+            raise CalibrationError(f"{path}: not valid TOML: {e}") from None
+        try:
+            return cls.model_validate(data)
+        except ValidationError as e:
+            raise CalibrationError(f"{path}: {_first_error(e)}") from None
+
+    def save(self, path: str | Path) -> None:
+        path = Path(path)
+        lines = ["# ROAR calibration: pulse widths [us] for -1 (min_us), 0 (trim_us) and +1 (max_us).",
+                 "# Written by `roar calibrate`; edit by hand if you like."]
+        for name in ("throttle", "steering"):
+            ch: ChannelCalibration = getattr(self, name)
+            lines += ["", f"[{name}]", f"trim_us = {ch.trim_us}", f"min_us = {ch.min_us}",
+                      f"max_us = {ch.max_us}", f"reversed = {str(ch.reversed).lower()}"]
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_name(path.name + ".tmp")
+            tmp.write_text("\n".join(lines) + "\n", encoding="utf-8")
+            tmp.replace(path)  # never leave a half-written file behind
+        except OSError as e:
+            raise CalibrationError(f"{path}: cannot write: {e.strerror}") from None
+
+
+def default_path() -> Path:
+    base = os.environ.get("XDG_CONFIG_HOME") or Path.home() / ".config"
+    return Path(base) / "roar" / "calibration.toml"
+
+
+def load_default() -> Calibration:
+    """The user's calibration file if there is one, else the defaults."""
+    path = default_path()
+    return Calibration.load(path) if path.exists() else Calibration()
+
+
+def check_unit(name: str, value) -> float:
+    """A command value as float in [-1, 1]; one-line ValueError otherwise (NaN and inf included)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ValueError(f"{name} must be a number in [-1, 1], got {value!r}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ValueError(f"{name} must be a finite number in [-1, 1], got {value}")
+    if not -1.0 <= value <= 1.0:
+        raise ValueError(f"{name} must be within [-1, 1], got {value:g}")
+    return value
+
+
+def _first_error(e: ValidationError) -> str:
+    err = e.errors()[0]
+    where = ".".join(str(p) for p in err["loc"])
+    msg = err["msg"].removeprefix("Value error, ")
+    extra = f" (and {e.error_count() - 1} more)" if e.error_count() > 1 else ""
+    return f"{where}: {msg}{extra}" if where else msg + extra

@@ -1,0 +1,93 @@
+"""The `roar` subcommands; each takes the parsed arguments and returns the exit status."""
+
+from __future__ import annotations
+
+import sys
+import time
+
+from roar.cli.main import UserError
+from roar.vehicle import Vehicle
+
+MAX_SEND_S = 3600.0  # [s]
+
+# USB vendor IDs of boards and USB-serial chips that cars use.
+KNOWN_VIDS = {0x2341: "Arduino", 0x2A03: "Arduino", 0x1A86: "CH340 (Nano clone / ESP32)",
+              0x10C4: "CP210x (ESP32)", 0x0403: "FTDI", 0x0483: "STM32", 0x303A: "Espressif"}
+
+
+def _vehicle(args) -> Vehicle:
+    return Vehicle(args.url, calibration=getattr(args, "calibration", None))
+
+
+def send(args) -> int:
+    if not 0 < args.seconds <= MAX_SEND_S:
+        raise UserError(f"--for must be more than 0 and at most {MAX_SEND_S:g} s, got {args.seconds:g}")
+    with _vehicle(args) as car:
+        car.drive(args.throttle, args.steering)
+        t_us, s_us = car.pulses_us()
+        print(f"sending ({t_us},{s_us}) to {args.url} for {args.seconds:g} s", flush=True)
+        time.sleep(args.seconds)
+        link = "link ok" if car.connected else f"link down: {car.link_error}"
+        replies = ", ".join(list(car.replies)[-5:]) or "none"
+    print(f"done, neutral sent; {link}; car replies: {replies}")
+    return 0 if car.errors == 0 else 1
+
+
+def drive(args) -> int:
+    from roar.cli.teleop import run
+
+    with _vehicle(args) as car:
+        return run(car)
+
+
+def calibrate(args) -> int:
+    from roar.calibration import default_path
+    from roar.cli.calibrate import run
+
+    path = args.file or default_path()
+    with Vehicle(args.url, calibration=None) as car:
+        return run(car, path, sys.stdin, sys.stdout)
+
+
+def scan(args) -> int:
+    from roar.transports.ble import scan as ble_scan
+
+    if not 0 < args.timeout <= 60:
+        raise UserError(f"--timeout must be 0..60 s, got {args.timeout:g}")
+    print(f"scanning for {args.timeout:g} s ...", file=sys.stderr, flush=True)
+    found = ble_scan(args.timeout, only_cars=not args.all)
+    if not found:
+        print("no cars found" + ("" if args.all else " (is the car powered? try --all)"))
+        return 1
+    print(f"{'NAME':24} {'ADDRESS':20} RSSI")
+    for dev in found:
+        print(f"{dev.name or '?':24} {dev.address:20} {dev.rssi if dev.rssi is not None else '?'}")
+    print(f"\ndrive one with: roar drive 'ble://{found[0].name or found[0].address}'")
+    return 0
+
+
+def ports(args) -> int:
+    from serial.tools import list_ports
+
+    found = sorted(list_ports.comports(), key=lambda p: p.device)
+    if not found:
+        print("no serial ports found (is the car plugged in? on Linux, is your user in the dialout group?)")
+        return 1
+    for p in found:
+        hint = KNOWN_VIDS.get(p.vid or -1, "")
+        print(f"{p.device:24} {p.description or ''}" + (f"  [{hint}]" if hint else ""))
+    print(f"\ndrive one with: roar drive serial://{found[0].device}")
+    return 0
+
+
+def sim(args) -> int:
+    if args.serial:
+        from roar_sim.serial_port import main as serve
+
+        argv = ["--track", args.track, "--seconds", str(args.seconds)] + (["--gui"] if args.gui else [])
+        return serve(argv)
+    from roar_sim.lap import main as laps
+
+    argv = ["--track", args.track, "--laps", str(args.laps)] + (["--gui"] if args.gui else [])
+    argv += ["--plot", str(args.plot)] if args.plot else []
+    return laps(argv)

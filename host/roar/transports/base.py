@@ -1,0 +1,69 @@
+"""The one small interface every transport implements."""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import ClassVar
+
+
+class TransportError(Exception):
+    """The link to the car cannot be opened or used. str() is one line a user can act on."""
+
+
+class LinkLost(TransportError):
+    """A link that was open has gone (cable pulled, car out of range). Reopening may work."""
+
+
+class Transport(ABC):
+    """Bytes to the car, reply lines from it.
+
+    Subclasses set `scheme`, build themselves from a URL in from_url(), and implement open(),
+    write() and close(); read_lines() is optional (links without a back channel return []).
+    Methods are called from one thread at a time (the Vehicle's sender)."""
+
+    scheme: ClassVar[str]
+    min_period_s: ClassVar[float] = 0.002  # [s] fastest the link takes one control message
+
+    url: str = ""
+
+    @classmethod
+    @abstractmethod
+    def from_url(cls, target: str, options: dict[str, str]) -> Transport:
+        """Build from the part after "scheme://" (without the query) and the query options.
+        Pop every option you understand; leftovers are reported as unknown."""
+
+    @abstractmethod
+    def open(self) -> None:
+        """Connect. Raises TransportError with a one-line reason."""
+
+    @abstractmethod
+    def write(self, data: bytes) -> None:
+        """Send bytes now. Raises LinkLost when the link has gone."""
+
+    def read_lines(self) -> list[str]:
+        """Reply lines received since the last call (without line ends)."""
+        return []
+
+    @abstractmethod
+    def close(self) -> None:
+        """Release the link; safe to call twice and after a LinkLost."""
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.url}>"
+
+
+def pop_option(options: dict[str, str], name: str, kind: type, default):
+    """Take one query option, converted to `kind`; one-line TransportError when it does not parse."""
+    if name not in options:
+        return default
+    raw = options.pop(name)
+    try:
+        if kind is bool:
+            if raw.lower() in ("1", "true", "yes", "on"):
+                return True
+            if raw.lower() in ("0", "false", "no", "off"):
+                return False
+            raise ValueError
+        return kind(raw)
+    except ValueError:
+        raise TransportError(f"option {name}={raw!r} is not a valid {kind.__name__}") from None

@@ -1,0 +1,139 @@
+"""ble:// -- a car over Bluetooth LE (bleak), with the ROAR GATT layout (protocol spec [ble]).
+
+    ble://                 the first car advertising the ROAR vehicle-control service
+    ble://ROAR Car         a car by advertised name (spaces are fine; %20 works too)
+    ble://AA:BB:CC:DD:EE:FF  a car by address
+    ble://?timeout=20      seconds to look for it (default 10)
+
+Each control message is one write-without-response to the control characteristic. The car
+sends nothing back on this link (read_lines() is empty); its own failsafe stops it when writes
+stop arriving.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from bleak import BleakClient, BleakScanner
+from bleak.exc import BleakError
+
+from roar.aio import run_sync
+from roar.protocol import spec
+from roar.transports.base import LinkLost, Transport, TransportError, pop_option
+
+DEFAULT_TIMEOUT_S = 10.0  # [s] to find and connect to the car
+WRITE_TIMEOUT_S = 1.0  # [s]
+_ADDRESS = re.compile(r"^([0-9A-Fa-f]{2}:){5}[0-9A-Fa-f]{2}$|^[0-9A-Fa-f-]{36}$")  # MAC, or a macOS UUID
+
+
+@dataclass(frozen=True)
+class FoundDevice:
+    name: str | None
+    address: str
+    rssi: int | None
+    is_car: bool  # advertises the ROAR service
+
+
+def _no_bluetooth(e: BaseException) -> TransportError:
+    detail = " ".join(str(e).split()) or type(e).__name__
+    return TransportError(f"Bluetooth is not available on this machine (no adapter or no BlueZ/D-Bus: {detail})")
+
+
+def scan(timeout_s: float = 5.0, only_cars: bool = True, backend=None) -> list[FoundDevice]:
+    """Devices heard within timeout_s, strongest first; only ROAR cars unless only_cars=False."""
+
+    async def _scan():
+        return await BleakScanner.discover(timeout=timeout_s, return_adv=True, backend=backend)
+
+    try:
+        seen = run_sync(_scan(), timeout_s + 5)
+    except (BleakError, OSError) as e:
+        raise _no_bluetooth(e) from None
+    found = []
+    for device, adv in seen.values():
+        is_car = spec.BLE_SERVICE_UUID in [u.lower() for u in adv.service_uuids]
+        if is_car or not only_cars:
+            found.append(FoundDevice(adv.local_name or device.name, device.address, adv.rssi, is_car))
+    return sorted(found, key=lambda d: -(d.rssi if d.rssi is not None else -999))
+
+
+class BleTransport(Transport):
+    scheme = "ble"
+    min_period_s = 0.0075  # [s] the shortest BLE connection interval
+
+    def __init__(self, target: str = "", timeout_s: float = DEFAULT_TIMEOUT_S, scanner_backend=None,
+                 client_backend=None) -> None:
+        self.target = target
+        self.timeout_s = timeout_s
+        self.scanner_backend, self.client_backend = scanner_backend, client_backend
+        self._client: BleakClient | None = None
+        self._connected = False
+
+    @classmethod
+    def from_url(cls, target: str, options: dict[str, str], scanner_backend=None,
+                 client_backend=None) -> BleTransport:
+        timeout = pop_option(options, "timeout", float, DEFAULT_TIMEOUT_S)
+        if not 0 < timeout <= 120:
+            raise TransportError(f"timeout must be 0..120 s, got {timeout:g}")
+        return cls(target.strip("/"), timeout, scanner_backend, client_backend)
+
+    def describe_target(self) -> str:
+        if not self.target:
+            return "a car advertising the ROAR service"
+        return f"the car at {self.target}" if _ADDRESS.match(self.target) else f"a car named {self.target!r}"
+
+    def _matches(self, device, adv) -> bool:
+        if not self.target:
+            return spec.BLE_SERVICE_UUID in [u.lower() for u in adv.service_uuids]
+        if _ADDRESS.match(self.target):
+            return device.address.lower() == self.target.lower()
+        return self.target in (adv.local_name, device.name)
+
+    async def _connect(self) -> None:
+        device = await BleakScanner.find_device_by_filter(self._matches, timeout=self.timeout_s,
+                                                          backend=self.scanner_backend)
+        if device is None:
+            raise TransportError(f"no BLE car found: looked {self.timeout_s:g} s for {self.describe_target()} "
+                                 f"(powered on? in range? `roar scan` lists what is heard)")
+        client = BleakClient(device, disconnected_callback=self._on_disconnect, timeout=self.timeout_s,
+                             backend=self.client_backend)
+        await client.connect()
+        if client.services.get_characteristic(spec.BLE_CONTROL_UUID) is None:
+            await client.disconnect()
+            raise TransportError(f"{device.name or device.address} has no ROAR control characteristic "
+                                 f"{spec.BLE_CONTROL_UUID}")
+        self._client, self._connected = client, True
+
+    def _on_disconnect(self, client: BleakClient) -> None:
+        self._connected = False
+
+    def open(self) -> None:
+        try:
+            run_sync(self._connect(), self.timeout_s + 5)
+        except TransportError:
+            raise
+        except TimeoutError:
+            raise TransportError(f"timed out connecting to {self.describe_target()}") from None
+        except (BleakError, OSError) as e:
+            raise _no_bluetooth(e) if isinstance(e, OSError) else TransportError(
+                f"cannot connect to {self.describe_target()}: {e}") from None
+
+    def write(self, data: bytes) -> None:
+        client = self._client
+        if client is None or not self._connected:
+            raise LinkLost(f"BLE link to {self.describe_target()} lost")
+        try:
+            run_sync(client.write_gatt_char(spec.BLE_CONTROL_UUID, data, response=False), WRITE_TIMEOUT_S)
+        except (BleakError, OSError, TimeoutError) as e:
+            self._connected = False
+            raise LinkLost(f"BLE link to {self.describe_target()} lost: {e or type(e).__name__}") from None
+
+    def close(self) -> None:
+        client, self._client = self._client, None
+        if client is not None and self._connected:
+            self._connected = False
+            try:
+                run_sync(client.disconnect(), 5)
+            except (BleakError, OSError, TimeoutError):
+                pass

@@ -1,0 +1,117 @@
+"""sim:// -- the simulated car in this process: the firmware logic (host build) driving the
+PyBullet car in real time, fed with the same bytes a real car receives.
+
+    sim://                        an open floor, no walls
+    sim://oval   sim://figure-eight   a built-in track
+    sim:///home/me/track.json     a track file (hil_sim/README.md)
+
+Options: speedup=2 (simulated seconds per wall second, up to 4), gui=1 (PyBullet window),
+trace=drive.csv (t, x, y, yaw, speed every 20 ms), plot=drive.png (the driven path).
+"""
+
+from __future__ import annotations
+
+import collections
+import threading
+from pathlib import Path
+
+from roar.transports.base import LinkLost, Transport, TransportError, pop_option
+
+MAX_SPEEDUP = 4.0  # the host sends at 50 Hz wall time: at 4x the car still hears from it every 80 ms
+CHUNK_S = 0.002  # [s] simulated time per pump step
+TRACE_PERIOD_S = 0.02  # [s]
+
+
+class SimTransport(Transport):
+    scheme = "sim"
+    min_period_s = 0.002
+
+    def __init__(self, track: str = "", speedup: float = 1.0, gui: bool = False,
+                 trace: Path | None = None, plot: Path | None = None) -> None:
+        self.track_name, self.speedup, self.gui = track, speedup, gui
+        self.trace_path, self.plot_path = trace, plot
+        self.sim = None  # roar_sim.harness.SimCar once open
+        self.trace: list[tuple[float, float, float, float, float]] = []  # (t, x, y, yaw, speed)
+        self._inbox: collections.deque[bytes] = collections.deque()
+        self._outbox: collections.deque[str] = collections.deque()
+        self._running = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._error: BaseException | None = None
+
+    @classmethod
+    def from_url(cls, target: str, options: dict[str, str]) -> SimTransport:
+        speedup = pop_option(options, "speedup", float, 1.0)
+        if not 0.1 <= speedup <= MAX_SPEEDUP:
+            raise TransportError(f"speedup must be 0.1..{MAX_SPEEDUP:g}, got {speedup:g}")
+        trace = pop_option(options, "trace", Path, None)
+        plot = pop_option(options, "plot", Path, None)
+        if plot is not None and plot.suffix.lower() != ".png":
+            raise TransportError(f"plot must name a .png file, got {plot}")
+        return cls(target.strip("/") if not target.endswith(".json") else target, speedup,
+                   pop_option(options, "gui", bool, False), trace, plot)
+
+    def open(self) -> None:
+        try:
+            from roar_sim.firmware_core import CoreLoadError
+            from roar_sim.harness import SimCar, SimConfig
+            from roar_sim.track import TrackError, get
+        except ImportError as e:
+            raise TransportError(f"sim:// needs the simulator ({e.name}); install roar-platform with its "
+                                 f"dependencies") from None
+        try:
+            track = get(self.track_name) if self.track_name else None
+            self.sim = SimCar(track, SimConfig(realtime=True, speedup=self.speedup, gui=self.gui))
+        except (TrackError, CoreLoadError) as e:
+            raise TransportError(str(e)) from None
+        self._running.set()
+        self._thread = threading.Thread(target=self._pump, name="roar-sim", daemon=True)
+        self._thread.start()
+
+    def _pump(self) -> None:
+        sim = self.sim
+        next_trace = 0.0
+        try:
+            while self._running.is_set():
+                while self._inbox:
+                    sim.write(self._inbox.popleft())
+                sim.run(CHUNK_S)
+                self._outbox.extend(sim.read())
+                if sim.time_s >= next_trace:
+                    s = sim.state()
+                    self.trace.append((sim.time_s, s.x, s.y, s.yaw, s.speed))
+                    next_trace += TRACE_PERIOD_S
+        except BaseException as e:  # surfaced to the sender on its next write
+            self._error = e
+            self._running.clear()
+
+    def write(self, data: bytes) -> None:
+        if not self._running.is_set():
+            raise LinkLost(f"simulator stopped: {self._error}" if self._error else "simulator is not running")
+        self._inbox.append(bytes(data))
+
+    def read_lines(self) -> list[str]:
+        lines = []
+        while self._outbox:
+            lines.append(self._outbox.popleft())
+        return lines
+
+    def close(self) -> None:
+        self._running.clear()
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
+        if self.sim is not None:
+            self._save()
+            self.sim.close()
+            self.sim = None
+
+    def _save(self) -> None:
+        if self.trace_path is not None:
+            self.trace_path.parent.mkdir(parents=True, exist_ok=True)
+            with open(self.trace_path, "w", encoding="ascii") as f:
+                f.write("t_s,x_m,y_m,yaw_rad,speed_m_s\n")
+                f.writelines(",".join(f"{v:.4f}" for v in row) + "\n" for row in self.trace)
+        if self.plot_path is not None and self.trace:
+            from roar_sim import plotting
+
+            plotting.save(lambda: plotting.path_figure(self.sim.track, self.trace), self.plot_path)

@@ -1,0 +1,87 @@
+"""Car URLs and the transport registry."""
+
+import pytest
+
+from roar import transports
+from roar.transports import Transport, TransportError, open_url, parse_url, register
+
+
+@pytest.mark.parametrize("url, expected", [
+    ("serial:///dev/ttyUSB0?baud=9600", ("serial", "/dev/ttyUSB0", {"baud": "9600"})),
+    ("serial://COM3", ("serial", "COM3", {})),
+    ("ble://ROAR%20Car", ("ble", "ROAR Car", {})),
+    ("ble://ROAR Car", ("ble", "ROAR Car", {})),
+    ("ble://AA:BB:CC:DD:EE:FF?timeout=3", ("ble", "AA:BB:CC:DD:EE:FF", {"timeout": "3"})),
+    ("SIM://oval?speedup=2&gui=1", ("sim", "oval", {"speedup": "2", "gui": "1"})),
+    ("sim:///home/me/t.json", ("sim", "/home/me/t.json", {})),
+    ("loop://", ("loop", "", {})),
+])
+def test_urls_parse(url, expected):
+    assert parse_url(url) == expected
+
+
+@pytest.mark.parametrize("url, words", [
+    ("/dev/ttyUSB0", "not a car URL"),
+    ("tcp://host:1", "unknown URL scheme 'tcp://': use one of ble://, loop://, serial://, sim://"),
+    ("serial://", "needs a port"),
+    ("serial:///dev/ttyUSB0?baud=fast", "baud='fast' is not a valid int"),
+    ("serial:///dev/ttyUSB0?parity=E", "unknown option(s) parity"),
+    ("loop://?fail_after=1&fail_after=2", "given twice"),
+    ("sim://?speedup=50", "speedup must be"),
+    ("sim://?plot=out.jpg", "plot must name a .png"),
+    ("ble://?timeout=-1", "timeout must be"),
+])
+def test_bad_urls_give_one_line_errors(url, words):
+    with pytest.raises(TransportError) as e:
+        open_url(url)
+    assert words in str(e.value) and "\n" not in str(e.value)
+
+
+def test_opening_a_missing_serial_port_says_so():
+    t = open_url("serial:///dev/does-not-exist")
+    with pytest.raises(TransportError, match="cannot open serial port /dev/does-not-exist: .*No such file"):
+        t.open()
+
+
+def test_sim_with_an_unknown_track_says_so():
+    t = open_url("sim://monza")
+    with pytest.raises(TransportError, match="unknown track 'monza'"):
+        t.open()
+
+
+class Recorder(Transport):
+    scheme = "rec"
+
+    def __init__(self, name):
+        self.name, self.data = name, []
+
+    @classmethod
+    def from_url(cls, target, options):
+        return cls(target)
+
+    def open(self):
+        pass
+
+    def write(self, data):
+        self.data.append(data)
+
+    def close(self):
+        pass
+
+
+def test_new_transports_plug_in_by_scheme():
+    register("rec", Recorder)
+    try:
+        t = open_url("rec://box")
+        assert isinstance(t, Recorder) and t.name == "box" and t.url == "rec://box"
+        assert "rec" in transports.schemes()
+    finally:
+        transports.registry._REGISTRY.pop("rec")
+
+
+def test_transports_registered_by_module_path_load_lazily():
+    register("rec2", "test_transports:Recorder")
+    try:
+        assert isinstance(open_url("rec2://x"), Recorder)
+    finally:
+        transports.registry._REGISTRY.pop("rec2")
