@@ -2,9 +2,9 @@
 
 import sys
 
-from benchmarks import parser_throughput, sim_speed
+from benchmarks import host_latency, parser_throughput, sim_speed
 
-BENCHMARKS = [parser_throughput, sim_speed]
+BENCHMARKS = [parser_throughput, sim_speed, host_latency]
 
 
 def main() -> int:

@@ -39,6 +39,7 @@ class BleCar:
         self.replies: list[str] = []  # lines the firmware printed (it would print them on serial)
         self.history: list[tuple[float, int, int]] = []  # (t [s], throttle_us, steering_us) at each change
         self.pid_gains: tuple[float, float, float] | None = None
+        self.connections = 0  # links a host has opened so far
         self.device = None
         self._t0 = time.monotonic()
         self._task: asyncio.Task | None = None
@@ -66,10 +67,14 @@ class BleCar:
             (AdvertisingData.INCOMPLETE_LIST_OF_128_BIT_SERVICE_CLASS_UUIDS,
              UUID(spec.BLE_SERVICE_UUID).to_bytes(force_128=True)),
         ]))
+        device.on("connection", self._on_connection)
         await device.power_on()
         await device.start_advertising(auto_restart=True, advertising_interval_min=ADVERTISING_INTERVAL_MS)
         self.firmware.boot()
         self._task = asyncio.get_running_loop().create_task(self._run())
+
+    def _on_connection(self, _connection) -> None:
+        self.connections += 1
 
     def _on_control(self, _connection, value: bytes) -> None:
         self.writes.append(bytes(value))

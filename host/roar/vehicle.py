@@ -12,6 +12,7 @@ from __future__ import annotations
 import atexit
 import collections
 import logging
+import time
 import weakref
 from pathlib import Path
 
@@ -81,12 +82,17 @@ class Vehicle:
         self._check_usable()
         self._throttle, self._steering = t, s
         self._sender.set(self._message())
+        time.sleep(0)  # yield the GIL so the sender can put it on the wire now, even in a busy loop
 
     def stop(self) -> None:
         """Neutral throttle, straight steering; returns once neutral is on the wire (so it also
         re-arms a car whose failsafe latched, even if a new command follows at once)."""
         self.drive(0.0, 0.0)
-        self._sender.flush(STOP_FLUSH_TIMEOUT_S)
+        self.flush()
+
+    def flush(self, timeout_s: float = STOP_FLUSH_TIMEOUT_S) -> bool:
+        """Wait until the latest command has been written to the link (False if it was not)."""
+        return self._sender.flush(timeout_s)
 
     def send_pulses(self, throttle_us: int, steering_us: int) -> None:
         """Send raw pulse widths [us], bypassing the calibration (for calibration tools)."""

@@ -58,7 +58,11 @@ def run(car: Vehicle, path: Path, inp: TextIO, out: TextIO) -> int:
     out.write(__doc__.split("\n", 2)[2] + f"\nLift the car so its wheels are off the ground. Saving to {path}.\n")
     try:
         st = old.steering
-        steer = lambda us: car.send_pulses(MID, us)  # noqa: E731
+        def hold(throttle_us: int, steering_us: int) -> None:  # the car shows each value as it is typed
+            car.send_pulses(throttle_us, steering_us)
+            car.flush()
+
+        steer = lambda us: hold(MID, us)  # noqa: E731
         out.write("\nSteering\n")
         s_trim = _ask("trim: wheels pointing straight ahead", st.trim_us, steer, inp, out)
         s_min = _ask("left end: full left lock, servo not straining", st.min_us, steer, inp, out, hi=s_trim)
@@ -68,7 +72,7 @@ def run(car: Vehicle, path: Path, inp: TextIO, out: TextIO) -> int:
         steer(s_trim)
 
         th = old.throttle
-        throttle = lambda us: car.send_pulses(us, s_trim)  # noqa: E731
+        throttle = lambda us: hold(us, s_trim)  # noqa: E731
         out.write("\nThrottle (wheels off the ground!)\n")
         t_trim = _ask("trim: wheels still (ESC neutral)", th.trim_us, throttle, inp, out)
         t_max = _ask("high end: full speed (the highest pulse you allow)", th.max_us, throttle, inp, out, lo=t_trim)

@@ -33,7 +33,8 @@ def parse_keys(data: bytes) -> list[str]:
     actions, i = [], 0
     while i < len(data):
         for length in (3, 1):
-            action = KEYS.get(data[i:i + length].lower())
+            chunk = data[i:i + length]
+            action = KEYS.get(chunk if length == 3 else chunk.lower())  # arrows are case-sensitive
             if action:
                 actions.append(action)
                 i += length

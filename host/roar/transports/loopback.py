@@ -14,7 +14,7 @@ from roar.transports.base import LinkLost, Transport, TransportError, pop_option
 
 class LoopbackTransport(Transport):
     scheme = "loop"
-    min_period_s = 0.0
+    min_period_s = 0.002  # [s] like a serial link, so tests see the same coalescing
 
     def __init__(self, fail_after: int = -1) -> None:
         self.fail_after = fail_after

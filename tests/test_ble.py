@@ -1,0 +1,125 @@
+"""BLE end to end: the host library's bleak code talks through bumble's real host stack and
+virtual controllers to a bumble GATT server with the ROAR layout, whose control writes feed the
+firmware core (host build) on the wall clock."""
+
+import time
+
+import pytest
+from bumble.core import AdvertisingData
+
+from conftest import wait_for
+from roar import TransportError, Vehicle
+from roar.aio import run_sync
+from roar.protocol import encode, spec
+from roar.transports.ble import scan
+from roar_sim.ble_car import BleCar
+from roar_sim.virtual_ble import BumbleClient, BumbleScanner, VirtualRadio
+
+BACKENDS = dict(scanner_backend=BumbleScanner, client_backend=BumbleClient)
+
+
+@pytest.fixture
+def radio():
+    async def make():
+        return VirtualRadio().install()
+
+    yield run_sync(make())
+    VirtualRadio.current = None
+
+
+@pytest.fixture
+def car(radio):
+    async def start():
+        c = BleCar(radio)
+        await c.start()
+        return c
+
+    c = run_sync(start())
+    yield c
+    run_sync(c.stop())
+
+
+def outputs(car):
+    return car.outputs.throttle_us, car.outputs.steering_us
+
+
+def test_scan_finds_cars_by_the_roar_service(radio, car):
+    async def add_other():
+        other = radio.add_device("Headphones", "F0:00:00:00:00:99")
+        other.advertising_data = bytes(AdvertisingData([(AdvertisingData.COMPLETE_LOCAL_NAME, b"Headphones")]))
+        await other.power_on()
+        await other.start_advertising(auto_restart=True, advertising_interval_min=20)
+
+    run_sync(add_other())
+    cars = scan(0.5, backend=BumbleScanner)
+    assert [(d.name, d.address, d.is_car) for d in cars] == [("ROAR Car", "F0:00:00:00:00:01", True)]
+    everything = scan(0.5, only_cars=False, backend=BumbleScanner)
+    assert {d.name for d in everything} == {"ROAR Car", "Headphones"}
+
+
+@pytest.mark.parametrize("target", ["", "ROAR%20Car", "F0:00:00:00:00:01"])
+def test_writes_arrive_and_drive_the_firmware(car, target):
+    with Vehicle(f"ble://{target}", **BACKENDS) as v:
+        v.drive(throttle=0.5, steering=-0.5)
+        assert wait_for(lambda: outputs(car) == (1750, 1250))
+        assert car.writes[0] == encode(1500, 1500) and car.writes[-1] == encode(1750, 1250)
+        assert car.replies[:2] == ["READY 1", "ARMED"]
+    assert wait_for(lambda: outputs(car) == (1500, 1500))
+    assert car.writes[-1] == encode(1500, 1500)  # neutral on the way out
+
+
+def test_the_car_has_the_roar_gatt_layout(car):
+    from bleak import BleakClient
+
+    async def layout():
+        async with BleakClient("F0:00:00:00:00:01", backend=BumbleClient) as client:
+            service = client.services.get_service(spec.BLE_SERVICE_UUID)
+            return {c.uuid: sorted(c.properties) for c in service.characteristics}
+
+    chars = run_sync(layout())
+    assert chars[spec.BLE_CONTROL_UUID] == ["read", "write", "write-without-response"]
+    assert set(chars) == {spec.BLE_CONTROL_UUID, spec.BLE_VELOCITY_UUID, spec.BLE_PID_UUID, spec.BLE_STATE_UUID,
+                          spec.BLE_NAME_UUID, spec.BLE_OVERRIDE_UUID}
+
+
+def test_link_loss_is_survived(car):
+    with Vehicle("ble://", **BACKENDS) as v:
+        v.drive(0.3)
+        assert wait_for(lambda: outputs(car) == (1650, 1500))
+        assert car.connections == 1
+        run_sync(car.drop_link())
+        assert wait_for(lambda: car.connections == 2, timeout_s=5)  # the host found the car again
+        assert wait_for(lambda: v.connected)
+        v.stop()
+        v.drive(0.2)
+        writes_before = len(car.writes)
+        assert wait_for(lambda: len(car.writes) > writes_before + 5)
+        assert wait_for(lambda: outputs(car) == (1600, 1500))
+
+
+def test_the_car_fails_safe_when_the_host_goes_away(car):
+    v = Vehicle("ble://", **BACKENDS)
+    v.drive(0.4)
+    assert wait_for(lambda: outputs(car) == (1700, 1500))
+    v._sender.stop()  # the host hangs: the link stays up but nothing more is written
+    silent_from = time.monotonic()
+    assert wait_for(lambda: car.outputs.latched, timeout_s=2)
+    waited = time.monotonic() - silent_from
+    assert outputs(car) == (1500, 1500) and "FAILSAFE" in car.replies
+    assert waited < 1.0  # the 250 ms timeout plus scheduling slack, never "held the last command"
+    v.transport.close()
+
+
+def test_no_car_in_range_is_a_clear_error(radio):
+    with pytest.raises(TransportError) as e:
+        Vehicle("ble://Nobody?timeout=0.3", **BACKENDS)
+    assert "no BLE car found: looked 0.3 s for a car named 'Nobody'" in str(e.value) and "\n" not in str(e.value)
+
+
+def test_without_a_bluetooth_adapter_the_error_is_one_line():
+    """This machine has no BlueZ/D-Bus: the real bleak backend must fail with a clear message."""
+    with pytest.raises(TransportError) as e:
+        Vehicle("ble://?timeout=1")
+    message = str(e.value)
+    assert "\n" not in message
+    assert "Bluetooth is not available" in message or "no BLE car found" in message

@@ -1,0 +1,56 @@
+"""The README's promise: a short script drives the simulated car, and the same script drives a
+car on a serial port by changing only the URL (here the simulated car behind a real pty)."""
+
+import csv
+import math
+import subprocess
+import sys
+
+from conftest import ROOT, wait_for
+
+CIRCLE = ROOT / "examples" / "circle.py"
+WHEEL_CIRCUMFERENCE_M = 2 * math.pi * 0.05  # [m] racecar.urdf
+ENCODER_COUNTS_PER_REV = 1024
+
+
+def test_the_example_is_short():
+    lines = [line for line in CIRCLE.read_text().splitlines() if line.strip()]
+    assert len(lines) <= 15
+
+
+def test_the_same_script_drives_the_simulator_and_a_serial_car(tmp_path, pty_car):
+    trace = tmp_path / "circle.csv"
+    # Both at once: the in-process simulator at 4x, and the serial car in real time.
+    sim = subprocess.Popen([sys.executable, str(CIRCLE), f"sim://?speedup=4&trace={trace}"], cwd=ROOT,
+                           stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    serial = subprocess.Popen([sys.executable, str(CIRCLE), f"serial://{pty_car.path}"], cwd=ROOT,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        assert wait_for(lambda: pty_car.sim.outputs.throttle_us > 1500, timeout_s=10)
+        assert pty_car.sim.outputs.steering_us == 2000
+        _, sim_err = sim.communicate(timeout=60)
+        _, serial_err = serial.communicate(timeout=60)
+    finally:
+        for p in (sim, serial):
+            if p.poll() is None:
+                p.kill()
+                p.communicate()
+    assert sim.returncode == 0, sim_err
+    assert serial.returncode == 0, serial_err
+
+    # Simulator: 48 s of simulated circles, staying on one circle round one centre.
+    with trace.open() as f:
+        rows = [(float(r["x_m"]), float(r["y_m"])) for r in csv.DictReader(f)]
+    xs, ys = zip(*rows[len(rows) // 4:])
+    cx, cy = (max(xs) + min(xs)) / 2, (max(ys) + min(ys)) / 2
+    radii = [math.hypot(x - cx, y - cy) for x, y in zip(xs, ys)]
+    assert 0.5 < min(radii) and max(radii) < 1.2 and max(radii) - min(radii) < 0.1
+    assert cy < 0  # full right lock: the circle lies to the car's right (it starts facing +x)
+
+    # Serial: the car drove about 12 s worth of circle and was left at neutral.
+    assert wait_for(lambda: pty_car.sim.outputs.throttle_us == 1500)
+    state = pty_car.sim.state()
+    driven_m = abs(state.encoder_counts) / ENCODER_COUNTS_PER_REV * WHEEL_CIRCUMFERENCE_M
+    assert driven_m > 4.0  # more than one lap of a ~0.8 m radius circle
+    radius = (max(radii) + min(radii)) / 2  # the same car and commands: the same circle as in the simulator
+    assert abs(math.hypot(state.x, state.y + radius) - radius) < 0.15  # through the start, centre to the right
