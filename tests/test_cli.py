@@ -182,3 +182,22 @@ def test_drive_from_a_terminal_moves_the_car(pty_car):
             proc.wait()
         proc.stderr.close()
         os.close(master)
+
+
+def test_ctrl_c_during_send_leaves_the_car_at_neutral(pty_car):
+    import signal
+
+    proc = subprocess.Popen([sys.executable, "-m", "roar.cli", "send", f"serial://{pty_car.path}",
+                             "--throttle", "0.3", "--for", "60"], cwd=ROOT,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        assert wait_for(lambda: pty_car.sim.outputs.throttle_us == 1650, timeout_s=10)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=10)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 130 and "Traceback" not in err
+    assert wait_for(lambda: pty_car.sim.outputs.throttle_us == 1500)
+    assert not pty_car.sim.outputs.latched  # neutral came from the host, not from the car's failsafe

@@ -85,3 +85,16 @@ def test_transports_registered_by_module_path_load_lazily():
         assert isinstance(open_url("rec2://x"), Recorder)
     finally:
         transports.registry._REGISTRY.pop("rec2")
+
+
+def test_installed_packages_add_transports_through_entry_points(monkeypatch):
+    from importlib.metadata import EntryPoint
+
+    registry = transports.registry
+    monkeypatch.setattr(registry, "_entry_points_loaded", False)
+    monkeypatch.setattr(registry, "entry_points", lambda group: [
+        EntryPoint("plugin", "test_transports:Recorder", group)] if group == registry.ENTRY_POINT_GROUP else [])
+    try:
+        assert isinstance(open_url("plugin://x"), Recorder)
+    finally:
+        registry._REGISTRY.pop("plugin", None)
