@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "roar/board.h"
 #include "roar/car.h"
 #include "roar/l298n_mixer.h"
 #include "vectors.h"
@@ -148,12 +149,64 @@ static void test_l298n_random() {
   CHECK(true, "ok");
 }
 
+// A HAL on plain variables: a serial port with a settable amount of transmit room.
+struct FakeHal : Hal {
+  Micros t = 0;
+  uint32_t frames = 0;
+  const char* rx = "";
+  size_t room = 0;
+  char tx[256] = {0};
+  size_t tx_len = 0;
+  uint16_t throttle = 0, steering = 0;
+  Micros now_us() override { return t; }
+  void write_pulses(uint16_t th, uint16_t st) override { throttle = th, steering = st; }
+  uint32_t frames_started() override { return frames; }
+  int read_byte() override { return *rx ? static_cast<uint8_t>(*rx++) : -1; }
+  size_t write_room() override { return room; }
+  void write(const char* text, size_t n) override {
+    CHECK(n <= room && tx_len + n < sizeof(tx), "wrote %u bytes with room %u", (unsigned)n, (unsigned)room);
+    memcpy(tx + tx_len, text, n);
+    tx_len += n;
+    room -= n;
+  }
+};
+
+static void test_board_loop() {
+  FakeHal hal;
+  CarBoard board(hal);
+  board.begin();
+  hal.rx = "(1500,1500)(1600,1400)";
+  board.poll();
+  CHECK(hal.tx_len == 0, "no room, nothing written (%u bytes)", (unsigned)hal.tx_len);
+  CHECK(hal.throttle == 1600 && hal.steering == 1400, "pulses %u %u", hal.throttle, hal.steering);
+  hal.room = 30;  // room for one whole line only
+  hal.t = 1000;
+  board.poll();
+  CHECK(strcmp(hal.tx, "READY 1\n") == 0, "first line only: '%s'", hal.tx);
+  hal.room = 200;
+  board.poll();
+  CHECK(strcmp(hal.tx, "READY 1\nARMED\n") == 0, "then the rest: '%s'", hal.tx);
+  // A flood is taken at most kMaxBytesPerPoll bytes per loop.
+  static char flood[400];
+  memset(flood, 'x', sizeof(flood) - 1);
+  hal.rx = flood;
+  board.poll();
+  CHECK(strlen(hal.rx) == sizeof(flood) - 1 - CarBoard::kMaxBytesPerPoll, "left %u", (unsigned)strlen(hal.rx));
+  const uint8_t ble[] = "(1700,1500)";
+  board.feed(ble, sizeof(ble) - 1);
+  hal.rx = "";
+  hal.t = 2000;
+  board.poll();
+  CHECK(hal.throttle == 1700, "BLE bytes drive too: %u", hal.throttle);
+}
+
 int main() {
   test_vectors();
   test_parser_random_bytes();
   test_failsafe_wraps();
   test_replies_small_buffers();
   test_l298n_random();
+  test_board_loop();
   printf("%d passed, %d failed\n", g_passed, g_failed);
   return g_failed ? 1 : 0;
 }

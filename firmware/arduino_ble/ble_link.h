@@ -1,0 +1,8 @@
+// The ROAR GATT service on boards with Bluetooth LE (Nano 33 BLE); a no-op elsewhere.
+#pragma once
+#include "roar/board.h"
+
+namespace ble_link {
+void begin();                      // advertise the ROAR service as "ROAR Car"
+void poll(roar::CarBoard& board);  // hand every control write to the board
+}  // namespace ble_link

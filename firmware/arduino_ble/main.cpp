@@ -1,0 +1,44 @@
+// The car firmware for the Arduino Nano 33 BLE (BLE + USB serial) and the classic Nano
+// (serial only): thin glue between the board's peripherals and roar::CarBoard.
+//
+//   USB serial 115200 / BLE writes -> CarBoard (parser, failsafe, RC override, brake FSM)
+//   -> 50 Hz pulses on D5 (ESC) and D6 (steering); RC receiver on D3/D4 overrides the host.
+#include <Arduino.h>
+
+#include "ble_link.h"
+#include "outputs.h"
+#include "roar/board.h"
+#include "roar/protocol.h"
+
+namespace {
+
+class ArduinoHal : public roar::Hal {
+ public:
+  roar::Micros now_us() override { return micros(); }
+  void write_pulses(uint16_t throttle_us, uint16_t steering_us) override { outputs::write(throttle_us, steering_us); }
+  uint32_t frames_started() override { return outputs::frames_started(); }
+  int read_byte() override { return Serial.read(); }
+  size_t write_room() override { return static_cast<size_t>(Serial.availableForWrite()); }
+  void write(const char* text, size_t length) override { Serial.write(text, length); }
+};
+
+ArduinoHal hal;
+roar::CarBoard board(hal);
+
+}  // namespace
+
+void setup() {
+  outputs::begin();
+  Serial.begin(roar::proto::kSerialBaud);
+  ble_link::begin();
+  board.begin();
+}
+
+void loop() {
+  for (uint8_t ch = 0; ch < 2; ++ch) {
+    const uint16_t width = outputs::take_rc_pulse(ch);
+    if (width) board.rc_pulse(static_cast<roar::RcChannel>(ch), width);
+  }
+  ble_link::poll(board);
+  board.poll();
+}

@@ -1,0 +1,51 @@
+// The board side of a servo/ESC car, shared by every board: a small HAL that each board folder
+// implements (time, pulse outputs, a serial port), and CarBoard, the loop body that moves
+// bytes, time and pulses through the Car. Board glue stays a few dozen lines per board.
+#pragma once
+#include <stddef.h>
+#include <stdint.h>
+
+#include "roar/car.h"
+
+namespace roar {
+
+class Hal {
+ public:
+  virtual Micros now_us() = 0;  // free-running microseconds (wraps)
+  // New pulse widths for the ESC and the steering servo, taken at the start of the next frame.
+  virtual void write_pulses(uint16_t throttle_us, uint16_t steering_us) = 0;
+  virtual uint32_t frames_started() = 0;  // output frames begun since boot (wraps)
+  virtual int read_byte() = 0;            // next received serial byte, or -1 when none
+  virtual size_t write_room() = 0;        // bytes the serial port takes now without blocking
+  virtual void write(const char* text, size_t length) = 0;
+
+ protected:
+  ~Hal() = default;
+};
+
+class CarBoard {
+ public:
+  static const uint8_t kMaxBytesPerPoll = 64;  // keep the loop short under a byte flood
+
+  CarBoard(Hal& hal, const CarConfig& config = CarConfig()) : hal_(hal), car_(config) {}
+
+  // Call once the serial port is up: queues the boot banner.
+  void begin() { car_.boot(); }
+
+  // Bytes from another link (a BLE write), in order.
+  void feed(const uint8_t* data, size_t length);
+
+  // One RC receiver pulse measured by the board's input capture.
+  void rc_pulse(RcChannel channel, uint16_t width_us) { car_.rc_pulse(channel, width_us, hal_.now_us()); }
+
+  // The loop body: serial bytes in, one Car step, pulses out, reply lines out when they fit.
+  CarOutputs poll();
+
+  const Car& car() const { return car_; }
+
+ private:
+  Hal& hal_;
+  Car car_;
+};
+
+}  // namespace roar

@@ -1,0 +1,28 @@
+#include "roar/board.h"
+
+namespace roar {
+
+void CarBoard::feed(const uint8_t* data, size_t length) {
+  const Micros now = hal_.now_us();
+  for (size_t i = 0; i < length; ++i) car_.feed(data[i], now);
+}
+
+CarOutputs CarBoard::poll() {
+  for (uint8_t i = 0; i < kMaxBytesPerPoll; ++i) {
+    const int byte = hal_.read_byte();
+    if (byte < 0) break;
+    car_.feed(static_cast<uint8_t>(byte), hal_.now_us());
+  }
+  const CarOutputs out = car_.step(hal_.now_us(), hal_.frames_started());
+  hal_.write_pulses(out.throttle_us, out.steering_us);
+  char line[proto::kSerialMaxReplyBytes + 1];
+  // A reply is written only when it fits whole: the loop never blocks on a slow host.
+  while (hal_.write_room() >= proto::kSerialMaxReplyBytes) {
+    const size_t n = car_.take_reply(line, sizeof(line));
+    if (n == 0) break;
+    hal_.write(line, n);
+  }
+  return out;
+}
+
+}  // namespace roar

@@ -1,0 +1,171 @@
+"""The real Nano firmware binary (ATmega328P ELF built offline with avr-gcc and the Arduino core)
+running in simavr: control messages into UART0, pulse widths measured on D5 (ESC) and D6
+(steering), RC receiver pulses injected on D3/D4."""
+
+import statistics
+import time
+
+import pytest
+
+from conftest import wait_for
+from roar.protocol import encode, spec
+
+avr_sim = pytest.importorskip("roar_sim.avr_sim")
+if avr_sim.available():
+    pytest.skip(avr_sim.available(), allow_module_level=True)
+
+TOLERANCE_US = 10  # [us] per pulse: other interrupts delay an edge now and then (as on hardware)
+FRAME_S = spec.TIMING_SERVO_FRAME_US / 1e6
+SEND_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6
+FAILSAFE_S = spec.TIMING_FAILSAFE_TIMEOUT_US / 1e6
+N = spec.CONTROL_NEUTRAL_US
+
+
+@pytest.fixture
+def nano():
+    with avr_sim.AvrCar() as car:
+        car.run(0.05)  # boot: Serial.begin() before the first byte
+        yield car
+
+
+def stream(nano, throttle, steering, seconds):
+    """A host sending one command every 20 ms."""
+    for _ in range(round(seconds / SEND_S)):
+        nano.write(encode(throttle, steering) + b"\n")
+        nano.run(SEND_S)
+
+
+def widths(nano, pin, since_s):
+    return [w for _, w in nano.pulses(pin, since_s)]
+
+
+def assert_holds(values, expected):
+    errors = sorted(abs(w - expected) for w in values)
+    assert len(errors) >= 5, f"only {len(errors)} pulses"
+    assert statistics.median(errors) <= 1.0, f"median error {statistics.median(errors):.2f} us"
+    assert errors[int(0.99 * (len(errors) - 1))] <= TOLERANCE_US, f"worst {errors[-1]:.2f} us"
+
+
+def test_boots_latched_at_neutral_and_says_ready(nano):
+    nano.run(0.3)
+    assert nano.lines()[0][1] == "READY 1"
+    assert_holds(widths(nano, "D5", 0.05), N)
+    assert_holds(widths(nano, "D6", 0.05), N)
+    stream(nano, 1700, 1500, 0.2)  # forward before neutral: ignored, the car says why
+    assert "FAILSAFE" in [text for _, text in nano.lines()]
+    assert_holds(widths(nano, "D5", 0.05), N)
+
+
+@pytest.mark.parametrize("throttle, steering", [(1500, 1500), (1600, 1400), (2000, 1000), (1000, 2000),
+                                                (1734, 1266), (1501, 1999)])
+def test_pulses_follow_commands(nano, throttle, steering):
+    stream(nano, N, N, 0.1)  # arm
+    if throttle < N:  # reverse needs the brake sequence first; it is tested below
+        stream(nano, throttle, steering, 0.5)
+    start = nano.time_s
+    stream(nano, throttle, steering, 0.5)
+    settled = start + 3 * FRAME_S
+    assert_holds(widths(nano, "D5", settled), throttle)
+    assert_holds(widths(nano, "D6", settled), steering)
+    rises = [r for r, _ in nano.pulses("D5", settled)]
+    periods = [b - a for a, b in zip(rises, rises[1:])]
+    assert all(abs(p - FRAME_S) < 0.0005 for p in periods)
+
+
+def test_malformed_input_changes_nothing_and_is_answered(nano):
+    stream(nano, N, N, 0.1)
+    stream(nano, 1600, 1400, 0.2)
+    start = nano.time_s
+    for bad in (b"(1500,99999)\n", b"(15x0,1500)\n", b"(2500,1500)\n"):
+        nano.write(bad)
+        nano.run(0.05)
+    replies = [text for t, text in nano.lines() if t >= start]
+    assert replies == ["ERR too_long", "ERR syntax", "ERR range"]
+    assert_holds(widths(nano, "D5", start), 1600)
+    assert_holds(widths(nano, "D6", start), 1400)
+
+
+def test_failsafe_drives_d5_to_neutral_after_silence(nano):
+    stream(nano, N, N, 0.1)
+    stream(nano, 1700, 1600, 0.3)
+    last_command = nano.sent_at[-1] / avr_sim.F_CPU
+    nano.run(0.6)
+    neutral_from = next(r for r, w in nano.pulses("D5", last_command) if abs(w - N) <= TOLERANCE_US)
+    assert FAILSAFE_S <= neutral_from - last_command <= FAILSAFE_S + 2 * FRAME_S
+    assert all(abs(w - 1700) <= TOLERANCE_US for w in widths(nano, "D5", last_command)[:10])  # held until then
+    assert_holds(widths(nano, "D5", neutral_from), N)
+    assert_holds(widths(nano, "D6", neutral_from), N)
+    assert [text for t, text in nano.lines() if t > last_command] == ["FAILSAFE"]
+
+
+def test_forward_to_reverse_goes_through_the_brake_sequence_on_d5(nano):
+    stream(nano, N, N, 0.1)
+    stream(nano, 1700, N, 0.3)
+    start = nano.time_s
+    stream(nano, 1300, N, 0.4)
+    sequence = []  # (width, frames) runs of equal pulses on D5
+    for w in widths(nano, "D5", start):
+        level = round(w / 10) * 10
+        if sequence and sequence[-1][0] == level:
+            sequence[-1][1] += 1
+        else:
+            sequence.append([level, 1])
+    levels = [level for level, _ in sequence]
+    assert levels[levels.index(1500):] == [1500, spec.TIMING_BRAKE_TAP_US, 1500, 1300], sequence
+    steps = sequence[levels.index(1500):][:3]
+    step_frames = max(1, round(spec.TIMING_BRAKE_STEP_US / spec.TIMING_SERVO_FRAME_US))
+    assert all(frames >= step_frames for _, frames in steps), sequence  # each step >= the step time
+
+
+def test_rc_override_pulses_win(nano):
+    stream(nano, N, N, 0.1)
+    stream(nano, 1600, 1400, 0.2)
+    nano.rc(3, 1800)
+    nano.rc(4, 1200)
+    start = nano.time_s
+    stream(nano, 1600, 1400, 0.5)  # the host keeps sending: the transmitter still wins
+    settled = start + 0.15  # three pulses to lock on, and a frame to take effect
+    assert_holds(widths(nano, "D5", settled), 1800)
+    assert_holds(widths(nano, "D6", settled), 1200)
+    nano.rc(3, None)
+    nano.rc(4, None)
+    released = nano.time_s
+    stream(nano, 1600, 1400, 0.5)
+    assert_holds(widths(nano, "D5", released + 0.2), 1600)  # back to the host after the RC timeout
+    assert_holds(widths(nano, "D6", released + 0.2), 1400)
+
+
+def test_the_host_library_drives_the_emulated_nano_over_a_pty():
+    """Real time: the pyserial transport of roar.Vehicle talks to UART0 through simavr's pty."""
+    from roar import Vehicle
+
+    proc, path = avr_sim.AvrCar.serve_pty(4.0)
+    pulses, lines = [], []
+    started = time.monotonic()
+    try:
+        with Vehicle(f"serial://{path}") as car:
+            time.sleep(0.3)
+            car.drive(throttle=0.4, steering=-0.2)
+            assert wait_for(lambda: "ARMED" in car.replies, timeout_s=2)
+            time.sleep(1.0)
+            commanded_at = time.monotonic() - started
+        out, _ = proc.communicate(timeout=10)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    wall = time.monotonic() - started
+    for line in out.splitlines():
+        kind, *rest = line.split(" ", 3)
+        if kind == "P":
+            pulses.append((rest[0], int(rest[1]) / avr_sim.F_CPU, int(rest[2]) / avr_sim.CYCLES_PER_US))
+        elif kind == "U":
+            lines.append(rest[1] if len(rest) > 1 else "")
+    assert proc.returncode == 0
+    assert wall >= 3.9  # locked to real time: 4 emulated seconds took 4 wall seconds
+    d5 = [w for pin, t, w in pulses if pin == "D5" and 0.5 < t < commanded_at - 0.1]
+    d6 = [w for pin, t, w in pulses if pin == "D6" and 0.5 < t < commanded_at - 0.1]
+    assert_holds(d5, 1700)
+    assert_holds(d6, 1400)
+    neutral_end = [w for pin, t, w in pulses if pin == "D5" and t > commanded_at + 0.3]
+    assert_holds(neutral_end, N)  # the Vehicle sent neutral on leaving the block
