@@ -3,7 +3,8 @@
 # make test   set up, then run the whole suite
 # make bench  set up, then print the benchmarks
 # make gen    regenerate protocol files from protocol/spec.toml
-.PHONY: setup run trace test bench gen core clean
+# make firmware  build the Nano and AnyFC F7 firmware offline; print flash/RAM per target
+.PHONY: setup run trace test bench gen core firmware clean
 
 PY := .venv/bin/python
 
@@ -29,6 +30,11 @@ gen: setup
 core: setup
 	@$(PY) -m roar_sim.core_build --variant release
 	@$(PY) -m roar_sim.core_build --variant sanitize
+
+firmware: setup
+	@$(PY) -m roar_sim.avr_build
+	@$(PY) -m roar_sim.arm_build
+	@$(PY) -m roar_sim.firmware_sizes
 
 clean:
 	rm -rf build out .pytest_cache .hypothesis

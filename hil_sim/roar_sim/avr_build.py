@@ -29,14 +29,14 @@ MCU, F_CPU = "atmega328p", 16_000_000  # [Hz]
 FLASH_BYTES, RAM_BYTES = 30_720, 2_048  # ATmega328P with the Nano's 2 KB bootloader
 
 DEFINES = [f"-mmcu={MCU}", f"-DF_CPU={F_CPU}L", "-DARDUINO=10819", "-DARDUINO_AVR_NANO", "-DARDUINO_ARCH_AVR"]
-COMMON = ["-g", "-Os", "-ffunction-sections", "-fdata-sections", "-flto", "-MMD"]
+COMMON = ["-g", "-Os", "-ffunction-sections", "-fdata-sections", "-flto"]
 C_FLAGS = ["-std=gnu11", "-fno-fat-lto-objects", *COMMON]
 # The Arduino core as Debian ships it (1.8.7) needs DECIMAL_DIG, which gcc-avr 5.4 defines for C only.
 CORE_CXX_FLAGS = ["-std=gnu++11", "-fpermissive", "-fno-exceptions", "-fno-threadsafe-statics",
                   "-DDECIMAL_DIG=__DECIMAL_DIG__", *COMMON]
 OUR_CXX_FLAGS = ["-std=gnu++1z", "-fno-exceptions", "-fno-rtti", "-fno-threadsafe-statics", "-Wall", "-Wextra",
                  "-Werror", "-DDECIMAL_DIG=__DECIMAL_DIG__", *COMMON]
-ASM_FLAGS = ["-g", "-x", "assembler-with-cpp", "-flto", "-MMD"]
+ASM_FLAGS = ["-g", "-x", "assembler-with-cpp", "-flto"]
 
 
 def available() -> str | None:
@@ -110,6 +110,23 @@ def build(force: bool = False) -> Path:
     os.replace(tmp, ELF)
     _run(["avr-objcopy", "-O", "ihex", "-R", ".eeprom", str(ELF), str(ELF.with_suffix(".hex"))], "hex")
     return ELF
+
+
+BENCH_SOURCE = ROOT / "hil_sim" / "avr" / "parser_bench.cpp"
+BENCH_ELF = ROOT / "build" / "avr" / "parser_bench.elf"
+BENCH_MESSAGES = 100  # messages per timed run in parser_bench.cpp
+
+
+def build_parser_bench() -> Path:
+    """The benchmark firmware (no Arduino core): the core's parser timed on the emulated chip."""
+    missing = available()
+    if missing:
+        raise CoreBuildError(missing)
+    BENCH_ELF.parent.mkdir(parents=True, exist_ok=True)
+    sources = [BENCH_SOURCE] + [p for p in core_sources() if p.name not in HOST_ONLY_SOURCES]
+    _run(["avr-g++", *OUR_CXX_FLAGS, *DEFINES, "-I", str(CORE / "include"), *map(str, sources), "-fuse-linker-plugin",
+          "-Wl,--gc-sections", "-o", str(BENCH_ELF)], "parser bench")
+    return BENCH_ELF
 
 
 def sizes(elf: Path, size_tool: str = "avr-size") -> tuple[int, int]:

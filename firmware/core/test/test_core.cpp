@@ -6,6 +6,7 @@
 
 #include "roar/board.h"
 #include "roar/car.h"
+#include "roar/junior_control.h"
 #include "roar/l298n_mixer.h"
 #include "vectors.h"
 
@@ -200,6 +201,41 @@ static void test_board_loop() {
   CHECK(hal.throttle == 1700, "BLE bytes drive too: %u", hal.throttle);
 }
 
+static void test_junior_control() {
+  JuniorControl j;
+  CHECK(j.duties(0).left == 0 && j.timed_out(0), "stopped before any request");
+  const char q1[] = "forward=True&left_spd=0.5&right_spd=0.25";
+  JuniorQueryResult r = j.apply_query(q1, sizeof(q1) - 1, 1000);
+  CHECK(r.applied == 3 && r.ignored == 0, "applied %u ignored %u", r.applied, r.ignored);
+  SideDuties d = j.duties(2000);
+  CHECK(d.left == 500 && d.right == 250, "forward %d %d", d.left, d.right);
+  const char q2[] = "turnLeft=True&bogus=1&left_spd=1.5&forward=False";
+  r = j.apply_query(q2, sizeof(q2) - 1, 3000);
+  CHECK(r.applied == 1 && r.ignored == 3, "applied %u ignored %u", r.applied, r.ignored);
+  d = j.duties(3000);
+  CHECK(d.left == -500 && d.right == 250, "spin left %d %d", d.left, d.right);
+  const char q3[] = "left_spd=1&right_spd=.75&backward=True";  // order: speeds first, then motion
+  j.apply_query(q3, sizeof(q3) - 1, 4000);
+  d = j.duties(4000);
+  CHECK(d.left == -1000 && d.right == -750, "backward %d %d", d.left, d.right);
+  d = j.duties(4000 + proto::kJuniorFailsafeTimeoutUs);
+  CHECK(d.left == -1000, "still driving at the timeout %d", d.left);
+  d = j.duties(4001 + proto::kJuniorFailsafeTimeoutUs);
+  CHECK(d.left == 0 && d.right == 0, "failsafe stops both sides %d %d", d.left, d.right);
+  const char q4[] = "stop=True";
+  j.apply_query(q4, sizeof(q4) - 1, 0xFFFFFF00u);  // across the clock wrap
+  CHECK(!j.timed_out(0x100u) && j.duties(0x100u).left == 0, "stop");
+  uint16_t p = 0;
+  const char* good[] = {"0", "1", "0.5", ".25", "1.000", "0.1239"};
+  const uint16_t want[] = {0, 1000, 500, 250, 1000, 123};
+  for (int i = 0; i < 6; ++i) {
+    CHECK(parse_unit_permille(good[i], strlen(good[i]), &p) && p == want[i], "%s -> %u", good[i], p);
+  }
+  const char* bad[] = {"", ".", "-0.5", "1.5", "2", "0.5x", "abc", "True"};
+  for (const char* b : bad) CHECK(!parse_unit_permille(b, strlen(b), &p), "accepted '%s'", b);
+  CHECK(echo_us_to_cm(5882) == 100, "1 m echo -> %lu cm", (unsigned long)echo_us_to_cm(5882));
+}
+
 int main() {
   test_vectors();
   test_parser_random_bytes();
@@ -207,6 +243,7 @@ int main() {
   test_replies_small_buffers();
   test_l298n_random();
   test_board_loop();
+  test_junior_control();
   printf("%d passed, %d failed\n", g_passed, g_failed);
   return g_failed ? 1 : 0;
 }

@@ -1,0 +1,48 @@
+"""The real firmware on the emulated ATmega328P (simavr; cycle counts are deterministic):
+CPU cycles per control message parsed, and the latency from the last byte of a new command to
+the first output pulse that carries it."""
+
+import statistics
+
+from roar.protocol import encode, spec
+
+TITLE = "Nano firmware in the AVR emulator (ATmega328P, 16 MHz)"
+TRIALS = 60
+BITS_PER_BYTE = 10  # 8N1
+
+
+def run() -> None:
+    from roar_sim import avr_build, avr_sim
+
+    missing = avr_sim.available()
+    if missing:
+        print(f"  skipped: {missing}")
+        return
+    with avr_sim.AvrCar(avr_build.build_parser_bench()) as bench:
+        bench.run(0.2)
+        (_, parser_cycles), (_, car_cycles) = bench.pulse_cycles("B5")[:2]
+    per_parser = parser_cycles / avr_build.BENCH_MESSAGES
+    per_car = car_cycles / avr_build.BENCH_MESSAGES
+    message_bytes = len(encode(1500, 1500))
+    line_cycles = message_bytes * BITS_PER_BYTE / spec.SERIAL_BAUD * avr_sim.F_CPU  # one message on the wire
+    print(f"  cycles per message: parser {per_parser:,.0f}, whole receive path (parser + failsafe) {per_car:,.0f}")
+    print(f"  share of the CPU at full {spec.SERIAL_BAUD}-baud line rate: parser {per_parser / line_cycles:.3f}, "
+          f"receive path {per_car / line_cycles:.3f}")
+
+    latencies = []
+    with avr_sim.AvrCar() as nano:
+        nano.run(0.05)
+        nano.write(encode(1500, 1500) + b"\n")
+        nano.run(0.1)
+        for i in range(TRIALS):
+            nano.run(0.0013 * (i % 16))  # spread the arrivals over the 20 ms frame
+            width = 1600 + 50 * (i % 2)
+            nano.write(encode(width, 1500) + b"\n")
+            sent = len(nano.sent_at)
+            nano.run(0.05)
+            arrived = nano.sent_at[sent]  # the cycle this command's last byte entered the UART
+            first = next(r for r, w in nano.pulse_cycles("D5") if r > arrived and abs(w / 16 - width) < 10)
+            latencies.append((first - arrived) / avr_sim.CYCLES_PER_US / 1000)
+    frame_ms = spec.TIMING_SERVO_FRAME_US / 1000
+    print(f"  command byte -> new pulse: p50 {statistics.median(latencies):.1f} ms, max {max(latencies):.1f} ms "
+          f"({TRIALS} commands at spread phases); max / frame period {max(latencies) / frame_ms:.2f}")

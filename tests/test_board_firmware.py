@@ -1,0 +1,108 @@
+"""Board firmware: platformio.ini is valid and complete, board folders are thin glue with their
+pins in one place and no wire constants of their own, and the boards that this machine's
+toolchains can link (classic Nano, AnyFC F7 skeleton) build and fit."""
+
+import json
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import ROOT
+
+FIRMWARE = ROOT / "firmware"
+ENVS = {  # env -> board folder
+    "nanoatmega328": "arduino_ble",
+    "nano33ble": "arduino_ble",
+    "esp32cam": "esp32_cam",
+    "esp32_junior": "esp32_junior",
+    "anyfc_f7": "stm32_freertos",
+}
+BOARD_FOLDERS = sorted(set(ENVS.values()))
+
+
+@pytest.fixture(scope="module")
+def pio_config():
+    pio = shutil.which("pio", path=str(Path(sys.executable).parent)) or shutil.which("pio")
+    if pio is None:
+        pytest.skip("platformio not installed: pip install platformio (make installs it)")
+    proc = subprocess.run([pio, "project", "config", "--json-output"], cwd=ROOT, capture_output=True, text=True,
+                          timeout=120, env={"PATH": "/usr/bin:/bin", "HOME": str(ROOT / "build" / "pio-home"),
+                                            "PLATFORMIO_CORE_DIR": str(ROOT / "build" / "pio-core")})
+    assert proc.returncode == 0, proc.stderr
+    return {section: dict(items) for section, items in json.loads(proc.stdout)}
+
+
+def test_platformio_has_one_env_per_board(pio_config):
+    envs = {name.removeprefix("env:"): cfg for name, cfg in pio_config.items() if name.startswith("env:")}
+    assert set(envs) == set(ENVS)
+    for name, cfg in envs.items():
+        assert cfg["build_src_filter"] == [f"+<{ENVS[name]}/>"], name
+        assert "symlink://firmware/core" in cfg["lib_deps"], name
+        assert re.fullmatch(r"\w+@\^\d+", cfg["platform"]), f"{name}: pin the platform's major version"
+        assert cfg["monitor_speed"] == 115200
+
+
+def test_the_shared_library_and_the_custom_board_are_where_platformio_looks(pio_config):
+    library = json.loads((FIRMWARE / "core" / "library.json").read_text())
+    assert library["build"]["srcFilter"] == ["+<*.cpp>", "-<c_api.cpp>"]  # the C ABI is host-only
+    assert pio_config["platformio"]["src_dir"].endswith("firmware")
+    board = json.loads((Path(pio_config["platformio"]["boards_dir"]) / "anyfc_f7.json").read_text())
+    assert board["build"]["mcu"] == "stm32f745vgt6" and board["build"]["cpu"] == "cortex-m7"
+    assert board["upload"]["maximum_size"] == 1024 * 1024 and board["upload"]["maximum_ram_size"] == 320 * 1024
+    ld = pio_config["env:anyfc_f7"]["board_build.ldscript"]
+    assert (ROOT / ld).exists()
+
+
+@pytest.mark.parametrize("folder", BOARD_FOLDERS)
+def test_board_folders_are_thin_glue_with_pins_in_one_place(folder):
+    board = FIRMWARE / folder
+    assert (board / "pins.h").exists() and (board / "main.cpp").exists()
+    for src in board.glob("*.cpp"):
+        text = re.sub(r"//.*", "", src.read_text())  # code only: comments may explain the wiring
+        # Pins are named in pins.h only: no raw pin numbers in calls.
+        assert not re.search(r"\b(pinMode|digitalWrite|digitalRead|ledcAttachPin|attachInterrupt)\(\s*\d", text), src
+        # Wire facts come from the generated protocol header, never typed again here.
+        for literal in ("115200", "19b1", "ROAR Car", "(1500", "20000", "\"True\"", "left_spd"):
+            assert literal not in text, f"{src.name} types {literal!r}: use roar/protocol.h"
+    lines = sum(len(p.read_text().splitlines()) for p in board.glob("*.cpp"))
+    assert lines < 400, f"{folder}: {lines} lines of glue; move logic into firmware/core"
+
+
+avr_build = pytest.importorskip("roar_sim.avr_build")
+arm_build = pytest.importorskip("roar_sim.arm_build")
+
+
+def test_the_nano_firmware_builds_offline_and_fits():
+    if avr_build.available():
+        pytest.skip(avr_build.available())
+    elf = avr_build.build(force=True)
+    flash, ram = avr_build.sizes(elf)
+    assert 1000 < flash < avr_build.FLASH_BYTES
+    assert ram < avr_build.RAM_BYTES - 512  # leave room for the stack
+    assert elf.with_suffix(".hex").read_text().startswith(":")
+
+
+def test_the_anyfc_f7_skeleton_links_offline_with_its_vector_table_first():
+    if not shutil.which("arm-none-eabi-g++"):
+        pytest.skip("apt-get install gcc-arm-none-eabi libnewlib-arm-none-eabi")
+    elf = arm_build.build()
+    symbols = subprocess.run(["arm-none-eabi-nm", str(elf)], capture_output=True, text=True, check=True).stdout
+    vector = next(line.split()[0] for line in symbols.splitlines() if line.endswith("vector_table"))
+    assert int(vector, 16) == 0x08000000
+    flash, ram = avr_build.sizes(elf, "arm-none-eabi-size")
+    assert flash < 64 * 1024 and ram < 16 * 1024
+
+
+def test_sizes_are_printed_for_every_target(capsys):
+    from roar_sim import firmware_sizes
+
+    firmware_sizes.run()
+    out = capsys.readouterr().out
+    for chip in ("ATmega328P (Nano)", "nRF52840 (Nano 33 BLE)", "STM32F745 (AnyFC F7)"):
+        assert chip in out
+    if not avr_build.available() and shutil.which("arm-none-eabi-g++"):
+        assert "skipped" not in out and out.count(" B ") >= 10
