@@ -29,6 +29,7 @@ BRAKE_MAX_TORQUE_NM = 2.0  # [N m] per rear wheel at full brake
 ROLLING_DRAG_NM = 0.02  # [N m] coasting resistance per wheel
 ENCODER_COUNTS_PER_REV = 1024  # [counts]
 WALL_HEIGHT_M, WALL_THICKNESS_M = 0.3, 0.05  # [m] higher than the lidar (0.17 m)
+SOLVER_ITERATIONS = 10  # contact solver iterations per step (PyBullet default 50): a car on a plane settles in few
 
 
 @dataclass(frozen=True)
@@ -77,6 +78,7 @@ class Plant:
         pb.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=c)
         pb.setGravity(0, 0, -9.81, physicsClientId=c)
         pb.setTimeStep(dt_s, physicsClientId=c)
+        pb.setPhysicsEngineParameter(numSolverIterations=SOLVER_ITERATIONS, physicsClientId=c)
         plane = pb.loadURDF("plane.urdf", physicsClientId=c)
         # Plain dark asphalt instead of the checker texture: walls stand out for the camera.
         pb.changeVisualShape(plane, -1, textureUniqueId=-1, rgbaColor=[0.25, 0.25, 0.27, 1], physicsClientId=c)
