@@ -1,4 +1,4 @@
-# make run    set up, then drive the simulated car round a track; print the laps, plot the path
+# make run    set up, then race the simulated car round a track; print the laps, plot path and speed
 # make trace  set up, then drive the firmware logic through a scripted session; print + plot pulses
 # make test   set up, then run the whole suite
 # make bench  set up, then print the benchmarks
@@ -12,7 +12,7 @@ setup:
 	@bash scripts/setup.sh
 
 run: setup
-	@$(PY) -m roar_sim.lap --track oval --laps 2 --plot out/lap.png
+	@.venv/bin/roar race --track oval --laps 3 --plot out/race.png
 
 trace: setup
 	@$(PY) -m roar_sim.scripted_drive --plot out/scripted_drive.png

@@ -2,10 +2,10 @@
 
 import sys
 
-from benchmarks import avr_emulator, host_latency, parser_throughput, sim_speed
+from benchmarks import avr_emulator, host_latency, parser_throughput, race_ratio, sim_speed
 from roar_sim import firmware_sizes
 
-BENCHMARKS = [parser_throughput, sim_speed, host_latency, avr_emulator, firmware_sizes]
+BENCHMARKS = [parser_throughput, sim_speed, host_latency, avr_emulator, firmware_sizes, race_ratio]
 
 
 def main() -> int:

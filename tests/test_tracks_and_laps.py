@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from roar_sim import lap
+from roar_sim import race
 from roar_sim.track import BUILTIN, Track, TrackError, get, oval
 
 
@@ -58,30 +58,53 @@ def test_projection_signs():
 
 
 @pytest.mark.parametrize("name", sorted(BUILTIN))
-def test_controller_completes_a_lap_without_touching_a_wall(name):
-    result = lap.drive_laps(get(name), laps=1, speed=1.5)
-    assert len(result.lap_times_s) == 1
-    assert result.wall_contacts == 0 and result.max_cross_track_m < 0.3
-    assert result.lap_times_s[0] < 1.5 * get(name).length_m / 1.5
+def test_the_autopilot_laps_every_builtin_track_without_touching_a_wall(name):
+    result = race.race(get(name), laps=2)
+    assert len(result.lap_times_s) == 2
+    assert result.wall_contacts == 0 and result.max_cross_track_m < 0.35  # walls are 0.6 m from the centre
+    flying = result.lap_times_s[1] / result.limit_lap_s
+    assert 1.0 < flying <= 1.15  # close to the physical limit, never (impossibly) faster than it
+    assert result.slowest_m_s > -0.1  # it never rolls backwards (beyond settling on its wheels)
 
 
-def test_lap_cli_prints_report_and_plot(tmp_path, capsys):
-    png = tmp_path / "lap.png"
-    assert lap.main(["--laps", "1", "--plot", str(png)]) == 0
+def test_the_autopilot_brakes_for_the_oval_corners_through_the_firmware():
+    """The oval's corners are slower than its straights; the ESC has no brake, so the autopilot
+    commands reverse and the firmware's brake/reverse sequence turns it into braking."""
+    result = race.race(get("oval"), laps=2)
+    assert result.braking_periods >= 10
+    assert result.slowest_m_s > -0.1
+    corner = [v for x, y, v, s in result.path[len(result.path) // 2:] if abs(x) > 2.5]
+    straight = [v for x, y, v, s in result.path[len(result.path) // 2:] if abs(x) < 0.5]
+    assert max(corner) < max(straight) - 0.4
+
+
+def test_race_cli_prints_report_and_plot(tmp_path, capsys):
+    png = tmp_path / "race.png"
+    assert race.main(["--laps", "1", "--plot", str(png)]) == 0
     out = capsys.readouterr().out
-    assert "lap 1:" in out and "wall contacts: 0" in out
+    assert "lap 1:" in out and "x the limit" in out and "wall contacts: 0" in out
     assert png.read_bytes()[:4] == b"\x89PNG"
 
 
-@pytest.mark.parametrize("args, fragment", [(["--laps", "0"], "--laps"), (["--speed", "9"], "--speed"),
+def test_race_follows_a_waypoint_file(tmp_path, capsys):
+    from roar.autopilot import save_waypoints
+
+    path = tmp_path / "line.txt"
+    save_waypoints(path, get("oval").centerline)
+    assert race.main(["--laps", "1", "--waypoints", str(path)]) == 0
+    assert "laps completed: 1" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("args, fragment", [(["--laps", "0"], "--laps"), (["--margin", "2"], "--margin"),
                                             (["--plot", "x.jpg"], ".png")])
-def test_lap_cli_rejects_bad_arguments(args, fragment, capsys):
+def test_race_cli_rejects_bad_arguments(args, fragment, capsys):
     with pytest.raises(SystemExit) as e:
-        lap.main(args)
+        race.main(args)
     assert e.value.code == 2 and fragment in capsys.readouterr().err
 
 
-def test_lap_cli_bad_track_is_one_line(capsys):
-    assert lap.main(["--track", "nowhere.json"]) == 1
+@pytest.mark.parametrize("args", [["--track", "nowhere.json"], ["--waypoints", "/nonexistent.txt"]])
+def test_race_cli_bad_files_are_one_line(args, capsys):
+    assert race.main(args) == 1
     err = capsys.readouterr().err.strip()
     assert err.startswith("error:") and "\n" not in err

@@ -156,9 +156,14 @@ class Plant:
                 pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL, targetVelocity=0,
                                          force=BRAKE_MAX_TORQUE_NM * brake, physicsClientId=c)
             elif drive != 0:
-                pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL,
-                                         targetVelocity=drive * MOTOR_MAX_SPEED_RAD_S,
-                                         force=MOTOR_MAX_TORQUE_NM * abs(drive) + ROLLING_DRAG_NM, physicsClientId=c)
+                # The motor drives the wheel towards its speed for this throttle but never holds it
+                # back: a wheel already turning faster in that direction coasts (no drag brake).
+                target = drive * MOTOR_MAX_SPEED_RAD_S
+                spin = pb.getJointState(self.car, w, physicsClientId=c)[1]
+                coasting = spin * target > 0 and abs(spin) > abs(target)
+                torque = ROLLING_DRAG_NM if coasting else MOTOR_MAX_TORQUE_NM * abs(drive) + ROLLING_DRAG_NM
+                pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL, targetVelocity=target, force=torque,
+                                         physicsClientId=c)
             else:
                 pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL, targetVelocity=0, force=ROLLING_DRAG_NM,
                                          physicsClientId=c)

@@ -86,8 +86,8 @@ def sim(args) -> int:
 
         argv = ["--track", args.track, "--seconds", str(args.seconds)] + (["--gui"] if args.gui else [])
         return serve(argv)
-    from roar_sim.lap import main as laps
+    from roar_sim.race import main as race_main
 
     argv = ["--track", args.track, "--laps", str(args.laps)] + (["--gui"] if args.gui else [])
     argv += ["--plot", str(args.plot)] if args.plot else []
-    return laps(argv)
+    return race_main(argv)

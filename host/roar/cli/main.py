@@ -16,6 +16,7 @@ from pathlib import Path
 from roar.calibration import CalibrationError, default_path
 
 EXAMPLES = """examples:
+  roar race --track figure-eight         the autopilot laps the simulated car against the physical limit
   roar sim --serial                      the simulated car as a serial port (prints its path)
   roar send sim:// --throttle 0.3 --steering 0.5 --for 5
   roar drive serial:///dev/ttyUSB0       drive with the keyboard
@@ -72,9 +73,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("ports", help="list serial ports", description="List serial ports, marking likely car boards.")
 
+    # Listed here for --help; its own options are parsed by roar_sim.race (see main()).
+    sub.add_parser("race", help="race the simulated car with the autopilot", add_help=False)
+
     p = sub.add_parser("sim", help="run the simulated car",
-                       description="Without --serial: drive the built-in controller round a track and report "
-                                   "the laps (like `make run`). With --serial: serve the simulated car on a "
+                       description="Without --serial: race the autopilot round a track and report the laps "
+                                   "(like `roar race`). With --serial: serve the simulated car on a "
                                    "pseudo-terminal and print its path, for any program that speaks serial.")
     p.add_argument("--serial", action="store_true", help="serve the car as a serial port (a pty) in real time")
     p.add_argument("--track", default="oval", help="oval, figure-eight or a track .json file (default: oval)")
@@ -86,6 +90,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["race"]:  # the race has its own options and --help
+        from roar_sim.race import main as race_main
+
+        try:
+            return race_main(argv[1:])
+        except KeyboardInterrupt:
+            print(file=sys.stderr)
+            return 130
     parser = build_parser()
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="roar: %(message)s")

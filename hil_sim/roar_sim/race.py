@@ -1,0 +1,193 @@
+"""Race the simulated car: the autopilot's racing agent (roar.autopilot) drives N laps through
+the firmware logic (control messages at 50 Hz, lockstep), measured against the track's
+physical-limit lap time.
+
+    roar race [--track oval|figure-eight|FILE.json] [--laps 2] [--waypoints FILE]
+              [--margin 0.9] [--plot out/race.png] [--realtime] [--gui]
+
+Prints lap times, their ratio to the physical limit, the maximum and RMS cross-track error and
+wall contacts, and plots the driven path coloured by speed beside the speed along the track.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from roar.autopilot import Command, Observation, Runner, WaypointError, limit_lap_time, load_waypoints, race_agent
+from roar.calibration import Calibration
+from roar.protocol import encode, spec
+from roar_sim import plotting
+from roar_sim.actuators import EscMode
+from roar_sim.car_limits import SIMULATED_CAR
+from roar_sim.firmware_core import CoreLoadError
+from roar_sim.harness import SimCar, SimConfig
+from roar_sim.track import Track, TrackError, get
+
+PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6  # [s] 50 Hz, like a real host
+
+
+class SimIO:
+    """The runner's car: the SimCar in lockstep, commands as control messages."""
+
+    def __init__(self, sim: SimCar, calibration: Calibration | None = None) -> None:
+        self.sim, self.calibration = sim, calibration or Calibration()
+
+    def observe(self) -> Observation:
+        s = self.sim.state()
+        return Observation(self.sim.time_s, s.x, s.y, s.yaw, abs(s.speed), s.yaw_rate)
+
+    def send(self, command: Command) -> None:
+        c = self.calibration
+        self.sim.write(encode(c.throttle.to_us(command.throttle), c.steering.to_us(command.steering)))
+
+    def wait(self, seconds: float) -> None:
+        self.sim.run(seconds)
+
+
+@dataclass
+class RaceResult:
+    track: Track
+    limit_lap_s: float  # [s] the physical-limit lap time of the track's centre line
+    lap_times_s: list[float] = field(default_factory=list)
+    cross_track_m: list[float] = field(default_factory=list)
+    path: list[tuple[float, float, float, float]] = field(default_factory=list)  # (x, y, speed, arc length)
+    wall_contacts: int = 0  # control periods with the car touching a wall
+    braking_periods: int = 0  # control periods the ESC spent braking or reversing the motor
+    slowest_m_s: float = 0.0  # [m/s] signed: negative if the car ever rolled backwards
+
+    @property
+    def max_cross_track_m(self) -> float:
+        return max((abs(e) for e in self.cross_track_m), default=0.0)
+
+    @property
+    def rms_cross_track_m(self) -> float:
+        return float(np.sqrt(np.mean(np.square(self.cross_track_m)))) if self.cross_track_m else 0.0
+
+    @property
+    def best_ratio(self) -> float:
+        """Best lap over the physical-limit lap (1.0 would be driving at the limit)."""
+        return min(self.lap_times_s) / self.limit_lap_s if self.lap_times_s else float("inf")
+
+
+def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margin: float = 0.9,
+         config: SimConfig | None = None, progress: bool = False, timeout_s: float | None = None) -> RaceResult:
+    line = track.centerline if waypoints is None else np.asarray(waypoints)[:, :2]
+    result = RaceResult(track, limit_lap_time(track.centerline, SIMULATED_CAR.limits))
+    timeout_s = timeout_s or 4 * laps * result.limit_lap_s + 10
+    bar = _progress_bar(laps, track.name) if progress else None
+    lap = {"hint": None, "s": 0.0, "travelled": 0.0, "start": 0.0}
+
+    def record(obs: Observation, _command: Command) -> None:
+        hint, s_now, cte = track.project((obs.x, obs.y), lap["hint"])
+        ds = (s_now - lap["s"] + track.length_m / 2) % track.length_m - track.length_m / 2
+        lap.update(hint=hint, s=s_now, travelled=lap["travelled"] + ds)
+        result.cross_track_m.append(cte)
+        result.path.append((obs.x, obs.y, obs.speed, s_now))
+        result.wall_contacts += sim.plant.wall_contacts() > 0
+        result.braking_periods += sim.esc_mode in (EscMode.BRAKE, EscMode.REVERSE)
+        result.slowest_m_s = min(result.slowest_m_s, sim.state().speed)
+        if lap["travelled"] >= track.length_m * (len(result.lap_times_s) + 1):
+            result.lap_times_s.append(obs.t_s - lap["start"])
+            lap["start"] = obs.t_s
+        if bar:
+            bar.update(max(0.0, min(laps, lap["travelled"] / track.length_m) - bar.n))
+
+    with SimCar(track, config) as sim:
+        io = SimIO(sim)
+        io.send(Command(0.0, 0.0))  # arm: the car boots latched until it hears neutral
+        io.wait(PERIOD_S)
+        agent = race_agent(line, SIMULATED_CAR, PERIOD_S, margin=margin)
+        Runner(io, agent, PERIOD_S).run(
+            until=lambda obs: len(result.lap_times_s) >= laps or obs.t_s >= timeout_s, on_step=record)
+        io.wait(PERIOD_S)
+    if bar:
+        bar.close()
+    return result
+
+
+def _progress_bar(laps: int, name: str):
+    from tqdm import tqdm
+
+    return tqdm(total=laps, desc=f"racing {name}", unit="lap", mininterval=0.5, file=sys.stderr,
+                bar_format="{desc}: {bar} {n:.2f}/{total} laps [{elapsed}]")
+
+
+def report(result: RaceResult) -> str:
+    tr = result.track
+    lines = [f"track {tr.name}: {tr.length_m:.1f} m, width {tr.width_m:.1f} m; "
+             f"physical-limit lap {result.limit_lap_s:.2f} s"]
+    for i, t in enumerate(result.lap_times_s, 1):
+        lines.append(f"  lap {i}: {t:6.2f} s  ({tr.length_m / t:.2f} m/s average, "
+                     f"{t / result.limit_lap_s:.2f} x the limit)")
+    lines.append(f"laps completed: {len(result.lap_times_s)}, total {sum(result.lap_times_s):.2f} s (simulated)")
+    lines.append(f"cross-track error: max {result.max_cross_track_m:.3f} m, RMS {result.rms_cross_track_m:.3f} m")
+    lines.append(f"wall contacts: {result.wall_contacts}")
+    lines.append(f"braking: {result.braking_periods * PERIOD_S:.2f} s through the firmware's brake/reverse "
+                 f"sequence (the ESC has no brake)")
+    return "\n".join(lines)
+
+
+def plot(result: RaceResult):
+    """Left: the track and the driven path coloured by speed. Right: speed along the track for
+    every lap against the physical-limit profile."""
+    from roar.autopilot import speed_profile
+
+    fig, (ax, ax_v) = plotting.subplots(ncols=2, figsize=(13, 5.5), gridspec_kw={"width_ratios": [1.2, 1]})
+    plotting.draw_track(ax, result.track)
+    p = np.array(result.path)
+    plotting.draw_path(fig, ax, p[:, 0], p[:, 1], p[:, 2])
+    ax.legend(loc="upper right", fontsize=8)
+    cl = result.track.centerline
+    arc = np.concatenate([[0.0], np.cumsum(result.track.segment_lengths)[:-1]])
+    ax_v.plot(arc, speed_profile(cl, SIMULATED_CAR.limits), color="black", lw=1.5, label="physical limit")
+    ax_v.scatter(p[:, 3], p[:, 2], c=p[:, 2], s=3, cmap="viridis", label="driven")
+    ax_v.set_xlabel("distance along the track [m]")
+    ax_v.set_ylabel("speed [m/s]")
+    ax_v.set_ylim(bottom=0)
+    ax_v.legend(loc="lower right", fontsize=8)
+    times = ", ".join(f"{t:.2f} s" for t in result.lap_times_s)
+    fig.suptitle(f"{result.track.name}: laps {times} (limit {result.limit_lap_s:.2f} s, best "
+                 f"{result.best_ratio:.2f} x); max cross-track {result.max_cross_track_m:.2f} m, "
+                 f"wall contacts {result.wall_contacts}", fontsize=10)
+    return fig
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="roar race", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--track", default="oval", help="oval, figure-eight, or a track .json file (default: oval)")
+    parser.add_argument("--laps", type=int, default=2, help="laps to drive (default: 2)")
+    parser.add_argument("--waypoints", type=Path, metavar="FILE",
+                        help="follow this closed line (x,y,z per line) instead of the centre line")
+    parser.add_argument("--margin", type=float, default=0.9,
+                        help="fraction of the car's limits to drive at (default 0.9)")
+    parser.add_argument("--plot", type=Path, metavar="PNG", help="write the path and speed plot to this PNG")
+    parser.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
+    parser.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
+    args = parser.parse_args(argv)
+    if not 1 <= args.laps <= 100:
+        parser.error("--laps must be 1..100")
+    if not 0.3 <= args.margin <= 1.0:
+        parser.error("--margin must be 0.3..1.0")
+    plotting.check_png_argument(parser, args.plot)
+    try:
+        track = get(args.track)
+        waypoints = load_waypoints(args.waypoints) if args.waypoints else None
+        result = race(track, args.laps, waypoints, args.margin, SimConfig(realtime=args.realtime, gui=args.gui),
+                      progress=True)
+    except (TrackError, WaypointError, CoreLoadError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    print(report(result))
+    if args.plot and not plotting.save(lambda: plot(result), args.plot):
+        return 1
+    return 0 if len(result.lap_times_s) == args.laps else 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,48 @@
+"""Pure pursuit: steer along the circle through the car's rear axle and a goal point on the path
+l_d ahead, with l_d growing with speed: l_d = K_dd * v + l_min.
+
+    curvature = 2 sin(alpha) / l_d,  steering angle = atan(wheelbase * curvature)
+
+alpha is the goal's bearing from the car's heading (left positive)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class PurePursuit:
+    wheelbase_m: float  # [m]
+    k_dd_s: float = 0.35  # [s] look-ahead per m/s
+    min_lookahead_m: float = 0.45  # [m]
+    max_lookahead_m: float = 2.0  # [m]
+
+    def lookahead_m(self, speed_m_s: float) -> float:
+        return min(self.max_lookahead_m, self.k_dd_s * max(0.0, speed_m_s) + self.min_lookahead_m)
+
+    def steering_angle(self, x: float, y: float, yaw: float, goal: tuple[float, float]) -> float:
+        """[rad] front-wheel angle (left positive) that puts the rear axle on the arc to goal."""
+        dx, dy = goal[0] - x, goal[1] - y
+        alpha = math.atan2(dy, dx) - yaw
+        distance = math.hypot(dx, dy)
+        if distance < 1e-9:
+            return 0.0
+        return math.atan(2 * self.wheelbase_m * math.sin(alpha) / distance)
+
+
+def goal_on_path(points: np.ndarray, start_index: int, distance_m: float) -> tuple[float, float]:
+    """The point `distance_m` along a closed polyline from points[start_index] (interpolated)."""
+    n = len(points)
+    i, left = start_index % n, distance_m
+    while True:
+        j = (i + 1) % n
+        seg = float(np.linalg.norm(points[j] - points[i]))
+        if seg >= left:
+            t = left / seg if seg > 0 else 0.0
+            p = points[i] + t * (points[j] - points[i])
+            return float(p[0]), float(p[1])
+        left -= seg
+        i = j

@@ -1,0 +1,106 @@
+"""Waypoint files and the loop waypoint follower.
+
+File format, one waypoint per line (as the ROAR seed records them):
+
+    x,y,z               metres
+    x,y,z,roll,pitch,yaw   metres and degrees (orientation is kept but not used for following)
+
+Blank lines and lines starting with # are ignored. A file needs at least 3 waypoints.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from roar.autopilot.agent import Module, Observation
+
+MIN_WAYPOINTS = 3
+
+
+class WaypointError(ValueError):
+    """An invalid waypoint file; str() is one line naming the file and line."""
+
+
+def load_waypoints(path: str | Path) -> np.ndarray:
+    """(N, 3) array of x, y, z [m] from a waypoint file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as e:
+        raise WaypointError(f"{path}: cannot read: {e.strerror}") from None
+    except UnicodeDecodeError:
+        raise WaypointError(f"{path}: not a text file") from None
+    rows = []
+    for number, line in enumerate(text.splitlines(), 1):
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        fields = [f.strip() for f in line.split(",")]
+        try:
+            values = [float(f) for f in fields]
+        except ValueError:
+            values = []
+        if len(fields) not in (3, 6) or len(values) != len(fields) or not all(map(math.isfinite, values)):
+            raise WaypointError(f"{path}:{number}: expected x,y,z or x,y,z,roll,pitch,yaw (finite numbers), "
+                                f"got {line[:60]!r}")
+        rows.append(values[:3])
+    if len(rows) < MIN_WAYPOINTS:
+        raise WaypointError(f"{path}: needs at least {MIN_WAYPOINTS} waypoints, has {len(rows)}")
+    return np.array(rows)
+
+
+def save_waypoints(path: str | Path, points: np.ndarray) -> None:
+    """x,y,z per line (z = 0 for 2D points)."""
+    pts = np.asarray(points, dtype=float)
+    if pts.shape[1] == 2:
+        pts = np.hstack([pts, np.zeros((len(pts), 1))])
+    Path(path).write_text("".join(f"{x:.4f},{y:.4f},{z:.4f}\n" for x, y, z in pts[:, :3]), encoding="utf-8")
+
+
+@dataclass
+class LoopWaypointFollower(Module[Observation, int]):
+    """The index of the next waypoint to head for on a closed loop.
+
+    Each step skips every waypoint closer than `closeness_m` (ROAR's closeness_threshold), and
+    also one the car has already passed (behind it, within `passed_m`): the seed waited to come
+    close to each waypoint, which stalls when the car runs wide of one. At the start the first `skip_at_start` are skipped; after the last waypoint it wraps to
+    `wrap_to` (the ROAR seed uses 0 + 10 on its CARLA maps, so the car does not aim back at the
+    start line). step() returns the index; `laps` counts wraps."""
+
+    points: np.ndarray  # (N, 2+) [m]
+    closeness_m: float = 0.3  # [m]
+    passed_m: float = 1.0  # [m]
+    skip_at_start: int = 0
+    wrap_to: int = 0
+    index: int = field(default=0, init=False)
+    laps: int = field(default=0, init=False)
+
+    def __post_init__(self) -> None:
+        n = len(self.points)
+        if n < MIN_WAYPOINTS:
+            raise ValueError(f"need at least {MIN_WAYPOINTS} waypoints, got {n}")
+        if not (0 <= self.skip_at_start < n and 0 <= self.wrap_to < n):
+            raise ValueError(f"skip_at_start and wrap_to must be waypoint indices 0..{n - 1}")
+        if not self.closeness_m > 0:
+            raise ValueError(f"closeness_m must be positive, got {self.closeness_m}")
+
+    def setup(self) -> None:
+        self.index, self.laps = self.skip_at_start, 0
+
+    def step(self, value: Observation) -> int:
+        xy = np.array([value.x, value.y])
+        heading = np.array([np.cos(value.yaw), np.sin(value.yaw)])
+        for _ in range(len(self.points)):  # never spin forever, even if every point is close
+            offset = self.points[self.index, :2] - xy
+            distance = float(np.linalg.norm(offset))
+            behind = float(offset @ heading) < 0
+            if distance >= self.closeness_m and not (behind and distance < self.passed_m):
+                break
+            self.index += 1
+            if self.index >= len(self.points):
+                self.index, self.laps = self.wrap_to, self.laps + 1
+        return self.index
