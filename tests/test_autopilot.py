@@ -254,3 +254,16 @@ def test_the_limits_table_matches_the_simulated_car():
     measured = car_limits.measure()
     for name, table in vars(car_limits.SIMULATED_LIMITS).items():
         assert getattr(measured, name) == pytest.approx(table, rel=0.05), name
+
+
+def test_heading_pid_steers_towards_the_goal_and_clamps():
+    from roar.autopilot import HeadingController
+
+    h = HeadingController(max_steer_rad=0.4, kp=1.0, kd=0.0)
+    car = Observation(0.0, 0.0, 0.0, math.pi / 2, 1.0)  # facing +y
+    assert h.steering_angle(car, (-0.1, 1.0), 0.02) == pytest.approx(math.atan2(0.1, 1.0))  # slightly left
+    h.reset()
+    assert h.steering_angle(car, (1.0, 0.1), 0.02) == -0.4  # far right: clamped at the servo's end
+    h.reset()
+    behind_left = Observation(0.0, 0.0, 0.0, math.radians(179), 1.0)
+    assert h.steering_angle(behind_left, (-1.0, -0.1), 0.02) > 0  # error wraps across +-pi, not a full turn

@@ -67,6 +67,11 @@ def test_the_autopilot_laps_every_builtin_track_without_touching_a_wall(name):
     assert result.slowest_m_s > -0.1  # it never rolls backwards (beyond settling on its wheels)
 
 
+def test_the_heading_pid_also_laps_without_touching_a_wall():
+    result = race.race(get("oval"), laps=2, lateral="pid")
+    assert len(result.lap_times_s) == 2 and result.wall_contacts == 0 and result.max_cross_track_m < 0.45
+
+
 def test_the_autopilot_brakes_for_the_oval_corners_through_the_firmware():
     """The oval's corners are slower than its straights; the ESC has no brake, so the autopilot
     commands reverse and the firmware's brake/reverse sequence turns it into braking."""

@@ -3,7 +3,7 @@ the firmware logic (control messages at 50 Hz, lockstep), measured against the t
 physical-limit lap time.
 
     roar race [--track oval|figure-eight|FILE.json] [--laps 2] [--waypoints FILE]
-              [--margin 0.9] [--plot out/race.png] [--realtime] [--gui]
+              [--margin 0.9] [--steering pursuit|pid] [--plot out/race.png] [--realtime] [--gui]
 
 Prints lap times, their ratio to the physical limit, the maximum and RMS cross-track error and
 wall contacts, and plots the driven path coloured by speed beside the speed along the track.
@@ -75,7 +75,8 @@ class RaceResult:
 
 
 def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margin: float = 0.9,
-         config: SimConfig | None = None, progress: bool = False, timeout_s: float | None = None) -> RaceResult:
+         config: SimConfig | None = None, progress: bool = False, timeout_s: float | None = None,
+         lateral: str = "pursuit") -> RaceResult:
     line = track.centerline if waypoints is None else np.asarray(waypoints)[:, :2]
     result = RaceResult(track, limit_lap_time(track.centerline, SIMULATED_CAR.limits))
     timeout_s = timeout_s or 4 * laps * result.limit_lap_s + 10
@@ -101,7 +102,7 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
         io = SimIO(sim)
         io.send(Command(0.0, 0.0))  # arm: the car boots latched until it hears neutral
         io.wait(PERIOD_S)
-        agent = race_agent(line, SIMULATED_CAR, PERIOD_S, margin=margin)
+        agent = race_agent(line, SIMULATED_CAR, PERIOD_S, margin=margin, lateral=lateral)
         Runner(io, agent, PERIOD_S).run(
             until=lambda obs: len(result.lap_times_s) >= laps or obs.t_s >= timeout_s, on_step=record)
         io.wait(PERIOD_S)
@@ -166,6 +167,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="follow this closed line (x,y,z per line) instead of the centre line")
     parser.add_argument("--margin", type=float, default=0.9,
                         help="fraction of the car's limits to drive at (default 0.9)")
+    parser.add_argument("--steering", choices=["pursuit", "pid"], default="pursuit",
+                        help="lateral control: pure pursuit (default) or the heading-error PID")
     parser.add_argument("--plot", type=Path, metavar="PNG", help="write the path and speed plot to this PNG")
     parser.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     parser.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
@@ -179,7 +182,7 @@ def main(argv: list[str] | None = None) -> int:
         track = get(args.track)
         waypoints = load_waypoints(args.waypoints) if args.waypoints else None
         result = race(track, args.laps, waypoints, args.margin, SimConfig(realtime=args.realtime, gui=args.gui),
-                      progress=True)
+                      progress=True, lateral=args.steering)
     except (TrackError, WaypointError, CoreLoadError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 1

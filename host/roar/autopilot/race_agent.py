@@ -15,6 +15,7 @@ import numpy as np
 
 from roar.autopilot.agent import Agent, Command, Module, Observation, Passthrough
 from roar.autopilot.longitudinal import SpeedController
+from roar.autopilot.pid import PID
 from roar.autopilot.pure_pursuit import PurePursuit, goal_on_path
 from roar.autopilot.speed_profile import CarLimits, speed_profile
 from roar.autopilot.waypoints import LoopWaypointFollower
@@ -52,28 +53,58 @@ class RacePlanner(Module[Observation, Plan]):
         return Plan(i, goal, float(window.min()))
 
 
+class HeadingController:
+    """Lateral PID: steer to turn the heading error to the goal point to zero (the seed's
+    lateral PID), an alternative to pure pursuit's geometry."""
+
+    def __init__(self, max_steer_rad: float, kp: float = 1.2, ki: float = 0.0, kd: float = 0.08) -> None:
+        self.pid = PID(kp=kp, ki=ki, kd=kd, out_min=-max_steer_rad, out_max=max_steer_rad)
+
+    def reset(self) -> None:
+        self.pid.reset()
+
+    def steering_angle(self, obs: Observation, goal: tuple[float, float], dt_s: float) -> float:
+        """[rad] left positive."""
+        error = math.atan2(goal[1] - obs.y, goal[0] - obs.x) - obs.yaw
+        error = (error + math.pi) % (2 * math.pi) - math.pi
+        return self.pid.step(error, dt_s)
+
+
 class RaceController(Module[tuple[Observation, Plan], Command]):
-    def __init__(self, car: CarModel, pursuit: PurePursuit, speed: SpeedController, period_s: float) -> None:
-        self.car, self.pursuit, self.speed, self.period_s = car, pursuit, speed, period_s
+    """Steering from pure pursuit (default) or the heading PID; throttle from the speed controller."""
+
+    def __init__(self, car: CarModel, pursuit: PurePursuit, speed: SpeedController, period_s: float,
+                 heading: HeadingController | None = None) -> None:
+        self.car, self.pursuit, self.speed, self.period_s, self.heading = car, pursuit, speed, period_s, heading
 
     def setup(self) -> None:
         self.speed.reset()
+        if self.heading is not None:
+            self.heading.reset()
 
     def step(self, value: tuple[Observation, Plan]) -> Command:
         obs, plan = value
-        angle = self.pursuit.steering_angle(obs.x, obs.y, obs.yaw, plan.goal)
+        if self.heading is not None:
+            angle = self.heading.steering_angle(obs, plan.goal, self.period_s)
+        else:
+            angle = self.pursuit.steering_angle(obs.x, obs.y, obs.yaw, plan.goal)
         steering = max(-1.0, min(1.0, -angle / self.car.max_steer_rad))  # left angle = negative command
         throttle = self.speed.step(plan.target_speed_m_s, obs.speed, self.period_s)
         return Command(throttle, steering)
 
 
 def race_agent(points: np.ndarray, car: CarModel, period_s: float, margin: float = 0.9,
-               pursuit: PurePursuit | None = None, follower: LoopWaypointFollower | None = None) -> Agent:
-    """An agent that laps `points` (a closed line, (N, 2+)) at `margin` of the car's limits."""
+               pursuit: PurePursuit | None = None, follower: LoopWaypointFollower | None = None,
+               lateral: str = "pursuit") -> Agent:
+    """An agent that laps `points` (a closed line, (N, 2+)) at `margin` of the car's grip,
+    steering by pure pursuit or, with lateral="pid", by the heading PID."""
+    if lateral not in ("pursuit", "pid"):
+        raise ValueError(f"lateral must be 'pursuit' or 'pid', got {lateral!r}")
     xy = np.asarray(points, dtype=float)[:, :2]
     pursuit = pursuit or PurePursuit(car.wheelbase_m)
     follower = follower or LoopWaypointFollower(xy)
     speeds = speed_profile(xy, car.limits.with_margin(margin))
     planner = RacePlanner(xy, speeds, follower, pursuit)
-    controller = RaceController(car, pursuit, SpeedController(car.limits.max_speed_m_s), period_s)
+    heading = HeadingController(car.max_steer_rad) if lateral == "pid" else None
+    controller = RaceController(car, pursuit, SpeedController(car.limits.max_speed_m_s), period_s, heading)
     return Agent(Passthrough(), planner, controller)
