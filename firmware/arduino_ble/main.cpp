@@ -18,7 +18,15 @@ class ArduinoHal : public roar::Hal {
   void write_pulses(uint16_t throttle_us, uint16_t steering_us) override { outputs::write(throttle_us, steering_us); }
   uint32_t frames_started() override { return outputs::frames_started(); }
   int read_byte() override { return Serial.read(); }
-  size_t write_room() override { return static_cast<size_t>(Serial.availableForWrite()); }
+  size_t write_room() override {
+#if defined(ARDUINO_ARCH_MBED)
+    // The mbed core's USB serial cannot say how much room it has (availableForWrite() is 0);
+    // its writes go through while a terminal holds the port open (DTR) and are dropped otherwise.
+    return Serial.dtr() ? roar::proto::kSerialMaxReplyBytes : 0;
+#else
+    return static_cast<size_t>(Serial.availableForWrite());
+#endif
+  }
   void write(const char* text, size_t length) override { Serial.write(text, length); }
 };
 
