@@ -34,9 +34,9 @@ def rows() -> list[tuple[str, str, int | None, int | None, str]]:
         chip = CHIPS[target][0]
         try:
             flash, ram = core_size(target)
-            result.append((chip, "core library (objects)", flash, ram, ""))
+            result.append((chip, "core, unlinked objects", flash, ram, ""))
         except CoreBuildError as e:
-            result.append((chip, "core library (objects)", None, None, str(e)))
+            result.append((chip, "core, unlinked objects", None, None, str(e)))
     for chip, what, build, tool in (("ATmega328P (Nano)", "whole firmware", avr_build.build, "avr-size"),
                                     ("STM32F745 (AnyFC F7)", "skeleton firmware", arm_build.build,
                                      "arm-none-eabi-size")):
