@@ -91,8 +91,11 @@ class BleTransport(Transport):
         return self.target in (adv.local_name, device.name)
 
     async def _connect(self) -> None:
-        device = await BleakScanner.find_device_by_filter(self._matches, timeout=self.timeout_s,
-                                                          backend=self.scanner_backend)
+        try:
+            device = await BleakScanner.find_device_by_filter(self._matches, timeout=self.timeout_s,
+                                                              backend=self.scanner_backend)
+        except (BleakError, OSError) as e:  # no adapter, no BlueZ, no D-Bus: scanning cannot start
+            raise _no_bluetooth(e) from None
         if device is None:
             raise TransportError(f"no BLE car found: looked {self.timeout_s:g} s for {self.describe_target()} "
                                  f"(powered on? in range? `roar scan` lists what is heard)")
@@ -116,8 +119,7 @@ class BleTransport(Transport):
         except TimeoutError:
             raise TransportError(f"timed out connecting to {self.describe_target()}") from None
         except (BleakError, OSError) as e:
-            raise _no_bluetooth(e) if isinstance(e, OSError) else TransportError(
-                f"cannot connect to {self.describe_target()}: {e}") from None
+            raise TransportError(f"cannot connect to {self.describe_target()}: {' '.join(str(e).split())}") from None
 
     def write(self, data: bytes) -> None:
         client = self._client
