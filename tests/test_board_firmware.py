@@ -55,6 +55,8 @@ def test_the_shared_library_and_the_custom_board_are_where_platformio_looks(pio_
     assert board["upload"]["maximum_size"] == 1024 * 1024 and board["upload"]["maximum_ram_size"] == 320 * 1024
     ld = pio_config["env:anyfc_f7"]["board_build.ldscript"]
     assert (ROOT / ld).exists()
+    for script in pio_config["env:anyfc_f7"]["extra_scripts"]:
+        assert (ROOT / script.removeprefix("pre:")).exists()
 
 
 @pytest.mark.parametrize("folder", BOARD_FOLDERS)
