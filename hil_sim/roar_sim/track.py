@@ -20,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from roar.user_files import read_text
+
 MIN_POINTS = 8
 MIN_SPACING_M = 0.01  # [m]
 MAX_SPACING_M = 2.0  # [m]
@@ -110,10 +112,9 @@ class Track:
     @classmethod
     def load(cls, path: str | Path) -> Track:
         path = Path(path)
+        text = read_text(path, TrackError)
         try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except OSError as e:
-            raise TrackError(f"{path}: cannot read: {e.strerror}") from None
+            data = json.loads(text)
         except ValueError as e:
             raise TrackError(f"{path}: not valid JSON: {e}") from None
         if not isinstance(data, dict) or not {"width_m", "centerline"} <= set(data):

@@ -25,6 +25,7 @@ from pathlib import Path
 from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
 from roar.protocol import spec
+from roar.user_files import read_text
 
 LO, HI, MID = spec.CONTROL_MIN_US, spec.CONTROL_MAX_US, spec.CONTROL_NEUTRAL_US
 
@@ -66,11 +67,10 @@ class Calibration(BaseModel):
     @classmethod
     def load(cls, path: str | Path) -> Calibration:
         path = Path(path)
+        text = read_text(path, CalibrationError)
         try:
-            data = tomllib.loads(path.read_text(encoding="utf-8"))
-        except OSError as e:
-            raise CalibrationError(f"{path}: cannot read: {e.strerror}") from None
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as e:
             raise CalibrationError(f"{path}: not valid TOML: {e}") from None
         try:
             return cls.model_validate(data)

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from roar.autopilot.agent import Module, Observation
+from roar.user_files import read_text
 
 MIN_WAYPOINTS = 3
 
@@ -28,12 +29,7 @@ class WaypointError(ValueError):
 def load_waypoints(path: str | Path) -> np.ndarray:
     """(N, 3) array of x, y, z [m] from a waypoint file."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as e:
-        raise WaypointError(f"{path}: cannot read: {e.strerror}") from None
-    except UnicodeDecodeError:
-        raise WaypointError(f"{path}: not a text file") from None
+    text = read_text(path, WaypointError)
     rows = []
     for number, line in enumerate(text.splitlines(), 1):
         line = line.strip()
