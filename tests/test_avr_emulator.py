@@ -169,3 +169,27 @@ def test_the_host_library_drives_the_emulated_nano_over_a_pty():
     assert_holds(d6, 1400)
     neutral_end = [w for pin, t, w in pulses if pin == "D5" and t > commanded_at + 0.3]
     assert_holds(neutral_end, N)  # the Vehicle sent neutral on leaving the block
+
+
+def test_a_flood_of_random_bytes_neither_hangs_nor_drives_the_car(nano):
+    """Line noise at full rate (seeded): the loop keeps its 50 Hz frames, garbage never counts as
+    a command, so the failsafe takes the car to neutral; a neutral message re-arms it after."""
+    import random
+
+    rng = random.Random(1234)
+    stream(nano, N, N, 0.1)
+    stream(nano, 1600, 1400, 0.2)
+    start = nano.time_s
+    for _ in range(25):  # 0.5 s of noise, ~230 bytes per 20 ms (the line's capacity)
+        noise = bytes(rng.choice(b"0123456789(),\n\r x\xff") for _ in range(230))
+        nano.write(noise)
+        nano.run(SEND_S)
+    rises = [r for r, _ in nano.pulses("D5", start)]
+    assert len(rises) >= 24 and all(abs(b - a - FRAME_S) < 0.001 for a, b in zip(rises, rises[1:]))
+    neutral_from = next(r for r, w in nano.pulses("D5", start) if abs(w - N) <= TOLERANCE_US)
+    assert neutral_from - start <= FAILSAFE_S + 2 * FRAME_S
+    assert_holds(widths(nano, "D5", neutral_from), N)
+    stream(nano, N, N, 0.1)
+    rearmed = nano.time_s
+    stream(nano, 1600, 1500, 0.3)
+    assert_holds(widths(nano, "D5", rearmed + 3 * FRAME_S), 1600)
