@@ -3,6 +3,7 @@
 #include "roar/board.h"
 
 namespace ble_link {
-void begin();                      // advertise the ROAR service as "ROAR Car"
-void poll(roar::CarBoard& board);  // hand every control write to the board
+void begin();                                   // advertise the ROAR service as "ROAR Car"
+void poll(roar::CarBoard& board);               // hand every control write to the board
+void publish(const roar::CarOutputs& outputs);  // refresh the readable state characteristic
 }  // namespace ble_link

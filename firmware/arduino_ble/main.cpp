@@ -48,5 +48,5 @@ void loop() {
     if (width) board.rc_pulse(static_cast<roar::RcChannel>(ch), width);
   }
   ble_link::poll(board);
-  board.poll();
+  ble_link::publish(board.poll());
 }

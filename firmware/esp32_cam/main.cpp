@@ -1,9 +1,16 @@
 // The car firmware for the ESP32-CAM: BLE (the ESP32 Arduino core's BLE library) and USB serial
 // into roar::CarBoard; 50 Hz servo pulses from the LEDC peripheral on GPIO14 (ESC) and GPIO2
 // (steering). Built with PlatformIO (env esp32cam; arduino-esp32 2.x LEDC API).
+//
+// The ROAR GATT layout (PROTOCOL.md section 4): control (write, write without response),
+// velocity (read, 0: no speedometer here), pid (write, 3 x float32, kept), state (read: speed 0,
+// throttle output [us] as float32), name (write: advertised from the next start of advertising,
+// not persisted), override (write: accepted; this board has no override output).
 #include <Arduino.h>
 #include <BLEDevice.h>
 #include <BLEServer.h>
+#include <esp_gap_ble_api.h>
+#include <string.h>
 
 #include "pins.h"
 #include "roar/board.h"
@@ -65,6 +72,25 @@ class ControlWrites : public BLECharacteristicCallbacks {
   }
 };
 
+float pid_gains[3] = {0, 0, 0};  // kp, kd, ki, as the host packs them (little-endian float32)
+BLECharacteristic* state_characteristic = nullptr;
+uint32_t last_state_ms = 0;
+constexpr uint32_t kStatePeriodMs = 100;  // [ms]
+
+class PidWrites : public BLECharacteristicCallbacks {
+  void onWrite(BLECharacteristic* c) override {
+    const std::string value = c->getValue();
+    if (value.size() == sizeof(pid_gains)) memcpy(pid_gains, value.data(), sizeof(pid_gains));
+  }
+};
+
+class NameWrites : public BLECharacteristicCallbacks {
+  void onWrite(BLECharacteristic* c) override {
+    const std::string value = c->getValue();
+    if (!value.empty() && value.size() <= 20) esp_ble_gap_set_device_name(value.c_str());
+  }
+};
+
 class Connections : public BLEServerCallbacks {
   void onConnect(BLEServer*) override { connected = true; }
   void onDisconnect(BLEServer* server) override {
@@ -77,11 +103,21 @@ void ble_begin() {
   BLEDevice::init(roar::proto::kBleLocalName);
   BLEServer* server = BLEDevice::createServer();
   server->setCallbacks(new Connections());
+  // 6 characteristics x 2 handles + the service: within the default 15 handles.
   BLEService* service = server->createService(roar::proto::kBleServiceUuid);
   BLECharacteristic* control = service->createCharacteristic(
       roar::proto::kBleControlUuid, BLECharacteristic::PROPERTY_READ | BLECharacteristic::PROPERTY_WRITE |
                                         BLECharacteristic::PROPERTY_WRITE_NR);
   control->setCallbacks(new ControlWrites());
+  float no_speedometer = 0.0f;  // [m/s]
+  service->createCharacteristic(roar::proto::kBleVelocityUuid, BLECharacteristic::PROPERTY_READ)
+      ->setValue(no_speedometer);
+  service->createCharacteristic(roar::proto::kBlePidUuid, BLECharacteristic::PROPERTY_WRITE)
+      ->setCallbacks(new PidWrites());
+  state_characteristic = service->createCharacteristic(roar::proto::kBleStateUuid, BLECharacteristic::PROPERTY_READ);
+  service->createCharacteristic(roar::proto::kBleNameUuid, BLECharacteristic::PROPERTY_WRITE)
+      ->setCallbacks(new NameWrites());
+  service->createCharacteristic(roar::proto::kBleOverrideUuid, BLECharacteristic::PROPERTY_WRITE);
   service->start();
   BLEAdvertising* advertising = BLEDevice::getAdvertising();
   advertising->addServiceUUID(roar::proto::kBleServiceUuid);
@@ -106,6 +142,11 @@ void loop() {
     ring_tail = (ring_tail + 1) % kRing;
   }
   if (n) board.feed(chunk, n);
-  board.poll();
+  const roar::CarOutputs out = board.poll();
+  if (state_characteristic && millis() - last_state_ms >= kStatePeriodMs) {
+    last_state_ms = millis();
+    float payload[2] = {0.0f, static_cast<float>(out.throttle_us)};
+    state_characteristic->setValue(reinterpret_cast<uint8_t*>(payload), sizeof(payload));
+  }
   digitalWrite(pins::kStatusLed, connected ? LOW : HIGH);
 }
