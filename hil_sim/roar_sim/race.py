@@ -18,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from roar.autopilot import Command, Observation, Runner, WaypointError, limit_lap_time, load_waypoints, race_agent
+from roar.autopilot import (Command, Observation, Runner, WaypointError, lap_time, load_waypoints, race_agent,
+                            speed_profile)
 from roar.calibration import Calibration
 from roar.protocol import encode, spec
 from roar_sim import plotting
@@ -52,7 +53,7 @@ class SimIO:
 @dataclass
 class RaceResult:
     track: Track
-    limit_lap_s: float  # [s] the physical-limit lap time of the track's centre line
+    limit_speeds: np.ndarray  # [m/s] the physical-limit speed at each centre-line point
     lap_times_s: list[float] = field(default_factory=list)
     cross_track_m: list[float] = field(default_factory=list)
     path: list[tuple[float, float, float, float]] = field(default_factory=list)  # (x, y, speed, arc length)
@@ -69,6 +70,11 @@ class RaceResult:
         return float(np.sqrt(np.mean(np.square(self.cross_track_m)))) if self.cross_track_m else 0.0
 
     @property
+    def limit_lap_s(self) -> float:
+        """[s] the physical-limit lap time of the track's centre line."""
+        return lap_time(self.track.centerline, self.limit_speeds)
+
+    @property
     def best_ratio(self) -> float:
         """Best lap over the physical-limit lap (1.0 would be driving at the limit)."""
         return min(self.lap_times_s) / self.limit_lap_s if self.lap_times_s else float("inf")
@@ -78,7 +84,7 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
          config: SimConfig | None = None, progress: bool = False, timeout_s: float | None = None,
          lateral: str = "pursuit") -> RaceResult:
     line = track.centerline if waypoints is None else np.asarray(waypoints)[:, :2]
-    result = RaceResult(track, limit_lap_time(track.centerline, SIMULATED_CAR.limits))
+    result = RaceResult(track, speed_profile(track.centerline, SIMULATED_CAR.limits))
     timeout_s = timeout_s or 4 * laps * result.limit_lap_s + 10
     bar = _progress_bar(laps, track.name) if progress else None
     lap = {"hint": None, "s": 0.0, "travelled": 0.0, "start": 0.0}
@@ -136,16 +142,12 @@ def report(result: RaceResult) -> str:
 def plot(result: RaceResult):
     """Left: the track and the driven path coloured by speed. Right: speed along the track for
     every lap against the physical-limit profile."""
-    from roar.autopilot import speed_profile
-
     fig, (ax, ax_v) = plotting.subplots(ncols=2, figsize=(13, 5.5), gridspec_kw={"width_ratios": [1.2, 1]})
     plotting.draw_track(ax, result.track)
     p = np.array(result.path)
     plotting.draw_path(fig, ax, p[:, 0], p[:, 1], p[:, 2])
     ax.legend(loc="upper right", fontsize=8)
-    cl = result.track.centerline
-    arc = np.concatenate([[0.0], np.cumsum(result.track.segment_lengths)[:-1]])
-    ax_v.plot(arc, speed_profile(cl, SIMULATED_CAR.limits), color="black", lw=1.5, label="physical limit")
+    ax_v.plot(result.track.arc_start, result.limit_speeds, color="black", lw=1.5, label="physical limit")
     ax_v.scatter(p[:, 3], p[:, 2], c=p[:, 2], s=3, cmap="viridis", label="driven")
     ax_v.set_xlabel("distance along the track [m]")
     ax_v.set_ylabel("speed [m/s]")

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from roar.user_files import read_text
+from roar.user_files import read_parsed
 
 MIN_POINTS = 8
 MIN_SPACING_M = 0.01  # [m]
@@ -61,7 +61,7 @@ class Track:
         return np.linalg.norm(np.roll(self.centerline, -1, axis=0) - self.centerline, axis=1)
 
     @cached_property
-    def _arc_start(self) -> np.ndarray:
+    def arc_start(self) -> np.ndarray:
         """[m] arc length from the first point to the start of each segment."""
         return np.concatenate([[0.0], np.cumsum(self.segment_lengths)[:-1]])
 
@@ -99,7 +99,7 @@ class Track:
         d = np.linalg.norm(closest - p, axis=1)
         k = int(np.argmin(d))
         seg = int(idx[k])
-        s = float(self._arc_start[seg] + t[k] * self.segment_lengths[seg])
+        s = float(self.arc_start[seg] + t[k] * self.segment_lengths[seg])
         cross = ab[k, 0] * (p[1] - a[k, 1]) - ab[k, 1] * (p[0] - a[k, 0])
         return seg, s, float(math.copysign(d[k], cross))
 
@@ -112,11 +112,7 @@ class Track:
     @classmethod
     def load(cls, path: str | Path) -> Track:
         path = Path(path)
-        text = read_text(path, TrackError)
-        try:
-            data = json.loads(text)
-        except ValueError as e:
-            raise TrackError(f"{path}: not valid JSON: {e}") from None
+        data = read_parsed(path, json.loads, TrackError, "JSON")
         if not isinstance(data, dict) or not {"width_m", "centerline"} <= set(data):
             raise TrackError(f"{path}: a track file needs 'width_m' and 'centerline' (and optionally 'name')")
         unknown = set(data) - {"name", "width_m", "centerline"}

@@ -25,7 +25,7 @@ from pathlib import Path
 from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
 from roar.protocol import spec
-from roar.user_files import read_text
+from roar.user_files import read_parsed
 
 LO, HI, MID = spec.CONTROL_MIN_US, spec.CONTROL_MAX_US, spec.CONTROL_NEUTRAL_US
 
@@ -67,11 +67,7 @@ class Calibration(BaseModel):
     @classmethod
     def load(cls, path: str | Path) -> Calibration:
         path = Path(path)
-        text = read_text(path, CalibrationError)
-        try:
-            data = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as e:
-            raise CalibrationError(f"{path}: not valid TOML: {e}") from None
+        data = read_parsed(path, tomllib.loads, CalibrationError, "TOML")
         try:
             return cls.model_validate(data)
         except ValidationError as e:

@@ -65,7 +65,7 @@ class CommandSender:
         """Stop the thread; then write `final` once if the link is up (e.g. neutral)."""
         with self._cond:
             self._stop = True
-            self._cond.notify()
+            self._cond.notify_all()  # the thread and any flush() waiting
         if self._thread.is_alive() and threading.current_thread() is not self._thread:
             self._thread.join(timeout_s)
         if final is not None and self.connected:
@@ -81,19 +81,15 @@ class CommandSender:
         main = threading.main_thread()
         while True:
             with self._cond:
-                while not self._stop:
+                while True:
+                    if self._stop or not main.is_alive():
+                        return  # closed, or the program ended without closing: the car fails safe
                     now = time.monotonic()
                     due = self._last_send + (self.transport.min_period_s if self._fresh else self.period_s)
                     if now >= due:
                         break
                     self._cond.wait(min(due - now, 0.05))
-                    if not main.is_alive():
-                        return  # the program ended without closing: go quiet, the car fails safe
-                if self._stop:
-                    return
                 message, seq, self._fresh = self._message, self._seq, False
-            if not main.is_alive():
-                return
             self._send(message, seq)
 
     def _send(self, message: bytes, seq: int) -> None:

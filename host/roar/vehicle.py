@@ -154,11 +154,10 @@ class Vehicle:
 
 
 def _check_rate(rate_hz) -> float:
-    rate = rate_hz
-    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not 5 <= rate <= 500:
+    if isinstance(rate_hz, bool) or not isinstance(rate_hz, (int, float)) or not 5 <= rate_hz <= 500:
         raise ValueError(f"rate_hz must be 5..500 (the car's failsafe needs a command every "
                          f"{spec.TIMING_FAILSAFE_TIMEOUT_US / 1000:g} ms), got {rate_hz!r}")
-    return float(rate)
+    return float(rate_hz)
 
 
 def _close_at_exit(ref: weakref.ref) -> None:

@@ -35,6 +35,10 @@ class FoundDevice:
     is_car: bool  # advertises the ROAR service
 
 
+def _advertises_roar(adv) -> bool:
+    return spec.BLE_SERVICE_UUID in [u.lower() for u in adv.service_uuids]
+
+
 def _no_bluetooth(e: BaseException) -> TransportError:
     detail = " ".join(str(e).split()) or type(e).__name__
     return TransportError(f"Bluetooth is not available on this machine (no adapter or no BlueZ/D-Bus: {detail})")
@@ -52,7 +56,7 @@ def scan(timeout_s: float = 5.0, only_cars: bool = True, backend=None) -> list[F
         raise _no_bluetooth(e) from None
     found = []
     for device, adv in seen.values():
-        is_car = spec.BLE_SERVICE_UUID in [u.lower() for u in adv.service_uuids]
+        is_car = _advertises_roar(adv)
         if is_car or not only_cars:
             found.append(FoundDevice(adv.local_name or device.name, device.address, adv.rssi, is_car))
     return sorted(found, key=lambda d: -(d.rssi if d.rssi is not None else -999))
@@ -85,7 +89,7 @@ class BleTransport(Transport):
 
     def _matches(self, device, adv) -> bool:
         if not self.target:
-            return spec.BLE_SERVICE_UUID in [u.lower() for u in adv.service_uuids]
+            return _advertises_roar(adv)
         if _ADDRESS.match(self.target):
             return device.address.lower() == self.target.lower()
         return self.target in (adv.local_name, device.name)
