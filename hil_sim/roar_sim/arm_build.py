@@ -8,12 +8,12 @@ own startup code and linker script, so the board glue is proven to compile and l
 from __future__ import annotations
 
 import shutil
-import subprocess
 import sys
 from pathlib import Path
 
 from roar_sim.avr_build import sizes
-from roar_sim.core_build import CORE, CROSS_TARGETS, HOST_ONLY_SOURCES, ROOT, CoreBuildError, core_sources
+from roar_sim.core_build import (CORE, CROSS_TARGETS, EMBEDDED_FLAGS, HOST_ONLY_SOURCES, ROOT, CoreBuildError,
+                                 core_sources, run_build)
 
 BOARD = ROOT / "firmware" / "stm32_freertos"
 ELF = ROOT / "build" / "arm" / "anyfc_f7" / "roar_anyfc_f7.elf"
@@ -26,14 +26,9 @@ def build() -> Path:
         raise CoreBuildError(f"{cxx} not found: apt-get install {packages}")
     sources = sorted(BOARD.glob("*.cpp")) + [p for p in core_sources() if p.name not in HOST_ONLY_SOURCES]
     ELF.parent.mkdir(parents=True, exist_ok=True)
-    cmd = [cxx, *flags, "-Os", "-ffunction-sections", "-fdata-sections", "-fno-exceptions", "-fno-rtti",
-           "-fno-threadsafe-statics", "-Wall", "-Wextra", "-Werror", "-nostartfiles", "-nostdlib",
-           "-Wl,--gc-sections", "-T", str(BOARD / "stm32f745.ld"), "-I", str(CORE / "include"),
-           *map(str, sources), "-o", str(ELF), "-lc", "-lgcc"]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    if proc.returncode != 0:
-        first = next((ln for ln in proc.stderr.splitlines() if "error" in ln), proc.stderr.strip()[:300])
-        raise CoreBuildError(f"AnyFC F7 build failed: {first}")
+    run_build([cxx, *flags, *EMBEDDED_FLAGS, "-fno-threadsafe-statics", "-nostartfiles", "-nostdlib",
+               "-Wl,--gc-sections", "-T", str(BOARD / "stm32f745.ld"), "-I", str(CORE / "include"),
+               *map(str, sources), "-o", str(ELF), "-lc", "-lgcc"], "AnyFC F7 build failed")
     return ELF
 
 

@@ -16,7 +16,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from roar_sim.core_build import CORE, HOST_ONLY_SOURCES, ROOT, CoreBuildError, core_sources
+from roar_sim.core_build import CORE, HOST_ONLY_SOURCES, ROOT, CoreBuildError, core_sources, run_build
 
 ARDUINO_AVR = Path("/usr/share/arduino/hardware/arduino/avr")
 ARDUINO_CORE = ARDUINO_AVR / "cores" / "arduino"
@@ -47,10 +47,7 @@ def available() -> str | None:
 
 
 def _run(cmd: list[str], what: str) -> None:
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    if proc.returncode != 0:
-        first = next((ln for ln in proc.stderr.splitlines() if "error" in ln), proc.stderr.strip()[:300])
-        raise CoreBuildError(f"Nano build failed ({what}): {first}")
+    run_build(cmd, f"Nano build failed ({what})")
 
 
 def _arduino_core() -> Path:

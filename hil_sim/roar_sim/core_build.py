@@ -42,10 +42,21 @@ CROSS_TARGETS = {
                                         "-mfloat-abi=hard"], "gcc-arm-none-eabi libnewlib-arm-none-eabi"),
 }
 HOST_ONLY_SOURCES = {"c_api.cpp"}  # placement new and the C ABI exist for the host build only
+# Every microcontroller build: small code, unused sections dropped, no exceptions/RTTI, no warnings.
+EMBEDDED_FLAGS = ["-Os", "-ffunction-sections", "-fdata-sections", "-fno-exceptions", "-fno-rtti",
+                  "-Wall", "-Wextra", "-Werror"]
 
 
 class CoreBuildError(RuntimeError):
     """The host build failed; str() is one line naming the first compiler error."""
+
+
+def run_build(cmd: list[str], failure: str) -> None:
+    """Run a compiler or linker; on failure raise CoreBuildError("<failure>: <first error line>")."""
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        first = next((ln for ln in proc.stderr.splitlines() if "error" in ln), proc.stderr.strip()[:300])
+        raise CoreBuildError(f"{failure}: {first}")
 
 
 def core_sources() -> list[Path]:
@@ -81,11 +92,11 @@ def build(target: str = "library", variant: str = "release", force: bool = False
     os.close(fd)
     cmd = [compiler(), "-std=c++17", *WARNINGS, *VARIANTS[variant], *link_flags, "-I", str(CORE / "include"),
            "-I", str(CORE / "test"), *map(str, core_sources() + extra), "-o", tmp]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    if proc.returncode != 0:
+    try:
+        run_build(cmd, f"host build of firmware/core failed ({variant})")
+    except CoreBuildError:
         os.unlink(tmp)
-        first = next((ln for ln in proc.stderr.splitlines() if "error" in ln), proc.stderr.strip()[:200])
-        raise CoreBuildError(f"host build of firmware/core failed ({variant}): {first}")
+        raise
     os.chmod(tmp, 0o755)
     os.replace(tmp, out)
     return out
@@ -103,12 +114,8 @@ def cross_compile(target: str) -> list[Path]:
         if src.name in HOST_ONLY_SOURCES:
             continue
         obj = out_dir / (src.stem + ".o")
-        cmd = [cxx, *flags, "-Os", "-ffunction-sections", "-fdata-sections", "-fno-exceptions", "-fno-rtti",
-               "-Wall", "-Wextra", "-Werror", "-I", str(CORE / "include"), "-c", str(src), "-o", str(obj)]
-        proc = subprocess.run(cmd, capture_output=True, text=True)
-        if proc.returncode != 0:
-            first = next((ln for ln in proc.stderr.splitlines() if "error" in ln), proc.stderr.strip()[:200])
-            raise CoreBuildError(f"{target} build of firmware/core failed: {first}")
+        run_build([cxx, *flags, *EMBEDDED_FLAGS, "-I", str(CORE / "include"), "-c", str(src), "-o", str(obj)],
+                  f"{target} build of firmware/core failed")
         objects.append(obj)
     return objects
 
