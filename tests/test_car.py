@@ -112,9 +112,10 @@ def test_invalid_calibration_is_refused():
 
 def test_python_car_config_defaults_mirror_the_core():
     """The binding's CarConfig restates the core's defaults; they must not drift apart."""
-    from roar_sim.firmware_core import default_config_from_core
+    from roar_sim.firmware_core import default_config_from_core, ffi
 
     core, py = default_config_from_core(), CarConfig().to_c()
-    for name, _ in core._fields_:
-        if name != "reserved":
-            assert getattr(core, name) == getattr(py, name), name
+    names = [name for name, _ in ffi.typeof("roar_car_config_t").fields if name != "reserved"]
+    assert len(names) == 12
+    for name in names:
+        assert getattr(core, name) == getattr(py, name), name

@@ -1,5 +1,6 @@
-"""The firmware core under AddressSanitizer and UndefinedBehaviorSanitizer: the native C++ test
-program, and the Python property tests re-run in a subprocess against the sanitized library."""
+"""The firmware core under AddressSanitizer and UndefinedBehaviorSanitizer (the native C++ test
+program, and the Python property tests re-run in a subprocess against the sanitized library),
+and under ThreadSanitizer (the native test's two-thread BLE byte queue)."""
 
 import os
 import subprocess
@@ -14,7 +15,7 @@ CORE_TESTS = ["test_vectors.py", "test_parser_properties.py", "test_brake_fsm.py
               "test_outputs.py", "test_car.py"]
 
 
-@pytest.mark.parametrize("variant", ["release", "sanitize"])
+@pytest.mark.parametrize("variant", ["release", "sanitize", "thread"])
 def test_native_core_test_program(variant):
     exe = core_build.build("native_test", variant)
     proc = subprocess.run([str(exe)], capture_output=True, text=True, timeout=300)

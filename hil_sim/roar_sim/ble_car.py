@@ -1,6 +1,6 @@
 """The car's Bluetooth side, virtual: a bumble peripheral with the ROAR GATT layout (protocol
-spec [ble]) whose control characteristic feeds the firmware core (host build), stepped on the
-wall clock. Used by the BLE tests; the host reaches it through virtual_ble's bleak backend.
+spec [ble]) whose control characteristic feeds the board loop of the firmware core
+(CarBoard, host build), run on the wall clock. Used by the BLE tests; the host reaches it through virtual_ble's bleak backend.
 
     radio = VirtualRadio().install()
     car = BleCar(radio); await car.start()      # advertises "ROAR Car" with the ROAR service
@@ -19,7 +19,7 @@ from bumble.core import UUID, AdvertisingData
 from bumble.gatt import Characteristic, CharacteristicValue, Service
 
 from roar.protocol import spec
-from roar_sim.firmware_core import Car, CarConfig, CarOutputs
+from roar_sim.firmware_core import Board, CarConfig, CarOutputs
 from roar_sim.virtual_ble import VirtualRadio
 
 TICK_S = 0.002  # [s] firmware loop period on the wall clock
@@ -34,7 +34,8 @@ class BleCar:
     def __init__(self, radio: VirtualRadio, name: str = spec.BLE_LOCAL_NAME,
                  address: str = "F0:00:00:00:00:01", config: CarConfig | None = None) -> None:
         self.radio, self.name, self.address = radio, name, address
-        self.firmware = Car(config or CarConfig())
+        # The board's clock is set from the wall clock before each loop iteration (loop_us 0).
+        self.board = Board(config or CarConfig(), loop_us=0, frame_us=FRAME_US)
         self.writes: list[bytes] = []  # every control write, in arrival order
         self.replies: list[str] = []  # lines the firmware printed (it would print them on serial)
         self.history: list[tuple[float, int, int]] = []  # (t [s], throttle_us, steering_us) at each change
@@ -43,10 +44,14 @@ class BleCar:
         self.device = None
         self._t0 = time.monotonic()
         self._task: asyncio.Task | None = None
-        self.outputs: CarOutputs = self.firmware.step(0, 0)
+
+    @property
+    def outputs(self) -> CarOutputs:
+        """What the firmware drives on the pins now."""
+        return self.board.outputs
 
     def now_us(self) -> int:
-        return int((time.monotonic() - self._t0) * 1e6) & 0xFFFFFFFF
+        return int((time.monotonic() - self._t0) * 1e6)
 
     async def start(self) -> None:
         device = self.device = self.radio.add_device(self.name, self.address)
@@ -70,7 +75,7 @@ class BleCar:
         device.on("connection", self._on_connection)
         await device.power_on()
         await device.start_advertising(auto_restart=True, advertising_interval_min=ADVERTISING_INTERVAL_MS)
-        self.firmware.boot()
+        self.board.begin()
         self._task = asyncio.get_running_loop().create_task(self._run())
 
     def _on_connection(self, _connection) -> None:
@@ -78,7 +83,8 @@ class BleCar:
 
     def _on_control(self, _connection, value: bytes) -> None:
         self.writes.append(bytes(value))
-        self.firmware.feed(bytes(value), self.now_us())
+        self.board.set_clock(self.now_us())
+        self.board.ble_write(bytes(value))
 
     def _read_control(self, _connection) -> bytes:
         return f"({self.outputs.throttle_us},{self.outputs.steering_us})".encode()
@@ -93,8 +99,10 @@ class BleCar:
     async def _run(self) -> None:
         while True:
             now = self.now_us()
-            self.outputs = out = self.firmware.step(now, now // FRAME_US)
-            self.replies += [line.rstrip("\n") for line in self.firmware.replies()]
+            self.board.set_clock(now)
+            self.board.run(1)
+            out = self.outputs
+            self.replies += self.board.serial_out().decode("ascii").splitlines()
             if not self.history or self.history[-1][1:] != (out.throttle_us, out.steering_us):
                 self.history.append((now / 1e6, out.throttle_us, out.steering_us))
             await asyncio.sleep(TICK_S)

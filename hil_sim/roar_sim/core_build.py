@@ -25,10 +25,11 @@ WARNINGS = ["-Wall", "-Wextra", "-Wpedantic", "-Werror"]
 VARIANTS = {
     "release": ["-O2"],
     "sanitize": ["-O1", "-g", "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer"],
+    "thread": ["-O1", "-g", "-fsanitize=thread"],  # the native test's two-thread queue test, raced
 }
 TARGETS = {
     "library": ("libroarcore.so", ["-shared", "-fPIC"], []),
-    "native_test": ("test_core", [], [CORE / "test" / "test_core.cpp"]),
+    "native_test": ("test_core", ["-pthread"], [CORE / "test" / "test_core.cpp"]),
 }
 
 

@@ -1,26 +1,30 @@
-"""ctypes binding of the firmware core's C ABI (firmware/core/include/roar/c_api.h).
+"""Binding of the firmware core's C ABI (firmware/core/include/roar/c_api.h) through cffi, which
+reads the declarations from that header itself: the ABI is written once, in C.
 
 Every object here wraps the real C++ code that runs on the cars. The library is the host build
 from roar_sim.core_build; set ROAR_CORE_LIB to load another build (the sanitizer test does).
+Times are the core's 64-bit microseconds, which never wrap; Board runs the board loop on the
+wrapping 32-bit counter a board's hardware has.
 """
 
 from __future__ import annotations
 
-import ctypes
 import os
+import re
 from dataclasses import dataclass, field
 from enum import IntEnum
 from functools import lru_cache
 from pathlib import Path
+
+from cffi import FFI
 
 from roar.protocol import spec
 from roar.protocol.control import ControlCommand, ParseEvent
 from roar.protocol.spec import ParseResult
 from roar_sim import core_build
 
-ABI_VERSION = 1
-_u8, _u16, _i16, _u32, _sz, _vp = (ctypes.c_uint8, ctypes.c_uint16, ctypes.c_int16, ctypes.c_uint32,
-                                   ctypes.c_size_t, ctypes.c_void_p)
+HEADER = core_build.CORE / "include" / "roar" / "c_api.h"
+ABI_VERSION = 2
 _U32_MASK = 0xFFFFFFFF
 
 
@@ -28,67 +32,23 @@ class CoreLoadError(RuntimeError):
     """The core library could not be built or loaded; str() is one line."""
 
 
-class _ParseEvent(ctypes.Structure):
-    _fields_ = [("at", _u32), ("result", _u8), ("reserved", _u8), ("throttle", _u16), ("steering", _u16)]
+def declarations(header_text: str) -> str:
+    """c_api.h as cffi's cdef() takes it: the declarations, without the include guard, the
+    includes and the C++-only lines; integer #defines stay (cffi knows them)."""
+    lines, skipping = [], False
+    for line in header_text.splitlines():
+        stripped = line.strip()
+        if stripped.startswith("#ifdef __cplusplus"):
+            skipping = True
+        elif skipping:
+            skipping = not stripped.startswith("#endif")
+        elif not stripped.startswith("#") or re.fullmatch(r"#define\s+ROAR_\w+\s+\d+", stripped):
+            lines.append(line)
+    return "\n".join(lines)
 
 
-class _SidePins(ctypes.Structure):
-    _fields_ = [("in1", _u8), ("in2", _u8), ("duty", _u16)]
-
-
-class _CarConfig(ctypes.Structure):
-    _fields_ = [
-        ("failsafe_timeout_us", _u32), ("brake_step_us", _u32), ("brake_tap_us", _u16),
-        ("throttle_trim_us", _i16), ("throttle_min_us", _u16), ("throttle_max_us", _u16),
-        ("steering_trim_us", _i16), ("steering_min_us", _u16), ("steering_max_us", _u16),
-        ("failsafe_enabled", _u8), ("brake_fsm_enabled", _u8), ("rc_override_enabled", _u8),
-        ("reserved", _u8 * 3),
-    ]
-
-
-class _CarOutputs(ctypes.Structure):
-    _fields_ = [("throttle_us", _u16), ("steering_us", _u16), ("source", _u8), ("brake_phase", _u8),
-                ("latched", _u8), ("reserved", _u8)]
-
-
-_P = ctypes.POINTER
-_SIGNATURES = {
-    "roar_core_abi_version": (_u32, []),
-    "roar_protocol_version": (_u32, []),
-    "roar_parser_size": (_sz, []),
-    "roar_parser_init": (None, [_vp]),
-    "roar_parser_feed": (_u8, [_vp, _u8, _P(_u16), _P(_u16)]),
-    "roar_parser_feed_buffer": (_sz, [_vp, ctypes.c_char_p, _sz, _P(_ParseEvent), _sz]),
-    "roar_watchdog_size": (_sz, []),
-    "roar_watchdog_init": (None, [_vp, _u32]),
-    "roar_watchdog_accept": (ctypes.c_int, [_vp, _u16, _u16, _u32, _P(_u8)]),
-    "roar_watchdog_poll": (_u8, [_vp, _u32]),
-    "roar_watchdog_latched": (ctypes.c_int, [_vp]),
-    "roar_brake_size": (_sz, []),
-    "roar_brake_init": (None, [_vp, _u16, _u16, _u32]),
-    "roar_brake_step": (_u16, [_vp, _u16, _u32, _u32]),
-    "roar_brake_phase": (_u8, [_vp]),
-    "roar_map_pulse": (_u16, [_u16, _i16, _u16, _u16]),
-    "roar_calibration_valid": (ctypes.c_int, [_i16, _u16, _u16]),
-    "roar_rc_size": (_sz, []),
-    "roar_rc_init": (None, [_vp]),
-    "roar_rc_pulse": (None, [_vp, _u8, _u16, _u32]),
-    "roar_rc_active": (ctypes.c_int, [_vp, _u32]),
-    "roar_rc_command": (None, [_vp, _P(_u16), _P(_u16)]),
-    "roar_mix_ackermann": (None, [_u16, _u16, _P(_i16), _P(_i16)]),
-    "roar_l298n_size": (_sz, []),
-    "roar_l298n_init": (None, [_vp, _u32]),
-    "roar_l298n_step": (None, [_vp, _i16, _i16, _u32, _P(_SidePins), _P(_SidePins)]),
-    "roar_car_config_size": (_sz, []),
-    "roar_car_default_config": (None, [_P(_CarConfig)]),
-    "roar_car_size": (_sz, []),
-    "roar_car_init": (ctypes.c_int, [_vp, _P(_CarConfig)]),
-    "roar_car_boot": (None, [_vp]),
-    "roar_car_feed": (None, [_vp, ctypes.c_char_p, _sz, _u32]),
-    "roar_car_rc_pulse": (None, [_vp, _u8, _u16, _u32]),
-    "roar_car_step": (None, [_vp, _u32, _u32, _P(_CarOutputs)]),
-    "roar_car_take_reply": (_sz, [_vp, ctypes.c_char_p, _sz]),
-}
+ffi = FFI()
+ffi.cdef(declarations(HEADER.read_text()))
 
 
 def library_path() -> Path:
@@ -103,33 +63,28 @@ def library_path() -> Path:
 
 
 @lru_cache(maxsize=None)
-def _lib_at(path: str) -> ctypes.CDLL:
+def _lib_at(path: str):
     try:
-        lib = ctypes.CDLL(path)
+        lib = ffi.dlopen(path)
     except OSError as e:
         raise CoreLoadError(f"cannot load firmware core {path}: {e}") from None
-    for name, (restype, argtypes) in _SIGNATURES.items():
-        fn = getattr(lib, name)
-        fn.restype, fn.argtypes = restype, argtypes
     if lib.roar_core_abi_version() != ABI_VERSION:
         raise CoreLoadError(f"{path}: C ABI version {lib.roar_core_abi_version()}, this binding needs {ABI_VERSION}")
-    if lib.roar_car_config_size() != ctypes.sizeof(_CarConfig):
-        raise CoreLoadError(f"{path}: roar_car_config_t layout differs from this binding")
     return lib
 
 
-def lib() -> ctypes.CDLL:
+def lib():
     return _lib_at(str(library_path()))
 
 
-def _object(size_fn: str) -> ctypes.Array:
-    # c_uint64 array: 8-byte alignment for the C++ object placed in it.
+def _object(size_fn: str):
+    """Zeroed memory for one core object, 8-byte aligned (uint64_t units)."""
     size = getattr(lib(), size_fn)()
-    return (ctypes.c_uint64 * ((size + 7) // 8))()
+    return ffi.new("uint64_t[]", (size + 7) // 8)
 
 
-def _time(now_us: int) -> int:
-    return now_us & _U32_MASK  # the car's clock is a wrapping 32-bit counter
+def _bytes(data: bytes):
+    return ffi.from_buffer("uint8_t[]", bytes(data))
 
 
 class Parser:
@@ -144,10 +99,10 @@ class Parser:
     def feed(self, data: bytes) -> list[ParseEvent]:
         """Same contract as roar.protocol.StreamDecoder.feed: events with absolute offsets."""
         data = bytes(data)
-        buf = (_ParseEvent * max(1, len(data)))()
-        n = self._lib.roar_parser_feed_buffer(self._mem, data, len(data), buf, len(data))
+        buf = ffi.new("roar_parse_event_t[]", max(1, len(data)))
+        n = self._lib.roar_parser_feed_buffer(self._mem, _bytes(data), len(data), buf, len(data))
         events = []
-        for ev in buf[:n]:
+        for ev in buf[0:n]:
             result = ParseResult(ev.result)
             command = ControlCommand(ev.throttle, ev.steering) if result == ParseResult.OK else None
             events.append(ParseEvent(self.offset + ev.at, result, command))
@@ -157,7 +112,7 @@ class Parser:
     def count(self, data: bytes) -> int:
         """Feed without collecting events; returns how many there were (for benchmarks)."""
         self.offset += len(data)
-        return self._lib.roar_parser_feed_buffer(self._mem, data, len(data), None, 0)
+        return self._lib.roar_parser_feed_buffer(self._mem, _bytes(data), len(data), ffi.NULL, 0)
 
 
 class WatchdogEvent(IntEnum):
@@ -175,12 +130,12 @@ class Watchdog:
         self._lib.roar_watchdog_init(self._mem, timeout_us)
 
     def accept(self, throttle_us: int, steering_us: int, now_us: int) -> tuple[bool, WatchdogEvent]:
-        ev = _u8()
-        ok = self._lib.roar_watchdog_accept(self._mem, throttle_us, steering_us, _time(now_us), ctypes.byref(ev))
-        return bool(ok), WatchdogEvent(ev.value)
+        ev = ffi.new("uint8_t *")
+        ok = self._lib.roar_watchdog_accept(self._mem, throttle_us, steering_us, now_us, ev)
+        return bool(ok), WatchdogEvent(ev[0])
 
     def poll(self, now_us: int) -> WatchdogEvent:
-        return WatchdogEvent(self._lib.roar_watchdog_poll(self._mem, _time(now_us)))
+        return WatchdogEvent(self._lib.roar_watchdog_poll(self._mem, now_us))
 
     @property
     def latched(self) -> bool:
@@ -205,7 +160,7 @@ class BrakeFsm:
         self._lib.roar_brake_init(self._mem, neutral_us, tap_us, step_us)
 
     def step(self, command_us: int, now_us: int, frames_started: int) -> int:
-        return self._lib.roar_brake_step(self._mem, command_us, _time(now_us), frames_started & _U32_MASK)
+        return self._lib.roar_brake_step(self._mem, command_us, now_us, frames_started & _U32_MASK)
 
     @property
     def phase(self) -> BrakePhase:
@@ -232,15 +187,15 @@ class RcOverride:
         self._lib.roar_rc_init(self._mem)
 
     def pulse(self, channel: int, width_us: int, now_us: int) -> None:
-        self._lib.roar_rc_pulse(self._mem, channel, width_us, _time(now_us))
+        self._lib.roar_rc_pulse(self._mem, channel, width_us, now_us)
 
     def active(self, now_us: int) -> bool:
-        return bool(self._lib.roar_rc_active(self._mem, _time(now_us)))
+        return bool(self._lib.roar_rc_active(self._mem, now_us))
 
     def command(self) -> tuple[int, int]:
-        t, s = _u16(), _u16()
-        self._lib.roar_rc_command(self._mem, ctypes.byref(t), ctypes.byref(s))
-        return t.value, s.value
+        t, s = ffi.new("uint16_t *"), ffi.new("uint16_t *")
+        self._lib.roar_rc_command(self._mem, t, s)
+        return t[0], s[0]
 
 
 @dataclass(frozen=True)
@@ -251,9 +206,9 @@ class SidePins:
 
 
 def mix_ackermann(throttle_us: int, steering_us: int) -> tuple[int, int]:
-    left, right = _i16(), _i16()
-    lib().roar_mix_ackermann(throttle_us, steering_us, ctypes.byref(left), ctypes.byref(right))
-    return left.value, right.value
+    left, right = ffi.new("int16_t *"), ffi.new("int16_t *")
+    lib().roar_mix_ackermann(throttle_us, steering_us, left, right)
+    return left[0], right[0]
 
 
 class L298nDriver:
@@ -263,12 +218,32 @@ class L298nDriver:
         self._lib = lib()
         self._mem = _object("roar_l298n_size")
         self._lib.roar_l298n_init(self._mem, dead_time_us)
+        self._out = ffi.new("roar_side_pins_t[2]")
 
     def step(self, left_permille: int, right_permille: int, now_us: int) -> tuple[SidePins, SidePins]:
-        lo, ro = _SidePins(), _SidePins()
-        self._lib.roar_l298n_step(self._mem, left_permille, right_permille, _time(now_us), ctypes.byref(lo),
-                                  ctypes.byref(ro))
+        lo, ro = self._out + 0, self._out + 1
+        self._lib.roar_l298n_step(self._mem, left_permille, right_permille, now_us, lo, ro)
         return (SidePins(bool(lo.in1), bool(lo.in2), lo.duty), SidePins(bool(ro.in1), bool(ro.in2), ro.duty))
+
+
+class Junior:
+    """The ROAR Junior's HTTP control: query strings applied in order, and its 500 ms failsafe."""
+
+    def __init__(self) -> None:
+        self._lib = lib()
+        self._mem = _object("roar_junior_size")
+        self._lib.roar_junior_init(self._mem)
+
+    def apply_query(self, query: str, now_us: int) -> tuple[int, int]:
+        """Returns (applied, ignored) parameter counts."""
+        raw = query.encode()
+        r = self._lib.roar_junior_apply_query(self._mem, raw, len(raw), now_us)
+        return r >> 8, r & 0xFF
+
+    def duties(self, now_us: int) -> tuple[int, int]:
+        left, right = ffi.new("int16_t *"), ffi.new("int16_t *")
+        self._lib.roar_junior_duties(self._mem, now_us, left, right)
+        return left[0], right[0]
 
 
 class ControlSource(IntEnum):
@@ -284,6 +259,11 @@ class CarOutputs:
     source: ControlSource
     brake_phase: BrakePhase
     latched: bool
+
+    @staticmethod
+    def from_c(out) -> CarOutputs:
+        return CarOutputs(out.throttle_us, out.steering_us, ControlSource(out.source), BrakePhase(out.brake_phase),
+                          bool(out.latched))
 
 
 @dataclass(frozen=True)
@@ -304,16 +284,24 @@ class CarConfig:
     brake_fsm_enabled: bool = True
     rc_override_enabled: bool = True
 
-    def to_c(self) -> _CarConfig:
+    def to_c(self):
         t, s = self.throttle, self.steering
-        return _CarConfig(self.failsafe_timeout_us, self.brake_step_us, self.brake_tap_us,
-                          t.trim_us, t.min_us, t.max_us, s.trim_us, s.min_us, s.max_us,
-                          self.failsafe_enabled, self.brake_fsm_enabled, self.rc_override_enabled)
+        return ffi.new("roar_car_config_t *", {
+            "failsafe_timeout_us": self.failsafe_timeout_us, "brake_step_us": self.brake_step_us,
+            "brake_tap_us": self.brake_tap_us,
+            "throttle_trim_us": t.trim_us, "throttle_min_us": t.min_us, "throttle_max_us": t.max_us,
+            "steering_trim_us": s.trim_us, "steering_min_us": s.min_us, "steering_max_us": s.max_us,
+            "failsafe_enabled": self.failsafe_enabled, "brake_fsm_enabled": self.brake_fsm_enabled,
+            "rc_override_enabled": self.rc_override_enabled,
+        })
 
 
-def default_config_from_core() -> _CarConfig:
-    cfg = _CarConfig()
-    lib().roar_car_default_config(ctypes.byref(cfg))
+INVALID_CALIBRATION = "invalid channel calibration: need min_us <= max_us and |trim_us| < 500"
+
+
+def default_config_from_core():
+    cfg = ffi.new("roar_car_config_t *")
+    lib().roar_car_default_config(cfg)
     return cfg
 
 
@@ -324,29 +312,108 @@ class Car:
         self._lib = lib()
         self.config = config or CarConfig()
         self._mem = _object("roar_car_size")
-        if self._lib.roar_car_init(self._mem, ctypes.byref(self.config.to_c())) != 0:
-            raise ValueError("invalid channel calibration: need min_us <= max_us and |trim_us| < 500")
-        self._reply = ctypes.create_string_buffer(spec.SERIAL_MAX_REPLY_BYTES + 1)
+        if self._lib.roar_car_init(self._mem, self.config.to_c()) != 0:
+            raise ValueError(INVALID_CALIBRATION)
+        self._reply = ffi.new("char[]", spec.SERIAL_MAX_REPLY_BYTES + 1)
+        self._out = ffi.new("roar_car_outputs_t *")
 
     def boot(self) -> None:
         self._lib.roar_car_boot(self._mem)
 
     def feed(self, data: bytes, now_us: int) -> None:
-        data = bytes(data)
-        self._lib.roar_car_feed(self._mem, data, len(data), _time(now_us))
+        self._lib.roar_car_feed(self._mem, _bytes(data), len(data), now_us)
 
     def rc_pulse(self, channel: int, width_us: int, now_us: int) -> None:
-        self._lib.roar_car_rc_pulse(self._mem, channel, width_us, _time(now_us))
+        self._lib.roar_car_rc_pulse(self._mem, channel, width_us, now_us)
 
     def step(self, now_us: int, frames_started: int) -> CarOutputs:
-        out = _CarOutputs()
-        self._lib.roar_car_step(self._mem, _time(now_us), frames_started & _U32_MASK, ctypes.byref(out))
-        return CarOutputs(out.throttle_us, out.steering_us, ControlSource(out.source), BrakePhase(out.brake_phase),
-                          bool(out.latched))
+        self._lib.roar_car_step(self._mem, now_us, frames_started & _U32_MASK, self._out)
+        return CarOutputs.from_c(self._out)
 
     def replies(self) -> list[str]:
         """Drain all pending reply lines (each ends with a newline)."""
         lines = []
         while n := self._lib.roar_car_take_reply(self._mem, self._reply, len(self._reply)):
-            lines.append(self._reply.raw[:n].decode("ascii"))
+            lines.append(ffi.string(self._reply, n).decode("ascii"))
         return lines
+
+
+class Board:
+    """The board loop every car runs (CarBoard::poll), on a HAL of plain memory: a 1 kHz loop
+    on the board's wrapping 32-bit microsecond counter, output frames every 20 ms that carry
+    the pulses written before they start, a serial port, BLE writes and an RC receiver.
+
+        board = Board(); board.begin()
+        board.serial_in(b"(1500,1500)")     # bytes arriving on the serial port
+        board.run(loops=20)                 # 20 loop iterations, 1 ms apart
+        board.wire                          # (throttle, steering) on the wire in this frame
+        board.serial_out()                  # b"READY 1\nARMED\n"
+    """
+
+    def __init__(self, config: CarConfig | None = None, loop_us: int = 1_000,
+                 frame_us: int = spec.TIMING_SERVO_FRAME_US, start_us: int = 0) -> None:
+        self._lib = lib()
+        self.config = config or CarConfig()
+        self.hal = ffi.new("roar_host_hal_t *")
+        self.hal.now_us = self.hal.next_frame_us = start_us & _U32_MASK
+        self.hal.loop_us, self.hal.frame_us = loop_us, frame_us
+        self._mem = _object("roar_board_size")
+        if self._lib.roar_board_init(self._mem, self.hal, self.config.to_c()) != 0:
+            raise ValueError(INVALID_CALIBRATION)
+        self._rx_backlog = b""
+        self.loops = 0  # loop iterations run so far
+
+    def begin(self) -> None:
+        self._lib.roar_board_begin(self._mem)
+
+    def ble_write(self, data: bytes) -> None:
+        """One BLE write to the control characteristic, fed to the loop at once."""
+        self._lib.roar_board_feed(self._mem, _bytes(data), len(data))
+
+    def serial_in(self, data: bytes) -> None:
+        """Bytes arriving on the serial port; the loop reads at most 64 per iteration."""
+        self._rx_backlog += bytes(data)
+        self._refill()
+
+    def _refill(self) -> None:
+        hal = self.hal
+        if hal.rx_pos < hal.rx_len or not self._rx_backlog:
+            return
+        chunk, self._rx_backlog = self._rx_backlog[:len(hal.rx)], self._rx_backlog[len(hal.rx):]
+        ffi.memmove(hal.rx, chunk, len(chunk))
+        hal.rx_pos, hal.rx_len = 0, len(chunk)
+
+    def rc(self, pulses: tuple[int, int] | None) -> None:
+        """RC receiver pulses (throttle, steering) at every frame start from now on; None = off."""
+        self.hal.rc_us[0], self.hal.rc_us[1] = pulses or (0, 0)
+
+    def run(self, loops: int = 1) -> None:
+        self._lib.roar_board_run(self._mem, loops)
+        self.loops += loops
+        if self._rx_backlog:
+            self._refill()
+
+    def serial_out(self) -> bytes:
+        """Reply bytes the loop wrote since the last call."""
+        hal = self.hal
+        out = ffi.unpack(hal.tx, hal.tx_len)
+        hal.tx_len = 0
+        return out
+
+    def set_clock(self, now_us: int) -> None:
+        """Set the board's 32-bit counter (a wall-clock loop does this before each run(1))."""
+        self.hal.now_us = now_us & _U32_MASK
+
+    @property
+    def outputs(self) -> CarOutputs:
+        """What the car decided in the last loop iteration (pulses pending for the next frame)."""
+        return CarOutputs.from_c(self.hal.outputs)
+
+    @property
+    def wire(self) -> tuple[int, int]:
+        """(throttle, steering) [us] on the wire in the current output frame."""
+        return self.hal.wire_us[0], self.hal.wire_us[1]
+
+    @property
+    def frames(self) -> int:
+        return self.hal.frames_started

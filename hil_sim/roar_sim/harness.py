@@ -1,12 +1,13 @@
-"""Software-in-the-loop harness: the firmware's car logic (C++ core, host build) drives the
-emulated ESC and servo, which drive the PyBullet car. Host code talks to it with the same bytes
-it would send a real car.
+"""Software-in-the-loop harness: the board loop every car runs (CarBoard::poll of the C++ core,
+host build) drives the emulated ESC and servo, which drive the PyBullet car. Host code talks to
+it with the same bytes it would send a real car.
 
 Lockstep: simulated time advances only in run(); with realtime=True run() also sleeps so that
 simulated time keeps pace with the wall clock (or `speedup` times faster).
 
-    firmware loop   1 kHz   Car.step() on the simulated clock (the sim HAL)
-    output frames   50 Hz   the ESC and servo latch the pulse at each frame start
+    firmware loop   1 kHz   CarBoard::poll on the board's 32-bit microsecond counter
+    output frames   50 Hz   each frame carries the pulses written before it starts; the ESC
+                            and the servo take them at the frame start
     physics         200 Hz  PyBullet steps
 """
 
@@ -17,7 +18,7 @@ from dataclasses import dataclass, field
 
 from roar.protocol import spec
 from roar_sim.actuators import EscMode, HobbyEsc, SteeringServo
-from roar_sim.firmware_core import Car, CarConfig, CarOutputs
+from roar_sim.firmware_core import Board, CarConfig, CarOutputs
 from roar_sim.plant import CarState, Plant
 from roar_sim.track import Track
 
@@ -42,17 +43,16 @@ class SimCar:
     def __init__(self, track: Track | None = None, config: SimConfig | None = None) -> None:
         self.config = config or SimConfig()
         self.track = track
-        self.firmware = Car(self.config.firmware)
+        self.board = Board(self.config.firmware, loop_us=LOOP_US, frame_us=FRAME_US)
         self.esc, self.servo = self.config.esc, self.config.servo
         self.plant = Plant(track, dt_s=PHYSICS_US / 1e6, gui=self.config.gui)
         self.t_us = 0
-        self.frames = 0
-        self.outputs: CarOutputs = self.firmware.step(0, 0)
-        self._rc: tuple[int, int] | None = None
+        self._frames = self.board.frames
         self._replies: list[str] = []
+        self._partial = b""
         self._wall_start: float | None = None
-        self._esc_out = self.esc.pulse(self.outputs.throttle_us)
-        self.firmware.boot()
+        self._esc_out = self.esc.pulse(self.board.wire[0])
+        self.board.begin()
 
     def close(self) -> None:
         self.plant.close()
@@ -66,8 +66,8 @@ class SimCar:
     # --- what the host sees ------------------------------------------------------------------
 
     def write(self, data: bytes) -> None:
-        """Bytes arriving on the car's serial port / BLE characteristic now."""
-        self.firmware.feed(data, self.t_us)
+        """Bytes arriving on the car's serial port now."""
+        self.board.serial_in(data)
 
     def read(self) -> list[str]:
         """Reply lines the car printed since the last read."""
@@ -76,7 +76,12 @@ class SimCar:
 
     def rc_transmitter(self, pulses: tuple[int, int] | None) -> None:
         """(throttle, steering) pulses from an RC receiver from now on at 50 Hz; None = switched off."""
-        self._rc = pulses
+        self.board.rc(pulses)
+
+    @property
+    def outputs(self) -> CarOutputs:
+        """What the firmware decided in its latest loop iteration."""
+        return self.board.outputs
 
     @property
     def time_s(self) -> float:
@@ -90,27 +95,31 @@ class SimCar:
     def run(self, seconds: float) -> None:
         end = self.t_us + int(round(seconds * 1e6))
         while self.t_us < end:
-            self._tick()
+            self._advance(end)
             if self.config.realtime:
                 self._pace()
 
-    def _tick(self) -> None:
+    def _advance(self, end_us: int) -> None:
+        """Run the firmware up to the next physics step or end_us, whichever comes first; a
+        physics period's step follows the loop iteration at its start (where frames start)."""
         t = self.t_us
-        if t % FRAME_US == 0:
-            if self._rc is not None:
-                self.firmware.rc_pulse(0, self._rc[0], t)
-                self.firmware.rc_pulse(1, self._rc[1], t)
-            # Output frame start: the ESC and the servo latch the pulses now on the pins.
-            self.frames += 1
-            self._esc_out = self.esc.pulse(self.outputs.throttle_us)
-            self.servo.pulse(self.outputs.steering_us)
-        self.outputs = self.firmware.step(t, self.frames)
-        self._replies += [line.rstrip("\n") for line in self.firmware.replies()]
+        period_end = (t // PHYSICS_US + 1) * PHYSICS_US
+        loops = max(1, (min(period_end, end_us) - t) // LOOP_US)
+        self.board.run(loops)
+        self.t_us = t + loops * LOOP_US
+        if self.board.frames != self._frames:  # an output frame started: the ESC and servo take it
+            self._frames = self.board.frames
+            throttle_us, steering_us = self.board.wire
+            self._esc_out = self.esc.pulse(throttle_us)
+            self.servo.pulse(steering_us)
+        out = self.board.serial_out()
+        if out:
+            *lines, self._partial = (self._partial + out).split(b"\n")
+            self._replies += [line.decode("ascii", "replace") for line in lines]
         if t % PHYSICS_US == 0:
             esc = self._esc_out
             self.plant.apply(esc.drive, esc.brake, self.servo.advance(PHYSICS_US / 1e6))
             self.plant.step()
-        self.t_us = t + LOOP_US
 
     def _pace(self) -> None:
         now = time.perf_counter()

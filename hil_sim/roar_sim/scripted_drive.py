@@ -4,8 +4,8 @@ failsafe after the host goes quiet, and an RC transmitter taking over.
 
     python -m roar_sim.scripted_drive [--plot out/scripted_drive.png]
 
-The car logic is the C++ firmware core (host build); the loop runs at 1 kHz with 50 Hz output
-frames, on a simulated clock, exactly as on a Nano.
+The car logic is the board loop of the C++ firmware core (CarBoard::poll, host build): 1 kHz,
+50 Hz output frames, the board's 32-bit microsecond counter, exactly as on a Nano.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from pathlib import Path
 
 from roar.protocol import ControlError, decode, encode, spec
 from roar_sim import plotting
-from roar_sim.firmware_core import Car, CarOutputs, CoreLoadError
+from roar_sim.firmware_core import Board, CarOutputs, CoreLoadError
 
 LOOP_US = 1_000  # [us] main-loop period
 FRAME_US = spec.TIMING_SERVO_FRAME_US  # [us] output frame period
@@ -71,24 +71,23 @@ class Trace:
 
 
 def run(script: list[Segment] = SCRIPT) -> Trace:
-    car = Car()
-    car.boot()
+    board = Board(loop_us=LOOP_US, frame_us=FRAME_US)
+    board.begin()
     trace = Trace([], [], [], [])
     samples, replies, marks = trace.samples, trace.replies, trace.marks
     t = 0
     for seg in script:
         marks.append((t, seg.label))
+        board.rc(seg.rc)
         end = t + seg.duration_us
         while t < end:
             if seg.message is not None and t % SEND_US == 0:
-                car.feed(seg.message, t)
+                board.serial_in(seg.message)
                 if _is_valid(seg.message):
                     trace.valid_sends.append(t)
-            if seg.rc is not None and t % FRAME_US == 0:
-                car.rc_pulse(0, seg.rc[0], t)
-                car.rc_pulse(1, seg.rc[1], t)
-            samples.append(Sample(t, car.step(t, t // FRAME_US)))
-            replies += [(t, line.rstrip("\n")) for line in car.replies()]
+            board.run(1)
+            samples.append(Sample(t, board.outputs))
+            replies += [(t, line) for line in board.serial_out().decode("ascii").splitlines()]
             t += LOOP_US
     return trace
 

@@ -3,17 +3,18 @@
 namespace roar {
 
 void CarBoard::feed(const uint8_t* data, size_t length) {
-  const Micros now = hal_.now_us();
-  for (size_t i = 0; i < length; ++i) car_.feed(data[i], now);
+  const Micros t = now();
+  for (size_t i = 0; i < length; ++i) car_.feed(data[i], t);
 }
 
 CarOutputs CarBoard::poll() {
+  const Micros t = now();
   for (uint8_t i = 0; i < kMaxBytesPerPoll; ++i) {
     const int byte = hal_.read_byte();
     if (byte < 0) break;
-    car_.feed(static_cast<uint8_t>(byte), hal_.now_us());
+    car_.feed(static_cast<uint8_t>(byte), t);
   }
-  const CarOutputs out = car_.step(hal_.now_us(), hal_.frames_started());
+  const CarOutputs out = car_.step(t, hal_.frames_started());
   hal_.write_pulses(out.throttle_us, out.steering_us);
   char line[proto::kSerialMaxReplyBytes + 1];
   // A reply is written only when it fits whole: the loop never blocks on a slow host.
@@ -22,6 +23,7 @@ CarOutputs CarBoard::poll() {
     if (n == 0) break;
     hal_.write(line, n);
   }
+  hal_.feed_watchdog();
   return out;
 }
 

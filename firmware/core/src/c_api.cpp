@@ -4,7 +4,8 @@
 
 #include <new>
 
-#include "roar/car.h"
+#include "roar/board.h"
+#include "roar/junior_control.h"
 #include "roar/l298n_mixer.h"
 
 using namespace roar;
@@ -21,6 +22,61 @@ const T* as(const void* p) {
 }
 
 roar_side_pins_t to_c(const SidePins& s) { return roar_side_pins_t{s.in1, s.in2, s.duty}; }
+
+roar_car_outputs_t to_c(const CarOutputs& o, const Car& car) {
+  return roar_car_outputs_t{o.throttle_us, o.steering_us, static_cast<uint8_t>(o.source),
+                            static_cast<uint8_t>(o.brake_phase), static_cast<uint8_t>(car.latched() ? 1 : 0), 0};
+}
+
+// The HAL of roar_host_hal_t: every call reads or writes the caller's memory.
+class MemoryHal : public Hal {
+ public:
+  explicit MemoryHal(roar_host_hal_t* m) : m_(m) {}
+  RawMicros now_us() override { return m_->now_us; }
+  void write_pulses(uint16_t throttle_us, uint16_t steering_us) override {
+    m_->pending_us[0] = throttle_us;
+    m_->pending_us[1] = steering_us;
+  }
+  uint32_t frames_started() override { return m_->frames_started; }
+  int read_byte() override { return m_->rx_pos < m_->rx_len ? m_->rx[m_->rx_pos++] : -1; }
+  size_t write_room() override { return sizeof(m_->tx) - m_->tx_len; }
+  void write(const char* text, size_t length) override {
+    for (size_t i = 0; i < length && m_->tx_len < sizeof(m_->tx); ++i) m_->tx[m_->tx_len++] = text[i];
+  }
+  void feed_watchdog() override { ++m_->watchdog_feeds; }
+
+ private:
+  roar_host_hal_t* m_;
+};
+
+// CarBoard on the memory HAL, with the output timer a board's hardware would run.
+struct HostBoard {
+  HostBoard(roar_host_hal_t* m, const CarConfig& cfg) : hal(m), mem(m), board(hal, cfg) {
+    for (uint8_t ch = 0; ch < 2; ++ch) m->pending_us[ch] = m->wire_us[ch] = proto::kControlNeutralUs;  // as at boot
+  }
+
+  void run(uint32_t loops) {
+    for (uint32_t i = 0; i < loops; ++i) {
+      const uint32_t late = mem->now_us - mem->next_frame_us;  // [us] past the due frame start
+      if (static_cast<int32_t>(late) >= 0 && mem->frame_us > 0) {
+        const uint32_t started = 1 + late / mem->frame_us;  // more than one if time jumped ahead
+        mem->frames_started += started;
+        mem->next_frame_us += started * mem->frame_us;
+        mem->wire_us[0] = mem->pending_us[0];
+        mem->wire_us[1] = mem->pending_us[1];
+        for (uint8_t ch = 0; ch < 2; ++ch) {
+          if (mem->rc_us[ch]) board.rc_pulse(static_cast<RcChannel>(ch), mem->rc_us[ch]);
+        }
+      }
+      mem->outputs = to_c(board.poll(), board.car());
+      mem->now_us += mem->loop_us;
+    }
+  }
+
+  MemoryHal hal;
+  roar_host_hal_t* mem;
+  CarBoard board;
+};
 
 }  // namespace
 
@@ -62,13 +118,13 @@ size_t roar_parser_feed_buffer(void* parser, const uint8_t* data, size_t n, roar
 
 size_t roar_watchdog_size(void) { return sizeof(CommandWatchdog); }
 void roar_watchdog_init(void* wd, uint32_t timeout_us) { new (wd) CommandWatchdog(timeout_us); }
-int roar_watchdog_accept(void* wd, uint16_t throttle, uint16_t steering, uint32_t now_us, uint8_t* event) {
+int roar_watchdog_accept(void* wd, uint16_t throttle, uint16_t steering, uint64_t now_us, uint8_t* event) {
   WatchdogEvent ev = WatchdogEvent::None;
   const bool ok = as<CommandWatchdog>(wd)->accept(ControlCommand{throttle, steering}, now_us, &ev);
   if (event) *event = static_cast<uint8_t>(ev);
   return ok ? 1 : 0;
 }
-uint8_t roar_watchdog_poll(void* wd, uint32_t now_us) {
+uint8_t roar_watchdog_poll(void* wd, uint64_t now_us) {
   return static_cast<uint8_t>(as<CommandWatchdog>(wd)->poll(now_us));
 }
 int roar_watchdog_latched(const void* wd) { return as<CommandWatchdog>(wd)->latched() ? 1 : 0; }
@@ -81,7 +137,7 @@ void roar_brake_init(void* fsm, uint16_t neutral_us, uint16_t tap_us, uint32_t s
   cfg.step_us = step_us;
   new (fsm) BrakeFsm(cfg);
 }
-uint16_t roar_brake_step(void* fsm, uint16_t command_us, uint32_t now_us, uint32_t frames_started) {
+uint16_t roar_brake_step(void* fsm, uint16_t command_us, uint64_t now_us, uint32_t frames_started) {
   return as<BrakeFsm>(fsm)->step(command_us, now_us, frames_started);
 }
 uint8_t roar_brake_phase(const void* fsm) { return static_cast<uint8_t>(as<BrakeFsm>(fsm)->phase()); }
@@ -102,10 +158,10 @@ int roar_calibration_valid(int16_t trim_us, uint16_t min_us, uint16_t max_us) {
 
 size_t roar_rc_size(void) { return sizeof(RcOverride); }
 void roar_rc_init(void* rc) { new (rc) RcOverride(); }
-void roar_rc_pulse(void* rc, uint8_t channel, uint16_t width_us, uint32_t now_us) {
+void roar_rc_pulse(void* rc, uint8_t channel, uint16_t width_us, uint64_t now_us) {
   as<RcOverride>(rc)->on_pulse(static_cast<RcChannel>(channel & 1u), width_us, now_us);
 }
-int roar_rc_active(const void* rc, uint32_t now_us) { return as<RcOverride>(rc)->active(now_us) ? 1 : 0; }
+int roar_rc_active(const void* rc, uint64_t now_us) { return as<RcOverride>(rc)->active(now_us) ? 1 : 0; }
 void roar_rc_command(const void* rc, uint16_t* throttle, uint16_t* steering) {
   const ControlCommand c = as<RcOverride>(rc)->command();
   *throttle = c.throttle_us;
@@ -119,14 +175,24 @@ void roar_mix_ackermann(uint16_t throttle_us, uint16_t steering_us, int16_t* lef
 }
 size_t roar_l298n_size(void) { return sizeof(L298nDriver); }
 void roar_l298n_init(void* drv, uint32_t dead_time_us) { new (drv) L298nDriver(dead_time_us); }
-void roar_l298n_step(void* drv, int16_t left, int16_t right, uint32_t now_us, roar_side_pins_t* left_out,
+void roar_l298n_step(void* drv, int16_t left, int16_t right, uint64_t now_us, roar_side_pins_t* left_out,
                      roar_side_pins_t* right_out) {
   const DrivePins pins = as<L298nDriver>(drv)->step(SideDuties{left, right}, now_us);
   *left_out = to_c(pins.left);
   *right_out = to_c(pins.right);
 }
 
-size_t roar_car_config_size(void) { return sizeof(roar_car_config_t); }
+size_t roar_junior_size(void) { return sizeof(JuniorControl); }
+void roar_junior_init(void* junior) { new (junior) JuniorControl(); }
+uint16_t roar_junior_apply_query(void* junior, const char* query, size_t n, uint64_t now_us) {
+  const JuniorQueryResult r = as<JuniorControl>(junior)->apply_query(query, n, now_us);
+  return static_cast<uint16_t>(r.applied << 8 | r.ignored);
+}
+void roar_junior_duties(const void* junior, uint64_t now_us, int16_t* left, int16_t* right) {
+  const SideDuties d = as<JuniorControl>(junior)->duties(now_us);
+  *left = d.left;
+  *right = d.right;
+}
 
 void roar_car_default_config(roar_car_config_t* c) {
   const CarConfig d;
@@ -138,7 +204,7 @@ void roar_car_default_config(roar_car_config_t* c) {
 
 size_t roar_car_size(void) { return sizeof(Car); }
 
-int roar_car_init(void* car, const roar_car_config_t* c) {
+static CarConfig car_config(const roar_car_config_t* c) {
   CarConfig cfg;
   cfg.failsafe_timeout_us = c->failsafe_timeout_us;
   cfg.brake.step_us = c->brake_step_us;
@@ -148,24 +214,43 @@ int roar_car_init(void* car, const roar_car_config_t* c) {
   cfg.failsafe_enabled = c->failsafe_enabled != 0;
   cfg.brake_fsm_enabled = c->brake_fsm_enabled != 0;
   cfg.rc_override_enabled = c->rc_override_enabled != 0;
-  if (!calibration_valid(cfg.throttle) || !calibration_valid(cfg.steering)) return -1;
+  return cfg;
+}
+static bool config_valid(const CarConfig& cfg) {
+  return calibration_valid(cfg.throttle) && calibration_valid(cfg.steering);
+}
+
+int roar_car_init(void* car, const roar_car_config_t* c) {
+  const CarConfig cfg = car_config(c);
+  if (!config_valid(cfg)) return -1;
   new (car) Car(cfg);
   return 0;
 }
 
 void roar_car_boot(void* car) { as<Car>(car)->boot(); }
-void roar_car_feed(void* car, const uint8_t* data, size_t n, uint32_t now_us) {
+void roar_car_feed(void* car, const uint8_t* data, size_t n, uint64_t now_us) {
   for (size_t i = 0; i < n; ++i) as<Car>(car)->feed(data[i], now_us);
 }
-void roar_car_rc_pulse(void* car, uint8_t channel, uint16_t width_us, uint32_t now_us) {
+void roar_car_rc_pulse(void* car, uint8_t channel, uint16_t width_us, uint64_t now_us) {
   as<Car>(car)->rc_pulse(static_cast<RcChannel>(channel & 1u), width_us, now_us);
 }
-void roar_car_step(void* car, uint32_t now_us, uint32_t frames_started, roar_car_outputs_t* out) {
+void roar_car_step(void* car, uint64_t now_us, uint32_t frames_started, roar_car_outputs_t* out) {
   Car* c = as<Car>(car);
-  const CarOutputs o = c->step(now_us, frames_started);
-  *out = roar_car_outputs_t{o.throttle_us, o.steering_us, static_cast<uint8_t>(o.source),
-                            static_cast<uint8_t>(o.brake_phase), static_cast<uint8_t>(c->latched() ? 1 : 0), 0};
+  *out = to_c(c->step(now_us, frames_started), *c);
 }
 size_t roar_car_take_reply(void* car, char* buf, size_t cap) { return as<Car>(car)->take_reply(buf, cap); }
+
+
+size_t roar_board_size(void) { return sizeof(HostBoard); }
+
+int roar_board_init(void* board, roar_host_hal_t* hal, const roar_car_config_t* c) {
+  const CarConfig cfg = car_config(c);
+  if (!config_valid(cfg)) return -1;
+  new (board) HostBoard(hal, cfg);
+  return 0;
+}
+void roar_board_begin(void* board) { as<HostBoard>(board)->board.begin(); }
+void roar_board_feed(void* board, const uint8_t* data, size_t n) { as<HostBoard>(board)->board.feed(data, n); }
+void roar_board_run(void* board, uint32_t loops) { as<HostBoard>(board)->run(loops); }
 
 }  // extern "C"

@@ -1,32 +1,8 @@
 #include "roar/car.h"
 
+#include "roar/text.h"
+
 namespace roar {
-namespace {
-
-// Appends src to buf at *len, keeping room for the NUL. Returns false when it does not fit.
-bool append(char* buf, size_t cap, size_t* len, const char* src) {
-  for (; *src; ++src) {
-    if (*len + 1 >= cap) return false;
-    buf[(*len)++] = *src;
-  }
-  buf[*len] = '\0';
-  return true;
-}
-
-bool append_uint(char* buf, size_t cap, size_t* len, uint16_t v) {
-  char digits[6];
-  uint8_t n = 0;
-  do {
-    digits[n++] = static_cast<char>('0' + v % 10u);
-    v = static_cast<uint16_t>(v / 10u);
-  } while (v && n < sizeof(digits) - 1);
-  char text[6];
-  for (uint8_t i = 0; i < n; ++i) text[i] = digits[n - 1 - i];
-  text[n] = '\0';
-  return append(buf, cap, len, text);
-}
-
-}  // namespace
 
 Car::Car(const CarConfig& config)
     : config_(config),

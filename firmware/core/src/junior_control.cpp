@@ -1,18 +1,8 @@
 #include "roar/junior_control.h"
 
+#include "roar/text.h"
+
 namespace roar {
-namespace {
-
-bool equals(const char* a, size_t a_len, const char* b) {
-  size_t i = 0;
-  for (; i < a_len; ++i) {
-    if (b[i] == '\0' || a[i] != b[i]) return false;
-  }
-  return b[i] == '\0';
-}
-
-}  // namespace
-
 bool parse_unit_permille(const char* text, size_t length, uint16_t* permille) {
   uint32_t whole = 0, fraction = 0, scale = 1000;
   size_t i = 0;

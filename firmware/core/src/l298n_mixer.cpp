@@ -29,7 +29,7 @@ SideDuties mix_ackermann(uint16_t throttle_us, uint16_t steering_us) {
   return SideDuties{static_cast<int16_t>(left), static_cast<int16_t>(right)};
 }
 
-SidePins L298nSide::step(int16_t duty_permille, Micros now_us, Micros dead_time_us) {
+SidePins L298nSide::step(int16_t duty_permille, Micros now_us, DurationUs dead_time_us) {
   const int8_t want = duty_permille > 0 ? 1 : (duty_permille < 0 ? -1 : 0);
   const SidePins coast = {false, false, 0};
   if (want == 0 || want == -applied_dir_) {  // stop, or reverse: coast first

@@ -1,13 +1,20 @@
 // Native test of the firmware core: the golden vectors plus seeded random stress of the
-// parser, the watchdog across the clock wrap, the reply queue and the L298N driver, meant to run under -fsanitize=address,undefined. Built and run by
-// tests/test_native_core.py. Prints one line per failure and a closing "N passed, N failed".
+// parser, the watchdog across the clock wrap, the reply queue, the L298N driver, the BLE byte
+// queue between two threads, the HTTP request reader and the Junior's loop. Built plain, under
+// -fsanitize=address,undefined and under -fsanitize=thread, and run by tests/test_sanitizers.py.
+// Prints one line per failure and a closing "N passed, N failed".
 #include <stdio.h>
 #include <string.h>
 
+#include <thread>
+
 #include "roar/board.h"
 #include "roar/car.h"
+#include "roar/http_request.h"
+#include "roar/junior_board.h"
 #include "roar/junior_control.h"
 #include "roar/l298n_mixer.h"
+#include "roar/spsc_bytes.h"
 #include "vectors.h"
 
 using namespace roar;
@@ -75,34 +82,63 @@ static void test_parser_random_bytes() {
   Rng rng{12345};
   static const char kAlphabet[] = "()0123456789,,,\n\r \x00x\xff";
   ControlParser p;
+  uint32_t accepted = 0, injected = 0, out_of_range = 0, bad_results = 0;
+  char valid[12];
   for (int i = 0; i < 2000000; ++i) {
+    if (i % 97 == 0) {  // a valid message now and then: a '(' starts a new message from any state
+      const unsigned t = 1000 + rng.below(1001), st = 1000 + rng.below(1001);
+      snprintf(valid, sizeof(valid), "(%u,%u)", t, st);
+      for (const char* c = valid; *c; ++c) accepted += p.feed(static_cast<uint8_t>(*c)) == ParseResult::Ok;
+      ++injected;
+      if (p.command().throttle_us != t || p.command().steering_us != st) ++out_of_range;
+    }
     const uint8_t b = (i % 3) ? static_cast<uint8_t>(kAlphabet[rng.below(sizeof(kAlphabet) - 1)])
                               : static_cast<uint8_t>(rng.next());
     const ParseResult r = p.feed(b);
     if (r == ParseResult::Ok) {
+      ++accepted;
       const ControlCommand c = p.command();
-      if (c.throttle_us < 1000 || c.throttle_us > 2000 || c.steering_us < 1000 || c.steering_us > 2000) {
-        CHECK(false, "out-of-range command %u,%u accepted", c.throttle_us, c.steering_us);
-        return;
-      }
+      if (c.throttle_us < 1000 || c.throttle_us > 2000 || c.steering_us < 1000 || c.steering_us > 2000) ++out_of_range;
     }
-    if (static_cast<uint8_t>(r) >= kParseResultCount) {
-      CHECK(false, "bad result %u", static_cast<unsigned>(r));
-      return;
-    }
+    if (static_cast<uint8_t>(r) >= kParseResultCount) ++bad_results;
   }
-  CHECK(true, "ok");
+  CHECK(out_of_range == 0, "%u out-of-range commands accepted", (unsigned)out_of_range);
+  CHECK(bad_results == 0, "%u results outside the enum", (unsigned)bad_results);
+  CHECK(accepted >= injected && injected > 20000, "%u valid messages accepted of %u injected", (unsigned)accepted,
+        (unsigned)injected);
 }
 
-static void test_failsafe_wraps() {
+static void test_failsafe_across_the_raw_clock_wrap() {
+  // The board's 32-bit counter wraps 256 us after the neutral command; the core's clock does not.
+  MonotonicClock clock;
+  const RawMicros raw0 = 0xFFFFFF00u;
+  const Micros t0 = clock.extend(raw0);
   CommandWatchdog wd(250000);
   WatchdogEvent ev;
-  const uint32_t t0 = 0xFFFFFF00u;  // 256 us before the counter wraps
   CHECK(wd.accept(ControlCommand{1500, 1500}, t0, &ev) && ev == WatchdogEvent::Armed, "neutral arms");
-  CHECK(wd.poll(t0 + 250000u) == WatchdogEvent::None, "not at exactly the timeout");
-  CHECK(wd.poll(t0 + 250001u) == WatchdogEvent::Tripped, "trips across the wrap");
-  CHECK(!wd.accept(ControlCommand{1700, 1500}, t0 + 260000u, &ev), "latched ignores forward");
-  CHECK(wd.accept(ControlCommand{1510, 1400}, t0 + 270000u, &ev) && ev == WatchdogEvent::Armed, "re-arms near neutral");
+  CHECK(wd.poll(clock.extend(raw0 + 250000u)) == WatchdogEvent::None, "not at exactly the timeout");
+  CHECK(wd.poll(clock.extend(raw0 + 250001u)) == WatchdogEvent::Tripped, "trips across the wrap");
+  CHECK(clock.now() == t0 + 250001u, "the extended clock runs on through the wrap: %llu",
+        (unsigned long long)(clock.now() - t0));
+  CHECK(!wd.accept(ControlCommand{1700, 1500}, clock.extend(raw0 + 260000u), &ev), "latched ignores forward");
+  CHECK(wd.accept(ControlCommand{1510, 1400}, clock.extend(raw0 + 270000u), &ev) && ev == WatchdogEvent::Armed,
+        "re-arms near neutral");
+}
+
+static void test_monotonic_clock_over_many_wraps() {
+  Rng rng{7};
+  MonotonicClock clock;
+  RawMicros raw = 0xFFFF0000u;
+  Micros expected = clock.extend(raw);
+  uint32_t wrong = 0;
+  for (int i = 0; i < 100000; ++i) {  // steps up to 2^31 us: about 25 wraps of the raw counter
+    const RawMicros step = rng.next() >> (1 + rng.below(31));
+    raw += step;
+    expected += step;
+    if (clock.extend(raw) != expected) ++wrong;
+  }
+  CHECK(wrong == 0 && expected > (Micros{20} << 32), "%u wrong readings over %llu wraps", (unsigned)wrong,
+        (unsigned long long)(expected >> 32));
 }
 
 static void test_replies_small_buffers() {
@@ -118,48 +154,51 @@ static void test_replies_small_buffers() {
 
 static void test_l298n_random() {
   Rng rng{99};
-  L298nDriver drv(5000);
-  uint32_t now = 0;
-  int last_dir[2] = {0, 0};
+  const DurationUs kDeadTime = 5000;
+  L298nDriver drv(kDeadTime);
+  Micros now = 0;
+  int prev_dir[2] = {0, 0}, last_moving_dir[2] = {0, 0};
+  Micros coast_since[2] = {0, 0};
+  uint32_t mix_out_of_range = 0, both_high = 0, duty_coasting = 0, short_dead_times = 0, reversals = 0;
   for (int i = 0; i < 200000; ++i) {
     now += 1 + rng.below(3000);
     const SideDuties d = mix_ackermann(static_cast<uint16_t>(900 + rng.below(1200)), static_cast<uint16_t>(900 + rng.below(1200)));
-    if (d.left > 1000 || d.left < -1000 || d.right > 1000 || d.right < -1000) {
-      CHECK(false, "mix out of range %d %d", d.left, d.right);
-      return;
-    }
+    if (d.left > 1000 || d.left < -1000 || d.right > 1000 || d.right < -1000) ++mix_out_of_range;
     const DrivePins p = drv.step(d, now);
     const SidePins sides[2] = {p.left, p.right};
     for (int s = 0; s < 2; ++s) {
       const int dir = sides[s].in1 ? 1 : (sides[s].in2 ? -1 : 0);
-      if (sides[s].in1 && sides[s].in2) {
-        CHECK(false, "both direction pins high");
-        return;
+      if (sides[s].in1 && sides[s].in2) ++both_high;
+      if (dir == 0 && sides[s].duty != 0) ++duty_coasting;
+      if (dir != 0 && last_moving_dir[s] == -dir) {  // this side reverses: it must have coasted long enough
+        ++reversals;
+        if (prev_dir[s] != 0 || now - coast_since[s] < kDeadTime) ++short_dead_times;
       }
-      if (dir == 0 && sides[s].duty != 0) {
-        CHECK(false, "duty while coasting");
-        return;
-      }
-      if (dir != 0 && last_dir[s] == -dir) {
-        CHECK(false, "direct reversal without dead time");
-        return;
-      }
-      last_dir[s] = dir;
+      if (dir == 0 && prev_dir[s] != 0) coast_since[s] = now;
+      if (dir != 0) last_moving_dir[s] = dir;
+      prev_dir[s] = dir;
     }
   }
-  CHECK(true, "ok");
+  CHECK(mix_out_of_range == 0, "%u mixes out of range", (unsigned)mix_out_of_range);
+  CHECK(both_high == 0, "both direction pins high %u times", (unsigned)both_high);
+  CHECK(duty_coasting == 0, "duty while coasting %u times", (unsigned)duty_coasting);
+  CHECK(short_dead_times == 0, "%u of %u reversals without the full dead time", (unsigned)short_dead_times,
+        (unsigned)reversals);
+  CHECK(reversals > 1000, "only %u reversals: the run did not exercise the dead time", (unsigned)reversals);
 }
 
 // A HAL on plain variables: a serial port with a settable amount of transmit room.
 struct FakeHal : Hal {
-  Micros t = 0;
+  RawMicros t = 0;
   uint32_t frames = 0;
   const char* rx = "";
   size_t room = 0;
   char tx[256] = {0};
   size_t tx_len = 0;
   uint16_t throttle = 0, steering = 0;
-  Micros now_us() override { return t; }
+  uint32_t feeds = 0;
+  RawMicros now_us() override { return t; }
+  void feed_watchdog() override { ++feeds; }
   void write_pulses(uint16_t th, uint16_t st) override { throttle = th, steering = st; }
   uint32_t frames_started() override { return frames; }
   int read_byte() override { return *rx ? static_cast<uint8_t>(*rx++) : -1; }
@@ -180,6 +219,7 @@ static void test_board_loop() {
   board.poll();
   CHECK(hal.tx_len == 0, "no room, nothing written (%u bytes)", (unsigned)hal.tx_len);
   CHECK(hal.throttle == 1600 && hal.steering == 1400, "pulses %u %u", hal.throttle, hal.steering);
+  CHECK(hal.feeds == 1, "the loop feeds the watchdog once per iteration: %u", (unsigned)hal.feeds);
   hal.room = 30;  // room for one whole line only
   hal.t = 1000;
   board.poll();
@@ -223,8 +263,9 @@ static void test_junior_control() {
   d = j.duties(4001 + proto::kJuniorFailsafeTimeoutUs);
   CHECK(d.left == 0 && d.right == 0, "failsafe stops both sides %d %d", d.left, d.right);
   const char q4[] = "stop=True";
-  j.apply_query(q4, sizeof(q4) - 1, 0xFFFFFF00u);  // across the clock wrap
-  CHECK(!j.timed_out(0x100u) && j.duties(0x100u).left == 0, "stop");
+  j.apply_query(q4, sizeof(q4) - 1, 0xFFFFFF00u);
+  CHECK(!j.timed_out(0x100000100u) && j.duties(0x100000100u).left == 0, "stop");
+  CHECK(j.timed_out(0xFFFFFF00u + (Micros{1} << 32)), "a request 2^32 us old is stale, not fresh again");
   uint16_t p = 0;
   const char* good[] = {"0", "1", "0.5", ".25", "1.000", "0.1239"};
   const uint16_t want[] = {0, 1000, 500, 250, 1000, 123};
@@ -236,14 +277,181 @@ static void test_junior_control() {
   CHECK(echo_us_to_cm(5882) == 100, "1 m echo -> %lu cm", (unsigned long)echo_us_to_cm(5882));
 }
 
+// Two threads, as a BLE stack task and the main loop: every message pushed whole arrives whole,
+// in order, unchanged; refused pushes leave no fragment. TSan reports any unordered access.
+static void test_spsc_bytes_between_threads() {
+  static SpscBytes<64> queue;
+  const uint32_t kMessages = 200000;
+  uint32_t pushed = 0, refused = 0;
+  std::thread producer([&] {
+    Rng rng{5};
+    uint8_t msg[20];
+    for (uint32_t i = 0; i < kMessages; ++i) {
+      const uint8_t n = static_cast<uint8_t>(2 + rng.below(18));  // length byte, then n-1 bytes of i
+      msg[0] = n;
+      for (uint8_t k = 1; k < n; ++k) msg[k] = static_cast<uint8_t>(i + k);
+      if (queue.push(msg, n)) {
+        ++pushed;
+      } else {
+        ++refused;
+      }
+    }
+    const uint8_t end[1] = {0};
+    while (!queue.push(end, 1)) std::this_thread::yield();
+  });
+  uint32_t received = 0, corrupt = 0;
+  uint8_t stream[64];
+  size_t have = 0;
+  bool done = false;
+  while (!done) {
+    have += queue.pop(stream + have, sizeof(stream) - have);
+    size_t at = 0;
+    while (at < have) {
+      const uint8_t n = stream[at];
+      if (n == 0) {
+        done = true;
+        break;
+      }
+      if (have - at < n) break;  // the rest of this message comes with the next pop
+      for (uint8_t k = 2; k < n; ++k) {  // consecutive bytes within a message
+        if (stream[at + k] != static_cast<uint8_t>(stream[at + 1] + k - 1)) ++corrupt;
+      }
+      ++received;
+      at += n;
+    }
+    memmove(stream, stream + at, have - at);
+    have -= at;
+  }
+  producer.join();
+  CHECK(received == pushed && corrupt == 0, "%u of %u messages arrived, %u corrupt", (unsigned)received,
+        (unsigned)pushed, (unsigned)corrupt);
+  CHECK(refused == queue.dropped(), "dropped() counts refused writes: %u vs %u", (unsigned)queue.dropped(),
+        (unsigned)refused);
+  CHECK(pushed > kMessages / 10, "only %u messages went through", (unsigned)pushed);
+}
+
+static HttpRead read_all(HttpRequestReader& r, const char* text, size_t n) {
+  HttpRead state = HttpRead::Incomplete;
+  for (size_t i = 0; i < n && state == HttpRead::Incomplete; ++i) state = r.feed(static_cast<uint8_t>(text[i]));
+  return state;
+}
+
+static bool same(const char* text, size_t n, const char* want) { return n == strlen(want) && !memcmp(text, want, n); }
+
+static void test_http_request_reader() {
+  HttpRequestReader r;
+  const char get[] = "GET /?forward=True&left_spd=0.5 HTTP/1.1\r\nHost: 192.168.4.1:81\r\nAccept: */*\r\n\r\n";
+  CHECK(read_all(r, get, sizeof(get) - 1) == HttpRead::Complete, "a browser's request completes");
+  CHECK(same(r.method(), r.method_length(), "GET") && same(r.path(), r.path_length(), "/") &&
+            same(r.query(), r.query_length(), "forward=True&left_spd=0.5"),
+        "request line pieces");
+  r.reset();
+  const char bare[] = "GET /cam-lo.jpg HTTP/1.0\n\n";
+  CHECK(read_all(r, bare, sizeof(bare) - 1) == HttpRead::Complete && r.query_length() == 0 &&
+            same(r.path(), r.path_length(), "/cam-lo.jpg"),
+        "LF line ends, no headers, no query");
+  const char* malformed[] = {"GET\r\n\r\n", "GET / \r\n\r\n", "get / HTTP/1.1\r\n\r\n", "GET foo HTTP/1.1\r\n\r\n",
+                             "GET / HTTP/2.0\r\n\r\n", "GET  / HTTP/1.1\r\n\r\n", "GET / HTTP/1.1 x\r\n\r\n",
+                             "\r\n\r\n", "GET /a\x01 HTTP/1.1\r\n\r\n"};
+  for (const char* m : malformed) {
+    r.reset();
+    CHECK(read_all(r, m, strlen(m)) == HttpRead::Malformed, "malformed: '%s'", m);
+  }
+  // Every split of a request gives the same result (the reader is fed one byte at a time anyway,
+  // so feed it after garbage-free resets at every position to exercise reset()).
+  for (size_t cut = 0; cut < sizeof(get) - 1; ++cut) {
+    r.reset();
+    HttpRead first = read_all(r, get, cut);
+    HttpRead rest = read_all(r, get + cut, sizeof(get) - 1 - cut);
+    CHECK(first == HttpRead::Incomplete && rest == HttpRead::Complete, "cut at %u", (unsigned)cut);
+  }
+  static char long_line[400];
+  memcpy(long_line, "GET /?", 6);
+  memset(long_line + 6, 'a', sizeof(long_line) - 6);
+  r.reset();
+  CHECK(read_all(r, long_line, sizeof(long_line)) == HttpRead::TooLong, "a 400-byte request line");
+  static char endless[3000];
+  memcpy(endless, "GET / HTTP/1.1\r\n", 16);
+  for (size_t i = 16; i < sizeof(endless); ++i) endless[i] = (i % 40 == 39) ? '\n' : 'h';
+  r.reset();
+  CHECK(read_all(r, endless, sizeof(endless)) == HttpRead::TooLong, "endless headers end at the request limit");
+  // Random bytes: the reader always decides within kMaxRequestBytes (+1), never overruns.
+  Rng rng{77};
+  uint32_t undecided = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    r.reset();
+    HttpRead state = HttpRead::Incomplete;
+    for (int i = 0; i <= HttpRequestReader::kMaxRequestBytes && state == HttpRead::Incomplete; ++i) {
+      static const char kAlphabet[] = "GET / HTTP/1.1\r\n?=&ab";
+      const uint8_t b = rng.below(4) ? static_cast<uint8_t>(kAlphabet[rng.below(sizeof(kAlphabet) - 1)])
+                                     : static_cast<uint8_t>(rng.next());
+      state = r.feed(b);
+    }
+    if (state == HttpRead::Incomplete) ++undecided;
+  }
+  CHECK(undecided == 0, "%u random requests left undecided past the limit", (unsigned)undecided);
+}
+
+struct FakeJuniorHal : JuniorHal {
+  RawMicros t = 0;
+  DrivePins pins = {};
+  uint32_t feeds = 0;
+  RawMicros now_us() override { return t; }
+  void write_motors(const DrivePins& p) override { pins = p; }
+  void feed_watchdog() override { ++feeds; }
+};
+
+static void test_junior_board() {
+  FakeJuniorHal hal;
+  JuniorBoard board(hal);
+  HttpRequestReader r;
+  char out[JuniorBoard::kMaxReplyBytes];
+  const char get[] = "GET /?forward=True&left_spd=0.5&right_spd=0.5 HTTP/1.1\r\n\r\n";
+  read_all(r, get, sizeof(get) - 1);
+  size_t n = board.respond(r, 42, out, sizeof(out));
+  CHECK(n > 0 && strstr(out, "HTTP/1.1 200 OK\r\n") == out && strstr(out, "\r\nContent-Length: 2\r\n") &&
+            !strcmp(out + n - 6, "\r\n\r\n42"),
+        "200 with the distance: '%s'", out);
+  board.poll();
+  CHECK(hal.pins.left.in1 && hal.pins.left.duty == 500 && hal.pins.right.duty == 500 && hal.feeds == 1,
+        "drives forward at half duty");
+  const char* other[][2] = {{"POST / HTTP/1.1\r\n\r\n", "405"}, {"GET /x?forward=True HTTP/1.1\r\n\r\n", "404"},
+                            {"GE\x01 / HTTP/1.1\r\n\r\n", "400"}};
+  for (auto& o : other) {
+    r.reset();
+    read_all(r, o[0], strlen(o[0]));
+    n = board.respond(r, 42, out, sizeof(out));
+    CHECK(n > 0 && !strncmp(out + 9, o[1], 3), "'%s' -> %s: '%s'", o[0], o[1], out);
+  }
+  CHECK(board.respond(r, 42, out, 20) == 0, "a buffer below kMaxReplyBytes gets nothing");
+  // The failsafe fires in the loop while the next request is still arriving byte by byte.
+  r.reset();
+  const char slow[] = "GET /?forward=True HTTP/1.1\r\nHost: x\r\n\r\n";
+  hal.t = 0;
+  bool stopped_mid_request = false;
+  for (size_t i = 0; i < sizeof(slow) - 2; ++i) {  // all but the last line end: never complete
+    r.feed(static_cast<uint8_t>(slow[i]));
+    hal.t += 20000;  // one byte every 20 ms
+    board.poll();
+    if (hal.t > proto::kJuniorFailsafeTimeoutUs + 1000 && hal.pins.left.duty == 0 && !hal.pins.left.in1) {
+      stopped_mid_request = true;
+    }
+  }
+  CHECK(r.state() == HttpRead::Incomplete && stopped_mid_request, "motors stop while a request is in progress");
+}
+
 int main() {
   test_vectors();
   test_parser_random_bytes();
-  test_failsafe_wraps();
+  test_failsafe_across_the_raw_clock_wrap();
+  test_monotonic_clock_over_many_wraps();
   test_replies_small_buffers();
   test_l298n_random();
   test_board_loop();
   test_junior_control();
+  test_spsc_bytes_between_threads();
+  test_http_request_reader();
+  test_junior_board();
   printf("%d passed, %d failed\n", g_passed, g_failed);
   return g_failed ? 1 : 0;
 }

@@ -33,6 +33,7 @@ TIMING_BRAKE_STEP_US = 10000  # [us] Each step of the forward-to-reverse sequenc
 TIMING_BRAKE_TAP_US = 1450  # [us] The slight-reverse pulse that a forward/brake/reverse ESC takes as brake
 TIMING_SERVO_FRAME_US = 20000  # [us] Servo/ESC pulse period (50 Hz)
 TIMING_HOST_SEND_PERIOD_US = 20000  # [us] Default host resend period (50 Hz), well inside the failsafe timeout
+TIMING_LOOP_WATCHDOG_US = 250000  # [us] A board whose main loop stops for longer than this resets (hardware watchdog) and boots at neutral, latched; the ESP32 boards' task watchdog counts whole seconds and resets after 1 s
 
 # [rc]
 RC_PULSE_MIN_VALID_US = 900  # [us] Shorter receiver pulses are noise or receiver failsafe

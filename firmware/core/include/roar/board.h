@@ -1,6 +1,11 @@
 // The board side of a servo/ESC car, shared by every board: a small HAL that each board folder
-// implements (time, pulse outputs, a serial port), and CarBoard, the loop body that moves
-// bytes, time and pulses through the Car. Board glue stays a few dozen lines per board.
+// implements (time, pulse outputs, a serial port, the hardware watchdog), and CarBoard, the
+// loop body that moves bytes, time and pulses through the Car. Board glue stays a few dozen
+// lines per board.
+//
+// The hardware watchdog is fed from one place only: the end of CarBoard::poll. A board whose
+// loop hangs anywhere (in the core, in its BLE stack, in a driver) stops feeding it, resets
+// within timing.loop_watchdog_us, and boots with its outputs at neutral, latched.
 #pragma once
 #include <stddef.h>
 #include <stdint.h>
@@ -11,13 +16,14 @@ namespace roar {
 
 class Hal {
  public:
-  virtual Micros now_us() = 0;  // free-running microseconds (wraps)
+  virtual RawMicros now_us() = 0;  // the free-running 32-bit microsecond counter (wraps)
   // New pulse widths for the ESC and the steering servo, taken at the start of the next frame.
   virtual void write_pulses(uint16_t throttle_us, uint16_t steering_us) = 0;
   virtual uint32_t frames_started() = 0;  // output frames begun since boot (wraps)
   virtual int read_byte() = 0;            // next received serial byte, or -1 when none
   virtual size_t write_room() = 0;        // bytes the serial port takes now without blocking
   virtual void write(const char* text, size_t length) = 0;
+  virtual void feed_watchdog() = 0;       // the loop is alive: restart the hardware watchdog
 
  protected:
   ~Hal() = default;
@@ -36,15 +42,19 @@ class CarBoard {
   void feed(const uint8_t* data, size_t length);
 
   // One RC receiver pulse measured by the board's input capture.
-  void rc_pulse(RcChannel channel, uint16_t width_us) { car_.rc_pulse(channel, width_us, hal_.now_us()); }
+  void rc_pulse(RcChannel channel, uint16_t width_us) { car_.rc_pulse(channel, width_us, now()); }
 
-  // The loop body: serial bytes in, one Car step, pulses out, reply lines out when they fit.
+  // The loop body: serial bytes in, one Car step, pulses out, reply lines out when they fit,
+  // then the hardware watchdog fed.
   CarOutputs poll();
 
   const Car& car() const { return car_; }
 
  private:
+  Micros now() { return clock_.extend(hal_.now_us()); }
+
   Hal& hal_;
+  MonotonicClock clock_;
   Car car_;
 };
 

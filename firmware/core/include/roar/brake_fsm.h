@@ -16,7 +16,7 @@ namespace roar {
 struct BrakeConfig {
   uint16_t neutral_us = proto::kControlNeutralUs;  // [us]
   uint16_t tap_us = proto::kTimingBrakeTapUs;      // [us] slight reverse, below neutral
-  Micros step_us = proto::kTimingBrakeStepUs;      // [us] minimum duration of each step
+  DurationUs step_us = proto::kTimingBrakeStepUs;  // [us] minimum duration of each step
 };
 
 enum class BrakePhase : uint8_t {

@@ -1,6 +1,11 @@
-/* C ABI over the firmware core, for the host build (Python loads it with ctypes: the simulator
- * and the tests use it). Objects live in caller-provided memory of roar_*_size() bytes,
- * aligned to 8; nothing allocates. Times are the wrapping 32-bit microsecond clock. */
+/* C ABI over the firmware core, for the host build: the simulator and the tests load it from
+ * Python, whose binding (hil_sim/roar_sim/firmware_core.py) reads this very header with cffi, so
+ * the declarations below are the only place the ABI is written. Keep them plain C that cffi
+ * parses: no macros other than integer #defines, no includes or conditionals outside the guards.
+ *
+ * Objects live in caller-provided memory of roar_*_size() bytes, aligned to 8; nothing
+ * allocates. Times are Micros: microseconds on the core's 64-bit clock, which never wraps; the
+ * board loop (roar_board_*) instead reads a board's wrapping 32-bit counter, as on the cars. */
 #ifndef ROAR_C_API_H
 #define ROAR_C_API_H
 
@@ -11,7 +16,7 @@
 extern "C" {
 #endif
 
-#define ROAR_CORE_ABI_VERSION 1u
+#define ROAR_CORE_ABI_VERSION 2
 
 uint32_t roar_core_abi_version(void);
 uint32_t roar_protocol_version(void);
@@ -37,14 +42,14 @@ size_t roar_parser_feed_buffer(void* parser, const uint8_t* data, size_t n, roar
 size_t roar_watchdog_size(void);
 void roar_watchdog_init(void* wd, uint32_t timeout_us);
 /* Returns 1 when the command may drive the car; *event gets 0 none, 1 tripped, 2 armed. */
-int roar_watchdog_accept(void* wd, uint16_t throttle, uint16_t steering, uint32_t now_us, uint8_t* event);
-uint8_t roar_watchdog_poll(void* wd, uint32_t now_us);
+int roar_watchdog_accept(void* wd, uint16_t throttle, uint16_t steering, uint64_t now_us, uint8_t* event);
+uint8_t roar_watchdog_poll(void* wd, uint64_t now_us);
 int roar_watchdog_latched(const void* wd);
 
 /* --- brake/reverse FSM --------------------------------------------------------------------- */
 size_t roar_brake_size(void);
 void roar_brake_init(void* fsm, uint16_t neutral_us, uint16_t tap_us, uint32_t step_us);
-uint16_t roar_brake_step(void* fsm, uint16_t command_us, uint32_t now_us, uint32_t frames_started);
+uint16_t roar_brake_step(void* fsm, uint16_t command_us, uint64_t now_us, uint32_t frames_started);
 uint8_t roar_brake_phase(const void* fsm);
 
 /* --- output mapping ------------------------------------------------------------------------ */
@@ -54,11 +59,11 @@ int roar_calibration_valid(int16_t trim_us, uint16_t min_us, uint16_t max_us);
 /* --- RC override --------------------------------------------------------------------------- */
 size_t roar_rc_size(void);
 void roar_rc_init(void* rc);
-void roar_rc_pulse(void* rc, uint8_t channel, uint16_t width_us, uint32_t now_us); /* 0 throttle, 1 steering */
-int roar_rc_active(const void* rc, uint32_t now_us);
+void roar_rc_pulse(void* rc, uint8_t channel, uint16_t width_us, uint64_t now_us); /* 0 throttle, 1 steering */
+int roar_rc_active(const void* rc, uint64_t now_us);
 void roar_rc_command(const void* rc, uint16_t* throttle, uint16_t* steering);
 
-/* --- L298N ----------------------------------------------------------------------------------- */
+/* --- L298N and the Junior's HTTP control ------------------------------------------------------- */
 typedef struct {
   uint8_t in1, in2; /* direction pins */
   uint16_t duty;    /* [permille] */
@@ -67,8 +72,15 @@ typedef struct {
 void roar_mix_ackermann(uint16_t throttle_us, uint16_t steering_us, int16_t* left, int16_t* right);
 size_t roar_l298n_size(void);
 void roar_l298n_init(void* drv, uint32_t dead_time_us);
-void roar_l298n_step(void* drv, int16_t left, int16_t right, uint32_t now_us, roar_side_pins_t* left_out,
+void roar_l298n_step(void* drv, int16_t left, int16_t right, uint64_t now_us, roar_side_pins_t* left_out,
                      roar_side_pins_t* right_out);
+
+size_t roar_junior_size(void);
+void roar_junior_init(void* junior);
+/* Applies a query string (without '?'); returns applied << 8 | ignored. */
+uint16_t roar_junior_apply_query(void* junior, const char* query, size_t n, uint64_t now_us);
+/* Signed per-side duties [permille] to drive now; both 0 when stopped or timed out. */
+void roar_junior_duties(const void* junior, uint64_t now_us, int16_t* left, int16_t* right);
 
 /* --- the whole car --------------------------------------------------------------------------- */
 typedef struct {
@@ -96,16 +108,52 @@ typedef struct {
   uint8_t reserved;
 } roar_car_outputs_t;
 
-size_t roar_car_config_size(void);
 void roar_car_default_config(roar_car_config_t* config);
 size_t roar_car_size(void);
 /* Returns 0, or -1 when a channel calibration is invalid (the car is then not initialised). */
 int roar_car_init(void* car, const roar_car_config_t* config);
 void roar_car_boot(void* car);
-void roar_car_feed(void* car, const uint8_t* data, size_t n, uint32_t now_us);
-void roar_car_rc_pulse(void* car, uint8_t channel, uint16_t width_us, uint32_t now_us);
-void roar_car_step(void* car, uint32_t now_us, uint32_t frames_started, roar_car_outputs_t* out);
+void roar_car_feed(void* car, const uint8_t* data, size_t n, uint64_t now_us);
+void roar_car_rc_pulse(void* car, uint8_t channel, uint16_t width_us, uint64_t now_us);
+void roar_car_step(void* car, uint64_t now_us, uint32_t frames_started, roar_car_outputs_t* out);
 size_t roar_car_take_reply(void* car, char* buf, size_t cap);
+
+/* --- the board loop (CarBoard::poll) on a HAL of plain memory ----------------------------------
+ * What a board's peripherals would do, as fields the caller fills and reads between calls of
+ * roar_board_run: no callbacks. Each loop iteration of roar_board_run:
+ *   1. if now_us has reached next_frame_us, an output frame starts: frames_started counts it,
+ *      the pending pulses go on the wire, and the RC receiver's pulses (rc_us, 0 = none) arrive;
+ *   2. CarBoard::poll(): at most 64 bytes from rx, one Car step, pending pulses written, whole
+ *      reply lines appended to tx while they fit, the hardware watchdog fed;
+ *   3. now_us advances by loop_us (wrapping at 2^32, like micros()). */
+#define ROAR_HOST_RX_BYTES 256
+#define ROAR_HOST_TX_BYTES 256
+
+typedef struct {
+  uint32_t now_us;                  /* in: [us] the board's free-running 32-bit counter */
+  uint32_t loop_us;                 /* in: [us] step of now_us after each loop iteration */
+  uint32_t frame_us;                /* in: [us] output frame period (> 0) */
+  uint32_t next_frame_us;           /* in/out: [us] start of the next output frame on now_us */
+  uint32_t frames_started;          /* out: output frames begun */
+  uint32_t watchdog_feeds;          /* out: times the loop fed the hardware watchdog */
+  uint16_t pending_us[2];           /* out: [us] throttle, steering last written by the loop */
+  uint16_t wire_us[2];              /* out: [us] throttle, steering in the current frame */
+  uint16_t rc_us[2];                /* in: [us] RC receiver pulses at each frame start, 0 = none */
+  uint16_t rx_len;                  /* in: bytes waiting in rx */
+  uint16_t rx_pos;                  /* out: how many of them the loop has read */
+  uint16_t tx_len;                  /* out: reply bytes in tx (the caller empties it) */
+  uint16_t reserved;
+  roar_car_outputs_t outputs;       /* out: the car's outputs in the last loop iteration */
+  uint8_t rx[ROAR_HOST_RX_BYTES];   /* in: received serial bytes */
+  char tx[ROAR_HOST_TX_BYTES];      /* out: reply lines written by the loop */
+} roar_host_hal_t;
+
+size_t roar_board_size(void);
+/* The board keeps a pointer to hal. Returns 0, or -1 for an invalid calibration. */
+int roar_board_init(void* board, roar_host_hal_t* hal, const roar_car_config_t* config);
+void roar_board_begin(void* board);                                 /* queues the boot banner */
+void roar_board_feed(void* board, const uint8_t* data, size_t n);   /* bytes of a BLE write */
+void roar_board_run(void* board, uint32_t loops);
 
 #ifdef __cplusplus
 }

@@ -19,7 +19,7 @@
 namespace roar {
 
 struct CarConfig {
-  Micros failsafe_timeout_us = proto::kTimingFailsafeTimeoutUs;  // [us]
+  DurationUs failsafe_timeout_us = proto::kTimingFailsafeTimeoutUs;  // [us]
   BrakeConfig brake;
   ChannelCalibration throttle;
   ChannelCalibration steering;

@@ -18,7 +18,7 @@ enum class WatchdogEvent : uint8_t {
 
 class CommandWatchdog {
  public:
-  explicit CommandWatchdog(Micros timeout_us = proto::kTimingFailsafeTimeoutUs,
+  explicit CommandWatchdog(DurationUs timeout_us = proto::kTimingFailsafeTimeoutUs,
                            uint16_t arm_window_us = proto::kTimingArmWindowUs)
       : timeout_us_(timeout_us), arm_window_us_(arm_window_us) {}
 
@@ -30,12 +30,12 @@ class CommandWatchdog {
   WatchdogEvent poll(Micros now_us);
 
   bool latched() const { return latched_; }
-  Micros timeout_us() const { return timeout_us_; }
+  DurationUs timeout_us() const { return timeout_us_; }
 
  private:
   bool is_neutral(const ControlCommand& cmd) const;
 
-  Micros timeout_us_;
+  DurationUs timeout_us_;
   uint16_t arm_window_us_;
   bool latched_ = true;
   Micros last_valid_us_ = 0;

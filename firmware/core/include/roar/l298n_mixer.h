@@ -32,7 +32,7 @@ struct DrivePins {
 
 class L298nSide {
  public:
-  SidePins step(int16_t duty_permille, Micros now_us, Micros dead_time_us);
+  SidePins step(int16_t duty_permille, Micros now_us, DurationUs dead_time_us);
 
  private:
   int8_t applied_dir_ = 0;   // direction currently on the pins: -1, 0 (coast), +1
@@ -42,11 +42,11 @@ class L298nSide {
 
 class L298nDriver {
  public:
-  explicit L298nDriver(Micros dead_time_us = proto::kL298nDeadTimeUs) : dead_time_us_(dead_time_us) {}
+  explicit L298nDriver(DurationUs dead_time_us = proto::kL298nDeadTimeUs) : dead_time_us_(dead_time_us) {}
   DrivePins step(const SideDuties& duties, Micros now_us);
 
  private:
-  Micros dead_time_us_;
+  DurationUs dead_time_us_;
   L298nSide left_;
   L298nSide right_;
 };

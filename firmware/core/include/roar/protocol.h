@@ -36,6 +36,7 @@ static constexpr uint16_t kTimingBrakeStepUs = 10000u;  // [us] Each step of the
 static constexpr uint16_t kTimingBrakeTapUs = 1450u;  // [us] The slight-reverse pulse that a forward/brake/reverse ESC takes as brake
 static constexpr uint16_t kTimingServoFrameUs = 20000u;  // [us] Servo/ESC pulse period (50 Hz)
 static constexpr uint16_t kTimingHostSendPeriodUs = 20000u;  // [us] Default host resend period (50 Hz), well inside the failsafe timeout
+static constexpr uint32_t kTimingLoopWatchdogUs = 250000ul;  // [us] A board whose main loop stops for longer than this resets (hardware watchdog) and boots at neutral, latched; the ESP32 boards' task watchdog counts whole seconds and resets after 1 s
 
 // [rc]
 static constexpr uint16_t kRcPulseMinValidUs = 900u;  // [us] Shorter receiver pulses are noise or receiver failsafe

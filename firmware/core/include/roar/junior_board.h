@@ -1,0 +1,53 @@
+// The ROAR Junior's loop, the same on the robot and in the simulator: HTTP requests (read by
+// HttpRequestReader, one per connection, by the board's non-blocking server) go through
+// JuniorControl; every loop iteration turns its duties into L298N pins with the reversal dead
+// time, writes them, and feeds the hardware watchdog. The 500 ms failsafe lives in the loop, not
+// in the server, so it fires even while a request is still arriving.
+#pragma once
+#include <stddef.h>
+#include <stdint.h>
+
+#include "roar/clock.h"
+#include "roar/http_request.h"
+#include "roar/junior_control.h"
+#include "roar/l298n_mixer.h"
+
+namespace roar {
+
+class JuniorHal {
+ public:
+  virtual RawMicros now_us() = 0;                       // the free-running 32-bit counter (wraps)
+  virtual void write_motors(const DrivePins& pins) = 0;  // both sides' direction pins and duty
+  virtual void feed_watchdog() = 0;                     // the loop is alive
+
+ protected:
+  ~JuniorHal() = default;
+};
+
+class JuniorBoard {
+ public:
+  static const size_t kMaxReplyBytes = 160;  // [bytes] the longest response respond() writes
+
+  explicit JuniorBoard(JuniorHal& hal) : hal_(hal) {}
+
+  // The response to a finished read (any state but Incomplete), NUL-terminated in out; returns
+  // its length, or 0 when cap is below kMaxReplyBytes. A GET of the control route applies its
+  // query (parameters in order) and answers 200 with distance_cm as the body; other requests
+  // get 404, 405, 400 or 414 and change nothing.
+  size_t respond(const HttpRequestReader& request, uint32_t distance_cm, char* out, size_t cap);
+
+  // The loop body: failsafe, L298N pins with dead time, pins written, watchdog fed.
+  DrivePins poll();
+
+  const JuniorControl& control() const { return control_; }
+
+ private:
+  Micros now() { return clock_.extend(hal_.now_us()); }
+
+  JuniorHal& hal_;
+  MonotonicClock clock_;
+  JuniorControl control_;
+  L298nDriver driver_;
+};
+
+}  // namespace roar

@@ -1,0 +1,33 @@
+#include "roar/text.h"
+
+namespace roar {
+
+bool append(char* buf, size_t cap, size_t* len, const char* text) {
+  for (; *text; ++text) {
+    if (*len + 1 >= cap) return false;
+    buf[(*len)++] = *text;
+  }
+  if (*len < cap) buf[*len] = '\0';
+  return true;
+}
+
+bool append_uint(char* buf, size_t cap, size_t* len, uint32_t value) {
+  char digits[11];  // 4294967295 and the NUL
+  uint8_t n = sizeof(digits) - 1;
+  digits[n] = '\0';
+  do {
+    digits[--n] = static_cast<char>('0' + value % 10u);
+    value /= 10u;
+  } while (value);
+  return append(buf, cap, len, digits + n);
+}
+
+bool equals(const char* text, size_t length, const char* word) {
+  size_t i = 0;
+  for (; i < length; ++i) {
+    if (word[i] == '\0' || text[i] != word[i]) return false;
+  }
+  return word[i] == '\0';
+}
+
+}  // namespace roar
