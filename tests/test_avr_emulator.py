@@ -193,3 +193,41 @@ def test_a_flood_of_random_bytes_neither_hangs_nor_drives_the_car(nano):
     rearmed = nano.time_s
     stream(nano, 1600, 1500, 0.3)
     assert_holds(widths(nano, "D5", rearmed + 3 * FRAME_S), 1600)
+
+
+def test_a_hung_loop_resets_the_board_which_boots_at_neutral_and_latched():
+    """The hardware watchdog, proved on the real binary: a test build whose loop hangs for good
+    once the car outputs throttle 1777 us. While the loop hangs, the Timer1 interrupt keeps that
+    pulse on the ESC; the watchdog resets the chip within timing.loop_watchdog_us, and the board
+    prints its boot line again and sends neutral pulses, latched, while the host still asks
+    for 1777."""
+    from roar_sim import avr_build
+
+    hang = avr_build.HANG_THROTTLE_US
+    with avr_sim.AvrCar(avr_build.build(variant="hang")) as nano:
+        nano.run(0.05)
+        stream(nano, N, N, 0.1)
+        stream(nano, hang, N, 1.5)
+        hung = [r for r, w in nano.pulses("D5") if abs(w - hang) <= TOLERANCE_US]
+        assert hung, "the loop never output the hang throttle"
+        boots = [t for t, text in nano.lines() if text == "READY 1"]
+        assert len(boots) == 2, nano.lines()
+        watchdog_s = spec.TIMING_LOOP_WATCHDOG_US / 1e6
+        # The loop hung at most one frame before the first hang pulse went out.
+        assert hung[0] - FRAME_S < boots[1] < hung[0] + 1.1 * watchdog_s
+        assert hung[-1] < boots[1]  # the stale pulse ends with the reset
+        after = widths(nano, "D5", boots[1])
+        assert_holds(after, N)
+        assert len(after) > 40  # ~1 s of frames since the reset: the rebooted loop keeps running
+        assert "FAILSAFE" in [text for t, text in nano.lines() if t > boots[1]]  # booted latched
+
+
+def test_the_normal_build_does_not_reset_when_it_outputs_that_throttle(nano):
+    """The hang is the test build's alone: the real firmware drives 1777 us and keeps running."""
+    from roar_sim import avr_build
+
+    stream(nano, N, N, 0.1)
+    start = nano.time_s
+    stream(nano, avr_build.HANG_THROTTLE_US, N, 0.6)
+    assert [text for _, text in nano.lines()].count("READY 1") == 1
+    assert_holds(widths(nano, "D5", start + 3 * FRAME_S), avr_build.HANG_THROTTLE_US)

@@ -6,7 +6,7 @@
 #include <Arduino.h>
 
 #include "ble_link.h"
-#include "outputs.h"
+#include "chip.h"
 #include "roar/board.h"
 #include "roar/protocol.h"
 
@@ -14,7 +14,7 @@ namespace {
 
 class ArduinoHal : public roar::Hal {
  public:
-  roar::Micros now_us() override { return micros(); }
+  roar::RawMicros now_us() override { return micros(); }
   void write_pulses(uint16_t throttle_us, uint16_t steering_us) override { outputs::write(throttle_us, steering_us); }
   uint32_t frames_started() override { return outputs::frames_started(); }
   int read_byte() override { return Serial.read(); }
@@ -28,6 +28,7 @@ class ArduinoHal : public roar::Hal {
 #endif
   }
   void write(const char* text, size_t length) override { Serial.write(text, length); }
+  void feed_watchdog() override { watchdog::feed(); }
 };
 
 ArduinoHal hal;
@@ -40,6 +41,7 @@ void setup() {
   Serial.begin(roar::proto::kSerialBaud);
   ble_link::begin();
   board.begin();
+  watchdog::start();
 }
 
 void loop() {
@@ -48,5 +50,14 @@ void loop() {
     if (width) board.rc_pulse(static_cast<roar::RcChannel>(ch), width);
   }
   ble_link::poll(board);
-  ble_link::publish(board.poll());
+  const roar::CarOutputs out = board.poll();
+  ble_link::publish(out);
+#ifdef ROAR_TEST_HANG_ON_THROTTLE_US
+  // Test builds only (the suite's emulator proves the watchdog): hang the loop for good once
+  // the car outputs this throttle, as a firmware bug would.
+  if (out.throttle_us == ROAR_TEST_HANG_ON_THROTTLE_US) {
+    for (;;) {
+    }
+  }
+#endif
 }

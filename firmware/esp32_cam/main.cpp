@@ -1,6 +1,13 @@
 // The car firmware for the ESP32-CAM: BLE (the ESP32 Arduino core's BLE library) and USB serial
 // into roar::CarBoard; 50 Hz servo pulses from the LEDC peripheral on GPIO14 (ESC) and GPIO2
-// (steering). Built with PlatformIO (env esp32cam; arduino-esp32 2.x LEDC API).
+// (steering). Built with PlatformIO (env esp32cam; arduino-esp32 2.x, ESP-IDF 4.4).
+//
+//   - Frames are counted by LEDC's own overflow interrupt: a new duty takes effect when the
+//     timer overflows, so each interrupt is a frame that really started (the brake sequence
+//     relies on it).
+//   - BLE writes arrive on the Bluetooth task and reach the loop through roar::SpscBytes
+//     (acquire/release ordering, whole writes only).
+//   - The task watchdog resets the chip when the loop stops feeding it.
 //
 // The ROAR GATT layout (PROTOCOL.md section 4): control (write, write without response),
 // velocity (read, 0: no speedometer here), pid (write, 3 x float32, kept), state (read: speed 0,
@@ -9,18 +16,40 @@
 #include <Arduino.h>
 #include <BLEDevice.h>
 #include <BLEServer.h>
+#include <driver/ledc.h>
 #include <esp_gap_ble_api.h>
+#include <esp_task_wdt.h>
+#include <soc/ledc_struct.h>
 #include <string.h>
+
+#include <atomic>
 
 #include "pins.h"
 #include "roar/board.h"
 #include "roar/protocol.h"
+#include "roar/spsc_bytes.h"
 
 namespace {
 
 constexpr uint32_t kFrameHz = 1000000ul / roar::proto::kTimingServoFrameUs;  // [Hz] 50
 constexpr uint8_t kLedcBits = 16;
 constexpr uint32_t kLedcFullScale = (1ul << kLedcBits) - 1;
+// arduino-esp32 maps LEDC channel c to speed group c / 8 and timer (c / 2) % 4: channels 2 and 3
+// are high-speed timer 1, whose overflow interrupt is hstimer1_ovf below.
+static_assert(pins::kThrottleChannel / 8 == 0 && (pins::kThrottleChannel / 2) % 4 == 1 &&
+                  pins::kSteeringChannel / 8 == 0 && (pins::kSteeringChannel / 2) % 4 == 1,
+              "both outputs on LEDC high-speed timer 1");
+// The task watchdog counts whole seconds here: round the spec's loop watchdog up.
+constexpr uint32_t kWatchdogS = (roar::proto::kTimingLoopWatchdogUs + 999999ul) / 1000000ul;  // [s]
+
+std::atomic<uint32_t> frames{0};  // written by the LEDC interrupt only
+
+void IRAM_ATTR on_ledc_interrupt(void*) {
+  if (LEDC.int_st.hstimer1_ovf) {
+    LEDC.int_clr.hstimer1_ovf = 1;
+    frames.store(frames.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+  }
+}
 
 uint32_t duty_for(uint16_t pulse_us) {  // [LEDC counts] for a pulse in a 20 ms frame
   return static_cast<uint32_t>(pulse_us) * kLedcFullScale / roar::proto::kTimingServoFrameUs;
@@ -34,41 +63,34 @@ class Esp32Hal : public roar::Hal {
     ledcAttachPin(pins::kThrottleOut, pins::kThrottleChannel);
     ledcAttachPin(pins::kSteeringOut, pins::kSteeringChannel);
     write_pulses(roar::proto::kControlNeutralUs, roar::proto::kControlNeutralUs);
-    started_us_ = micros();
+    ledc_isr_register(on_ledc_interrupt, nullptr, ESP_INTR_FLAG_IRAM, nullptr);
+    LEDC.int_clr.hstimer1_ovf = 1;
+    LEDC.int_ena.hstimer1_ovf = 1;
   }
-  roar::Micros now_us() override { return micros(); }
+  roar::RawMicros now_us() override { return micros(); }
   // LEDC takes a new duty at the end of the current period, i.e. at the next frame start.
   void write_pulses(uint16_t throttle_us, uint16_t steering_us) override {
     ledcWrite(pins::kThrottleChannel, duty_for(throttle_us));
     ledcWrite(pins::kSteeringChannel, duty_for(steering_us));
   }
-  uint32_t frames_started() override { return (micros() - started_us_) / roar::proto::kTimingServoFrameUs + 1; }
+  uint32_t frames_started() override { return frames.load(std::memory_order_relaxed); }
   int read_byte() override { return Serial.read(); }
   size_t write_room() override { return static_cast<size_t>(Serial.availableForWrite()); }
   void write(const char* text, size_t length) override { Serial.write(text, length); }
-
- private:
-  uint32_t started_us_ = 0;
+  void feed_watchdog() override { esp_task_wdt_reset(); }
 };
 
 Esp32Hal hal;
 roar::CarBoard board(hal);
 
-// BLE writes arrive on the BLE task: hand them to the loop through a small lock-free ring.
-constexpr size_t kRing = 256;
-uint8_t ring[kRing];
-volatile size_t ring_head = 0, ring_tail = 0;
-volatile bool connected = false;
+// BLE writes arrive on the Bluetooth task; the loop takes them from here.
+roar::SpscBytes<256> ble_bytes;
+std::atomic<bool> connected{false};
 
 class ControlWrites : public BLECharacteristicCallbacks {
   void onWrite(BLECharacteristic* c) override {
     const std::string value = c->getValue();
-    for (char ch : value) {
-      const size_t next = (ring_head + 1) % kRing;
-      if (next == ring_tail) return;  // full: drop the rest, the parser rejects the fragment
-      ring[ring_head] = static_cast<uint8_t>(ch);
-      ring_head = next;
-    }
+    ble_bytes.push(reinterpret_cast<const uint8_t*>(value.data()), value.size());  // whole, or dropped
   }
 };
 
@@ -132,15 +154,13 @@ void setup() {
   Serial.begin(roar::proto::kSerialBaud);
   ble_begin();
   board.begin();
+  esp_task_wdt_init(kWatchdogS, true);  // panic -> reset
+  esp_task_wdt_add(nullptr);            // this task, the loop
 }
 
 void loop() {
-  uint8_t chunk[32];
-  size_t n = 0;
-  while (ring_tail != ring_head && n < sizeof(chunk)) {
-    chunk[n++] = ring[ring_tail];
-    ring_tail = (ring_tail + 1) % kRing;
-  }
+  uint8_t chunk[roar::CarBoard::kMaxBytesPerPoll];  // a bounded share per loop, as for serial
+  const size_t n = ble_bytes.pop(chunk, sizeof(chunk));
   if (n) board.feed(chunk, n);
   const roar::CarOutputs out = board.poll();
   if (state_characteristic && millis() - last_state_ms >= kStatePeriodMs) {

@@ -1,15 +1,24 @@
 // ROAR Junior firmware: HTTP control on port 81 exactly as the original robot takes it
 // (GET /?forward=True&left_spd=0.5&right_spd=0.5, parameters applied in order, the reply body
-// is the ultrasonic distance in cm), driving an L298N through roar::JuniorControl and
-// roar::L298nDriver, plus the failsafe the original lacked: no request for 500 ms stops the
-// motors. Wi-Fi credentials come from build flags (platformio.ini, env esp32_junior).
+// is the ultrasonic distance in cm), driving an L298N through roar::JuniorBoard, plus the
+// failsafe the original lacked: no request for 500 ms stops the motors. Wi-Fi credentials come
+// from build flags (platformio.ini, env esp32_junior).
+//
+// The loop never blocks: a non-blocking lwIP socket server reads each connection's bytes into
+// its own fixed roar::HttpRequestReader (no String, no heap per request), answers complete
+// requests at once and closes them; roar::JuniorBoard::poll() runs every iteration, so the
+// failsafe fires even while a request is still arriving. The task watchdog resets the chip
+// when the loop stops feeding it.
 #include <Arduino.h>
-#include <WebServer.h>
 #include <WiFi.h>
+#include <errno.h>
+#include <esp_task_wdt.h>
+#include <fcntl.h>
+#include <lwip/sockets.h>
+#include <unistd.h>
 
 #include "pins.h"
-#include "roar/junior_control.h"
-#include "roar/l298n_mixer.h"
+#include "roar/junior_board.h"
 #include "roar/protocol.h"
 
 #ifndef ROAR_WIFI_SSID
@@ -23,11 +32,10 @@ namespace {
 
 constexpr uint8_t kPwmBits = 10;
 constexpr uint32_t kPwmFullScale = (1ul << kPwmBits) - 1;
-constexpr uint32_t kPingPeriodUs = 60000;  // [us] between ultrasonic pings (echoes die out)
-
-WebServer server(roar::proto::kJuniorControlPort);
-roar::JuniorControl control;
-roar::L298nDriver driver;
+constexpr uint32_t kPingPeriodUs = 60000;     // [us] between ultrasonic pings (echoes die out)
+constexpr uint32_t kClientTimeoutMs = 2000;   // [ms] a connection that sends no whole request is closed
+constexpr int kMaxClients = 2;                // connections served at once
+constexpr uint32_t kWatchdogS = (roar::proto::kTimingLoopWatchdogUs + 999999ul) / 1000000ul;  // [s]
 
 volatile uint32_t echo_rise_us = 0, echo_width_us = 0;
 uint32_t last_ping_us = 0;
@@ -56,17 +64,72 @@ void apply(const roar::SidePins& side, uint8_t in1, uint8_t in2, uint8_t channel
   ledcWrite(channel, side.duty * kPwmFullScale / roar::proto::kL298nDutyFullScale);
 }
 
-void handle_control() {
-  // WebServer keeps the query parameters in request order: rebuild "a=b&c=d" for the core.
-  char query[256];
-  size_t n = 0;
-  for (int i = 0; i < server.args() && n < sizeof(query) - 1; ++i) {
-    const String item = (i ? "&" : "") + server.argName(i) + "=" + server.arg(i);
-    for (size_t k = 0; k < item.length() && n < sizeof(query) - 1; ++k) query[n++] = item[k];
+class JuniorPins : public roar::JuniorHal {
+ public:
+  roar::RawMicros now_us() override { return micros(); }
+  void write_motors(const roar::DrivePins& pins) override {
+    apply(pins.left, pins::kLeftIn1, pins::kLeftIn2, pins::kLeftChannel);
+    apply(pins.right, pins::kRightIn1, pins::kRightIn2, pins::kRightChannel);
   }
-  query[n] = '\0';
-  control.apply_query(query, n, micros());
-  server.send(200, "text/plain", String(roar::echo_us_to_cm(echo_width_us)));
+  void feed_watchdog() override { esp_task_wdt_reset(); }
+};
+
+JuniorPins hal;
+roar::JuniorBoard board(hal);
+
+struct Client {
+  int fd = -1;
+  uint32_t opened_ms = 0;
+  roar::HttpRequestReader request;
+};
+int listener = -1;
+Client clients[kMaxClients];
+
+void server_begin() {
+  listener = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr = {};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(roar::proto::kJuniorControlPort);
+  addr.sin_addr.s_addr = htonl(INADDR_ANY);
+  bind(listener, reinterpret_cast<sockaddr*>(&addr), sizeof(addr));
+  listen(listener, kMaxClients);
+  fcntl(listener, F_SETFL, O_NONBLOCK);
+}
+
+void finish(Client& c) {
+  close(c.fd);
+  c.fd = -1;
+}
+
+void serve(Client& c) {  // read what has arrived; answer once the request is decided
+  uint8_t bytes[64];
+  const int n = recv(c.fd, bytes, sizeof(bytes), 0);
+  if (n == 0 || (n < 0 && errno != EWOULDBLOCK && errno != EAGAIN)) return finish(c);  // peer gone
+  roar::HttpRead state = c.request.state();
+  for (int i = 0; i < n && state == roar::HttpRead::Incomplete; ++i) state = c.request.feed(bytes[i]);
+  if (state == roar::HttpRead::Incomplete) {
+    if (millis() - c.opened_ms > kClientTimeoutMs) finish(c);
+    return;
+  }
+  char reply[roar::JuniorBoard::kMaxReplyBytes];
+  const size_t len = board.respond(c.request, roar::echo_us_to_cm(echo_width_us), reply, sizeof(reply));
+  send(c.fd, reply, len, 0);  // a short reply fits the socket's buffer; never waited for
+  finish(c);
+}
+
+void server_poll() {
+  for (Client& c : clients) {
+    if (c.fd >= 0) continue;
+    const int fd = accept(listener, nullptr, nullptr);
+    if (fd < 0) break;  // none waiting
+    fcntl(fd, F_SETFL, O_NONBLOCK);
+    c.fd = fd;
+    c.opened_ms = millis();
+    c.request.reset();
+  }
+  for (Client& c : clients) {
+    if (c.fd >= 0) serve(c);
+  }
 }
 
 }  // namespace
@@ -87,15 +150,13 @@ void setup() {
   WiFi.begin(ROAR_WIFI_SSID, ROAR_WIFI_PASSWORD);
   for (int i = 0; i < 100 && WiFi.status() != WL_CONNECTED; ++i) delay(100);
   if (WiFi.status() != WL_CONNECTED) WiFi.softAP(ROAR_WIFI_SSID, ROAR_WIFI_PASSWORD);
-  server.on(roar::proto::kJuniorControlRoute, HTTP_GET, handle_control);
-  server.begin();
+  server_begin();
+  esp_task_wdt_init(kWatchdogS, true);  // panic -> reset
+  esp_task_wdt_add(nullptr);            // this task, the loop
 }
 
 void loop() {
-  server.handleClient();
+  server_poll();
   ping_if_due();
-  const uint32_t now = micros();
-  const roar::DrivePins out = driver.step(control.duties(now), now);
-  apply(out.left, pins::kLeftIn1, pins::kLeftIn2, pins::kLeftChannel);
-  apply(out.right, pins::kRightIn1, pins::kRightIn2, pins::kRightChannel);
+  board.poll();
 }

@@ -1,11 +1,13 @@
 // AnyFC F7 (STM32F745) car skeleton: the same roar::CarBoard as every other board, behind a
-// register-level HAL: 50 Hz pulses from TIM2/TIM5 PWM at 1 us per tick, USART1 at 115200 baud,
-// time from the DWT cycle counter. It runs from the 16 MHz internal oscillator the chip starts
-// on. The FreeRTOS controller (tasks, RC capture, USB serial) is a later issue; its task bodies
-// will be this loop's pieces.
+// register-level HAL: 50 Hz pulses from TIM5 PWM at 1 us per tick (S1_OUT on channel 4, S2_OUT on
+// channel 2), frames counted from TIM5's update events, USART1 at 115200 baud, time from
+// clock_source (the DWT cycle counter, or TIM2), and the independent watchdog. It runs from the
+// 16 MHz internal oscillator the chip starts on. The FreeRTOS controller (tasks, RC capture, USB
+// serial) is a later issue; its task bodies will be this loop's pieces.
 #include <stddef.h>
 #include <stdint.h>
 
+#include "clock_source.h"
 #include "pins.h"
 #include "registers.h"
 #include "roar/board.h"
@@ -15,13 +17,16 @@ namespace {
 
 constexpr uint32_t kCoreHz = 16000000;  // [Hz] HSI after reset
 constexpr uint32_t kCyclesPerUs = kCoreHz / 1000000;
+constexpr uint32_t kLsiHz = 32000;        // [Hz] the watchdog's oscillator (nominal)
+constexpr uint32_t kIwdgPrescaler = 32;   // PR = 3: LSI / 32 -> 1 kHz
+constexpr uint32_t kIwdgReload = static_cast<uint32_t>(
+    static_cast<uint64_t>(roar::proto::kTimingLoopWatchdogUs) * (kLsiHz / kIwdgPrescaler) / 1000000);  // [ticks]
+static_assert(kIwdgReload > 0 && kIwdgReload <= 0xFFF, "IWDG reload is 12 bits");
 
 void enable_clocks() {
   reg::at(reg::kRcc + reg::kAhb1Enr) |= (1u << 0) | (1u << 1);  // GPIOA, GPIOB
-  reg::at(reg::kRcc + reg::kApb1Enr) |= (1u << 0) | (1u << 3);  // TIM2, TIM5
+  reg::at(reg::kRcc + reg::kApb1Enr) |= reg::kApb1Tim5;
   reg::at(reg::kRcc + reg::kApb2Enr) |= (1u << 4);              // USART1
-  reg::at(reg::kDemcr) |= 1u << 24;                             // trace on: DWT cycle counter
-  reg::at(reg::kDwt) |= 1u;
 }
 
 void configure(const pins::Pin& pin, uint32_t mode) {  // mode: 0 input, 1 output, 2 alternate
@@ -34,45 +39,54 @@ void configure(const pins::Pin& pin, uint32_t mode) {  // mode: 0 input, 1 outpu
   }
 }
 
-void start_pwm(uint32_t timer, uint32_t ccmr, uint32_t ccmr_shift, uint32_t ccer_bit) {
-  reg::at(timer + reg::kPsc) = kCyclesPerUs - 1;                     // 1 us per tick
-  reg::at(timer + reg::kArr) = roar::proto::kTimingServoFrameUs - 1;  // 20 ms frame
-  reg::at(timer + ccmr) |= (6u << (ccmr_shift + 4)) | (1u << (ccmr_shift + 3));  // PWM mode 1, preload
-  reg::at(timer + reg::kCcer) |= 1u << ccer_bit;
-  reg::at(timer + reg::kEgr) = 1;   // load the registers
-  reg::at(timer + reg::kCr1) = (1u << 7) | 1u;  // auto-reload preload, counter on
+void start_frames() {  // TIM5: 1 us per tick, 20 ms frames, PWM mode 1 with preload on CH2 and CH4
+  reg::at(reg::kTim5 + reg::kPsc) = kCyclesPerUs - 1;
+  reg::at(reg::kTim5 + reg::kArr) = roar::proto::kTimingServoFrameUs - 1;
+  reg::at(reg::kTim5 + reg::kCcmr1) |= (6u << 12) | (1u << 11);  // CH2
+  reg::at(reg::kTim5 + reg::kCcmr2) |= (6u << 12) | (1u << 11);  // CH4
+  reg::at(reg::kTim5 + reg::kCcer) |= (1u << 4) | (1u << 12);   // CH2, CH4 outputs on
+  reg::at(reg::kTim5 + reg::kEgr) = 1;                          // load the registers
+  reg::at(reg::kTim5 + reg::kSr) = 0;
+  reg::at(reg::kTim5 + reg::kCr1) = (1u << 7) | 1u;             // auto-reload preload, counter on
+}
+
+void start_watchdog() {
+  reg::at(reg::kIwdg + reg::kIwdgKr) = reg::kIwdgStart;  // also starts the LSI
+  reg::at(reg::kIwdg + reg::kIwdgKr) = reg::kIwdgUnlock;
+  reg::at(reg::kIwdg + reg::kIwdgPr) = 3;
+  reg::at(reg::kIwdg + reg::kIwdgRlr) = kIwdgReload;
+  reg::at(reg::kIwdg + reg::kIwdgKr) = reg::kIwdgFeed;
 }
 
 class Stm32Hal : public roar::Hal {
  public:
   void begin() {
     enable_clocks();
+    clock_source::begin(kCoreHz);
     configure(pins::kThrottleOut, 2);
     configure(pins::kSteeringOut, 2);
     configure(pins::kSerialTx, 2);
     configure(pins::kSerialRx, 2);
     configure(pins::kStatusLed, 1);
-    start_pwm(reg::kTim2, reg::kCcmr2, 8, 12);  // CH4
-    start_pwm(reg::kTim5, reg::kCcmr1, 8, 4);   // CH2
     write_pulses(roar::proto::kControlNeutralUs, roar::proto::kControlNeutralUs);
+    start_frames();
     reg::at(reg::kUsart1 + reg::kUsartBrr) = (kCoreHz + roar::proto::kSerialBaud / 2) / roar::proto::kSerialBaud;
     reg::at(reg::kUsart1 + reg::kUsartCr1) = (1u << 3) | (1u << 2) | 1u;  // TX, RX, enable
+    start_watchdog();
   }
 
-  roar::Micros now_us() override {  // extend the 32-bit cycle counter, then whole microseconds
-    const uint32_t c = reg::at(reg::kDwt + 4);
-    cycles_ += static_cast<uint32_t>(c - last_cycles_);
-    last_cycles_ = c;
-    return static_cast<roar::Micros>(cycles_ / kCyclesPerUs);
-  }
+  roar::RawMicros now_us() override { return clock_source::now_us(); }
   // Preloaded compare registers: the new width starts with the next frame.
   void write_pulses(uint16_t throttle_us, uint16_t steering_us) override {
-    reg::at(reg::kTim2 + reg::kCcr4) = throttle_us;
+    reg::at(reg::kTim5 + reg::kCcr4) = throttle_us;
     reg::at(reg::kTim5 + reg::kCcr2) = steering_us;
   }
-  uint32_t frames_started() override {  // count update events (frame starts) as they happen
-    if (reg::at(reg::kTim2 + reg::kSr) & 1u) {
-      reg::at(reg::kTim2 + reg::kSr) = ~1u;
+  // A set update flag means at least one frame started since the last call: the count may run
+  // behind after a stall, but it advances only when a frame really started, which is what the
+  // brake sequence needs.
+  uint32_t frames_started() override {
+    if (reg::at(reg::kTim5 + reg::kSr) & 1u) {
+      reg::at(reg::kTim5 + reg::kSr) = ~1u;
       ++frames_;
     }
     return frames_;
@@ -87,6 +101,7 @@ class Stm32Hal : public roar::Hal {
       tx_[(tx_head_ + tx_count_++) % sizeof(tx_)] = text[i];
     }
   }
+  void feed_watchdog() override { reg::at(reg::kIwdg + reg::kIwdgKr) = reg::kIwdgFeed; }
   void drain_serial() {  // one byte per call when the transmitter is free
     if (tx_count_ && (reg::at(reg::kUsart1 + reg::kUsartIsr) & reg::kIsrTxe)) {
       reg::at(reg::kUsart1 + reg::kUsartTdr) = static_cast<uint8_t>(tx_[tx_head_]);
@@ -96,9 +111,7 @@ class Stm32Hal : public roar::Hal {
   }
 
  private:
-  uint64_t cycles_ = 0;
-  uint32_t last_cycles_ = 0;
-  uint32_t frames_ = 1;
+  uint32_t frames_ = 0;
   char tx_[128];
   size_t tx_head_ = 0, tx_count_ = 0;
 };

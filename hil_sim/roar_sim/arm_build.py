@@ -1,6 +1,10 @@
-"""Offline build of the AnyFC F7 (STM32F745) skeleton with Debian's arm-none-eabi-gcc:
-firmware/stm32_freertos + firmware/core -> build/arm/anyfc_f7/roar_anyfc_f7.elf, linked with our
-own startup code and linker script, so the board glue is proven to compile and link here.
+"""Offline builds with Debian's arm-none-eabi-gcc:
+
+* the AnyFC F7 (STM32F745) skeleton: firmware/stm32_freertos + firmware/core ->
+  build/arm/anyfc_f7/roar_anyfc_f7.elf, linked with our own startup code and linker script, so
+  the board glue is proven to compile and link here;
+* test images for QEMU's netduinoplus2 (STM32F405, Cortex-M4) that run pieces of that glue:
+  hil_sim/stm32/clock_probe.cpp (the board's clock source; see roar_sim.stm32_sim).
 
     python -m roar_sim.arm_build      prints the ELF path and its flash/RAM use
 """
@@ -18,18 +22,30 @@ from roar_sim.core_build import (CORE, CROSS_TARGETS, EMBEDDED_FLAGS, HOST_ONLY_
 BOARD = ROOT / "firmware" / "stm32_freertos"
 ELF = ROOT / "build" / "arm" / "anyfc_f7" / "roar_anyfc_f7.elf"
 FLASH_BYTES, RAM_BYTES = 1024 * 1024, 320 * 1024  # STM32F745VG
+EMULATOR = ROOT / "hil_sim" / "stm32"
+CLOCK_PROBE = ROOT / "build" / "arm" / "netduinoplus2" / "clock_probe.elf"
+
+
+def _link(target: str, sources: list[Path], linker_script: Path, elf: Path, what: str) -> Path:
+    cxx, flags, packages = CROSS_TARGETS[target]
+    if not shutil.which(cxx):
+        raise CoreBuildError(f"{cxx} not found: apt-get install {packages}")
+    core = [p for p in core_sources() if p.name not in HOST_ONLY_SOURCES]
+    elf.parent.mkdir(parents=True, exist_ok=True)
+    run_build([cxx, *flags, *EMBEDDED_FLAGS, "-fno-threadsafe-statics", "-nostartfiles", "-nostdlib",
+               "-Wl,--gc-sections", "-T", str(linker_script), "-I", str(CORE / "include"), "-I", str(BOARD),
+               *map(str, sources + core), "-o", str(elf), "-lc", "-lgcc"], f"{what} build failed")
+    return elf
 
 
 def build() -> Path:
-    cxx, flags, packages = CROSS_TARGETS["cortex-m7"]
-    if not shutil.which(cxx):
-        raise CoreBuildError(f"{cxx} not found: apt-get install {packages}")
-    sources = sorted(BOARD.glob("*.cpp")) + [p for p in core_sources() if p.name not in HOST_ONLY_SOURCES]
-    ELF.parent.mkdir(parents=True, exist_ok=True)
-    run_build([cxx, *flags, *EMBEDDED_FLAGS, "-fno-threadsafe-statics", "-nostartfiles", "-nostdlib",
-               "-Wl,--gc-sections", "-T", str(BOARD / "stm32f745.ld"), "-I", str(CORE / "include"),
-               *map(str, sources), "-o", str(ELF), "-lc", "-lgcc"], "AnyFC F7 build failed")
-    return ELF
+    return _link("cortex-m7", sorted(BOARD.glob("*.cpp")), BOARD / "stm32f745.ld", ELF, "AnyFC F7")
+
+
+def build_clock_probe() -> Path:
+    """The board's clock_source.cpp (and startup.cpp) in a test image for the emulated STM32F405."""
+    sources = [EMULATOR / "clock_probe.cpp", BOARD / "clock_source.cpp", BOARD / "startup.cpp"]
+    return _link("cortex-m4f", sources, EMULATOR / "stm32f405.ld", CLOCK_PROBE, "STM32F405 clock probe")
 
 
 def main() -> int:

@@ -24,6 +24,10 @@ NANO_VARIANT = ARDUINO_AVR / "variants" / "eightanaloginputs"
 BOARD_SOURCES = ROOT / "firmware" / "arduino_ble"
 OUT = ROOT / "build" / "avr" / "nano"
 ELF = OUT / "roar_nano.elf"
+# Test builds of the same firmware. "hang": the loop hangs for good once the car outputs
+# throttle 1777 us, as a firmware bug would; the suite proves the hardware watchdog with it.
+HANG_THROTTLE_US = 1777  # [us]
+TEST_VARIANTS = {"hang": [f"-DROAR_TEST_HANG_ON_THROTTLE_US={HANG_THROTTLE_US}"]}
 PACKAGES = "gcc-avr avr-libc binutils-avr arduino-core-avr"
 MCU, F_CPU = "atmega328p", 16_000_000  # [Hz]
 FLASH_BYTES, RAM_BYTES = 30_720, 2_048  # ATmega328P with the Nano's 2 KB bootloader
@@ -83,30 +87,33 @@ def our_sources() -> list[Path]:
     return core + sorted(BOARD_SOURCES.glob("*.cpp"))
 
 
-def build(force: bool = False) -> Path:
-    """Build (if stale) the Nano ELF and return its path."""
+def build(force: bool = False, variant: str | None = None) -> Path:
+    """Build (if stale) the Nano ELF, or one of its TEST_VARIANTS, and return its path."""
     missing = available()
     if missing:
         raise CoreBuildError(missing)
+    out = OUT if variant is None else OUT.with_name(f"nano-{variant}")
+    elf = out / ELF.name
+    defines = DEFINES + TEST_VARIANTS.get(variant, [])
     inputs = our_sources() + sorted(BOARD_SOURCES.glob("*.h")) + sorted((CORE / "include").rglob("*.h"))
-    if not force and ELF.exists() and ELF.stat().st_mtime >= max(p.stat().st_mtime for p in inputs):
-        return ELF
+    if not force and elf.exists() and elf.stat().st_mtime >= max(p.stat().st_mtime for p in inputs):
+        return elf
     core_lib = _arduino_core()
-    obj_dir = OUT / "obj"
+    obj_dir = out / "obj"
     obj_dir.mkdir(parents=True, exist_ok=True)
     inc = ["-I", str(CORE / "include"), "-I", str(BOARD_SOURCES), "-I", str(ARDUINO_CORE), "-I", str(NANO_VARIANT)]
     objects = []
     for src in our_sources():
         obj = obj_dir / (src.parent.name + "_" + src.stem + ".o")
-        _run(["avr-g++", "-c", *OUR_CXX_FLAGS, *DEFINES, *inc, str(src), "-o", str(obj)], src.name)
+        _run(["avr-g++", "-c", *OUR_CXX_FLAGS, *defines, *inc, str(src), "-o", str(obj)], src.name)
         objects.append(str(obj))
-    fd, tmp = tempfile.mkstemp(suffix=".elf", dir=OUT)
+    fd, tmp = tempfile.mkstemp(suffix=".elf", dir=out)
     os.close(fd)
     _run(["avr-gcc", "-Os", "-g", "-flto", "-fuse-linker-plugin", "-Wl,--gc-sections", f"-mmcu={MCU}", "-o", tmp,
           *objects, str(core_lib), "-lm"], "link")
-    os.replace(tmp, ELF)
-    _run(["avr-objcopy", "-O", "ihex", "-R", ".eeprom", str(ELF), str(ELF.with_suffix(".hex"))], "hex")
-    return ELF
+    os.replace(tmp, elf)
+    _run(["avr-objcopy", "-O", "ihex", "-R", ".eeprom", str(elf), str(elf.with_suffix(".hex"))], "hex")
+    return elf
 
 
 BENCH_SOURCE = ROOT / "hil_sim" / "avr" / "parser_bench.cpp"

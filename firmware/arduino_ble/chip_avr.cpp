@@ -1,13 +1,15 @@
 // ATmega328P (classic Nano): servo frames from Timer1 in CTC mode at 0.5 us per tick. Each frame
-// raises D5 for the throttle width, then D6 for the steering width, then idles to 20 ms. D5 and
-// D6 are Timer0 pins, so the edges come from this ISR (other interrupts can delay an edge by a
-// few microseconds, as on any Arduino servo output). RC pulses on D3/D4 are timed with micros()
-// from the pin-change interrupt of port D.
+// raises D5 for the throttle width, then D6 for the steering width, then idles to 20 ms; the
+// ISR counts each frame as it starts. D5 and D6 are Timer0 pins, so the edges come from this
+// ISR (other interrupts can delay an edge by a few microseconds, as on any Arduino servo
+// output). RC pulses on D3/D4 are timed with micros() from the pin-change interrupt of port D.
+// The chip's watchdog (WDT) resets it when the loop stops feeding it.
 #if defined(ARDUINO_ARCH_AVR)
 #include <Arduino.h>
+#include <avr/wdt.h>
 #include <util/atomic.h>
 
-#include "outputs.h"
+#include "chip.h"
 #include "pins.h"
 #include "roar/protocol.h"
 
@@ -111,4 +113,18 @@ uint16_t take_rc_pulse(uint8_t channel) {
 }
 
 }  // namespace outputs
+// After a watchdog reset the WDT stays on at its shortest period (15 ms): switch it off before
+// the C runtime and setup() run, or the board would reset forever. .init3 runs before
+// constructors and main().
+extern "C" void roar_watchdog_off_at_reset() __attribute__((naked, used, section(".init3")));
+void roar_watchdog_off_at_reset() {
+  MCUSR = 0;
+  wdt_disable();
+}
+
+namespace watchdog {
+static_assert(roar::proto::kTimingLoopWatchdogUs == 250000ul, "WDTO_250MS below must match the spec");
+void start() { wdt_enable(WDTO_250MS); }
+void feed() { wdt_reset(); }
+}  // namespace watchdog
 #endif

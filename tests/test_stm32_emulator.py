@@ -1,0 +1,25 @@
+"""The AnyFC F7 board's clock in an emulated STM32 (QEMU netduinoplus2): the board's own
+clock_source.cpp unlocks and starts the DWT cycle counter, checks that it advances, and falls
+back to TIM2 at 1 MHz when it does not, as in QEMU, which does not model the DWT."""
+
+import pytest
+
+from roar_sim import arm_build, stm32_sim
+
+if stm32_sim.available():
+    pytest.skip(stm32_sim.available(), allow_module_level=True)
+
+
+@pytest.fixture(scope="module")
+def probe():
+    return stm32_sim.run(arm_build.build_clock_probe())
+
+
+def test_a_stopped_cycle_counter_is_detected_and_timer2_takes_over(probe):
+    assert probe.value("clock") == "timer2"
+
+
+def test_the_fallback_clock_advances_and_never_steps_back(probe):
+    assert probe.returncode == 0, probe.lines
+    assert int(probe.value("backwards")) == 0
+    assert int(probe.value("advanced_us")) > 0
