@@ -11,7 +11,7 @@ import pytest
 from conftest import ROOT
 from roar_sim import core_build
 
-CORE_TESTS = ["test_vectors.py", "test_parser_properties.py", "test_brake_fsm.py", "test_failsafe.py",
+CORE_TESTS = ["test_vectors.py", "test_parser_properties.py", "test_brake_fsm.py", "test_failsafe.py", "test_timed_states.py",
               "test_outputs.py", "test_car.py"]
 
 
