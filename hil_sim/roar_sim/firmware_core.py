@@ -24,7 +24,6 @@ from roar.protocol.spec import ParseResult
 from roar_sim import core_build
 
 HEADER = core_build.CORE / "include" / "roar" / "c_api.h"
-ABI_VERSION = 2
 _U32_MASK = 0xFFFFFFFF
 
 
@@ -68,8 +67,9 @@ def _lib_at(path: str):
         lib = ffi.dlopen(path)
     except OSError as e:
         raise CoreLoadError(f"cannot load firmware core {path}: {e}") from None
-    if lib.roar_core_abi_version() != ABI_VERSION:
-        raise CoreLoadError(f"{path}: C ABI version {lib.roar_core_abi_version()}, this binding needs {ABI_VERSION}")
+    if lib.roar_core_abi_version() != lib.ROAR_CORE_ABI_VERSION:  # a library built from another header
+        raise CoreLoadError(f"{path}: C ABI version {lib.roar_core_abi_version()}, "
+                            f"{HEADER.name} says {lib.ROAR_CORE_ABI_VERSION}")
     return lib
 
 
