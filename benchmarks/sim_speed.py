@@ -1,6 +1,9 @@
 """Simulation speed in simulated seconds per wall second: bare PyBullet stepping of the same car
-and track, against the full firmware-in-the-loop harness (firmware loop at 1 kHz, ESC/servo
-emulation, physics at 200 Hz, host messages at 50 Hz), lidar off. Target: ratio >= 0.5."""
+and track, against the full firmware-in-the-loop harness (the board loop CarBoard::poll at
+1 kHz, ESC/servo emulation, physics at 200 Hz, host messages at 50 Hz), lidar off. Targets:
+harness >= 30x real time, and >= 0.5 of bare stepping. The two are measured alternately,
+ROUNDS times each, and the best of each is kept, so a busy moment on the machine does not
+decide the ratio."""
 
 import time
 
@@ -11,6 +14,8 @@ from roar_sim.track import oval
 
 TITLE = "simulation speed (simulated s per wall s)"
 SIM_SECONDS = 10.0
+ROUNDS = 3
+TARGET_SPEED, TARGET_RATIO = 30.0, 0.5
 
 
 def bare() -> float:
@@ -38,7 +43,8 @@ def harness() -> float:
 
 
 def run() -> None:
-    b, h = bare(), harness()
+    results = [(bare(), harness()) for _ in range(ROUNDS)]
+    b, h = max(r[0] for r in results), max(r[1] for r in results)
     print(f"bare PyBullet stepping:        {b:8.1f} x real time")
-    print(f"firmware-in-the-loop harness:  {h:8.1f} x real time")
-    print(f"ratio harness / bare:          {h / b:8.2f}   (target >= 0.5)")
+    print(f"firmware-in-the-loop harness:  {h:8.1f} x real time   (target >= {TARGET_SPEED:.0f})")
+    print(f"ratio harness / bare:          {h / b:8.2f}   (target >= {TARGET_RATIO})")
