@@ -32,6 +32,7 @@ roar_car_outputs_t to_c(const CarOutputs& o, const Car& car) {
 class MemoryHal : public Hal {
  public:
   explicit MemoryHal(roar_host_hal_t* m) : m_(m) {}
+  roar_host_hal_t& memory() { return *m_; }
   RawMicros now_us() override { return m_->now_us; }
   void write_pulses(uint16_t throttle_us, uint16_t steering_us) override {
     m_->pending_us[0] = throttle_us;
@@ -51,11 +52,12 @@ class MemoryHal : public Hal {
 
 // CarBoard on the memory HAL, with the output timer a board's hardware would run.
 struct HostBoard {
-  HostBoard(roar_host_hal_t* m, const CarConfig& cfg) : hal(m), mem(m), board(hal, cfg) {
+  HostBoard(roar_host_hal_t* m, const CarConfig& cfg) : hal(m), board(hal, cfg) {
     for (uint8_t ch = 0; ch < 2; ++ch) m->pending_us[ch] = m->wire_us[ch] = proto::kControlNeutralUs;  // as at boot
   }
 
   void run(uint32_t loops) {
+    roar_host_hal_t* const mem = &hal.memory();
     for (uint32_t i = 0; i < loops; ++i) {
       const uint32_t late = mem->now_us - mem->next_frame_us;  // [us] past the due frame start
       if (static_cast<int32_t>(late) >= 0 && mem->frame_us > 0) {
@@ -74,7 +76,6 @@ struct HostBoard {
   }
 
   MemoryHal hal;
-  roar_host_hal_t* mem;
   CarBoard board;
 };
 
