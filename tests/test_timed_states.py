@@ -130,3 +130,4 @@ def test_rc_does_not_come_back_after_the_clock_wraps_in_the_real_board_loop():
         board.run(1)
         seen.add((board.outputs.source, board.outputs.throttle_us, board.wire[0]))
     assert seen == {(ControlSource.FAILSAFE, N, N)}
+    assert board.hal.watchdog_feeds == board.loops  # the loop fed the hardware watchdog every iteration
