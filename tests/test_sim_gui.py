@@ -7,7 +7,7 @@ import sys
 import pytest
 
 DRIVE_IN_WINDOW = """
-import pybullet as pb
+from roar_sim.quiet_pybullet import pb
 from roar.protocol import encode
 from roar_sim.harness import SimCar, SimConfig
 from roar_sim.track import oval

@@ -81,6 +81,9 @@ def compiler() -> str:
 
 def build(target: str = "library", variant: str = "release", force: bool = False) -> Path:
     """Build (if stale) and return the path of the target."""
+    if not CORE.is_dir():
+        raise CoreBuildError(f"the simulator builds the firmware core from the repository's firmware/core, which is "
+                             f"not at {CORE}: install from a checkout (pip install -e '<checkout>[sim]')")
     if target not in TARGETS or variant not in VARIANTS:
         raise CoreBuildError(f"unknown build {target}/{variant}: targets {sorted(TARGETS)}, variants {sorted(VARIANTS)}")
     name, link_flags, extra = TARGETS[target]

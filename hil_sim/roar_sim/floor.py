@@ -12,7 +12,7 @@ from pathlib import Path
 
 import matplotlib.image
 import numpy as np
-import pybullet as pb
+from roar_sim.quiet_pybullet import pb
 
 from roar_sim.track import Track
 

@@ -9,7 +9,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import pybullet as pb
+from roar_sim.quiet_pybullet import pb
 import pybullet_data
 
 from roar_sim.floor import add_floor

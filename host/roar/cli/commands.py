@@ -50,7 +50,10 @@ def calibrate(args) -> int:
 
 
 def scan(args) -> int:
-    from roar.transports.ble import scan as ble_scan
+    try:
+        from roar.transports.ble import scan as ble_scan
+    except ImportError as e:
+        raise UserError(f"roar scan needs {e.name}: pip install 'roar-platform[ble]'") from None
 
     if not 0 < args.timeout <= 60:
         raise UserError(f"--timeout must be 0..60 s, got {args.timeout:g}")
@@ -78,16 +81,3 @@ def ports(args) -> int:
         print(f"{p.device:24} {p.description or ''}" + (f"  [{hint}]" if hint else ""))
     print(f"\ndrive one with: roar drive serial://{found[0].device}")
     return 0
-
-
-def sim(args) -> int:
-    if args.serial:
-        from roar_sim.serial_port import main as serve
-
-        argv = ["--track", args.track, "--seconds", str(args.seconds)] + (["--gui"] if args.gui else [])
-        return serve(argv)
-    from roar_sim.race import main as race_main
-
-    argv = ["--track", args.track, "--laps", str(args.laps)] + (["--gui"] if args.gui else [])
-    argv += ["--plot", str(args.plot)] if args.plot else []
-    return race_main(argv)

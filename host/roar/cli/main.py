@@ -11,9 +11,11 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 from roar.calibration import CalibrationError, default_path
+from roar.cli import plugins
 
 EXAMPLES = """examples:
   roar race --track figure-eight         the autopilot laps the simulated car against the physical limit
@@ -42,6 +44,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="roar", description=__doc__, epilog=EXAMPLES,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("-v", "--verbose", action="store_true", help="log what the library does")
+    parser.add_argument("--version", action="version", version=f"roar {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     p = sub.add_parser("send", help="hold one command for a while, then stop",
@@ -73,39 +76,50 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("ports", help="list serial ports", description="List serial ports, marking likely car boards.")
 
-    # Listed here for --help; its own options are parsed by roar_sim.race (see main()).
-    sub.add_parser("race", help="race the simulated car with the autopilot", add_help=False)
-
-    p = sub.add_parser("sim", help="run the simulated car",
-                       description="Without --serial: race the autopilot round a track and report the laps "
-                                   "(like `roar race`). With --serial: serve the simulated car on a "
-                                   "pseudo-terminal and print its path, for any program that speaks serial.")
-    p.add_argument("--serial", action="store_true", help="serve the car as a serial port (a pty) in real time")
-    p.add_argument("--track", default="oval", help="oval, figure-eight or a track .json file (default: oval)")
-    p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
-    p.add_argument("--seconds", type=float, default=0.0, help="with --serial: stop after this long (default: Ctrl-C)")
-    p.add_argument("--laps", type=int, default=2, help="without --serial: laps to drive (default 2)")
-    p.add_argument("--plot", type=Path, metavar="PNG", help="without --serial: write the driven path to this PNG")
+    # Commands of other packages (the simulator's race and sim): each parses its own arguments
+    # (main() hands them over), so they are listed here for --help only.
+    installed = plugins.installed()
+    for name in sorted(set(installed) | set(plugins.EXTRA_COMMANDS)):
+        help_text = installed[name].load().help if name in installed else f"(not installed) {plugins.missing_message(name)}"
+        sub.add_parser(name, help=help_text, add_help=False)
     return parser
+
+
+def _version() -> str:
+    try:
+        return version("roar-platform")
+    except PackageNotFoundError:
+        return "unknown (not installed)"
+
+
+def _plugin_call(argv: list[str]) -> tuple[list[str], list[str]] | None:
+    """(roar's own arguments up to the command, the command's arguments) when the command is a
+    plug-in's, else None."""
+    names = set(plugins.installed()) | set(plugins.EXTRA_COMMANDS)
+    for i, token in enumerate(argv):
+        if not token.startswith("-"):
+            return (argv[:i + 1], argv[i + 1:]) if token in names else None
+    return None
 
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    if argv[:1] == ["race"]:  # the race has its own options and --help
-        from roar_sim.race import main as race_main
-
-        try:
-            return race_main(argv[1:])
-        except KeyboardInterrupt:
-            print(file=sys.stderr)
-            return 130
     parser = build_parser()
-    args = parser.parse_args(argv)
+    plugin_call = _plugin_call(argv)
+    args = parser.parse_args(plugin_call[0] if plugin_call else argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="roar: %(message)s")
     from roar.cli import commands
     from roar.transports import TransportError
 
     try:
+        if plugin_call:
+            installed = plugins.installed()
+            if args.command not in installed:
+                raise UserError(plugins.missing_message(args.command))
+            try:
+                return installed[args.command].load().main(plugin_call[1])
+            except ImportError as e:  # the plug-in is there but an extra it needs is not
+                raise UserError(plugins.missing_message(args.command, e.name)) from None
         return getattr(commands, args.command)(args)
     except KeyboardInterrupt:
         print(file=sys.stderr)

@@ -10,15 +10,21 @@ from roar.transports.base import Transport, TransportError
 
 ENTRY_POINT_GROUP = "roar.transports"
 
-# scheme -> "module:Class"; the module is imported on first use (bleak, pyserial and the
-# simulator are only loaded by programs that use them).
+# scheme -> "module:Class"; the module is imported on first use (bleak and pyserial are only
+# loaded by programs that use them). The simulator's sim:// comes from its entry point.
 _REGISTRY: dict[str, str | type[Transport]] = {
     "serial": "roar.transports.serial_link:SerialTransport",
     "ble": "roar.transports.ble:BleTransport",
-    "sim": "roar.transports.sim:SimTransport",
     "loop": "roar.transports.loopback:LoopbackTransport",
 }
+# What to install for the schemes this project's extras provide.
+EXTRAS = {"ble": "ble", "sim": "sim"}
 _entry_points_loaded = False
+
+
+def install_hint(scheme: str) -> str:
+    extra = EXTRAS.get(scheme)
+    return f"pip install 'roar-platform[{extra}]'" if extra else "pip install roar-platform"
 
 
 def register(scheme: str, transport: str | type[Transport]) -> None:
@@ -42,6 +48,8 @@ def _load_entry_points() -> None:
 def _resolve(scheme: str) -> type[Transport]:
     _load_entry_points()
     entry = _REGISTRY.get(scheme)
+    if entry is None and scheme in EXTRAS:
+        raise TransportError(f"{scheme}:// is not installed: {install_hint(scheme)}")
     if entry is None:
         raise TransportError(f"unknown URL scheme {scheme + '://'!r}: use one of "
                              + ", ".join(s + "://" for s in sorted(_REGISTRY)))
@@ -51,7 +59,7 @@ def _resolve(scheme: str) -> type[Transport]:
             entry = getattr(importlib.import_module(module), name)
         except ImportError as e:
             raise TransportError(f"{scheme}:// needs {e.name or module}, which is not installed: "
-                                 f"pip install roar-platform") from None
+                                 f"{install_hint(scheme)}") from None
         _REGISTRY[scheme] = entry
     return entry
 

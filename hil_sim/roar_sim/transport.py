@@ -1,5 +1,7 @@
 """sim:// -- the simulated car in this process: the firmware logic (host build) driving the
-PyBullet car in real time, fed with the same bytes a real car receives.
+PyBullet car in real time, fed with the same bytes a real car receives. A plug-in of the roar
+package: registered through the "roar.transports" entry point (pyproject.toml), installed with
+roar-platform[sim].
 
     sim://                        an open floor, no walls
     sim://oval   sim://figure-eight   a built-in track
@@ -16,6 +18,10 @@ import threading
 from pathlib import Path
 
 from roar.transports.base import LinkLost, Transport, TransportError, pop_option
+
+def missing_simulator(error: ImportError) -> str:
+    return f"the simulator needs {error.name or 'its dependencies'}: pip install 'roar-platform[sim]'"
+
 
 MAX_SPEEDUP = 4.0  # the host sends at 50 Hz wall time: at 4x the car still hears from it every 80 ms
 CHUNK_S = 0.002  # [s] simulated time per pump step
@@ -56,8 +62,7 @@ class SimTransport(Transport):
             from roar_sim.harness import SimCar, SimConfig
             from roar_sim.track import TrackError, get
         except ImportError as e:
-            raise TransportError(f"sim:// needs the simulator ({e.name}); install roar-platform with its "
-                                 f"dependencies") from None
+            raise TransportError(missing_simulator(e)) from None
         try:
             track = get(self.track_name) if self.track_name else None
             self.sim = SimCar(track, SimConfig(realtime=True, speedup=self.speedup, gui=self.gui))

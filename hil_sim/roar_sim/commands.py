@@ -1,0 +1,47 @@
+"""The simulator's `roar` commands, registered through the "roar.commands" entry point group
+(pyproject.toml): `roar race` and `roar sim`. Each parses its own arguments; the simulator
+itself is imported only when a command runs."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from roar.cli.plugins import Command
+
+SIM_DESCRIPTION = """Without --serial: race the autopilot round a track and report the laps (like `roar race`).
+With --serial: serve the simulated car on a pseudo-terminal and print its path, for any program
+that speaks serial; Ctrl-C stops it (exit status 130)."""
+
+
+def _race(argv: list[str]) -> int:
+    from roar_sim.race import main
+
+    return main(argv)
+
+
+def _sim(argv: list[str]) -> int:
+    p = argparse.ArgumentParser(prog="roar sim", description=SIM_DESCRIPTION)
+    p.add_argument("--serial", action="store_true", help="serve the car as a serial port (a pty) in real time")
+    p.add_argument("--track", default="oval", help="oval, figure-eight or a track .json file (default: oval)")
+    p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
+    p.add_argument("--seconds", type=float, default=0.0, help="with --serial: stop after this long (default: Ctrl-C)")
+    p.add_argument("--laps", type=int, default=2, help="without --serial: laps to drive (default 2)")
+    p.add_argument("--plot", type=Path, metavar="PNG", help="without --serial: write the driven path to this PNG")
+    args = p.parse_args(argv)
+    gui = ["--gui"] if args.gui else []
+    if args.serial:
+        from roar_sim.serial_port import main as serve
+
+        return serve(["--track", args.track, "--seconds", str(args.seconds), *gui])
+    from roar_sim.race import main as race
+
+    return race(["--track", args.track, "--laps", str(args.laps), *gui, *(["--plot", str(args.plot)] if args.plot else [])])
+
+
+race = Command("race the simulated car with the autopilot (`roar race --help`)", _race)
+sim = Command("run the simulated car: a race, or a serial port with --serial", _sim)
+
+if __name__ == "__main__":
+    sys.exit(_sim(sys.argv[1:]))
