@@ -3,18 +3,30 @@
 import math
 
 import pytest
-from hypothesis import given
+from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from roar.calibration import Calibration, CalibrationError, ChannelCalibration, check_unit, default_path
+from roar.protocol import encode, spec
 
 
 @st.composite
-def channels(draw):
+def channels(draw, trims=None):
     lo = draw(st.integers(1000, 1999))
     hi = draw(st.integers(lo + 1, 2000))
-    trim = draw(st.integers(lo, hi))
+    trim = draw(st.integers(lo, hi) if trims is None else trims)
+    assume(lo <= trim <= hi)
     return ChannelCalibration(trim_us=trim, min_us=lo, max_us=hi, reversed=draw(st.booleans()))
+
+
+@st.composite
+def calibrations(draw):
+    """Every calibration the library accepts (a throttle trim near neutral, any steering)."""
+    throttle = draw(channels(st.integers(1000, 2000) | st.integers(1460, 1540)))
+    try:
+        return Calibration(throttle=throttle, steering=draw(channels()))
+    except ValueError:
+        assume(False)
 
 
 @given(channels(), st.floats(-1, 1), st.floats(-1, 1))
@@ -99,3 +111,52 @@ def test_command_values_outside_the_unit_range_are_rejected(value):
 def test_numpy_numbers_are_accepted():
     np = pytest.importorskip("numpy")
     assert check_unit("steering", np.float32(0.5)) == 0.5
+
+
+@given(calibrations())
+def test_every_accepted_calibration_arms_the_car_and_drives_it_both_ways(cal):
+    """Against the firmware core: the neutral this calibration sends arms a car that booted
+    latched, and its +1/-1 throttle and steering then come out of the car as sent (reverse
+    after the brake sequence)."""
+    from roar_sim.firmware_core import Car, ControlSource
+
+    car = Car()
+    car.boot()
+    t = 0
+
+    def hold(throttle, steering, ms):
+        nonlocal t
+        message = encode(cal.throttle.to_us(throttle), cal.steering.to_us(steering))
+        out = None
+        for _ in range(ms):
+            if t % 20_000 == 0:
+                car.feed(message, t)
+            out = car.step(t, t // 20_000)
+            t += 1000
+        return out
+
+    out = hold(0, 0, 40)
+    assert "ARMED\n" in car.replies() and out.source == ControlSource.HOST and not out.latched
+    for throttle, steering in ((1, 1), (-1, -1), (0, 0)):
+        out = hold(throttle, steering, 200)
+        assert (out.throttle_us, out.steering_us) == (cal.throttle.to_us(throttle), cal.steering.to_us(steering))
+    assert hold(1, 0, 40).throttle_us != hold(0, 0, 40).throttle_us  # +1 really moves the throttle
+
+
+@pytest.mark.parametrize("throttle, words", [
+    (dict(trim_us=1530), "more than 25 us from 1500"),
+    (dict(trim_us=1474), "more than 25 us from 1500"),
+    (dict(trim_us=1500, max_us=1500, min_us=1000), "could not drive forward"),
+    (dict(trim_us=1500, min_us=1500, max_us=2000, reversed=True), "could not drive forward"),
+])
+def test_calibrations_that_would_not_arm_or_drive_are_refused(throttle, words):
+    with pytest.raises(ValueError, match=words):
+        Calibration(throttle=ChannelCalibration(**throttle))
+
+
+def test_the_issue_file_with_a_1530_trim_fails_in_one_line(tmp_path):
+    path = tmp_path / "t.toml"
+    path.write_text("[throttle]\ntrim_us = 1530\n")
+    with pytest.raises(CalibrationError) as e:
+        Calibration.load(path)
+    assert "would never arm" in str(e.value) and "\n" not in str(e.value)

@@ -2,16 +2,22 @@
 
     # ~/.config/roar/calibration.toml (or $XDG_CONFIG_HOME/roar/calibration.toml)
     [throttle]
-    trim_us = 1500     # pulse for 0 (ESC neutral)
+    trim_us = 1500     # pulse for 0 (ESC neutral): within 25 us of 1500, see below
     min_us = 1000      # pulse for -1 (full reverse)
     max_us = 2000      # pulse for +1 (full forward)
     reversed = false   # swap the directions (motor wired the other way)
 
     [steering]         # same keys; +1 steers right, -1 left (ROAR convention)
-    trim_us = 1500
+    trim_us = 1500     # any value between min_us and max_us
     ...
 
 `roar calibrate URL` sets these interactively. Missing keys take the defaults above.
+
+Where trim lives: the car boots with its failsafe latched and arms only on a throttle within
+timing.arm_window_us (25 us) of 1500, the protocol's neutral. So the throttle trim here is kept
+within that window, and every calibration this module accepts gives a car that arms; an ESC
+whose neutral is further off is set on the ESC itself (most learn their neutral at power-up,
+or have a neutral-set button). Steering trim has no such limit.
 """
 
 from __future__ import annotations
@@ -28,6 +34,8 @@ from roar.protocol import spec
 from roar.user_files import read_parsed
 
 LO, HI, MID = spec.CONTROL_MIN_US, spec.CONTROL_MAX_US, spec.CONTROL_NEUTRAL_US
+ARM_WINDOW = spec.TIMING_ARM_WINDOW_US  # [us] the car arms on a throttle within this of MID
+THROTTLE_TRIM_RANGE = (MID - ARM_WINDOW, MID + ARM_WINDOW)  # [us]
 
 
 class CalibrationError(ValueError):
@@ -64,6 +72,19 @@ class Calibration(BaseModel):
     throttle: ChannelCalibration = ChannelCalibration()
     steering: ChannelCalibration = ChannelCalibration()
 
+    @model_validator(mode="after")
+    def _armable_and_drivable(self) -> Calibration:
+        th = self.throttle
+        lo, hi = THROTTLE_TRIM_RANGE
+        if not lo <= th.trim_us <= hi:
+            raise ValueError(f"throttle trim_us {th.trim_us} is more than {ARM_WINDOW} us from {MID}: the car arms "
+                             f"only on a throttle within {lo}..{hi} us, so it would never arm; keep trim_us there "
+                             f"and set a further-off neutral on the ESC itself")
+        if th.to_us(1.0) == th.trim_us:
+            raise ValueError(f"throttle +1 gives the trim pulse ({th.trim_us} us): the car could not drive forward; "
+                             f"{'min_us' if th.reversed else 'max_us'} must differ from trim_us")
+        return self
+
     @classmethod
     def load(cls, path: str | Path) -> Calibration:
         path = Path(path)
@@ -71,7 +92,7 @@ class Calibration(BaseModel):
         try:
             return cls.model_validate(data)
         except ValidationError as e:
-            raise CalibrationError(f"{path}: {_first_error(e)}") from None
+            raise CalibrationError(f"{path}: {first_error(e)}") from None
 
     def save(self, path: str | Path) -> None:
         path = Path(path)
@@ -113,7 +134,7 @@ def check_unit(name: str, value) -> float:
     return value
 
 
-def _first_error(e: ValidationError) -> str:
+def first_error(e: ValidationError) -> str:
     err = e.errors()[0]
     where = ".".join(str(p) for p in err["loc"])
     msg = err["msg"].removeprefix("Value error, ")

@@ -9,7 +9,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TextIO
 
-from roar.calibration import Calibration, ChannelCalibration
+from pydantic import ValidationError
+
+from roar.calibration import ARM_WINDOW, THROTTLE_TRIM_RANGE, Calibration, ChannelCalibration, first_error
 from roar.protocol import spec
 from roar.vehicle import Vehicle
 
@@ -74,7 +76,11 @@ def run(car: Vehicle, path: Path, inp: TextIO, out: TextIO) -> int:
         th = old.throttle
         throttle = lambda us: hold(us, s_trim)  # noqa: E731
         out.write("\nThrottle (wheels off the ground!)\n")
-        t_trim = _ask("trim: wheels still (ESC neutral)", th.trim_us, throttle, inp, out)
+        out.write(f"  (the car arms only on a throttle within {ARM_WINDOW} us of {MID}, so trim stays in "
+                  f"{THROTTLE_TRIM_RANGE[0]}..{THROTTLE_TRIM_RANGE[1]} us; if the wheels creep there, set the "
+                  f"ESC's neutral: most learn it at power-up)\n")
+        t_trim = _ask("trim: wheels still (ESC neutral)", min(max(th.trim_us, THROTTLE_TRIM_RANGE[0]), THROTTLE_TRIM_RANGE[1]),
+                      throttle, inp, out, *THROTTLE_TRIM_RANGE)
         t_max = _ask("high end: full speed (the highest pulse you allow)", th.max_us, throttle, inp, out, lo=t_trim)
         throttle(t_trim)
         t_rev = not _yes("did the wheels turn FORWARD at the high end?", inp, out, default=True)
@@ -83,8 +89,12 @@ def run(car: Vehicle, path: Path, inp: TextIO, out: TextIO) -> int:
     except Aborted:
         out.write("\ninput ended: calibration not saved\n")
         return 1
-    new = Calibration(throttle=ChannelCalibration(trim_us=t_trim, min_us=t_min, max_us=t_max, reversed=t_rev),
-                      steering=ChannelCalibration(trim_us=s_trim, min_us=s_min, max_us=s_max, reversed=s_rev))
+    try:
+        new = Calibration(throttle=ChannelCalibration(trim_us=t_trim, min_us=t_min, max_us=t_max, reversed=t_rev),
+                          steering=ChannelCalibration(trim_us=s_trim, min_us=s_min, max_us=s_max, reversed=s_rev))
+    except ValidationError as e:
+        out.write(f"\ncalibration not saved: {first_error(e)}\n")
+        return 1
     new.save(path)
     out.write(f"\nsaved {path}:\n  throttle {t_min}/{t_trim}/{t_max} us{' reversed' if t_rev else ''}\n"
               f"  steering {s_min}/{s_trim}/{s_max} us{' reversed' if s_rev else ''}\n")
