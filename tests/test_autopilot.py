@@ -132,7 +132,10 @@ def test_waypoint_files_round_trip_and_accept_orientation(tmp_path):
     ("0,0,0\n1,x,0\n2,2,0\n", ":2: expected"),
     ("0,0,0\n1,1,0,0\n2,2,0\n", ":2: expected"),
     ("0,0,0\n1,1,nan\n2,2,0\n", ":2: expected"),
-    ("0,0,0\n1,1,0\n", "at least 3 waypoints"),
+    ("0,0,0\n1,1,0\n", "at least 3 distinct waypoints"),
+    ("1,1,0\n1,1,0\n1,1,0\n", "at least 3 distinct waypoints"),
+    ("0,0,0\n0.1,0,0\n0.1,0.1,0\n", "at least 1 m"),
+    ("1e300,0,0\n1,1,0\n2,0,0\n", "beyond 10000 m"),
 ])
 def test_bad_waypoint_files_give_one_line_errors(tmp_path, text, words):
     path = tmp_path / "w.txt"

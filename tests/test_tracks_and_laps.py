@@ -113,3 +113,104 @@ def test_race_cli_bad_files_are_one_line(args, capsys):
     assert race.main(args) == 1
     err = capsys.readouterr().err.strip()
     assert err.startswith("error:") and "\n" not in err
+
+
+# --- tracks a car cannot drive are refused in one line; big and far tracks run ---------------------
+
+def lemniscate(a: float, y_scale: float = 1.0, n: int = 600) -> np.ndarray:
+    t = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    return np.stack([a * np.cos(t) / (1 + np.sin(t) ** 2), y_scale * a * np.sin(t) * np.cos(t) / (1 + np.sin(t) ** 2)], 1)
+
+
+def circle(r: float, cx: float = 0.0, spacing: float = 0.5) -> np.ndarray:
+    t = np.linspace(0, 2 * np.pi, max(16, int(2 * np.pi * r / spacing)), endpoint=False)
+    return np.stack([cx + r * np.cos(t), r * np.sin(t)], 1)
+
+
+@pytest.mark.parametrize("points, width, fragment", [
+    (circle(0.3, spacing=0.1), 1.0, "tighter than half its width"),
+    (np.array([[0, 0], [1, 0], [2, 0], [3, 0], [2, 0], [1, 0.5], [0.5, 1], [0, 0.5]], float), 0.5,
+     "tighter than half its width"),  # a hairpin whose neighbours coincide
+    (lemniscate(20, y_scale=0.3), 0.8, "crosses itself at"),  # an X too shallow to drive through
+    (np.stack([5 * np.cos(np.linspace(0, 2 * np.pi, 200, endpoint=False)),
+               2 * np.sin(np.linspace(0, 2 * np.pi, 200, endpoint=False)) *
+               (0.15 + 0.85 * np.cos(np.linspace(0, 2 * np.pi, 200, endpoint=False)) ** 2)], 1), 1.0,
+     "from another part of itself"),  # a waist narrower than the track
+    (np.vstack([circle(3), circle(3)[:1]]), 1.0, "the last point repeats the first"),
+    (circle(120, spacing=1.5), 1.0, "must fit in a 200 m square"),
+    (circle(3, cx=2000), 1.0, "within 1000 m of the origin"),
+])
+def test_tracks_a_car_cannot_drive_are_refused_in_one_line(points, width, fragment):
+    with pytest.raises(TrackError) as err:
+        Track("t", points, width)
+    assert fragment in str(err.value) and "\n" not in str(err.value)
+
+
+def test_a_figure_eight_crossing_is_allowed():
+    Track("eight", lemniscate(4.4), 1.2)  # crosses at 90 degrees
+
+
+@pytest.mark.parametrize("width", ["true", "\"1\"", "null"])
+def test_width_must_be_a_number_in_a_file(tmp_path, width):
+    path = tmp_path / "t.json"
+    path.write_text(f'{{"width_m": {width}, "centerline": {json.dumps(CIRCLE)}}}')
+    with pytest.raises(TrackError, match="width_m must be a number"):
+        Track.load(path)
+
+
+def test_a_track_far_from_the_origin_has_ground_under_it():
+    from roar.protocol import encode
+    from roar_sim.harness import SimCar
+
+    with SimCar(Track("far", circle(5, cx=100), 1.5)) as sim:
+        for _ in range(100):
+            sim.write(encode(1700 if sim.time_s > 0.1 else 1500, 1500))
+            sim.run(0.02)
+        s = sim.state()
+        assert s.speed > 0.5 and 94 < s.x < 106  # driving, not falling off the edge of the world
+
+
+def test_a_100_m_track_runs_in_well_under_a_gigabyte(tmp_path):
+    """The painted floor and its mesh are bounded whatever the track's size."""
+    import subprocess
+    import sys
+
+    script = ("import resource, sys, numpy as np\n"
+              "from roar_sim.track import Track\nfrom roar_sim.harness import SimCar\n"
+              "t = np.linspace(0, 2 * np.pi, 300, endpoint=False)\n"
+              "with SimCar(Track('big', np.stack([49 * np.cos(t), 49 * np.sin(t)], 1), 1.5)) as sim:\n"
+              "    sim.run(0.2)\n"
+              "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n")
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    peak_mb = int(proc.stdout.split()[-1]) / 1024
+    assert peak_mb < 700, f"{peak_mb:.0f} MB"
+
+
+# --- waypoint lines the race cannot follow, and races that end short --------------------------------
+
+@pytest.mark.parametrize("make, fragment", [
+    (lambda cl: cl[::-1], "against the track's direction"),
+    (lambda cl: cl + np.array([0.0, 5.0]), "outside the track"),
+])
+def test_race_refuses_a_line_it_cannot_follow_in_one_line(tmp_path, capsys, make, fragment):
+    from roar.autopilot import save_waypoints
+
+    path = tmp_path / "line.txt"
+    save_waypoints(path, make(get("oval").centerline))
+    assert race.main(["--laps", "1", "--waypoints", str(path)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and fragment in err[0]
+
+
+def test_three_identical_waypoints_are_refused_instead_of_hanging(tmp_path, capsys):
+    path = tmp_path / "line.txt"
+    path.write_text("0,-1.5,0\n0,-1.5,0\n0,-1.5,0\n")
+    assert race.main(["--waypoints", str(path)]) == 1
+    assert "at least 3 distinct waypoints" in capsys.readouterr().err
+
+
+def test_a_race_that_ends_short_says_why_in_one_line_and_exits_2(capsys):
+    assert race.main(["--laps", "2", "--seconds", "3"]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("race incomplete:")]
+    assert len(err) == 1 and "0 of 2 laps within the 3 s time limit (too slow)" in err[0]

@@ -19,26 +19,29 @@ from roar_sim.track import Track
 ASPHALT_RGB = (64, 64, 69)
 EDGE_LINE_RGB = (240, 240, 240)
 CENTRE_LINE_RGB = (230, 200, 40)
-PIXEL_M = 0.01  # [m] texture resolution
+PIXEL_M = 0.01  # [m] texture resolution, coarser on tracks too big for MAX_TEXTURE_PX
+MAX_TEXTURE_PX = 4096  # [px] per side: at most 48 MiB of RGB, whatever the track's size
 MARGIN_M = 0.5  # [m] floor beyond the walls
 EDGE_LINE_INSET_M = 0.1  # [m] from the wall to the middle of the edge line
 EDGE_LINE_WIDTH_M = 0.05  # [m]
 CENTRE_LINE_WIDTH_M = 0.03  # [m]
 CENTRE_DASH_M = 0.4  # [m] one dash plus one gap
-CELL_M = 0.25  # [m] floor mesh cell
+CELL_M = 0.25  # [m] floor mesh cell, larger on tracks too big for MAX_CELLS
+MAX_CELLS = 256  # per side of the floor mesh
 FLOOR_Z_M = 0.001  # [m] above the collision plane, so it is drawn on top of it
 
 
 class FloorImage:
     """The painted floor: an RGB image whose pixel (row, col) covers world point
-    (origin_x + col * PIXEL_M, origin_y + (rows - 1 - row) * PIXEL_M)."""
+    (origin_x + col * pixel_m, origin_y + (rows - 1 - row) * pixel_m)."""
 
     def __init__(self, track: Track) -> None:
         left, right = track.edges()
         corners = np.vstack([left, right])
         self.origin = corners.min(axis=0) - MARGIN_M  # [m] world (x, y) of the bottom-left pixel
         self.extent = corners.max(axis=0) + MARGIN_M - self.origin  # [m]
-        cols, rows = (np.ceil(self.extent / PIXEL_M)).astype(int)
+        self.pixel_m = max(PIXEL_M, float(self.extent.max()) / MAX_TEXTURE_PX)  # [m]
+        cols, rows = np.minimum(np.ceil(self.extent / self.pixel_m), MAX_TEXTURE_PX).astype(int)
         self.rgb = np.empty((rows, cols, 3), np.uint8)
         self.rgb[:] = ASPHALT_RGB
         inset = 1.0 - EDGE_LINE_INSET_M / (track.width_m / 2)
@@ -48,7 +51,7 @@ class FloorImage:
 
     def pixel(self, xy) -> tuple[int, int]:
         """(row, col) of a world point."""
-        col, up = ((np.asarray(xy, dtype=float) - self.origin) / PIXEL_M).astype(int)
+        col, up = ((np.asarray(xy, dtype=float) - self.origin) / self.pixel_m).astype(int)
         return int(self.rgb.shape[0] - 1 - up), int(col)
 
     def _paint(self, polyline: np.ndarray, rgb: tuple[int, int, int], width_m: float,
@@ -57,16 +60,16 @@ class FloorImage:
         a, b = polyline, np.roll(polyline, -1, axis=0)
         samples = []
         for p, q in zip(a, b):
-            k = max(1, int(np.linalg.norm(q - p) / (PIXEL_M / 2)))
+            k = max(1, int(np.linalg.norm(q - p) / (self.pixel_m / 2)))
             samples.append(p + (np.arange(k) / k)[:, None] * (q - p))
         pts = np.vstack(samples)
         if dash_m:
             s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
             pts = pts[(s % dash_m) < dash_m / 2]
         rows, cols = self.rgb.shape[:2]
-        col = ((pts[:, 0] - self.origin[0]) / PIXEL_M).astype(int)
-        row = rows - 1 - ((pts[:, 1] - self.origin[1]) / PIXEL_M).astype(int)
-        r = max(0, int(round(width_m / PIXEL_M / 2)))
+        col = ((pts[:, 0] - self.origin[0]) / self.pixel_m).astype(int)
+        row = rows - 1 - ((pts[:, 1] - self.origin[1]) / self.pixel_m).astype(int)
+        r = max(0, int(round(width_m / self.pixel_m / 2)))
         for dr in range(-r, r + 1):
             for dc in range(-r, r + 1):
                 self.rgb[np.clip(row + dr, 0, rows - 1), np.clip(col + dc, 0, cols - 1)] = rgb
@@ -75,7 +78,8 @@ class FloorImage:
 def add_floor(track: Track, client: int) -> int:
     """Add the painted floor (visual only: the car drives on the plane below) and return its body."""
     image = FloorImage(track)
-    nx, ny = (np.ceil(image.extent / CELL_M)).astype(int)
+    cell_m = max(CELL_M, float(image.extent.max()) / MAX_CELLS)  # [m]
+    nx, ny = (np.ceil(image.extent / cell_m)).astype(int)
     x0, y0 = image.origin
     w, h = image.extent
     vertices, uvs, indices = [], [], []

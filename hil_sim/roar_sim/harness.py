@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from roar.protocol import spec
 from roar_sim.actuators import EscMode, HobbyEsc, SteeringServo
 from roar_sim.firmware_core import Board, CarConfig, CarOutputs
-from roar_sim.plant import CarState, Plant
+from roar_sim.plant import CarState, Plant, SimError  # noqa: F401 (SimError: for callers)
 from roar_sim.track import Track
 
 LOOP_US = 1_000  # [us] firmware main-loop period

@@ -5,7 +5,9 @@ Ackermann steering on the two hinges, and the sensors a real car would have.
 
 from __future__ import annotations
 
+import ctypes
 import math
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,6 +31,7 @@ BRAKE_MAX_TORQUE_NM = 2.0  # [N m] per rear wheel at full brake
 ROLLING_DRAG_NM = 0.02  # [N m] coasting resistance per wheel
 ENCODER_COUNTS_PER_REV = 1024  # [counts]
 WALL_HEIGHT_M, WALL_THICKNESS_M = 0.3, 0.05  # [m] higher than the lidar (0.17 m)
+GROUND_HALF_M = 25.0  # [m] asphalt shown beyond the track (or around the origin without one)
 SOLVER_ITERATIONS = 10  # contact solver iterations per step (PyBullet default 50): a car on a plane settles in few
 
 
@@ -68,20 +71,44 @@ def ackermann_angles(steer_rad: float) -> tuple[float, float]:
     return left, right
 
 
+class SimError(RuntimeError):
+    """The simulator cannot start as asked; str() is one line."""
+
+
+def display_problem() -> str | None:
+    """Why PyBullet's window cannot open here (one line), or None. PyBullet itself would end the
+    whole Python process without a word."""
+    display = os.environ.get("DISPLAY")
+    if not display:
+        return "--gui needs a display: DISPLAY is not set (run without --gui, or under xvfb-run)"
+    try:
+        x11 = ctypes.CDLL("libX11.so.6")
+    except OSError:
+        return "--gui needs X11, and libX11 is not installed"
+    x11.XOpenDisplay.restype, x11.XOpenDisplay.argtypes = ctypes.c_void_p, [ctypes.c_char_p]
+    x11.XCloseDisplay.argtypes = [ctypes.c_void_p]
+    connection = x11.XOpenDisplay(None)
+    if not connection:
+        return f"--gui needs a display: cannot open DISPLAY={display}"
+    x11.XCloseDisplay(connection)
+    return None
+
+
 class Plant:
     """One PyBullet world (DIRECT, or GUI when gui=True) with one car and a track."""
 
     def __init__(self, track: Track | None, dt_s: float = 0.005, gui: bool = False) -> None:
         self.dt_s = dt_s
+        problem = display_problem() if gui else None
+        if problem:
+            raise SimError(problem)
         self.client = pb.connect(pb.GUI if gui else pb.DIRECT)
         c = self.client
         pb.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=c)
         pb.setGravity(0, 0, -9.81, physicsClientId=c)
         pb.setTimeStep(dt_s, physicsClientId=c)
         pb.setPhysicsEngineParameter(numSolverIterations=SOLVER_ITERATIONS, physicsClientId=c)
-        plane = pb.loadURDF("plane.urdf", physicsClientId=c)
-        # Plain dark asphalt instead of the checker texture: walls stand out for the camera.
-        pb.changeVisualShape(plane, -1, textureUniqueId=-1, rgbaColor=[0.25, 0.25, 0.27, 1], physicsClientId=c)
+        self.ground = self._add_ground(track)
         x, y, yaw = track.start_pose if track else (0.0, 0.0, 0.0)
         self.car = pb.loadURDF("racecar/racecar.urdf", [x, y, 0.05], pb.getQuaternionFromEuler([0, 0, yaw]),
                                physicsClientId=c)
@@ -92,6 +119,21 @@ class Plant:
         self.time_s = 0.0
         if gui:
             self._frame_gui(track)
+
+    def _add_ground(self, track: Track | None) -> int:
+        """An endless flat ground (a collision plane, so no track can reach its edge) shown as dark
+        asphalt (plain, so walls stand out for the camera) under the track and a margin around it."""
+        c = self.client
+        centre, half = np.zeros(2), GROUND_HALF_M
+        if track is not None:
+            lo, hi = track.centerline.min(axis=0), track.centerline.max(axis=0)
+            centre, half = (lo + hi) / 2, float(max(hi - lo)) / 2 + track.width_m + GROUND_HALF_M
+        shape = pb.createCollisionShape(pb.GEOM_PLANE, planeNormal=[0, 0, 1], physicsClientId=c)
+        visual = pb.createVisualShape(pb.GEOM_BOX, halfExtents=[half, half, 0.0005], rgbaColor=[0.25, 0.25, 0.27, 1],
+                                      visualFramePosition=[0, 0, -0.0005], physicsClientId=c)
+        body = pb.createMultiBody(0, shape, visual, [float(centre[0]), float(centre[1]), 0], physicsClientId=c)
+        pb.changeDynamics(body, -1, lateralFriction=1.0, physicsClientId=c)  # as PyBullet's plane.urdf
+        return body
 
     def _frame_gui(self, track: Track | None) -> None:
         """Hide the debug panels and look down on the whole track."""

@@ -7,6 +7,10 @@ physical-limit lap time.
 
 Prints lap times, their ratio to the physical limit, the maximum and RMS cross-track error and
 wall contacts, and plots the driven path coloured by speed beside the speed along the track.
+
+Exit status: 0 when every lap was driven; 1 for bad input (track, waypoints, options) or a
+simulator that cannot start, with a one-line error; 2 when the race ran but completed fewer
+laps than asked, with a one-line reason (time limit, wall contacts, distance covered).
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from roar_sim import plotting
 from roar_sim.actuators import EscMode
 from roar_sim.car_limits import SIMULATED_CAR
 from roar_sim.firmware_core import CoreLoadError
-from roar_sim.harness import SimCar, SimConfig
+from roar_sim.harness import SimCar, SimConfig, SimError
 from roar_sim.track import Track, TrackError, get
 
 PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6  # [s] 50 Hz, like a real host
@@ -58,6 +62,7 @@ class RaceResult:
     cross_track_m: list[float] = field(default_factory=list)
     path: list[tuple[float, float, float, float]] = field(default_factory=list)  # (x, y, speed, arc length)
     wall_contacts: int = 0  # control periods with the car touching a wall
+    travelled_m: float = 0.0  # [m] net progress along the track, all laps
     braking_periods: int = 0  # control periods the ESC spent braking or reversing the motor
     slowest_m_s: float = 0.0  # [m/s] signed: negative if the car ever rolled backwards
 
@@ -74,25 +79,56 @@ class RaceResult:
         """[s] the physical-limit lap time of the track's centre line."""
         return lap_time(self.track.centerline, self.limit_speeds)
 
+    def shortfall(self, laps: int, timeout_s: float) -> str | None:
+        """Why fewer than `laps` laps were completed (one line), or None when all were."""
+        done = len(self.lap_times_s)
+        if done >= laps:
+            return None
+        reasons = [f"it touched a wall in {self.wall_contacts} control periods"] if self.wall_contacts else []
+        if self.travelled_m < 0:
+            reasons.append("it drove against the track's direction")
+        return (f"{done} of {laps} laps within the {timeout_s:.0f} s time limit ({'; '.join(reasons) or 'too slow'}): "
+                f"the car covered {max(0.0, self.travelled_m):.1f} m of the {laps * self.track.length_m:.1f} m asked")
+
     @property
     def best_ratio(self) -> float:
         """Best lap over the physical-limit lap (1.0 would be driving at the limit)."""
         return min(self.lap_times_s) / self.limit_lap_s if self.lap_times_s else float("inf")
 
 
+def check_line(track: Track, line: np.ndarray) -> None:
+    """A waypoint line must lie on the track and run its way round (the car starts on the centre
+    line's first point facing the second); WaypointError with a one-line reason otherwise."""
+    half = track.width_m / 2
+    hint, positions = None, []
+    for i, point in enumerate(line):
+        hint, s_along, cte = track.project(point, None if hint is None else hint)
+        if abs(cte) > half:
+            raise WaypointError(f"waypoint {i + 1} at ({point[0]:.2f}, {point[1]:.2f}) is {abs(cte):.2f} m from "
+                                f"the centre line, outside the track (half width {half:g} m)")
+        positions.append(s_along)
+    steps = (np.diff(positions + positions[:1]) + track.length_m / 2) % track.length_m - track.length_m / 2
+    if steps.sum() < 0:
+        raise WaypointError(f"the waypoints run against the track's direction (the car starts facing along the "
+                            f"centre line from its first point): reverse their order")
+
+
 def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margin: float = 0.9,
          config: SimConfig | None = None, progress: bool = False, timeout_s: float | None = None,
          lateral: str = "pursuit") -> RaceResult:
     line = track.centerline if waypoints is None else np.asarray(waypoints)[:, :2]
+    if waypoints is not None:
+        check_line(track, line)
     result = RaceResult(track, speed_profile(track.centerline, SIMULATED_CAR.limits))
-    timeout_s = timeout_s or 4 * laps * result.limit_lap_s + 10
-    bar = _progress_bar(laps, track.name) if progress else None
+    timeout_s = timeout_s or race_timeout_s(result, laps)
+    bar = None
     lap = {"hint": None, "s": 0.0, "travelled": 0.0, "start": 0.0}
 
     def record(obs: Observation, _command: Command) -> None:
         hint, s_now, cte = track.project((obs.x, obs.y), lap["hint"])
         ds = (s_now - lap["s"] + track.length_m / 2) % track.length_m - track.length_m / 2
         lap.update(hint=hint, s=s_now, travelled=lap["travelled"] + ds)
+        result.travelled_m = lap["travelled"]
         result.cross_track_m.append(cte)
         result.path.append((obs.x, obs.y, obs.speed, s_now))
         result.wall_contacts += sim.plant.wall_contacts() > 0
@@ -105,6 +141,7 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
             bar.update(max(0.0, min(laps, lap["travelled"] / track.length_m) - bar.n))
 
     with SimCar(track, config) as sim:
+        bar = _progress_bar(laps, track.name) if progress else None  # once the simulator is up
         io = SimIO(sim)
         io.send(Command(0.0, 0.0))  # arm: the car boots latched until it hears neutral
         io.wait(PERIOD_S)
@@ -115,6 +152,11 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
     if bar:
         bar.close()
     return result
+
+
+def race_timeout_s(result: RaceResult, laps: int) -> float:
+    """[s] how long a race may take: four times the physical-limit laps, plus 10 s."""
+    return 4 * laps * result.limit_lap_s + 10
 
 
 def _progress_bar(laps: int, name: str):
@@ -163,6 +205,8 @@ def plot(result: RaceResult):
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="roar race", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--seconds", type=float, default=None, metavar="S",
+                        help="time limit in simulated seconds (default: 4 x the physical-limit laps + 10)")
     parser.add_argument("--track", default="oval", help="oval, figure-eight, or a track .json file (default: oval)")
     parser.add_argument("--laps", type=int, default=2, help="laps to drive (default: 2)")
     parser.add_argument("--waypoints", type=Path, metavar="FILE",
@@ -177,6 +221,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if not 1 <= args.laps <= 100:
         parser.error("--laps must be 1..100")
+    if args.seconds is not None and not 1 <= args.seconds <= 36_000:
+        parser.error("--seconds must be 1..36000")
     if not 0.3 <= args.margin <= 1.0:
         parser.error("--margin must be 0.3..1.0")
     plotting.check_png_argument(parser, args.plot)
@@ -184,14 +230,18 @@ def main(argv: list[str] | None = None) -> int:
         track = get(args.track)
         waypoints = load_waypoints(args.waypoints) if args.waypoints else None
         result = race(track, args.laps, waypoints, args.margin, SimConfig(realtime=args.realtime, gui=args.gui),
-                      progress=True, lateral=args.steering)
-    except (TrackError, WaypointError, CoreLoadError) as e:
+                      progress=True, lateral=args.steering, timeout_s=args.seconds)
+    except (TrackError, WaypointError, CoreLoadError, SimError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
     print(report(result))
-    if args.plot and not plotting.save(lambda: plot(result), args.plot):
+    if result.path and args.plot and not plotting.save(lambda: plot(result), args.plot):
         return 1
-    return 0 if len(result.lap_times_s) == args.laps else 2
+    shortfall = result.shortfall(args.laps, args.seconds or race_timeout_s(result, args.laps))
+    if shortfall:
+        print(f"race incomplete: {shortfall}", file=sys.stderr)
+        return 2
+    return 0
 
 
 if __name__ == "__main__":

@@ -5,9 +5,15 @@ Track file format (JSON), documented in hil_sim/README.md:
     {"name": "my-track", "width_m": 1.2,
      "centerline": [[x0, y0], [x1, y1], ...]}
 
-The centre line is a closed loop (the last point connects back to the first), in metres, with
-at least 8 points, consecutive points between 1 cm and 2 m apart, and width between 0.4 m and
-5 m. The car starts at the first point facing the second.
+The centre line is a closed loop (the last point connects back to the first, so it is not
+repeated), in metres, with at least 8 points, consecutive points between 1 cm and 2 m apart,
+and width between 0.4 m and 5 m. The car starts at the first point facing the second. So that
+the car can drive it, the track must also:
+
+* fit in a 200 m square within 1 km of the origin;
+* never bend tighter than half its width (a smaller radius folds the inner wall);
+* never run within its width of another part of itself, except where it crosses itself at an
+  angle of at least 45 degrees (a figure-eight's crossing, whose walls are left open).
 """
 
 from __future__ import annotations
@@ -26,6 +32,10 @@ MIN_POINTS = 8
 MIN_SPACING_M = 0.01  # [m]
 MAX_SPACING_M = 2.0  # [m]
 MIN_WIDTH_M, MAX_WIDTH_M = 0.4, 5.0  # [m]
+MAX_EXTENT_M = 200.0  # [m] side of the square the track must fit in
+MAX_DISTANCE_M = 1000.0  # [m] of any point from the origin
+MIN_CROSSING_DEG = 45.0  # [deg] shallowest angle at which the track may cross itself
+CHECK_STEP_FRACTION = 0.25  # the shape checks look at the centre line every width/4
 
 
 class TrackError(ValueError):
@@ -44,14 +54,28 @@ class Track:
             raise TrackError(f"track {self.name!r}: centerline must be a list of finite [x, y] pairs")
         if len(pts) < MIN_POINTS:
             raise TrackError(f"track {self.name!r}: centerline needs at least {MIN_POINTS} points, has {len(pts)}")
+        if isinstance(self.width_m, bool) or not isinstance(self.width_m, (int, float)) or \
+                not MIN_WIDTH_M <= self.width_m <= MAX_WIDTH_M:
+            raise TrackError(f"track {self.name!r}: width_m must be a number {MIN_WIDTH_M}..{MAX_WIDTH_M} [m], "
+                             f"got {self.width_m!r}")
+        if np.array_equal(pts[0], pts[-1]):
+            raise TrackError(f"track {self.name!r}: the last point repeats the first; leave it out, the centre "
+                             f"line closes by itself")
+        far = float(np.max(np.linalg.norm(pts, axis=1)))
+        span = pts.max(axis=0) - pts.min(axis=0)
+        if far > MAX_DISTANCE_M or span.max() > MAX_EXTENT_M:
+            raise TrackError(f"track {self.name!r}: it must fit in a {MAX_EXTENT_M:g} m square within "
+                             f"{MAX_DISTANCE_M:g} m of the origin; it spans {span[0]:.0f} x {span[1]:.0f} m and "
+                             f"reaches {far:.0f} m out")
         gaps = np.linalg.norm(np.roll(pts, -1, axis=0) - pts, axis=1)
         bad = int(np.argmax((gaps < MIN_SPACING_M) | (gaps > MAX_SPACING_M)))
         if not MIN_SPACING_M <= gaps[bad] <= MAX_SPACING_M:
             raise TrackError(f"track {self.name!r}: points {bad} and {(bad + 1) % len(pts)} are {gaps[bad]:.3f} m "
                              f"apart (allowed {MIN_SPACING_M}..{MAX_SPACING_M} m)")
-        if not (isinstance(self.width_m, (int, float)) and MIN_WIDTH_M <= self.width_m <= MAX_WIDTH_M):
-            raise TrackError(f"track {self.name!r}: width_m must be {MIN_WIDTH_M}..{MAX_WIDTH_M}, got {self.width_m!r}")
         object.__setattr__(self, "centerline", pts)
+        problem = _shape_problem(pts, float(self.width_m))
+        if problem:
+            raise TrackError(f"track {self.name!r}: {problem}")
 
     # --- geometry ------------------------------------------------------------------------------
 
@@ -110,7 +134,7 @@ class Track:
                            "centerline": [[round(float(x), 4), round(float(y), 4)] for x, y in self.centerline]})
 
     @classmethod
-    def load(cls, path: str | Path) -> Track:
+    def load(cls, path: str | Path) -> Track:  # noqa: C901
         path = Path(path)
         data = read_parsed(path, json.loads, TrackError, "JSON")
         if not isinstance(data, dict) or not {"width_m", "centerline"} <= set(data):
@@ -120,9 +144,83 @@ class Track:
             raise TrackError(f"{path}: unknown keys {sorted(unknown)}")
         cl = data["centerline"]
         if not isinstance(cl, list) or not all(isinstance(p, list) and len(p) == 2 and
-                                               all(isinstance(v, (int, float)) for v in p) for p in cl):
+                                               all(_is_number(v) for v in p) for p in cl):
             raise TrackError(f"{path}: centerline must be a list of [x, y] number pairs")
-        return cls(str(data.get("name", path.stem)), np.array(cl, dtype=float), data["width_m"])
+        if not _is_number(data["width_m"]):
+            raise TrackError(f"{path}: width_m must be a number of metres, got {data['width_m']!r}")
+        name = data.get("name", path.stem)
+        if not isinstance(name, str):
+            raise TrackError(f"{path}: name must be a string, got {name!r}")
+        try:
+            return cls(name, np.array(cl, dtype=float), data["width_m"])
+        except TrackError as e:
+            raise TrackError(f"{path}: {e}") from None
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _resample(pts: np.ndarray, step_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """(points every ~step_m along the closed polyline, their index in pts' segments)."""
+    seg = np.roll(pts, -1, axis=0) - pts
+    counts = np.maximum(1, np.ceil(np.linalg.norm(seg, axis=1) / step_m).astype(int))
+    owner = np.repeat(np.arange(len(pts)), counts)
+    frac = np.concatenate([np.arange(k) / k for k in counts])
+    return pts[owner] + frac[:, None] * seg[owner], owner
+
+
+def _shape_problem(pts: np.ndarray, width_m: float) -> str | None:
+    """Why a car cannot drive this closed centre line at this width (one line), or None."""
+    step = width_m * CHECK_STEP_FRACTION
+    dense, owner = _resample(pts, step)
+    n = len(dense)
+    # Bend: the circle through each point and its neighbours half a width away on either side.
+    k = max(1, int(round(width_m / 2 / step)))
+    a, b, c = np.roll(dense, k, axis=0), dense, np.roll(dense, -k, axis=0)
+    ab, bc, ca = (np.linalg.norm(b - a, axis=1), np.linalg.norm(c - b, axis=1), np.linalg.norm(a - c, axis=1))
+    cross = np.abs((b - a)[:, 0] * (c - b)[:, 1] - (b - a)[:, 1] * (c - b)[:, 0])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        radius = np.where(cross > 1e-12, ab * bc * ca / (2 * cross), np.inf)
+    folded = np.einsum("ij,ij->i", b - a, c - b) < 0  # turns back by more than 90 degrees
+    radius[folded] = np.minimum(radius[folded], ca[folded] / 2)
+    tight = int(np.argmin(radius))
+    if radius[tight] < width_m / 2 * 0.98:
+        return (f"it bends with a radius of {radius[tight]:.2f} m near point {owner[tight]}, tighter than half its "
+                f"width ({width_m / 2:g} m): the inner wall would fold")
+    # Overlap: parts of the track closer than its width, apart from deliberate crossings.
+    heading = np.roll(dense, -1, axis=0) - dense
+    heading /= np.linalg.norm(heading, axis=1, keepdims=True)
+    # Points less than half a minimum-radius U-turn apart along the loop are neighbours, not parts.
+    pairs = _close_pairs(dense, width_m * 0.95, np.pi * width_m / 2 * 1.05)
+
+    def angle(p: int, j: int) -> float:  # [deg] between the two parts' directions, 0..90
+        return float(np.degrees(np.arccos(np.clip(abs(float(heading[p] @ heading[j])), 0.0, 1.0))))
+
+    crossings = np.array([dense[p] for p, j, d in pairs if d < step and angle(p, j) >= MIN_CROSSING_DEG])
+    for p, j, d in sorted(pairs, key=lambda pair: pair[2]):  # the closest first: a crossing, if any
+        if len(crossings) and np.min(np.linalg.norm(crossings - dense[p], axis=1)) < 1.5 * width_m:
+            continue  # the approach to a deliberate crossing
+        what = (f"crosses itself at {angle(p, j):.0f} degrees (crossings need at least {MIN_CROSSING_DEG:g})"
+                if d < step else f"runs {d:.2f} m from another part of itself")
+        return f"near points {owner[p]} and {owner[j]} it {what}, closer than its width ({width_m:g} m)"
+    return None
+
+
+def _close_pairs(points: np.ndarray, within_m: float, min_arc_m: float) -> list[tuple[int, int, float]]:
+    """(i, j, distance) of points of a closed polyline closer than within_m that are more than
+    min_arc_m apart along it (each pair once, i < j). Rows are done in blocks to bound memory."""
+    n = len(points)
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+    length = arc[-1] + float(np.linalg.norm(points[0] - points[-1]))
+    found: list[tuple[int, int, float]] = []
+    for start in range(0, n, 256):
+        rows = np.arange(start, min(n, start + 256))
+        d = np.linalg.norm(points[rows, None, :] - points[None, :, :], axis=2)
+        sep = np.abs(arc[rows, None] - arc[None, :])
+        close = (d < within_m) & (np.minimum(sep, length - sep) > min_arc_m) & (rows[:, None] < np.arange(n))
+        found += [(int(rows[r]), int(j), float(d[r, j])) for r, j in zip(*np.nonzero(close))]
+    return found
 
 
 def oval(straight_m: float = 4.0, radius_m: float = 1.5, width_m: float = 1.2, spacing_m: float = 0.1) -> Track:

@@ -34,9 +34,13 @@ class PurePursuit:
 
 
 def goal_on_path(points: np.ndarray, start_index: int, distance_m: float) -> tuple[float, float]:
-    """The point `distance_m` along a closed polyline from points[start_index] (interpolated)."""
+    """The point `distance_m` along a closed polyline from points[start_index] (interpolated).
+    ValueError for a polyline of zero length (it would have no point ahead)."""
     n = len(points)
-    i, left = start_index % n, distance_m
+    loop = float(np.linalg.norm(np.roll(points, -1, axis=0) - points, axis=1).sum())
+    if not loop > 0:
+        raise ValueError("the path has zero length: its points are all the same")
+    i, left = start_index % n, distance_m % loop
     while True:
         j = (i + 1) % n
         seg = float(np.linalg.norm(points[j] - points[i]))

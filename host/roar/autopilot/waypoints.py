@@ -5,7 +5,9 @@ File format, one waypoint per line (as the ROAR seed records them):
     x,y,z               metres
     x,y,z,roll,pitch,yaw   metres and degrees (orientation is kept but not used for following)
 
-Blank lines and lines starting with # are ignored. A file needs at least 3 waypoints.
+Blank lines and lines starting with # are ignored. Coordinates are finite and within 10 km of
+the origin. A point that repeats the one before it (a car recording while standing still) is
+dropped; the rest must be at least 3 distinct waypoints spanning a loop of at least 1 m.
 """
 
 from __future__ import annotations
@@ -20,6 +22,9 @@ from roar.autopilot.agent import Module, Observation
 from roar.user_files import read_text
 
 MIN_WAYPOINTS = 3
+MAX_COORDINATE_M = 10_000.0  # [m]
+SAME_POINT_M = 0.001  # [m] a point this close to the one before repeats it
+MIN_LOOP_M = 1.0  # [m] the shortest loop worth following
 
 
 class WaypointError(ValueError):
@@ -43,10 +48,20 @@ def load_waypoints(path: str | Path) -> np.ndarray:
         if len(fields) not in (3, 6) or len(values) != len(fields) or not all(map(math.isfinite, values)):
             raise WaypointError(f"{path}:{number}: expected x,y,z or x,y,z,roll,pitch,yaw (finite numbers), "
                                 f"got {line[:60]!r}")
+        if max(abs(v) for v in values[:3]) > MAX_COORDINATE_M:
+            raise WaypointError(f"{path}:{number}: a coordinate beyond {MAX_COORDINATE_M:g} m: {line[:60]!r}")
+        if rows and math.dist(rows[-1][:2], values[:2]) < SAME_POINT_M:
+            continue  # the same point again
         rows.append(values[:3])
+    if len(rows) > 1 and math.dist(rows[0][:2], rows[-1][:2]) < SAME_POINT_M:
+        rows.pop()  # the loop closes by itself
     if len(rows) < MIN_WAYPOINTS:
-        raise WaypointError(f"{path}: needs at least {MIN_WAYPOINTS} waypoints, has {len(rows)}")
-    return np.array(rows)
+        raise WaypointError(f"{path}: needs at least {MIN_WAYPOINTS} distinct waypoints, has {len(rows)}")
+    points = np.array(rows)
+    loop = float(np.linalg.norm(np.roll(points[:, :2], -1, axis=0) - points[:, :2], axis=1).sum())
+    if loop < MIN_LOOP_M:
+        raise WaypointError(f"{path}: the waypoints span a loop of {loop:.3f} m; at least {MIN_LOOP_M:g} m is needed")
+    return points
 
 
 def save_waypoints(path: str | Path, points: np.ndarray) -> None:
