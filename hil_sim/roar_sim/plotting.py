@@ -51,13 +51,24 @@ def path_figure(track, trace):
     return fig
 
 
+def png_problem(path: Path) -> str | None:
+    """Why a plot cannot go to this path (one line), or None."""
+    from roar.user_files import unwritable
+
+    if path.suffix.lower() != ".png":
+        return f"must name a .png file, got {path}"
+    return unwritable(path)
+
+
 def check_png_argument(parser: argparse.ArgumentParser, path: Path | None) -> None:
-    if path is not None and path.suffix.lower() != ".png":
-        parser.error(f"--plot must name a .png file, got {path}")
+    """--plot names a PNG file that can be written, checked before the run."""
+    problem = png_problem(path) if path is not None else None
+    if problem:
+        parser.error(f"--plot {problem}")
 
 
-def save(draw: Callable[[], object], path: Path) -> bool:
-    """draw() returns a figure; write it to path. Prints 'plot: PATH' or a one-line error."""
+def write(draw: Callable[[], object], path: Path) -> str | None:
+    """draw() returns a figure; write it to path. Returns None, or why it could not (one line)."""
     import matplotlib.pyplot as plt
 
     fig = draw()
@@ -65,9 +76,14 @@ def save(draw: Callable[[], object], path: Path) -> bool:
         path.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(path, dpi=110)
     except OSError as e:
-        print(f"error: cannot write {path}: {e.strerror}", file=sys.stderr)
-        return False
+        return f"cannot write {path}: {e.strerror or e}"
     finally:
         plt.close(fig)
-    print(f"plot: {path}")
-    return True
+    return None
+
+
+def save(draw: Callable[[], object], path: Path) -> bool:
+    """write(), then print 'plot: PATH' or the one-line error."""
+    problem = write(draw, path)
+    print(f"error: {problem}" if problem else f"plot: {path}", file=sys.stderr if problem else sys.stdout)
+    return problem is None

@@ -17,10 +17,11 @@ import threading
 import tty
 
 from roar_sim.firmware_core import CoreLoadError
-from roar_sim.harness import SimCar, SimConfig
+from roar_sim.harness import SimCar, SimConfig, SimError
 from roar_sim.track import TrackError, get
 
 CHUNK_S = 0.002  # [s] simulated (and, in real time, wall) time between reads of the port
+MAX_UNSENT_BYTES = 4096  # [bytes] reply bytes held for a slow reader; whole lines beyond are dropped
 
 
 class PtyCar:
@@ -34,6 +35,7 @@ class PtyCar:
         self.path = os.ttyname(self._slave)
         self._serving = threading.Event()
         self._thread: threading.Thread | None = None
+        self._unsent = b""  # the rest of a line the pty did not take whole
 
     def pump(self, seconds: float = CHUNK_S) -> None:
         try:
@@ -43,11 +45,15 @@ class PtyCar:
         if data:
             self.sim.write(data)
         self.sim.run(seconds)
-        for line in self.sim.read():
+        for line in self.sim.read():  # like the firmware: whole lines, dropped when there is no room
+            data = (line + "\n").encode("ascii")
+            if len(self._unsent) + len(data) <= MAX_UNSENT_BYTES:
+                self._unsent += data
+        if self._unsent:
             try:
-                os.write(self.master, (line + "\n").encode("ascii"))
+                self._unsent = self._unsent[os.write(self.master, self._unsent):]
             except BlockingIOError:
-                pass  # nobody reads: drop the line, as the firmware does, never block
+                pass  # nobody reads now: keep it for the next pump, never block
 
     def serve(self, seconds: float = 0.0) -> None:
         """Run until `seconds` of simulated time have passed (0 = forever)."""
@@ -94,18 +100,19 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         car = PtyCar(SimCar(get(args.track), SimConfig(realtime=True, gui=args.gui)))
-    except (TrackError, CoreLoadError) as e:
+    except (TrackError, CoreLoadError, SimError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
     with car:
         print(f"simulated car on {car.path} (115200 baud, any setting works); Ctrl-C to stop", flush=True)
+        status = 0
         try:
             car.serve(args.seconds)
         except KeyboardInterrupt:
-            pass
+            status = 130  # stopped by Ctrl-C, as the shell reports it
         s = car.sim.state()
         print(f"stopped after {car.sim.time_s:.1f} s: car at x={s.x:.2f} m, y={s.y:.2f} m, speed {s.speed:.2f} m/s")
-    return 0
+    return status
 
 
 if __name__ == "__main__":

@@ -14,10 +14,15 @@ trace=drive.csv (t, x, y, yaw, speed every 20 ms), plot=drive.png (the driven pa
 from __future__ import annotations
 
 import collections
+import concurrent.futures
+import queue
 import threading
 from pathlib import Path
 
+from roar.telemetry import VehicleState
 from roar.transports.base import LinkLost, Transport, TransportError, pop_option
+from roar.user_files import unwritable
+from roar_sim.plotting import png_problem
 
 def missing_simulator(error: ImportError) -> str:
     return f"the simulator needs {error.name or 'its dependencies'}: pip install 'roar-platform[sim]'"
@@ -31,6 +36,7 @@ TRACE_PERIOD_S = 0.02  # [s]
 class SimTransport(Transport):
     scheme = "sim"
     min_period_s = 0.002
+    replies = True
 
     def __init__(self, track: str = "", speedup: float = 1.0, gui: bool = False,
                  trace: Path | None = None, plot: Path | None = None) -> None:
@@ -43,6 +49,8 @@ class SimTransport(Transport):
         self._running = threading.Event()
         self._thread: threading.Thread | None = None
         self._error: BaseException | None = None
+        self._state: VehicleState | None = None  # snapshot after each pump step
+        self._requests: queue.SimpleQueue = queue.SimpleQueue()  # (fn(sim), Future) run by the pump
 
     @classmethod
     def from_url(cls, target: str, options: dict[str, str]) -> SimTransport:
@@ -51,22 +59,23 @@ class SimTransport(Transport):
             raise TransportError(f"speedup must be 0.1..{MAX_SPEEDUP:g}, got {speedup:g}")
         trace = pop_option(options, "trace", Path, None)
         plot = pop_option(options, "plot", Path, None)
-        if plot is not None and plot.suffix.lower() != ".png":
-            raise TransportError(f"plot must name a .png file, got {plot}")
+        problem = (trace and unwritable(trace)) or (plot and png_problem(plot))
+        if problem:  # checked now, not when the drive is over
+            raise TransportError(f"{'trace' if trace and unwritable(trace) else 'plot'} {problem}")
         return cls(target.strip("/") if not target.endswith(".json") else target, speedup,
                    pop_option(options, "gui", bool, False), trace, plot)
 
     def open(self) -> None:
         try:
             from roar_sim.firmware_core import CoreLoadError
-            from roar_sim.harness import SimCar, SimConfig
+            from roar_sim.harness import SimCar, SimConfig, SimError
             from roar_sim.track import TrackError, get
         except ImportError as e:
             raise TransportError(missing_simulator(e)) from None
         try:
             track = get(self.track_name) if self.track_name else None
             self.sim = SimCar(track, SimConfig(realtime=True, speedup=self.speedup, gui=self.gui))
-        except (TrackError, CoreLoadError) as e:
+        except (TrackError, CoreLoadError, SimError) as e:
             raise TransportError(str(e)) from None
         self._running.set()
         self._thread = threading.Thread(target=self._pump, name="roar-sim", daemon=True)
@@ -81,13 +90,40 @@ class SimTransport(Transport):
                     sim.write(self._inbox.popleft())
                 sim.run(CHUNK_S)
                 self._outbox.extend(sim.read())
+                s = sim.state()
+                self._state = VehicleState(sim.time_s, s.x, s.y, s.yaw, s.speed, s.yaw_rate, s.encoder_counts,
+                                           float(sim.board.wire[0]))
                 if sim.time_s >= next_trace:
-                    s = sim.state()
                     self.trace.append((sim.time_s, s.x, s.y, s.yaw, s.speed))
                     next_trace += TRACE_PERIOD_S
+                while not self._requests.empty():  # sensors asked for by the user's thread
+                    fn, future = self._requests.get()
+                    future.set_result(fn(sim))
         except BaseException as e:  # surfaced to the sender on its next write
             self._error = e
             self._running.clear()
+        while not self._requests.empty():
+            self._requests.get()[1].set_result(None)
+
+    def state(self) -> VehicleState | None:
+        return self._state
+
+    def _ask(self, fn):
+        """Run fn(sim) on the pump thread (PyBullet is not shared between threads); None if stopped."""
+        if not self._running.is_set():
+            return None
+        future: concurrent.futures.Future = concurrent.futures.Future()
+        self._requests.put((fn, future))
+        try:
+            return future.result(timeout=5.0)
+        except concurrent.futures.TimeoutError:
+            return None
+
+    def lidar(self):
+        return self._ask(lambda sim: sim.plant.lidar())
+
+    def camera(self, width: int = 160, height: int = 120):
+        return self._ask(lambda sim: sim.plant.camera(width, height))
 
     def write(self, data: bytes) -> None:
         if not self._running.is_set():
@@ -106,17 +142,24 @@ class SimTransport(Transport):
             self._thread.join()
             self._thread = None
         if self.sim is not None:
-            self._save()
-            self.sim.close()
-            self.sim = None
+            sim, self.sim = self.sim, None
+            try:
+                self._save_with(sim)
+            finally:
+                sim.close()
 
-    def _save(self) -> None:
+    def _save_with(self, sim) -> None:
+        """Write the trace and the plot; a one-line TransportError if either cannot be written."""
         if self.trace_path is not None:
-            self.trace_path.parent.mkdir(parents=True, exist_ok=True)
-            with open(self.trace_path, "w", encoding="ascii") as f:
-                f.write("t_s,x_m,y_m,yaw_rad,speed_m_s\n")
-                f.writelines(",".join(f"{v:.4f}" for v in row) + "\n" for row in self.trace)
+            try:
+                with open(self.trace_path, "w", encoding="ascii") as f:
+                    f.write("t_s,x_m,y_m,yaw_rad,speed_m_s\n")
+                    f.writelines(",".join(f"{v:.4f}" for v in row) + "\n" for row in self.trace)
+            except OSError as e:
+                raise TransportError(f"cannot write trace {self.trace_path}: {e.strerror or e}") from None
         if self.plot_path is not None and self.trace:
             from roar_sim import plotting
 
-            plotting.save(lambda: plotting.path_figure(self.sim.track, self.trace), self.plot_path)
+            problem = plotting.write(lambda: plotting.path_figure(sim.track, self.trace), self.plot_path)
+            if problem:
+                raise TransportError(f"plot: {problem}")

@@ -6,9 +6,11 @@
 """
 
 from roar.calibration import Calibration, CalibrationError, ChannelCalibration
+from roar.telemetry import CarEvent, EventKind, VehicleState
 from roar.transports import LinkLost, TransportError
 from roar.vehicle import Vehicle
 
 __version__ = "0.1.0"
 
-__all__ = ["Calibration", "CalibrationError", "ChannelCalibration", "LinkLost", "TransportError", "Vehicle"]
+__all__ = ["Calibration", "CalibrationError", "CarEvent", "ChannelCalibration", "EventKind", "LinkLost",
+           "TransportError", "Vehicle", "VehicleState"]

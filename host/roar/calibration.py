@@ -126,7 +126,10 @@ def check_unit(name: str, value) -> float:
     """A command value as float in [-1, 1]; one-line ValueError otherwise (NaN and inf included)."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise ValueError(f"{name} must be a number in [-1, 1], got {value!r}")
-    value = float(value)
+    try:
+        value = float(value)
+    except OverflowError:  # an int beyond any float
+        raise ValueError(f"{name} must be within [-1, 1], got a number with {len(str(value))} digits") from None
     if not math.isfinite(value):
         raise ValueError(f"{name} must be a finite number in [-1, 1], got {value}")
     if not -1.0 <= value <= 1.0:

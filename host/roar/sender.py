@@ -39,6 +39,7 @@ class CommandSender:
         self.connected = True
         self.error: TransportError | None = None  # why the link is down, while it is
         self.sent = 0  # messages written
+        self.main_ended = False  # stopped because the program's main thread ended
         self._last_send = -1e9
         self._thread = threading.Thread(target=self._run, name="roar-sender", daemon=True)
 
@@ -82,8 +83,12 @@ class CommandSender:
         while True:
             with self._cond:
                 while True:
-                    if self._stop or not main.is_alive():
-                        return  # closed, or the program ended without closing: the car fails safe
+                    if not main.is_alive():
+                        self.main_ended = True
+                        self._cond.notify_all()
+                        return  # the program ended without closing: the car fails safe
+                    if self._stop:
+                        return
                     now = time.monotonic()
                     due = self._last_send + (self.transport.min_period_s if self._fresh else self.period_s)
                     if now >= due:

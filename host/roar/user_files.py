@@ -1,7 +1,9 @@
-"""Reading the files users write (calibration, tracks, waypoints) with one-line errors."""
+"""Reading the files users write (calibration, tracks, waypoints) with one-line errors, and
+checking up front that an output file can be written (before a run, not after it)."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any, Callable
 
@@ -24,3 +26,19 @@ def read_parsed(path: str | Path, loads: Callable[[str], Any], error: type[Value
         return loads(text)
     except ValueError as e:  # json.JSONDecodeError and tomllib.TOMLDecodeError are ValueErrors
         raise error(f"{Path(path)}: not valid {kind}: {e}") from None
+    except RecursionError:
+        raise error(f"{Path(path)}: not valid {kind}: nested too deeply") from None
+
+
+def unwritable(path: str | Path) -> str | None:
+    """Why `path` cannot be written (one line), or None when it can. Creates missing folders."""
+    path = Path(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        return f"cannot write {path}: {e.strerror or e}"
+    if path.is_dir():
+        return f"cannot write {path}: it is a folder"
+    if not os.access(path if path.exists() else path.parent, os.W_OK):
+        return f"cannot write {path}: permission denied"
+    return None

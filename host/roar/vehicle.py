@@ -1,10 +1,16 @@
-"""Vehicle: drive a car with throttle and steering in [-1, 1], over any transport.
+"""Vehicle: drive a car with throttle and steering in [-1, 1], over any transport, and read back
+what it does.
 
     from roar import Vehicle
     with Vehicle("sim://") as car:          # or "serial:///dev/ttyUSB0", "ble://"
         car.drive(throttle=0.3, steering=0.5)
         time.sleep(5)
+        print(car.state().speed_m_s)        # None where the link cannot tell
     # leaving the block sends neutral, also on exceptions and Ctrl-C
+
+Threads: drive() may be called from any thread while the program's main thread runs. When the
+main thread ends without close(), the vehicle stops sending (so the car's failsafe stops the
+car) and from then on drive() raises TransportError and `connected` is False.
 """
 
 from __future__ import annotations
@@ -12,13 +18,16 @@ from __future__ import annotations
 import atexit
 import collections
 import logging
+import threading
 import time
 import weakref
 from pathlib import Path
+from typing import Any
 
 from roar.calibration import Calibration, check_unit, load_default
 from roar.protocol import encode, spec
 from roar.sender import CommandSender
+from roar.telemetry import UNKNOWN, CarEvent, EventKind, VehicleState, parse_event
 from roar.transports import Transport, TransportError, open_url
 
 log = logging.getLogger("roar")
@@ -47,7 +56,9 @@ class Vehicle:
         self.transport: Transport = open_url(url, **transport_options)
         self.transport.open()
         self.replies: collections.deque[str] = collections.deque(maxlen=200)  # the car's lines, newest last
+        self.events: collections.deque[CarEvent] = collections.deque(maxlen=200)  # the same, typed
         self.errors = 0  # "ERR ..." replies seen
+        self._events_cond = threading.Condition()
         self._throttle = self._steering = 0.0
         self._closed = False
         self._sender = CommandSender(self.transport, period_s, self._on_lines, reconnect)
@@ -111,7 +122,8 @@ class Vehicle:
 
     @property
     def connected(self) -> bool:
-        return self._sender.connected and not self._closed
+        """The link is up and commands are being sent."""
+        return self._sender.connected and not self._closed and not self._sender.main_ended
 
     @property
     def link_error(self) -> TransportError | None:
@@ -121,18 +133,70 @@ class Vehicle:
     def _check_usable(self) -> None:
         if self._closed:
             raise TransportError(f"{self.url}: vehicle is closed")
+        if self._sender.main_ended:
+            raise TransportError(f"{self.url}: the program's main thread has ended, so the vehicle stopped sending "
+                                 f"and the car's failsafe stops it; keep the main thread running while you drive")
         if not self._sender.reconnect and self._sender.error is not None:
             raise self._sender.error
 
     def _on_lines(self, lines: list[str]) -> None:
+        now = time.monotonic()
         for line in lines:
             self.replies.append(line)
-            word = line.split(" ", 1)[0]
-            if word == spec.SERIAL_REPLY_ERROR:
+            event = parse_event(line, now)
+            if event is None:
+                continue
+            if event.kind is EventKind.ERROR:
                 self.errors += 1
                 log.warning("the car rejected a message: %s", line)
-            elif word == spec.SERIAL_REPLY_FAILSAFE:
+            elif event.kind is EventKind.FAILSAFE:
                 log.warning("the car's failsafe tripped (no valid command in time); send neutral to re-arm")
+            with self._events_cond:
+                self.events.append(event)
+                self._events_cond.notify_all()
+
+    # --- what the car tells ---------------------------------------------------------------------
+
+    def wait_for(self, *kinds: EventKind, timeout_s: float = 2.0, since: float | None = None) -> CarEvent | None:
+        """The first event of these kinds (any kind when none given) received at or after `since`
+        (time.monotonic(); default: now), waiting up to timeout_s; None if none came. Links
+        without replies (ble://, loop://) never deliver events."""
+        since = time.monotonic() if since is None else since
+
+        def found() -> CarEvent | None:
+            return next((e for e in self.events if e.at_s >= since and (not kinds or e.kind in kinds)), None)
+
+        with self._events_cond:
+            self._events_cond.wait_for(found, timeout_s)
+            return found()
+
+    def wait_armed(self, timeout_s: float = 2.0) -> bool:
+        """True once the car is armed (at once if it already is), False after timeout_s. The car
+        boots latched; the vehicle's first command is neutral, which arms it."""
+        with self._events_cond:
+            return self._events_cond.wait_for(lambda: self.latched is False, timeout_s)
+
+    @property
+    def latched(self) -> bool | None:
+        """Whether the car's failsafe is latched, from its latest event (None before any)."""
+        for event in reversed(self.events):
+            if event.kind in (EventKind.READY, EventKind.FAILSAFE):
+                return True
+            if event.kind is EventKind.ARMED:
+                return False
+        return None
+
+    def state(self) -> VehicleState:
+        """The car's state as the link reports it now; fields the link cannot provide are None."""
+        return self.transport.state() or UNKNOWN
+
+    def lidar(self) -> Any:
+        """A 2D scan, distances [m] from right to left over 270 degrees (numpy array), or None."""
+        return self.transport.lidar()
+
+    def camera(self, width: int = 160, height: int = 120) -> Any:
+        """(RGB uint8 HxWx3, metric depth float32 HxW), or None where the car has no camera here."""
+        return self.transport.camera(width, height)
 
     def close(self) -> None:
         """Send neutral and release the link. Safe to call twice."""

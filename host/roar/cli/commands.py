@@ -9,6 +9,9 @@ from roar.cli.main import UserError
 from roar.vehicle import Vehicle
 
 MAX_SEND_S = 3600.0  # [s]
+# [s] how long to wait at the end for any reply: a classic Nano resets when its port opens and
+# takes about 2 s to boot and answer
+REPLY_GRACE_S = 3.0
 
 # USB vendor IDs of boards and USB-serial chips that cars use.
 KNOWN_VIDS = {0x2341: "Arduino", 0x2A03: "Arduino", 0x1A86: "CH340 (Nano clone / ESP32)",
@@ -27,10 +30,16 @@ def send(args) -> int:
         t_us, s_us = car.pulses_us()
         print(f"sending ({t_us},{s_us}) to {args.url} for {args.seconds:g} s", flush=True)
         time.sleep(args.seconds)
-        link = "link ok" if car.connected else f"link down: {car.link_error}"
-        replies = ", ".join(list(car.replies)[-5:]) or "none"
+        car.stop()
+        silent = car.transport.replies and car.wait_for(timeout_s=REPLY_GRACE_S, since=0.0) is None
+        link_ok = car.connected
+        link = "link ok" if link_ok else f"link down: {car.link_error}"
+        replies = ", ".join(list(car.replies)[-5:]) or ("none" if car.transport.replies else "none (this link has none)")
+    if silent:
+        raise UserError(f"no reply from a car on {args.url} (no READY, ARMED or FAILSAFE line in "
+                        f"{args.seconds + REPLY_GRACE_S:g} s): is a ROAR car running there?")
     print(f"done, neutral sent; {link}; car replies: {replies}")
-    return 0 if car.errors == 0 else 1
+    return 0 if car.errors == 0 and link_ok else 1
 
 
 def drive(args) -> int:

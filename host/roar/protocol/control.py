@@ -7,6 +7,7 @@ differential property test feeds them the same random streams.
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass
 from enum import Enum
 
@@ -33,8 +34,10 @@ class ControlCommand:
     def __post_init__(self) -> None:
         for name in ("throttle_us", "steering_us"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int):
+            if isinstance(value, bool) or not isinstance(value, numbers.Integral):  # numpy integers too
                 raise ControlError(f"{name} must be an integer number of microseconds, got {value!r}")
+            value = int(value)
+            object.__setattr__(self, name, value)
             if not spec.CONTROL_MIN_US <= value <= spec.CONTROL_MAX_US:
                 raise ControlError(
                     f"{name} {value} us is outside {spec.CONTROL_MIN_US}..{spec.CONTROL_MAX_US} us"

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import ClassVar
+from typing import Any, ClassVar
+
+from roar.telemetry import VehicleState
 
 
 class TransportError(Exception):
@@ -18,11 +20,14 @@ class Transport(ABC):
     """Bytes to the car, reply lines from it.
 
     Subclasses set `scheme`, build themselves from a URL in from_url(), and implement open(),
-    write() and close(); read_lines() is optional (links without a back channel return []).
-    Methods are called from one thread at a time (the Vehicle's sender)."""
+    write() and close(); read_lines() is optional (links without a back channel return [] and
+    leave `replies` False). open/write/read_lines/close are called from one thread at a time
+    (the Vehicle's sender); state(), lidar() and camera() may be called from the user's thread
+    at any time and return None where the link cannot tell."""
 
     scheme: ClassVar[str]
     min_period_s: ClassVar[float] = 0.002  # [s] fastest the link takes one control message
+    replies: ClassVar[bool] = False  # the link carries the car's reply lines (READY, ARMED, ...)
 
     url: str = ""
 
@@ -47,6 +52,18 @@ class Transport(ABC):
     @abstractmethod
     def close(self) -> None:
         """Release the link; safe to call twice and after a LinkLost."""
+
+    def state(self) -> VehicleState | None:
+        """The car's state as this link reports it now, or None."""
+        return None
+
+    def lidar(self) -> Any:
+        """A 2D scan (distances [m], right to left) if the car has one on this link, else None."""
+        return None
+
+    def camera(self, width: int, height: int) -> Any:
+        """(RGB uint8 HxWx3, depth float32 HxW [m]) if the car has a camera on this link, else None."""
+        return None
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.url}>"

@@ -13,6 +13,7 @@ stop arriving.
 from __future__ import annotations
 
 import re
+import struct
 from dataclasses import dataclass
 
 from bleak import BleakClient, BleakScanner
@@ -20,6 +21,7 @@ from bleak.exc import BleakError
 
 from roar.aio import run_sync
 from roar.protocol import spec
+from roar.telemetry import VehicleState
 from roar.transports.base import LinkLost, Transport, TransportError, pop_option
 
 DEFAULT_TIMEOUT_S = 10.0  # [s] to find and connect to the car
@@ -134,6 +136,20 @@ class BleTransport(Transport):
         except (BleakError, OSError, TimeoutError) as e:
             self._connected = False
             raise LinkLost(f"BLE link to {self.describe_target()} lost: {e or type(e).__name__}") from None
+
+    def state(self) -> VehicleState | None:
+        """Speed from the velocity characteristic, the throttle output from the state one."""
+        client = self._client
+        if client is None or not self._connected:
+            return None
+        try:
+            velocity = run_sync(client.read_gatt_char(spec.BLE_VELOCITY_UUID), WRITE_TIMEOUT_S)
+            state = run_sync(client.read_gatt_char(spec.BLE_STATE_UUID), WRITE_TIMEOUT_S)
+        except (BleakError, OSError, TimeoutError):
+            return None
+        speed = struct.unpack("<f", bytes(velocity[:4]))[0] if len(velocity) >= 4 else None
+        throttle_out = struct.unpack("<2f", bytes(state[:8]))[1] if len(state) >= 8 else None
+        return VehicleState(speed_m_s=speed, throttle_out_us=throttle_out)
 
     def close(self) -> None:
         client, self._client = self._client, None

@@ -19,6 +19,7 @@ class SerialTransport(Transport):
     scheme = "serial"
     # [s] one 11-byte message takes ~1 ms at 115200 baud (10 bits per byte); keep the wire half idle
     min_period_s = 0.002
+    replies = True
 
     def __init__(self, port: str, baud: int = spec.SERIAL_BAUD, write_timeout_s: float = 0.5) -> None:
         self.port = port

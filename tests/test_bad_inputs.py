@@ -1,0 +1,151 @@
+"""Inputs a new user gives, each either working or failing in one line (no traceback, non-zero
+exit, the car left at neutral), and no success reported that did not happen."""
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import pytest
+
+from conftest import ROOT
+from roar import TransportError, Vehicle
+from roar.calibration import Calibration, CalibrationError
+from roar.cli import main
+from roar.protocol import encode
+
+
+def one_line_error(capsys, *argv) -> str:
+    code = main(list(argv))
+    err = capsys.readouterr().err.strip()
+    assert code == 1 and "\n" not in err and "Traceback" not in err, err
+    return err
+
+
+def test_global_options_work_before_a_simulator_command(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["-v", "race", "--help"])
+    assert e.value.code == 0 and "usage: roar race" in capsys.readouterr().out
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0 and capsys.readouterr().out.startswith("roar 0.1.0")
+
+
+@pytest.mark.parametrize("name, text, kind", [("cal.toml", "a = " + "[" * 100_000, "TOML"),
+                                                ("track.json", "[" * 100_000, "JSON")])
+def test_deeply_nested_files_fail_in_one_line(tmp_path, name, text, kind):
+    from roar_sim.track import Track, TrackError
+
+    path = tmp_path / name
+    path.write_text(text)
+    load, error = (Calibration.load, CalibrationError) if kind == "TOML" else (Track.load, TrackError)
+    with pytest.raises(error) as e:
+        load(path)
+    assert f"not valid {kind}" in str(e.value) and "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("option", ["trace=/proc/roar/drive.csv", "plot=/proc/roar/drive.png", "plot=/tmp"])
+def test_sim_outputs_that_cannot_be_written_fail_before_driving(capsys, option):
+    err = one_line_error(capsys, "send", f"sim://?{option}", "--for", "0.1")
+    assert "cannot write" in err or "must name a .png" in err
+
+
+def test_a_serial_port_with_no_car_on_it_is_not_reported_as_success(capsys):
+    master, slave = os.openpty()  # a port that takes bytes and never answers
+    try:
+        err = one_line_error(capsys, "send", f"serial://{os.ttyname(slave)}", "--for", "0.1")
+        assert "no reply from a car" in err
+        assert b"(1500,1500)" in os.read(master, 4096)  # it did send, then neutral
+    finally:
+        os.close(master)
+        os.close(slave)
+
+
+def test_gui_without_a_display_is_one_line_and_the_program_lives_on(monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    with pytest.raises(TransportError) as e:
+        Vehicle("sim://?gui=1")
+    assert "needs a display" in str(e.value) and "\n" not in str(e.value)
+    err = subprocess.run([sys.executable, "-m", "roar.cli", "race", "--gui"], capture_output=True, text=True,
+                         cwd=ROOT, env={k: v for k, v in os.environ.items() if k != "DISPLAY"}, timeout=60)
+    assert err.returncode == 1 and err.stderr.strip().splitlines()[-1].startswith("error: --gui needs a display")
+
+
+def test_sim_serial_exits_130_on_ctrl_c():
+    proc = subprocess.Popen([sys.executable, "-m", "roar.cli", "sim", "--serial"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, cwd=ROOT)
+    try:
+        assert "/dev/pts/" in proc.stdout.readline()
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=20) == 130
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        proc.communicate()
+
+
+def test_the_simulated_port_never_tears_reply_lines_for_a_slow_reader(pty_car):
+    """Hundreds of error replies while nobody reads; then every line read is whole."""
+    import serial
+
+    with serial.Serial(pty_car.path, timeout=0) as port:
+        for _ in range(60):
+            port.write(b"x\n" * 10)
+            time.sleep(0.01)
+        time.sleep(0.5)
+        data = b""
+        while chunk := port.read(65536):
+            data += chunk
+            time.sleep(0.05)
+    lines = data.decode().splitlines()
+    assert len(lines) > 50
+    assert set(lines) <= {"READY 1", "ERR garbage", "FAILSAFE", "ARMED"}, sorted(set(lines))[:5]
+
+
+@pytest.mark.parametrize("value", [10**400, -(10**400)])
+def test_huge_integers_are_a_value_error(value):
+    with Vehicle("loop://") as car, pytest.raises(ValueError, match="throttle must be within"):
+        car.drive(throttle=value)
+
+
+def test_numpy_integers_encode():
+    np = pytest.importorskip("numpy")
+    assert encode(np.int64(1600), np.uint16(1400)) == b"(1600,1400)"
+
+
+def test_drive_from_a_thread_after_the_main_thread_ended_raises_instead_of_doing_nothing():
+    """The vehicle stops sending when the main thread ends (the car's failsafe then stops it);
+    a worker that drives after that gets an error, and `connected` says False."""
+    script = textwrap.dedent("""
+        import threading, time
+        from roar import TransportError, Vehicle
+        car = Vehicle("loop://")
+        def worker():
+            time.sleep(0.5)  # the main thread has returned by now
+            try:
+                car.drive(0.3)
+                print("no error", car.connected, flush=True)
+            except TransportError as e:
+                print("raised:", e, "| connected:", car.connected, flush=True)
+        threading.Thread(target=worker).start()
+    """)
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=30, cwd=ROOT).stdout
+    assert out.startswith("raised:") and "main thread has ended" in out and "connected: False" in out, out
+
+
+def test_the_issue_calibration_fails_in_one_line_with_roar_send(capsys, tmp_path):
+    path = tmp_path / "t.toml"
+    path.write_text("[throttle]\ntrim_us = 1530\n")
+    assert "would never arm" in one_line_error(capsys, "send", "sim://", "--throttle", "0.5", "--for", "0.2",
+                                                "--calibration", str(path))
+
+
+def test_send_to_the_simulated_car_still_succeeds(capsys):
+    code = main(["send", "sim://", "--throttle", "0.2", "--for", "0.2"])
+    out = capsys.readouterr().out
+    assert code == 0 and "link ok" in out and "ARMED" in out
