@@ -123,3 +123,15 @@ def test_without_a_bluetooth_adapter_the_error_is_one_line():
     message = str(e.value)
     assert "\n" not in message
     assert "Bluetooth is not available" in message or "no BLE car found" in message
+
+
+def test_state_reads_the_velocity_and_state_characteristics(car):
+    """Over BLE the car's speed (velocity: 0, no speedometer on these boards) and the throttle
+    pulse it outputs come back through state(); position is not available there (None)."""
+    with Vehicle("ble://", **BACKENDS) as host:
+        host.drive(throttle=0.5)
+        assert wait_for(lambda: outputs(car)[0] == 1750)
+        state = host.state()
+        assert state.speed_m_s == 0.0 and state.throttle_out_us == 1750.0
+        assert state.x_m is None and state.yaw_rad is None and host.lidar() is None
+        assert host.wait_for(timeout_s=0.2) is None  # BLE carries no reply lines

@@ -6,13 +6,14 @@ import select
 import shutil
 import subprocess
 import sys
+import time
 
 import pytest
 
 from conftest import ROOT, wait_for
 from roar.calibration import Calibration, default_path
 from roar.cli import main
-from roar.cli.teleop import Teleop, parse_keys
+from roar.cli.teleop import Teleop
 
 COMMANDS = ["send", "drive", "calibrate", "scan", "ports", "sim"]
 
@@ -139,9 +140,7 @@ def test_calibrate_without_answers_saves_nothing(capsys, no_stdin):
     assert code == 1 and "not saved" in out and not default_path().exists()
 
 
-def test_keys_map_to_actions():
-    assert parse_keys(b"wW\x1b[A s\x1b[Bad\x1b[D\x1b[Cxq") == [
-        "faster", "faster", "faster", "stop", "slower", "slower", "left", "right", "left", "right", "quit"]
+def test_teleop_steps_and_clamps():
     t = Teleop()
     for action in ["faster"] * 9 + ["left"] * 7:
         t.apply(action)
@@ -149,11 +148,23 @@ def test_keys_map_to_actions():
     assert t.apply("stop") and (t.throttle, t.steering) == (0, 0) and not t.apply("quit")
 
 
-def test_drive_from_a_terminal_moves_the_car(pty_car):
-    """`roar drive` in a real terminal (a pty as its stdin), driving the simulated car over serial."""
+# What a terminal sends for the arrow keys: ESC [ x normally, ESC O x in application cursor
+# mode (set by `printf '\033[?1h'`, or by programs such as vim).
+ARROWS = {"normal": {"up": b"\x1b[A", "down": b"\x1b[B", "right": b"\x1b[C", "left": b"\x1b[D"},
+          "application": {"up": b"\x1bOA", "down": b"\x1bOB", "right": b"\x1bOC", "left": b"\x1bOD"}}
+
+
+@pytest.mark.parametrize("mode", sorted(ARROWS))
+@pytest.mark.parametrize("split", [False, True], ids=["whole", "split"])
+def test_drive_from_a_terminal_moves_the_car(pty_car, mode, split):
+    """`roar drive` in a real terminal (a pty as its stdin and stdout), driving the simulated car
+    over serial: arrow keys in both cursor modes, each sequence written whole or split across
+    two writes (as a slow terminal or ssh delivers them), letter keys, and q. The test plays the
+    terminal, and answers cursor-position queries as every terminal does."""
     master, slave = os.openpty()
     proc = subprocess.Popen([sys.executable, "-m", "roar.cli", "drive", f"serial://{pty_car.path}"], cwd=ROOT,
-                            stdin=slave, stdout=slave, stderr=subprocess.PIPE)
+                            stdin=slave, stdout=slave, stderr=subprocess.PIPE,
+                            env=dict(os.environ, TERM="xterm-256color"))
     os.close(slave)
     screen = b""
 
@@ -161,21 +172,42 @@ def test_drive_from_a_terminal_moves_the_car(pty_car):
         nonlocal screen
         while select.select([master], [], [], 0)[0]:
             try:
-                screen += os.read(master, 4096)
+                chunk = os.read(master, 4096)
             except OSError:
                 break
+            screen += chunk
+            for _ in range(chunk.count(b"\x1b[6n")):  # "where is the cursor?" -> row 24, column 1
+                os.write(master, b"\x1b[24;1R")
         return screen
 
+    def press(key: bytes):
+        if split:
+            os.write(master, key[:1])
+            time.sleep(0.05)  # the rest of the sequence comes in a later read
+            os.write(master, key[1:])
+        else:
+            os.write(master, key)
+        time.sleep(0.05)
+
+    arrow = ARROWS[mode]
     try:
         assert wait_for(lambda: b"throttle +0.0" in read_screen(), timeout_s=10)
-        os.write(master, b"www")
+        for _ in range(3):
+            press(arrow["up"])
         assert wait_for(lambda: pty_car.sim.outputs.throttle_us == 1650)
-        os.write(master, b"\x1b[C")
+        press(arrow["right"])
         assert wait_for(lambda: pty_car.sim.outputs.steering_us == 1600)
-        os.write(master, b"q")
+        press(arrow["left"])
+        press(arrow["left"])
+        assert wait_for(lambda: pty_car.sim.outputs.steering_us == 1400)
+        press(arrow["down"])
+        press(b"w")
+        press(b"w")
+        assert wait_for(lambda: pty_car.sim.outputs.throttle_us == 1700)
+        press(b"q")
         assert proc.wait(timeout=10) == 0, proc.stderr.read()
         assert wait_for(lambda: pty_car.sim.outputs.throttle_us == 1500)
-        assert b"throttle +0.3  steering +0.2" in read_screen()
+        assert b"throttle +0.4  steering -0.2" in read_screen()
     finally:
         if proc.poll() is None:
             proc.kill()

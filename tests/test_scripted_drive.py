@@ -1,5 +1,7 @@
 """`make run` today: the firmware core driven by a scripted host session, printed and plotted."""
 
+import pytest
+
 from roar.protocol import spec
 from roar_sim import scripted_drive
 from roar_sim.firmware_core import BrakePhase, ControlSource
@@ -34,9 +36,10 @@ def test_main_prints_trace_and_writes_png(tmp_path, capsys):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
 
 
-def test_bad_plot_path_is_one_line_error(tmp_path, capsys):
+def test_bad_plot_path_is_refused_before_the_run(tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("")
-    assert scripted_drive.main(["--plot", str(blocker / "x.png")]) == 1
-    err = capsys.readouterr().err.strip()
-    assert err.startswith("error: cannot write") and "\n" not in err
+    with pytest.raises(SystemExit) as e:
+        scripted_drive.main(["--plot", str(blocker / "x.png")])
+    err = capsys.readouterr()
+    assert e.value.code == 2 and "--plot cannot write" in err.err.strip().splitlines()[-1] and err.out == ""

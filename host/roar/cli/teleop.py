@@ -7,11 +7,7 @@ space       stop (neutral)       Q / Ctrl-C  quit (sends neutral)
 
 from __future__ import annotations
 
-import os
-import select
 import sys
-import termios
-import tty
 from dataclasses import dataclass
 
 from roar.cli.main import UserError
@@ -20,28 +16,21 @@ from roar.vehicle import Vehicle
 THROTTLE_STEP = 0.1
 STEERING_STEP = 0.2
 MAX_TELEOP_THROTTLE = 0.5  # keyboards are coarse: half throttle is plenty indoors
+POLL_S = 0.1  # [s] the screen refreshes at least this often
 
-KEYS = {
-    b"w": "faster", b"\x1b[A": "faster", b"s": "slower", b"\x1b[B": "slower",
-    b"a": "left", b"\x1b[D": "left", b"d": "right", b"\x1b[C": "right",
-    b" ": "stop", b"q": "quit", b"\x03": "quit", b"\x04": "quit",
-}
+# Keys are decoded by blessed, which knows the terminal's own sequences (an arrow is ESC [ A in
+# normal cursor mode, ESC O A in application mode) and waits for the rest of a sequence split
+# across reads, so a key is never misread as another.
+NAMED_KEYS = {"KEY_UP": "faster", "KEY_DOWN": "slower", "KEY_LEFT": "left", "KEY_RIGHT": "right"}
+CHARACTERS = {"w": "faster", "s": "slower", "a": "left", "d": "right", " ": "stop", "q": "quit",
+              "\x03": "quit", "\x04": "quit"}  # Ctrl-C and Ctrl-D arrive as keys in raw mode
 
 
-def parse_keys(data: bytes) -> list[str]:
-    """Key presses in a chunk of terminal input -> actions (unknown keys ignored)."""
-    actions, i = [], 0
-    while i < len(data):
-        for length in (3, 1):
-            chunk = data[i:i + length]
-            action = KEYS.get(chunk if length == 3 else chunk.lower())  # arrows are case-sensitive
-            if action:
-                actions.append(action)
-                i += length
-                break
-        else:
-            i += 1
-    return actions
+def action_for(key) -> str | None:
+    """The teleop action of one blessed Keystroke (None for other keys)."""
+    if key.is_sequence:
+        return NAMED_KEYS.get(key.name)
+    return CHARACTERS.get(str(key).lower())
 
 
 @dataclass
@@ -64,29 +53,29 @@ class Teleop:
         return True
 
 
-def run(car: Vehicle, fd: int | None = None, out=None) -> int:
-    fd = sys.stdin.fileno() if fd is None else fd
+def run(car: Vehicle, out=None) -> int:
+    import blessed
+
     out = out or sys.stdout
-    if not os.isatty(fd):
+    term = blessed.Terminal()
+    if not term.is_a_tty or not sys.stdin.isatty():
         raise UserError("roar drive reads the keyboard: run it in a terminal (use `roar send` in scripts)")
     state = Teleop()
-    saved = termios.tcgetattr(fd)
     out.write(__doc__.split("\n", 2)[2] + "\n")
     try:
-        tty.setraw(fd, termios.TCSANOW)  # Ctrl-C arrives as a key, so quitting always sends neutral
-        running = True
-        while running:
-            ready, _, _ = select.select([fd], [], [], 0.1)
-            if ready:
-                for action in parse_keys(os.read(fd, 64)):
-                    running = running and state.apply(action)
-                car.drive(state.throttle, state.steering)
-            link = "link ok" if car.connected else "LINK DOWN"
-            last = car.replies[-1] if car.replies else ""
-            out.write(f"\r\x1b[Kthrottle {state.throttle:+.1f}  steering {state.steering:+.1f}  "
-                      f"({link}) {last}")
-            out.flush()
+        with term.raw():  # Ctrl-C arrives as a key, so quitting always sends neutral
+            running = True
+            while running:
+                key = term.inkey(timeout=POLL_S)
+                action = action_for(key) if key else None
+                if action:
+                    running = state.apply(action)
+                    car.drive(state.throttle, state.steering)
+                link = "link ok" if car.connected else "LINK DOWN"
+                last = car.replies[-1] if car.replies else ""
+                out.write(f"\r{term.clear_eol}throttle {state.throttle:+.1f}  steering {state.steering:+.1f}  "
+                          f"({link}) {last}")
+                out.flush()
     finally:
-        termios.tcsetattr(fd, termios.TCSADRAIN, saved)
         out.write("\r\nstopped\n")
     return 0
