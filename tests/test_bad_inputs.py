@@ -149,3 +149,15 @@ def test_send_to_the_simulated_car_still_succeeds(capsys):
     code = main(["send", "sim://", "--throttle", "0.2", "--for", "0.2"])
     out = capsys.readouterr().out
     assert code == 0 and "link ok" in out and "ARMED" in out
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["race", "--help"], ["sim", "--help"]])
+def test_no_pybullet_banner_in_any_output(argv):
+    proc = subprocess.run([sys.executable, "-m", "roar.cli", *argv], capture_output=True, text=True, cwd=ROOT,
+                          timeout=60)
+    assert proc.returncode == 0 and "build time" not in proc.stdout + proc.stderr
+
+
+def test_pybullet_itself_still_prints_its_banner_so_the_test_above_can_fail():
+    proc = subprocess.run([sys.executable, "-c", "import pybullet"], capture_output=True, text=True, timeout=60)
+    assert "build time" in proc.stdout + proc.stderr
