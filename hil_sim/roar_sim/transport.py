@@ -24,6 +24,7 @@ from roar.transports.base import LinkLost, Transport, TransportError, pop_option
 from roar.user_files import unwritable
 from roar_sim.plotting import png_problem
 
+
 def missing_simulator(error: ImportError) -> str:
     return f"the simulator needs {error.name or 'its dependencies'}: pip install 'roar-platform[sim]'"
 
@@ -59,9 +60,10 @@ class SimTransport(Transport):
             raise TransportError(f"speedup must be 0.1..{MAX_SPEEDUP:g}, got {speedup:g}")
         trace = pop_option(options, "trace", Path, None)
         plot = pop_option(options, "plot", Path, None)
-        problem = (trace and unwritable(trace)) or (plot and png_problem(plot))
-        if problem:  # checked now, not when the drive is over
-            raise TransportError(f"{'trace' if trace and unwritable(trace) else 'plot'} {problem}")
+        for name, path, check in (("trace", trace, unwritable), ("plot", plot, png_problem)):
+            problem = path is not None and check(path)
+            if problem:  # checked now, not when the drive is over
+                raise TransportError(f"{name} {problem}")
         return cls(target.strip("/") if not target.endswith(".json") else target, speedup,
                    pop_option(options, "gui", bool, False), trace, plot)
 
@@ -98,7 +100,10 @@ class SimTransport(Transport):
                     next_trace += TRACE_PERIOD_S
                 while not self._requests.empty():  # sensors asked for by the user's thread
                     fn, future = self._requests.get()
-                    future.set_result(fn(sim))
+                    try:
+                        future.set_result(fn(sim))
+                    except Exception as e:  # the asker gets it; the simulator runs on
+                        future.set_exception(e)
         except BaseException as e:  # surfaced to the sender on its next write
             self._error = e
             self._running.clear()
