@@ -66,7 +66,7 @@ def test_rc_presence_ends_with_its_pulses_and_never_returns(phase, offsets):
 def test_the_junior_stops_once_requests_stop_and_stays_stopped(phase, offsets):
     t0 = at(phase)
     junior = Junior()
-    assert junior.apply_query("forward=True&left_spd=0.5&right_spd=0.5", t0) == (3, 0)
+    assert junior.apply_query("forward=True&left_spd=0.5&right_spd=0.5", t0) == (3, None)
     for dt in offsets:
         expected = (500, 500) if dt <= spec.JUNIOR_FAILSAFE_TIMEOUT_US else (0, 0)
         assert junior.duties(t0 + dt) == expected, dt

@@ -5,10 +5,12 @@
 // from build flags (platformio.ini, env esp32_junior).
 //
 // The loop never blocks: a non-blocking lwIP socket server reads each connection's bytes into
-// its own fixed roar::HttpRequestReader (no String, no heap per request), answers complete
-// requests at once and closes them; roar::JuniorBoard::poll() runs every iteration, so the
-// failsafe fires even while a request is still arriving. The task watchdog resets the chip
-// when the loop stops feeding it.
+// its own fixed roar::HttpRequestReader (no String, no heap per request) and answers each
+// request as soon as it is complete, keeping the connection for the next one when the client
+// does (HTTP/1.1 keep-alive). When every slot is taken, a new connection replaces the one that
+// has been quiet longest, so idle connections cannot lock a driver out. roar::JuniorBoard::poll()
+// runs every iteration, so the failsafe fires even while a request is still arriving. The task
+// watchdog resets the chip when the loop stops feeding it.
 #include <Arduino.h>
 #include <WiFi.h>
 #include <errno.h>
@@ -33,8 +35,8 @@ namespace {
 constexpr uint8_t kPwmBits = 10;
 constexpr uint32_t kPwmFullScale = (1ul << kPwmBits) - 1;
 constexpr uint32_t kPingPeriodUs = 60000;     // [us] between ultrasonic pings (echoes die out)
-constexpr uint32_t kClientTimeoutMs = 2000;   // [ms] a connection that sends no whole request is closed
-constexpr int kMaxClients = 2;                // connections served at once
+constexpr uint32_t kClientTimeoutMs = 2000;   // [ms] a connection quiet this long is closed
+constexpr int kMaxClients = 4;                // connections served at once
 constexpr uint32_t kWatchdogS = (roar::proto::kTimingLoopWatchdogUs + 999999ul) / 1000000ul;  // [s]
 
 volatile uint32_t echo_rise_us = 0, echo_width_us = 0;
@@ -79,7 +81,7 @@ roar::JuniorBoard board(hal);
 
 struct Client {
   int fd = -1;
-  uint32_t opened_ms = 0;
+  uint32_t active_ms = 0;  // [ms] when it last sent a byte (or was accepted)
   roar::HttpRequestReader request;
 };
 int listener = -1;
@@ -101,31 +103,39 @@ void finish(Client& c) {
   c.fd = -1;
 }
 
-void serve(Client& c) {  // read what has arrived; answer once the request is decided
+void serve(Client& c) {  // read what has arrived; answer each request as soon as it is decided
   uint8_t bytes[64];
   const int n = recv(c.fd, bytes, sizeof(bytes), 0);
   if (n == 0 || (n < 0 && errno != EWOULDBLOCK && errno != EAGAIN)) return finish(c);  // peer gone
-  roar::HttpRead state = c.request.state();
-  for (int i = 0; i < n && state == roar::HttpRead::Incomplete; ++i) state = c.request.feed(bytes[i]);
-  if (state == roar::HttpRead::Incomplete) {
-    if (millis() - c.opened_ms > kClientTimeoutMs) finish(c);
-    return;
+  if (n > 0) c.active_ms = millis();
+  for (int i = 0; i < n; ++i) {
+    if (c.request.feed(bytes[i]) == roar::HttpRead::Incomplete) continue;
+    char reply[roar::JuniorBoard::kMaxReplyBytes];
+    bool keep_open = false;
+    const size_t len = board.respond(c.request, roar::echo_us_to_cm(echo_width_us), reply, sizeof(reply), &keep_open);
+    send(c.fd, reply, len, 0);  // a short reply fits the socket's buffer; never waited for
+    if (!keep_open) return finish(c);
+    c.request.reset();  // the next request on this connection (pipelined bytes follow at once)
   }
-  char reply[roar::JuniorBoard::kMaxReplyBytes];
-  const size_t len = board.respond(c.request, roar::echo_us_to_cm(echo_width_us), reply, sizeof(reply));
-  send(c.fd, reply, len, 0);  // a short reply fits the socket's buffer; never waited for
-  finish(c);
+  if (millis() - c.active_ms > kClientTimeoutMs) finish(c);
 }
 
 void server_poll() {
-  for (Client& c : clients) {
-    if (c.fd >= 0) continue;
-    const int fd = accept(listener, nullptr, nullptr);
-    if (fd < 0) break;  // none waiting
+  const int fd = accept(listener, nullptr, nullptr);
+  if (fd >= 0) {  // a free slot, or else the one quiet longest
+    Client* slot = &clients[0];
+    for (Client& c : clients) {
+      if (c.fd < 0) {
+        slot = &c;
+        break;
+      }
+      if (c.active_ms - slot->active_ms > 0x7FFFFFFFu) slot = &c;  // quieter than the best so far
+    }
+    if (slot->fd >= 0) finish(*slot);
     fcntl(fd, F_SETFL, O_NONBLOCK);
-    c.fd = fd;
-    c.opened_ms = millis();
-    c.request.reset();
+    slot->fd = fd;
+    slot->active_ms = millis();
+    slot->request.reset();
   }
   for (Client& c : clients) {
     if (c.fd >= 0) serve(c);

@@ -234,11 +234,13 @@ class Junior:
         self._mem = _object("roar_junior_size")
         self._lib.roar_junior_init(self._mem)
 
-    def apply_query(self, query: str, now_us: int) -> tuple[int, int]:
-        """Returns (applied, ignored) parameter counts."""
+    ERRORS = {1: "unknown parameter", 2: "bad flag", 3: "bad speed"}
+
+    def apply_query(self, query: str, now_us: int) -> tuple[int, str | None]:
+        """(parameters applied, None), or (0, why) when the query was refused and nothing changed."""
         raw = query.encode()
         r = self._lib.roar_junior_apply_query(self._mem, raw, len(raw), now_us)
-        return r >> 8, r & 0xFF
+        return (r, None) if r >= 0 else (0, self.ERRORS[-r])
 
     def duties(self, now_us: int) -> tuple[int, int]:
         left, right = ffi.new("int16_t *"), ffi.new("int16_t *")

@@ -5,6 +5,8 @@
 #include <new>
 
 #include "roar/board.h"
+#include "roar/http_request.h"
+#include "roar/junior_board.h"
 #include "roar/junior_control.h"
 #include "roar/l298n_mixer.h"
 
@@ -77,6 +79,34 @@ struct HostBoard {
 
   MemoryHal hal;
   CarBoard board;
+};
+
+// JuniorBoard on a HAL of roar_junior_hal_t.
+class JuniorMemoryHal : public JuniorHal {
+ public:
+  explicit JuniorMemoryHal(roar_junior_hal_t* m) : m_(m) {}
+  roar_junior_hal_t& memory() { return *m_; }
+  RawMicros now_us() override { return m_->now_us; }
+  void write_motors(const DrivePins& pins) override {
+    m_->left = to_c(pins.left);
+    m_->right = to_c(pins.right);
+  }
+  void feed_watchdog() override { ++m_->watchdog_feeds; }
+
+ private:
+  roar_junior_hal_t* m_;
+};
+
+struct HostJunior {
+  explicit HostJunior(roar_junior_hal_t* m) : hal(m), board(hal) {}
+  void run(uint32_t loops) {
+    for (uint32_t i = 0; i < loops; ++i) {
+      board.poll();
+      hal.memory().now_us += hal.memory().loop_us;
+    }
+  }
+  JuniorMemoryHal hal;
+  JuniorBoard board;
 };
 
 }  // namespace
@@ -185,9 +215,9 @@ void roar_l298n_step(void* drv, int16_t left, int16_t right, uint64_t now_us, ro
 
 size_t roar_junior_size(void) { return sizeof(JuniorControl); }
 void roar_junior_init(void* junior) { new (junior) JuniorControl(); }
-uint16_t roar_junior_apply_query(void* junior, const char* query, size_t n, uint64_t now_us) {
+int roar_junior_apply_query(void* junior, const char* query, size_t n, uint64_t now_us) {
   const JuniorQueryResult r = as<JuniorControl>(junior)->apply_query(query, n, now_us);
-  return static_cast<uint16_t>(r.applied << 8 | r.ignored);
+  return r.error == JuniorQueryError::None ? r.applied : -static_cast<int>(r.error);
 }
 void roar_junior_duties(const void* junior, uint64_t now_us, int16_t* left, int16_t* right) {
   const SideDuties d = as<JuniorControl>(junior)->duties(now_us);
@@ -253,5 +283,29 @@ int roar_board_init(void* board, roar_host_hal_t* hal, const roar_car_config_t* 
 void roar_board_begin(void* board) { as<HostBoard>(board)->board.begin(); }
 void roar_board_feed(void* board, const uint8_t* data, size_t n) { as<HostBoard>(board)->board.feed(data, n); }
 void roar_board_run(void* board, uint32_t loops) { as<HostBoard>(board)->run(loops); }
+
+
+size_t roar_junior_board_size(void) { return sizeof(HostJunior); }
+void roar_junior_board_init(void* board, roar_junior_hal_t* hal) { new (board) HostJunior(hal); }
+void roar_junior_board_run(void* board, uint32_t loops) { as<HostJunior>(board)->run(loops); }
+size_t roar_junior_board_respond(void* board, const void* reader, char* out, size_t cap, uint8_t* keep_open) {
+  HostJunior* j = as<HostJunior>(board);
+  bool keep = false;
+  const size_t n = j->board.respond(*as<HttpRequestReader>(reader), j->hal.memory().distance_cm, out, cap, &keep);
+  *keep_open = keep ? 1 : 0;
+  return n;
+}
+size_t roar_junior_reply_max(void) { return JuniorBoard::kMaxReplyBytes; }
+
+size_t roar_http_reader_size(void) { return sizeof(HttpRequestReader); }
+void roar_http_reader_init(void* reader) { new (reader) HttpRequestReader(); }
+size_t roar_http_reader_feed(void* reader, const uint8_t* data, size_t n, uint8_t* state) {
+  HttpRequestReader* r = as<HttpRequestReader>(reader);
+  size_t used = 0;
+  HttpRead s = r->state();
+  while (used < n && s == HttpRead::Incomplete) s = r->feed(data[used++]);
+  *state = static_cast<uint8_t>(s);
+  return used;
+}
 
 }  // extern "C"

@@ -13,14 +13,36 @@ bool starts_with(const char* text, size_t length, const char* prefix) {
   return true;
 }
 
+bool contains(const char* text, size_t length, const char* word) {
+  for (size_t i = 0; i < length; ++i) {
+    if (starts_with(text + i, length - i, word)) return true;
+  }
+  return false;
+}
+
+char lower(uint8_t b) { return static_cast<char>(b >= 'A' && b <= 'Z' ? b + ('a' - 'A') : b); }
+
 }  // namespace
 
 void HttpRequestReader::reset() {
   line_len_ = total_ = 0;
   method_len_ = path_at_ = path_len_ = query_at_ = query_len_ = 0;
+  header_len_ = 0;
   in_request_line_ = true;
   at_line_start_ = false;
+  keep_alive_ = false;
   state_ = HttpRead::Incomplete;
+}
+
+void HttpRequestReader::header_line_end() {
+  static const char kConnection[] = "connection:";
+  if (starts_with(header_, header_len_, kConnection)) {
+    const char* value = header_ + sizeof(kConnection) - 1;
+    const size_t value_len = header_len_ - (sizeof(kConnection) - 1);
+    if (contains(value, value_len, "close")) keep_alive_ = false;
+    if (contains(value, value_len, "keep-alive")) keep_alive_ = true;
+  }
+  header_len_ = 0;
 }
 
 HttpRead HttpRequestReader::feed(uint8_t byte) {
@@ -40,9 +62,11 @@ HttpRead HttpRequestReader::feed(uint8_t byte) {
   }
   if (byte == '\n') {
     if (at_line_start_) return state_ = HttpRead::Complete;  // the blank line ends the headers
+    header_line_end();
     at_line_start_ = true;
   } else {
     at_line_start_ = false;
+    if (header_len_ < kHeaderPrefix) header_[header_len_++] = lower(byte);
   }
   return state_;
 }
@@ -58,6 +82,7 @@ bool HttpRequestReader::parse_line() {
   if (i == target || line_[target] != '/' || i >= line_len_ || line_[i] != ' ') return false;
   const size_t target_end = i++;
   if (!starts_with(line_ + i, line_len_ - i, "HTTP/1.") || line_len_ - i != 8) return false;
+  keep_alive_ = line_[i + 7] != '0';  // HTTP/1.1 keeps the connection by default, 1.0 does not
   size_t q = target;
   while (q < target_end && line_[q] != '?') ++q;
   path_at_ = static_cast<uint16_t>(target);

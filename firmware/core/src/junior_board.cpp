@@ -6,42 +6,67 @@
 namespace roar {
 namespace {
 
-size_t reply(char* out, size_t cap, const char* status, const char* body) {
+size_t reply(char* out, size_t cap, const char* status, const char* body, bool keep_open) {
   size_t body_len = 0;
   while (body[body_len]) ++body_len;
   size_t len = 0;
   const bool ok = append(out, cap, &len, "HTTP/1.1 ") && append(out, cap, &len, status) &&
                   append(out, cap, &len, "\r\nContent-Type: text/plain\r\nContent-Length: ") &&
                   append_uint(out, cap, &len, static_cast<uint32_t>(body_len)) &&
-                  append(out, cap, &len, "\r\nConnection: close\r\n\r\n") && append(out, cap, &len, body);
+                  append(out, cap, &len, keep_open ? "\r\nConnection: keep-alive\r\n\r\n" : "\r\nConnection: close\r\n\r\n") &&
+                  append(out, cap, &len, body);
   return ok ? len : 0;
+}
+
+const char* reason(JuniorQueryError error) {
+  switch (error) {
+    case JuniorQueryError::UnknownName: return "unknown parameter";
+    case JuniorQueryError::BadFlag: return "a flag takes True or False";
+    case JuniorQueryError::BadSpeed: return "a speed takes a number 0..1";
+    case JuniorQueryError::None: break;
+  }
+  return "";
 }
 
 }  // namespace
 
-size_t JuniorBoard::respond(const HttpRequestReader& request, uint32_t distance_cm, char* out, size_t cap) {
+size_t JuniorBoard::respond(const HttpRequestReader& request, uint32_t distance_cm, char* out, size_t cap,
+                            bool* keep_open) {
+  *keep_open = false;
   if (cap < kMaxReplyBytes) return 0;
   switch (request.state()) {
     case HttpRead::Incomplete:
       return 0;
     case HttpRead::Malformed:
-      return reply(out, cap, "400 Bad Request", "not an HTTP/1.x request\n");
+      return reply(out, cap, "400 Bad Request", "not an HTTP/1.x request\n", false);
     case HttpRead::TooLong:
-      return reply(out, cap, "414 URI Too Long", "request too long\n");
+      return reply(out, cap, "400 Bad Request", "request too long\n", false);
     case HttpRead::Complete:
       break;
   }
   if (!equals(request.method(), request.method_length(), "GET")) {
-    return reply(out, cap, "405 Method Not Allowed", "only GET\n");
+    return reply(out, cap, "405 Method Not Allowed", "only GET\n", false);
   }
   if (!equals(request.path(), request.path_length(), proto::kJuniorControlRoute)) {
-    return reply(out, cap, "404 Not Found", "no such route\n");
+    return reply(out, cap, "404 Not Found", "no such route\n", false);
   }
-  control_.apply_query(request.query(), request.query_length(), now());
-  char distance[11];
+  const JuniorQueryResult r = control_.apply_query(request.query(), request.query_length(), now());
+  char body[kMaxQuotedBytes + 48];
   size_t n = 0;
-  append_uint(distance, sizeof(distance), &n, distance_cm);
-  return reply(out, cap, "200 OK", distance);
+  if (r.error != JuniorQueryError::None) {  // "<reason>: '<name=value>'", the parameter cut to fit
+    char quoted[kMaxQuotedBytes + 1];
+    size_t q = 0;
+    for (; q < r.bad_length && q < kMaxQuotedBytes; ++q) quoted[q] = request.query()[r.bad_at + q];
+    quoted[q] = '\0';
+    append(body, sizeof(body), &n, reason(r.error));
+    append(body, sizeof(body), &n, ": '");
+    append(body, sizeof(body), &n, quoted);
+    append(body, sizeof(body), &n, "'\n");
+    return reply(out, cap, "400 Bad Request", body, false);
+  }
+  append_uint(body, sizeof(body), &n, distance_cm);
+  *keep_open = request.keep_alive();
+  return reply(out, cap, "200 OK", body, *keep_open);
 }
 
 DrivePins JuniorBoard::poll() {

@@ -28,46 +28,77 @@ bool parse_unit_permille(const char* text, size_t length, uint16_t* permille) {
   return true;
 }
 
+namespace {
+
+struct Param {
+  const char* name;
+  size_t name_len;
+  const char* value;
+  size_t value_len;
+};
+
+Param param_at(const char* query, size_t start, size_t end) {
+  size_t eq = start;
+  while (eq < end && query[eq] != '=') ++eq;
+  return Param{query + start, eq - start, eq < end ? query + eq + 1 : query + end, eq < end ? end - eq - 1 : 0};
+}
+
+const char* const kFlags[] = {proto::kJuniorParamForward, proto::kJuniorParamBackward, proto::kJuniorParamStop,
+                              proto::kJuniorParamTurnLeft, proto::kJuniorParamTurnRight};
+const JuniorMotion kFlagMotion[] = {JuniorMotion::Forward, JuniorMotion::Backward, JuniorMotion::Stop,
+                                    JuniorMotion::TurnLeft, JuniorMotion::TurnRight};
+
+int flag_index(const Param& p) {
+  for (int i = 0; i < 5; ++i) {
+    if (equals(p.name, p.name_len, kFlags[i])) return i;
+  }
+  return -1;
+}
+
+// What is wrong with one parameter (None when it can be applied).
+JuniorQueryError check(const Param& p) {
+  if (flag_index(p) >= 0) {
+    const bool ok = equals(p.value, p.value_len, proto::kJuniorFlagTrue) ||
+                    equals(p.value, p.value_len, proto::kJuniorFlagFalse);
+    return ok ? JuniorQueryError::None : JuniorQueryError::BadFlag;
+  }
+  if (equals(p.name, p.name_len, proto::kJuniorParamLeftSpeed) ||
+      equals(p.name, p.name_len, proto::kJuniorParamRightSpeed)) {
+    uint16_t unused;
+    return parse_unit_permille(p.value, p.value_len, &unused) ? JuniorQueryError::None : JuniorQueryError::BadSpeed;
+  }
+  return JuniorQueryError::UnknownName;
+}
+
+}  // namespace
+
 JuniorQueryResult JuniorControl::apply_query(const char* query, size_t length, Micros now_us) {
-  JuniorQueryResult result{0, 0};
+  JuniorQueryResult result{0, JuniorQueryError::None, 0, 0};
+  for (int pass = 0; pass < 2; ++pass) {  // check every parameter, then apply them in order
+    for (size_t start = 0, end = 0; start < length; start = end + 1) {
+      end = start;
+      while (end < length && query[end] != '&') ++end;
+      if (end == start) continue;  // "&&" or a trailing '&'
+      const Param p = param_at(query, start, end);
+      if (pass == 0) {
+        const JuniorQueryError error = check(p);
+        if (error != JuniorQueryError::None) {
+          return JuniorQueryResult{0, error, static_cast<uint16_t>(start), static_cast<uint16_t>(end - start)};
+        }
+        continue;
+      }
+      const int flag = flag_index(p);
+      if (flag >= 0) {
+        if (equals(p.value, p.value_len, proto::kJuniorFlagTrue)) motion_ = kFlagMotion[flag];
+      } else {
+        parse_unit_permille(p.value, p.value_len,
+                            equals(p.name, p.name_len, proto::kJuniorParamLeftSpeed) ? &left_ : &right_);
+      }
+      ++result.applied;
+    }
+  }
   heard_ = true;
   last_request_us_ = now_us;
-  size_t start = 0;
-  while (start < length) {
-    size_t end = start;
-    while (end < length && query[end] != '&') ++end;
-    size_t eq = start;
-    while (eq < end && query[eq] != '=') ++eq;
-    const char* name = query + start;
-    const size_t name_len = eq - start;
-    const char* value = eq < end ? query + eq + 1 : query + end;
-    const size_t value_len = eq < end ? end - eq - 1 : 0;
-    bool ok = false;
-    const bool flag = equals(value, value_len, proto::kJuniorFlagTrue);
-    if (equals(name, name_len, proto::kJuniorParamForward)) {
-      if ((ok = flag)) motion_ = JuniorMotion::Forward;
-    } else if (equals(name, name_len, proto::kJuniorParamBackward)) {
-      if ((ok = flag)) motion_ = JuniorMotion::Backward;
-    } else if (equals(name, name_len, proto::kJuniorParamStop)) {
-      if ((ok = flag)) motion_ = JuniorMotion::Stop;
-    } else if (equals(name, name_len, proto::kJuniorParamTurnLeft)) {
-      if ((ok = flag)) motion_ = JuniorMotion::TurnLeft;
-    } else if (equals(name, name_len, proto::kJuniorParamTurnRight)) {
-      if ((ok = flag)) motion_ = JuniorMotion::TurnRight;
-    } else if (equals(name, name_len, proto::kJuniorParamLeftSpeed)) {
-      ok = parse_unit_permille(value, value_len, &left_);
-    } else if (equals(name, name_len, proto::kJuniorParamRightSpeed)) {
-      ok = parse_unit_permille(value, value_len, &right_);
-    }
-    if (name_len > 0) {
-      if (ok) {
-        ++result.applied;
-      } else {
-        ++result.ignored;
-      }
-    }
-    start = end + 1;
-  }
   return result;
 }
 

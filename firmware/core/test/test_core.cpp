@@ -246,18 +246,35 @@ static void test_junior_control() {
   CHECK(j.duties(0).left == 0 && j.timed_out(0), "stopped before any request");
   const char q1[] = "forward=True&left_spd=0.5&right_spd=0.25";
   JuniorQueryResult r = j.apply_query(q1, sizeof(q1) - 1, 1000);
-  CHECK(r.applied == 3 && r.ignored == 0, "applied %u ignored %u", r.applied, r.ignored);
+  CHECK(r.applied == 3 && r.error == JuniorQueryError::None, "applied %u", r.applied);
   SideDuties d = j.duties(2000);
   CHECK(d.left == 500 && d.right == 250, "forward %d %d", d.left, d.right);
-  const char q2[] = "turnLeft=True&bogus=1&left_spd=1.5&forward=False";
-  r = j.apply_query(q2, sizeof(q2) - 1, 3000);
-  CHECK(r.applied == 1 && r.ignored == 3, "applied %u ignored %u", r.applied, r.ignored);
+  // A query with anything not understood is refused whole: nothing changes, the offender is named.
+  const char* refused[] = {"turnLeft=True&bogus=1", "turnLeft=True&left_spd=1.5", "forward=yes",
+                           "left_spd=nan", "left_spd=-0.5&forward=True", "right_spd="};
+  const JuniorQueryError why[] = {JuniorQueryError::UnknownName, JuniorQueryError::BadSpeed, JuniorQueryError::BadFlag,
+                                  JuniorQueryError::BadSpeed, JuniorQueryError::BadSpeed, JuniorQueryError::BadSpeed};
+  for (int i = 0; i < 6; ++i) {
+    r = j.apply_query(refused[i], strlen(refused[i]), 2500);
+    CHECK(r.error == why[i] && r.applied == 0, "'%s' refused: %d", refused[i], static_cast<int>(r.error));
+  }
+  r = j.apply_query("turnLeft=True&bogus=1", 21, 2500);
+  CHECK(r.bad_at == 14 && r.bad_length == 7, "names bogus=1 at %u+%u", r.bad_at, r.bad_length);
   d = j.duties(3000);
-  CHECK(d.left == -500 && d.right == 250, "spin left %d %d", d.left, d.right);
+  CHECK(d.left == 500 && d.right == 250 && j.timed_out(1000 + proto::kJuniorFailsafeTimeoutUs + 1),
+        "refused queries changed nothing, not even the timeout %d %d", d.left, d.right);
+  const char q2[] = "turnLeft=True&forward=False&&left_spd=1";  // False: no effect; empty parts skipped
+  r = j.apply_query(q2, sizeof(q2) - 1, 3000);
+  CHECK(r.applied == 3 && j.duties(3000).left == -1000 && j.duties(3000).right == 250, "spin left");
   const char q3[] = "left_spd=1&right_spd=.75&backward=True";  // order: speeds first, then motion
   j.apply_query(q3, sizeof(q3) - 1, 4000);
   d = j.duties(4000);
   CHECK(d.left == -1000 && d.right == -750, "backward %d %d", d.left, d.right);
+  j.apply_query("stop=True&forward=True", 22, 4000);
+  CHECK(j.motion() == JuniorMotion::Forward, "in order: the last flag wins");
+  j.apply_query("forward=True&stop=True", 22, 4000);
+  CHECK(j.motion() == JuniorMotion::Stop, "in order: the last flag wins");
+  j.apply_query("backward=True", 13, 4000);
   d = j.duties(4000 + proto::kJuniorFailsafeTimeoutUs);
   CHECK(d.left == -1000, "still driving at the timeout %d", d.left);
   d = j.duties(4001 + proto::kJuniorFailsafeTimeoutUs);
@@ -266,13 +283,15 @@ static void test_junior_control() {
   j.apply_query(q4, sizeof(q4) - 1, 0xFFFFFF00u);
   CHECK(!j.timed_out(0x100000100u) && j.duties(0x100000100u).left == 0, "stop");
   CHECK(j.timed_out(0xFFFFFF00u + (Micros{1} << 32)), "a request 2^32 us old is stale, not fresh again");
+  r = j.apply_query("", 0, 5000);
+  CHECK(r.applied == 0 && r.error == JuniorQueryError::None && !j.timed_out(5000), "an empty query is a request");
   uint16_t p = 0;
   const char* good[] = {"0", "1", "0.5", ".25", "1.000", "0.1239"};
   const uint16_t want[] = {0, 1000, 500, 250, 1000, 123};
   for (int i = 0; i < 6; ++i) {
     CHECK(parse_unit_permille(good[i], strlen(good[i]), &p) && p == want[i], "%s -> %u", good[i], p);
   }
-  const char* bad[] = {"", ".", "-0.5", "1.5", "2", "0.5x", "abc", "True"};
+  const char* bad[] = {"", ".", "-0.5", "1.5", "2", "0.5x", "abc", "True", "nan", "1e-3"};
   for (const char* b : bad) CHECK(!parse_unit_permille(b, strlen(b), &p), "accepted '%s'", b);
   CHECK(echo_us_to_cm(5882) == 100, "1 m echo -> %lu cm", (unsigned long)echo_us_to_cm(5882));
 }
@@ -409,25 +428,48 @@ static void test_junior_board() {
   JuniorBoard board(hal);
   HttpRequestReader r;
   char out[JuniorBoard::kMaxReplyBytes];
+  bool keep = false;
   const char get[] = "GET /?forward=True&left_spd=0.5&right_spd=0.5 HTTP/1.1\r\n\r\n";
   read_all(r, get, sizeof(get) - 1);
-  size_t n = board.respond(r, 42, out, sizeof(out));
+  size_t n = board.respond(r, 42, out, sizeof(out), &keep);
   CHECK(n > 0 && strstr(out, "HTTP/1.1 200 OK\r\n") == out && strstr(out, "\r\nContent-Length: 2\r\n") &&
-            !strcmp(out + n - 6, "\r\n\r\n42"),
-        "200 with the distance: '%s'", out);
+            strstr(out, "\r\nConnection: keep-alive\r\n") && !strcmp(out + n - 6, "\r\n\r\n42") && keep,
+        "200 with the distance, connection kept: '%s'", out);
   board.poll();
   CHECK(hal.pins.left.in1 && hal.pins.left.duty == 500 && hal.pins.right.duty == 500 && hal.feeds == 1,
         "drives forward at half duty");
   const char* other[][2] = {{"POST / HTTP/1.1\r\n\r\n", "405"}, {"GET /x?forward=True HTTP/1.1\r\n\r\n", "404"},
-                            {"GE\x01 / HTTP/1.1\r\n\r\n", "400"}};
+                            {"GE\x01 / HTTP/1.1\r\n\r\n", "400"}, {"GET /?speed=9 HTTP/1.1\r\n\r\n", "400"},
+                            {"GET /?left_spd=nan HTTP/1.1\r\n\r\n", "400"}};
   for (auto& o : other) {
     r.reset();
     read_all(r, o[0], strlen(o[0]));
-    n = board.respond(r, 42, out, sizeof(out));
-    CHECK(n > 0 && !strncmp(out + 9, o[1], 3), "'%s' -> %s: '%s'", o[0], o[1], out);
+    n = board.respond(r, 42, out, sizeof(out), &keep);
+    CHECK(n > 0 && !strncmp(out + 9, o[1], 3) && !keep && strstr(out, "Connection: close"), "'%s' -> %s: '%s'", o[0],
+          o[1], out);
   }
-  CHECK(board.respond(r, 42, out, 20) == 0, "a buffer below kMaxReplyBytes gets nothing");
+  CHECK(strstr(out, "\r\n\r\na speed takes a number 0..1: 'left_spd=nan'\n") != nullptr, "the reason: '%s'", out);
+  board.poll();
+  CHECK(hal.pins.left.duty == 500, "refused requests changed nothing: %u", hal.pins.left.duty);
+  r.reset();
+  read_all(r, "GET /?stop=True HTTP/1.0\r\n\r\n", 28);
+  board.respond(r, 7, out, sizeof(out), &keep);
+  CHECK(!keep && strstr(out, "Connection: close"), "HTTP/1.0 closes");
+  r.reset();
+  const char closing[] = "GET / HTTP/1.1\r\nHost: x\r\nCONNECTION: Close\r\n\r\n";
+  read_all(r, closing, sizeof(closing) - 1);
+  board.respond(r, 7, out, sizeof(out), &keep);
+  CHECK(!keep, "Connection: close is honoured whatever its case");
+  r.reset();
+  const char keep10[] = "GET / HTTP/1.0\r\nConnection: keep-alive\r\n\r\n";
+  read_all(r, keep10, sizeof(keep10) - 1);
+  board.respond(r, 7, out, sizeof(out), &keep);
+  CHECK(keep, "HTTP/1.0 with keep-alive keeps");
+  CHECK(board.respond(r, 42, out, 20, &keep) == 0, "a buffer below kMaxReplyBytes gets nothing");
   // The failsafe fires in the loop while the next request is still arriving byte by byte.
+  r.reset();
+  read_all(r, get, sizeof(get) - 1);
+  board.respond(r, 42, out, sizeof(out), &keep);
   r.reset();
   const char slow[] = "GET /?forward=True HTTP/1.1\r\nHost: x\r\n\r\n";
   hal.t = 0;

@@ -73,8 +73,9 @@ UDP_PORT_CONTROL = 8004  # Control to the phone: "throttle,steering" floats in [
 # [junior]
 JUNIOR_CONTROL_PORT = 81  # HTTP port of the control route
 JUNIOR_CAMERA_PORT = 80  # HTTP port of the camera routes
-JUNIOR_CONTROL_ROUTE = '/'  # GET with query parameters, applied in order; the reply body is the ultrasonic distance in cm (text/plain)
+JUNIOR_CONTROL_ROUTE = '/'  # GET with query parameters, applied in order; the reply body is the ultrasonic distance in cm (text/plain); a malformed query is answered 400 and changes nothing
 JUNIOR_FLAG_TRUE = 'True'  # Value that sets a flag parameter
+JUNIOR_FLAG_FALSE = 'False'  # Value that leaves a flag parameter without effect (the original client may send it)
 JUNIOR_PARAM_FORWARD = 'forward'  # Flag: both sides forward
 JUNIOR_PARAM_BACKWARD = 'backward'  # Flag: both sides backward
 JUNIOR_PARAM_STOP = 'stop'  # Flag: both sides stopped
@@ -84,7 +85,13 @@ JUNIOR_PARAM_LEFT_SPEED = 'left_spd'  # Left side duty, float 0..1
 JUNIOR_PARAM_RIGHT_SPEED = 'right_spd'  # Right side duty, float 0..1
 JUNIOR_ROUTE_CAMERA_LOW = '/cam-lo.jpg'  # 320x240 JPEG
 JUNIOR_ROUTE_CAMERA_HIGH = '/cam-hi.jpg'  # 800x600 JPEG
-JUNIOR_ROUTE_CAMERA_STREAM = '/cam.mjpeg'  # MJPEG stream
+JUNIOR_ROUTE_CAMERA_STREAM = '/cam.mjpeg'  # MJPEG stream (multipart/x-mixed-replace) of high-resolution frames
+JUNIOR_ROUTE_CAMERA_BMP = '/cam.bmp'  # 320x240 BMP
+JUNIOR_ROUTE_CAMERA_REDIRECT = '/cam.jpg'  # 302 redirect to route_camera_high
+JUNIOR_CAMERA_LOW_WIDTH = 320  # [px] Width of the low-resolution frames (/cam-lo.jpg, /cam.bmp)
+JUNIOR_CAMERA_LOW_HEIGHT = 240  # [px] Height of the low-resolution frames
+JUNIOR_CAMERA_HIGH_WIDTH = 800  # [px] Width of the high-resolution frames (/cam-hi.jpg, /cam.mjpeg)
+JUNIOR_CAMERA_HIGH_HEIGHT = 600  # [px] Height of the high-resolution frames
 JUNIOR_FAILSAFE_TIMEOUT_US = 500000  # [us] No control request for longer than this stops both sides
 
 

@@ -16,7 +16,7 @@
 extern "C" {
 #endif
 
-#define ROAR_CORE_ABI_VERSION 2
+#define ROAR_CORE_ABI_VERSION 3
 
 uint32_t roar_core_abi_version(void);
 uint32_t roar_protocol_version(void);
@@ -77,8 +77,9 @@ void roar_l298n_step(void* drv, int16_t left, int16_t right, uint64_t now_us, ro
 
 size_t roar_junior_size(void);
 void roar_junior_init(void* junior);
-/* Applies a query string (without '?'); returns applied << 8 | ignored. */
-uint16_t roar_junior_apply_query(void* junior, const char* query, size_t n, uint64_t now_us);
+/* Applies a query string (without '?'): the parameters applied, or -(JuniorQueryError) when the
+ * query was refused (nothing changed). */
+int roar_junior_apply_query(void* junior, const char* query, size_t n, uint64_t now_us);
 /* Signed per-side duties [permille] to drive now; both 0 when stopped or timed out. */
 void roar_junior_duties(const void* junior, uint64_t now_us, int16_t* left, int16_t* right);
 
@@ -154,6 +155,33 @@ int roar_board_init(void* board, roar_host_hal_t* hal, const roar_car_config_t* 
 void roar_board_begin(void* board);                                 /* queues the boot banner */
 void roar_board_feed(void* board, const uint8_t* data, size_t n);   /* bytes of a BLE write */
 void roar_board_run(void* board, uint32_t loops);
+
+/* --- the Junior's loop (JuniorBoard) and its HTTP requests, on a HAL of plain memory -----------
+ * roar_junior_board_run: each loop iteration runs JuniorBoard::poll() (failsafe, L298N pins with
+ * dead time, watchdog fed) and then advances now_us by loop_us. A server feeds each
+ * connection's bytes to a roar_http_reader and asks the board to respond to each decided
+ * request; the reply reports distance_cm. */
+typedef struct {
+  uint32_t now_us;              /* in: [us] the board's free-running 32-bit counter */
+  uint32_t loop_us;             /* in: [us] step of now_us after each loop iteration */
+  uint32_t distance_cm;         /* in: [cm] the ultrasonic reading replies report */
+  uint32_t watchdog_feeds;      /* out */
+  roar_side_pins_t left, right; /* out: the L298N inputs after the last loop iteration */
+} roar_junior_hal_t;
+
+size_t roar_junior_board_size(void);
+void roar_junior_board_init(void* board, roar_junior_hal_t* hal);   /* keeps the pointer */
+void roar_junior_board_run(void* board, uint32_t loops);
+/* The response to a decided request (its reader's state is not incomplete), NUL-terminated;
+ * returns its length. *keep_open: 1 when the connection stays open for the next request. */
+size_t roar_junior_board_respond(void* board, const void* reader, char* out, size_t cap, uint8_t* keep_open);
+size_t roar_junior_reply_max(void);
+
+size_t roar_http_reader_size(void);
+void roar_http_reader_init(void* reader);   /* also: ready for the next request */
+/* Feeds bytes until the request is decided; returns how many it took (the rest belongs to the
+ * next request). *state: 0 incomplete, 1 complete, 2 malformed, 3 too long. */
+size_t roar_http_reader_feed(void* reader, const uint8_t* data, size_t n, uint8_t* state);
 
 #ifdef __cplusplus
 }

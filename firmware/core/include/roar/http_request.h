@@ -1,9 +1,11 @@
 // One HTTP/1.x request, read byte by byte into a fixed buffer, for a board that serves a route
 // without a heap and without blocking its loop: the request line ("GET /?a=b HTTP/1.1") is
-// kept, header lines are skipped (only where they end matters), and the request is complete at
-// the blank line. A request line longer than the buffer, a request longer than
+// kept, header lines are skipped except for a "Connection:" header, and the request is complete
+// at the blank line. A request line longer than the buffer, a request longer than
 // kMaxRequestBytes in all, or a request line that is not "METHOD /target HTTP/1.x" ends the
-// read with an error; the board answers it and closes the connection.
+// read with an error; the board answers it and closes the connection. After a complete request
+// the connection stays open for the next one (keep_alive()) unless the client asked otherwise
+// (HTTP/1.0 without "Connection: keep-alive", or "Connection: close").
 #pragma once
 #include <stddef.h>
 #include <stdint.h>
@@ -34,16 +36,23 @@ class HttpRequestReader {
   size_t path_length() const { return path_len_; }
   const char* query() const { return line_ + query_at_; }  // "forward=True", without the '?'
   size_t query_length() const { return query_len_; }
+  bool keep_alive() const { return state_ == HttpRead::Complete && keep_alive_; }
 
  private:
+  static const uint8_t kHeaderPrefix = 32;  // [bytes] of each header line looked at
+
   bool parse_line();
+  void header_line_end();
 
   char line_[kMaxLineBytes];
   uint16_t line_len_ = 0;
   uint16_t total_ = 0;
   uint16_t method_len_ = 0, path_at_ = 0, path_len_ = 0, query_at_ = 0, query_len_ = 0;
+  char header_[kHeaderPrefix];  // the current header line's start, lower case
+  uint8_t header_len_ = 0;
   bool in_request_line_ = true;
   bool at_line_start_ = false;  // in the headers: nothing but CR seen on this line yet
+  bool keep_alive_ = false;
   HttpRead state_ = HttpRead::Incomplete;
 };
 

@@ -26,15 +26,19 @@ class JuniorHal {
 
 class JuniorBoard {
  public:
-  static const size_t kMaxReplyBytes = 160;  // [bytes] the longest response respond() writes
+  static const size_t kMaxReplyBytes = 256;  // [bytes] the longest response respond() writes
+  static const uint8_t kMaxQuotedBytes = 40;  // [bytes] of a refused parameter quoted in a 400
 
   explicit JuniorBoard(JuniorHal& hal) : hal_(hal) {}
 
   // The response to a finished read (any state but Incomplete), NUL-terminated in out; returns
   // its length, or 0 when cap is below kMaxReplyBytes. A GET of the control route applies its
-  // query (parameters in order) and answers 200 with distance_cm as the body; other requests
-  // get 404, 405, 400 or 414 and change nothing.
-  size_t respond(const HttpRequestReader& request, uint32_t distance_cm, char* out, size_t cap);
+  // query (parameters in order) and answers 200 with distance_cm as the body; a query with a
+  // parameter that is not understood, a malformed or too long request get 400, other paths 404,
+  // other methods 405, each with a one-line reason as the body, and change nothing. *keep_open
+  // says whether the connection stays open for the next request (a 200 to a client that keeps
+  // its connection).
+  size_t respond(const HttpRequestReader& request, uint32_t distance_cm, char* out, size_t cap, bool* keep_open);
 
   // The loop body: failsafe, L298N pins with dead time, pins written, watchdog fed.
   DrivePins poll();

@@ -1,6 +1,7 @@
 // ROAR Junior (ESP32-CAM + L298N) HTTP control, board-independent: the query string of
 // `GET /?forward=True&left_spd=0.5&right_spd=0.5` applied parameter by parameter, in order, as
-// the original Junior firmware does, plus the failsafe it lacked: no request for
+// the original Junior firmware does, plus what it lacked: a query with any parameter that is
+// not understood is refused whole (it changes nothing, and says why), and no request for
 // kJuniorFailsafeTimeoutUs stops both sides. See PROTOCOL.md section 6.
 #pragma once
 #include <stddef.h>
@@ -14,15 +15,25 @@ namespace roar {
 
 enum class JuniorMotion : uint8_t { Stop, Forward, Backward, TurnLeft, TurnRight };
 
+enum class JuniorQueryError : uint8_t {
+  None = 0,
+  UnknownName = 1,  // a parameter this robot does not have
+  BadFlag = 2,      // a flag whose value is neither "True" nor "False"
+  BadSpeed = 3,     // a speed that is not a decimal number 0..1
+};
+
 struct JuniorQueryResult {
-  uint8_t applied;  // parameters understood and applied
-  uint8_t ignored;  // unknown names, values that are not "True", speeds that do not parse
+  uint8_t applied;         // parameters applied (0 when refused)
+  JuniorQueryError error;  // None, or why the query was refused
+  uint16_t bad_at;         // offset in the query of the refused parameter
+  uint16_t bad_length;     // its length ("name=value")
 };
 
 class JuniorControl {
  public:
-  // Apply one query string (without the leading '?'). Counts as a request for the failsafe even
-  // when nothing in it is understood (the host is alive).
+  // Apply one query string (without the leading '?'), parameter by parameter, in order, and
+  // restart the failsafe timeout; or, when any parameter is not understood, change nothing and
+  // say which (an empty query is a valid request that changes nothing but the timeout).
   JuniorQueryResult apply_query(const char* query, size_t length, Micros now_us);
 
   // Signed per-side duties to drive now; both zero while stopped or after the failsafe timeout.

@@ -76,8 +76,9 @@ static constexpr uint16_t kUdpPortControl = 8004u;  // Control to the phone: "th
 // [junior]
 static constexpr uint16_t kJuniorControlPort = 81u;  // HTTP port of the control route
 static constexpr uint16_t kJuniorCameraPort = 80u;  // HTTP port of the camera routes
-static constexpr char kJuniorControlRoute[] = "/";  // GET with query parameters, applied in order; the reply body is the ultrasonic distance in cm (text/plain)
+static constexpr char kJuniorControlRoute[] = "/";  // GET with query parameters, applied in order; the reply body is the ultrasonic distance in cm (text/plain); a malformed query is answered 400 and changes nothing
 static constexpr char kJuniorFlagTrue[] = "True";  // Value that sets a flag parameter
+static constexpr char kJuniorFlagFalse[] = "False";  // Value that leaves a flag parameter without effect (the original client may send it)
 static constexpr char kJuniorParamForward[] = "forward";  // Flag: both sides forward
 static constexpr char kJuniorParamBackward[] = "backward";  // Flag: both sides backward
 static constexpr char kJuniorParamStop[] = "stop";  // Flag: both sides stopped
@@ -87,7 +88,13 @@ static constexpr char kJuniorParamLeftSpeed[] = "left_spd";  // Left side duty, 
 static constexpr char kJuniorParamRightSpeed[] = "right_spd";  // Right side duty, float 0..1
 static constexpr char kJuniorRouteCameraLow[] = "/cam-lo.jpg";  // 320x240 JPEG
 static constexpr char kJuniorRouteCameraHigh[] = "/cam-hi.jpg";  // 800x600 JPEG
-static constexpr char kJuniorRouteCameraStream[] = "/cam.mjpeg";  // MJPEG stream
+static constexpr char kJuniorRouteCameraStream[] = "/cam.mjpeg";  // MJPEG stream (multipart/x-mixed-replace) of high-resolution frames
+static constexpr char kJuniorRouteCameraBmp[] = "/cam.bmp";  // 320x240 BMP
+static constexpr char kJuniorRouteCameraRedirect[] = "/cam.jpg";  // 302 redirect to route_camera_high
+static constexpr uint16_t kJuniorCameraLowWidth = 320u;  // [px] Width of the low-resolution frames (/cam-lo.jpg, /cam.bmp)
+static constexpr uint16_t kJuniorCameraLowHeight = 240u;  // [px] Height of the low-resolution frames
+static constexpr uint16_t kJuniorCameraHighWidth = 800u;  // [px] Width of the high-resolution frames (/cam-hi.jpg, /cam.mjpeg)
+static constexpr uint16_t kJuniorCameraHighHeight = 600u;  // [px] Height of the high-resolution frames
 static constexpr uint32_t kJuniorFailsafeTimeoutUs = 500000ul;  // [us] No control request for longer than this stops both sides
 
 }  // namespace proto
