@@ -1,0 +1,158 @@
+"""The world every simulated robot drives in: a PyBullet client, an endless ground, the track's
+walls (one static mesh) and its painted floor, the GUI framing, and the camera and contact
+queries both robots use."""
+
+from __future__ import annotations
+
+import ctypes
+import math
+import os
+
+import numpy as np
+import pybullet_data
+
+from roar_sim.floor import add_floor
+from roar_sim.quiet_pybullet import pb
+from roar_sim.track import Track
+
+WALL_HEIGHT_M, WALL_THICKNESS_M = 0.3, 0.05  # [m] higher than the lidar (0.17 m)
+GROUND_HALF_M = 25.0  # [m] asphalt shown beyond the track (or around the origin without one)
+SOLVER_ITERATIONS = 10  # contact solver iterations per step (PyBullet default 50): a car on a plane settles in few
+
+
+class SimError(RuntimeError):
+    """The simulator cannot start as asked; str() is one line."""
+
+
+def display_problem() -> str | None:
+    """Why PyBullet's window cannot open here (one line), or None. PyBullet itself would end the
+    whole Python process without a word."""
+    display = os.environ.get("DISPLAY")
+    if not display:
+        return "--gui needs a display: DISPLAY is not set (run without --gui, or under xvfb-run)"
+    try:
+        x11 = ctypes.CDLL("libX11.so.6")
+    except OSError:
+        return "--gui needs X11, and libX11 is not installed"
+    x11.XOpenDisplay.restype, x11.XOpenDisplay.argtypes = ctypes.c_void_p, [ctypes.c_char_p]
+    x11.XCloseDisplay.argtypes = [ctypes.c_void_p]
+    connection = x11.XOpenDisplay(None)
+    if not connection:
+        return f"--gui needs a display: cannot open DISPLAY={display}"
+    x11.XCloseDisplay(connection)
+    return None
+
+
+class World:
+    """A PyBullet client (DIRECT, or GUI when gui=True) with gravity, the ground and, with a
+    track, its walls and painted floor. Robots add their own bodies to `client`."""
+
+    def __init__(self, track: Track | None, dt_s: float, gui: bool = False) -> None:
+        problem = display_problem() if gui else None
+        if problem:
+            raise SimError(problem)
+        self.track, self.dt_s = track, dt_s
+        self.client = pb.connect(pb.GUI if gui else pb.DIRECT)
+        c = self.client
+        pb.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=c)
+        pb.setGravity(0, 0, -9.81, physicsClientId=c)
+        pb.setTimeStep(dt_s, physicsClientId=c)
+        pb.setPhysicsEngineParameter(numSolverIterations=SOLVER_ITERATIONS, physicsClientId=c)
+        self.ground = self._add_ground(track)
+        self.walls = self._build_walls(track) if track else []
+        self.floor = add_floor(track, c) if track else None
+        if gui:
+            self._frame_gui(track)
+
+    def start_pose(self) -> tuple[float, float, float]:
+        return self.track.start_pose if self.track else (0.0, 0.0, 0.0)
+
+    def _add_ground(self, track: Track | None) -> int:
+        """An endless flat ground (a collision plane, so no track can reach its edge) shown as dark
+        asphalt (plain, so walls stand out for the camera) under the track and a margin around it."""
+        c = self.client
+        centre, half = np.zeros(2), GROUND_HALF_M
+        if track is not None:
+            lo, hi = track.centerline.min(axis=0), track.centerline.max(axis=0)
+            centre, half = (lo + hi) / 2, float(max(hi - lo)) / 2 + track.width_m + GROUND_HALF_M
+        shape = pb.createCollisionShape(pb.GEOM_PLANE, planeNormal=[0, 0, 1], physicsClientId=c)
+        visual = pb.createVisualShape(pb.GEOM_BOX, halfExtents=[half, half, 0.0005], rgbaColor=[0.25, 0.25, 0.27, 1],
+                                      visualFramePosition=[0, 0, -0.0005], physicsClientId=c)
+        body = pb.createMultiBody(0, shape, visual, [float(centre[0]), float(centre[1]), 0], physicsClientId=c)
+        pb.changeDynamics(body, -1, lateralFriction=1.0, physicsClientId=c)  # as PyBullet's plane.urdf
+        return body
+
+    def _frame_gui(self, track: Track | None) -> None:
+        """Hide the debug panels and look down on the whole track."""
+        c = self.client
+        pb.configureDebugVisualizer(pb.COV_ENABLE_GUI, 0, physicsClientId=c)
+        centre, size = (0.0, 0.0), 2.0
+        if track is not None:
+            lo, hi = track.centerline.min(axis=0), track.centerline.max(axis=0)
+            centre, size = tuple((lo + hi) / 2), float(max(hi - lo)) + track.width_m
+        pb.resetDebugVisualizerCamera(size, 0, -60, [centre[0], centre[1], 0], physicsClientId=c)
+
+    def _build_walls(self, track: Track) -> list[int]:
+        """One static triangle mesh of wall boxes along both edges (one body keeps the physics
+        fast). A segment that would lie inside another part of the track (the crossing of a
+        figure-eight) is left out."""
+        cl = track.centerline
+        n = len(cl)
+        vertices: list[list[float]] = []
+        indices: list[int] = []
+        for edge in track.edges():
+            for i in range(n):
+                a, b = edge[i], edge[(i + 1) % n]
+                mid = (a + b) / 2
+                d = np.linalg.norm(cl - mid, axis=1)
+                far = np.abs((np.arange(n) - i + n // 2) % n - n // 2) > 10
+                if np.any(d[far] < track.width_m / 2 - 0.02):
+                    continue
+                _add_box(vertices, indices, a, b)
+        c = self.client
+        shape = pb.createCollisionShape(pb.GEOM_MESH, vertices=vertices, indices=indices,
+                                        flags=pb.GEOM_FORCE_CONCAVE_TRIMESH, physicsClientId=c)
+        visual = pb.createVisualShape(pb.GEOM_MESH, vertices=vertices, indices=indices,
+                                      rgbaColor=[0.8, 0.8, 0.8, 1], physicsClientId=c)
+        return [pb.createMultiBody(0, shape, visual, [0, 0, 0], physicsClientId=c)]
+
+
+    def contacts(self, body: int) -> int:
+        """How many wall bodies `body` touches right now."""
+        touching = {pt[2] for pt in pb.getContactPoints(bodyA=body, physicsClientId=self.client)}
+        return len(touching & set(self.walls))
+
+    def render(self, position, yaw: float, pitch: float, width: int, height: int, fov_deg: float,
+               far_m: float = 10.0, near_m: float = 0.05) -> tuple[np.ndarray, np.ndarray]:
+        """(RGB uint8 HxWx3, depth float32 HxW [m]) from a camera at `position` looking along `yaw`,
+        tilted down by `pitch` [rad]."""
+        forward = np.array([math.cos(yaw), math.sin(yaw), -math.tan(pitch)])
+        view = pb.computeViewMatrix(list(position), (np.array(position) + forward).tolist(), [0, 0, 1])
+        proj = pb.computeProjectionMatrixFOV(fov_deg, width / height, near_m, far_m)
+        _, _, rgba, depth_buf, _ = pb.getCameraImage(width, height, view, proj, renderer=pb.ER_TINY_RENDERER,
+                                                     physicsClientId=self.client)
+        rgb = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3]
+        d = np.asarray(depth_buf, dtype=np.float32).reshape(height, width)
+        return rgb, far_m * near_m / (far_m - (far_m - near_m) * d)
+
+    def step(self) -> None:
+        pb.stepSimulation(physicsClientId=self.client)
+
+    def close(self) -> None:
+        if pb.isConnected(self.client):
+            pb.disconnect(self.client)
+
+
+def _add_box(vertices: list, indices: list, a: np.ndarray, b: np.ndarray) -> None:
+    """Append a wall box from a to b (WALL_THICKNESS_M thick, WALL_HEIGHT_M high) as 12 triangles."""
+    direction = (b - a) / max(1e-9, float(np.linalg.norm(b - a)))
+    a, b = a - direction * WALL_THICKNESS_M / 2, b + direction * WALL_THICKNESS_M / 2
+    normal = np.array([-direction[1], direction[0]]) * WALL_THICKNESS_M / 2
+    base = len(vertices)
+    for z in (0.0, WALL_HEIGHT_M):
+        for p in (a - normal, b - normal, b + normal, a + normal):
+            vertices.append([float(p[0]), float(p[1]), z])
+    faces = [(0, 2, 1), (0, 3, 2), (4, 5, 6), (4, 6, 7), (0, 1, 5), (0, 5, 4),
+             (1, 2, 6), (1, 6, 5), (2, 3, 7), (2, 7, 6), (3, 0, 4), (3, 4, 7)]
+    for f in faces:
+        indices.extend(base + k for k in f)
