@@ -419,3 +419,61 @@ class Board:
     @property
     def frames(self) -> int:
         return self.hal.frames_started
+
+
+class HttpReader:
+    """The firmware's bounded HTTP request reader, one per connection."""
+
+    INCOMPLETE, COMPLETE, MALFORMED, TOO_LONG = 0, 1, 2, 3
+
+    def __init__(self) -> None:
+        self._lib = lib()
+        self._mem = _object("roar_http_reader_size")
+        self._state = ffi.new("uint8_t *")
+        self.reset()
+
+    def reset(self) -> None:
+        """Ready for the next request on the connection."""
+        self._lib.roar_http_reader_init(self._mem)
+
+    def feed(self, data: bytes) -> tuple[int, int]:
+        """(bytes taken, state): it stops taking bytes once the request is decided."""
+        used = self._lib.roar_http_reader_feed(self._mem, _bytes(data), len(data), self._state)
+        return used, self._state[0]
+
+
+class JuniorBoard:
+    """The Junior's loop (JuniorBoard::poll) on a HAL of plain memory: the board's wrapping 32-bit
+    microsecond counter, the L298N pins it writes, the distance its replies report."""
+
+    def __init__(self, loop_us: int = 1_000, start_us: int = 0) -> None:
+        self._lib = lib()
+        self.hal = ffi.new("roar_junior_hal_t *")
+        self.hal.now_us, self.hal.loop_us = start_us & _U32_MASK, loop_us
+        self._mem = _object("roar_junior_board_size")
+        self._lib.roar_junior_board_init(self._mem, self.hal)
+        self._reply = ffi.new("char[]", self._lib.roar_junior_reply_max())
+        self._keep = ffi.new("uint8_t *")
+        self.loops = 0
+
+    def run(self, loops: int = 1) -> None:
+        self._lib.roar_junior_board_run(self._mem, loops)
+        self.loops += loops
+
+    def respond(self, reader: HttpReader) -> tuple[bytes, bool]:
+        """(the response bytes, keep the connection open) to a decided request."""
+        n = self._lib.roar_junior_board_respond(self._mem, reader._mem, self._reply, len(self._reply), self._keep)
+        return ffi.unpack(self._reply, n), bool(self._keep[0])
+
+    @property
+    def pins(self) -> tuple[SidePins, SidePins]:
+        """(left, right) L298N inputs after the last loop iteration."""
+        return tuple(SidePins(bool(p.in1), bool(p.in2), p.duty) for p in (self.hal.left, self.hal.right))
+
+    @property
+    def distance_cm(self) -> int:
+        return self.hal.distance_cm
+
+    @distance_cm.setter
+    def distance_cm(self, value: int) -> None:
+        self.hal.distance_cm = value

@@ -3,7 +3,8 @@
 - its reply lines as typed events (CarEvent: ready, armed, failsafe, error with its reason);
 - its state (VehicleState), each field None where the link cannot provide it. The simulator
   provides them all; a BLE car its speed (the velocity characteristic) and the throttle pulse it
-  outputs (the state characteristic); a serial car nothing.
+  outputs (the state characteristic); a ROAR Junior over http:// its ultrasonic range; a serial
+  car nothing.
 
     with Vehicle("sim://oval") as car:
         car.wait_for(EventKind.ARMED, timeout_s=2)
@@ -57,6 +58,7 @@ class VehicleState:
     yaw_rate_rad_s: float | None = None  # [rad/s]
     wheel_encoder_counts: int | None = None  # rear wheel encoder, signed
     throttle_out_us: float | None = None  # [us] the throttle pulse the car outputs now
+    range_m: float | None = None  # [m] the ultrasonic range ahead (a Junior); inf: no echo within 4 m
 
 
 UNKNOWN = VehicleState()

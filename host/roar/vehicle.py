@@ -195,8 +195,13 @@ class Vehicle:
         return self.transport.lidar()
 
     def camera(self, width: int = 160, height: int = 120) -> Any:
-        """(RGB uint8 HxWx3, metric depth float32 HxW), or None where the car has no camera here."""
+        """(RGB uint8 HxWx3, metric depth float32 HxW or None where the camera gives none), or
+        None where the car has no camera on this link."""
         return self.transport.camera(width, height)
+
+    def camera_stream(self) -> Any:
+        """An iterator of RGB frames (a Junior's MJPEG stream), or None where there is none."""
+        return self.transport.camera_stream()
 
     def close(self) -> None:
         """Send neutral and release the link. Safe to call twice."""

@@ -23,6 +23,13 @@ class PurePursuit:
     def lookahead_m(self, speed_m_s: float) -> float:
         return min(self.max_lookahead_m, self.k_dd_s * max(0.0, speed_m_s) + self.min_lookahead_m)
 
+    @staticmethod
+    def curvature(x: float, y: float, yaw: float, goal: tuple[float, float]) -> float:
+        """[1/m] of the arc from the pose to the goal, left positive: 2 sin(alpha) / distance."""
+        dx, dy = goal[0] - x, goal[1] - y
+        distance = math.hypot(dx, dy)
+        return 0.0 if distance < 1e-9 else 2 * math.sin(math.atan2(dy, dx) - yaw) / distance
+
     def steering_angle(self, x: float, y: float, yaw: float, goal: tuple[float, float]) -> float:
         """[rad] front-wheel angle (left positive) that puts the rear axle on the arc to goal."""
         dx, dy = goal[0] - x, goal[1] - y

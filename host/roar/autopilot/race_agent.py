@@ -29,6 +29,14 @@ class CarModel:
 
 
 @dataclass(frozen=True)
+class DiffDriveModel:
+    """A robot steered by its two wheels' speeds (the ROAR Junior)."""
+
+    track_width_m: float  # [m] between the wheels' contact points
+    limits: CarLimits
+
+
+@dataclass(frozen=True)
 class Plan:
     index: int  # next waypoint
     goal: tuple[float, float]  # [m] pure-pursuit goal point
@@ -108,3 +116,30 @@ def race_agent(points: np.ndarray, car: CarModel, period_s: float, margin: float
     heading = HeadingController(car.max_steer_rad) if lateral == "pid" else None
     controller = RaceController(car, pursuit, SpeedController(car.limits.max_speed_m_s), period_s, heading)
     return Agent(Passthrough(), planner, controller)
+
+
+class DiffDriveController(Module[tuple[Observation, Plan], Command]):
+    """Pure pursuit's curvature kappa as wheel speeds v (1 -/+ kappa b / 2), sent as the Command
+    that roar.junior.smooth_mix turns back into those wheel duties: throttle v / v_max (feed-forward
+    plus a proportional correction on the measured speed), steering -kappa b / 2."""
+
+    def __init__(self, robot: DiffDriveModel, kp: float = 0.8) -> None:
+        self.robot, self.kp = robot, kp
+
+    def step(self, value: tuple[Observation, Plan]) -> Command:
+        obs, plan = value
+        kappa = PurePursuit.curvature(obs.x, obs.y, obs.yaw, plan.goal)
+        v_max = self.robot.limits.max_speed_m_s
+        throttle = plan.target_speed_m_s / v_max + self.kp * (plan.target_speed_m_s - obs.speed) / v_max
+        steering = -kappa * self.robot.track_width_m / 2
+        return Command(max(0.02, min(1.0, throttle)), max(-1.0, min(1.0, steering)))
+
+
+def diff_drive_agent(points: np.ndarray, robot: DiffDriveModel, margin: float = 0.9,
+                     pursuit: PurePursuit | None = None) -> Agent:
+    """An agent that laps `points` with a differential-drive robot at `margin` of its limits."""
+    xy = np.asarray(points, dtype=float)[:, :2]
+    pursuit = pursuit or PurePursuit(wheelbase_m=robot.track_width_m, k_dd_s=0.5, min_lookahead_m=0.35)
+    speeds = speed_profile(xy, robot.limits.with_margin(margin))
+    planner = RacePlanner(xy, speeds, LoopWaypointFollower(xy), pursuit)
+    return Agent(Passthrough(), planner, DiffDriveController(robot))

@@ -4,6 +4,7 @@
     ble://ROAR Car                       a car over Bluetooth LE (bleak), by name or address
     ble://                               the first car advertising the ROAR service
     sim://  sim://oval                   the simulated car, in this process (real time)
+    http://192.168.4.1:81                a ROAR Junior over Wi-Fi (or the simulated one)
     loop://                              records what is written, for tests
 
 A transport is a small class (see base.Transport) registered under its URL scheme; register()

@@ -62,7 +62,11 @@ class Transport(ABC):
         return None
 
     def camera(self, width: int, height: int) -> Any:
-        """(RGB uint8 HxWx3, depth float32 HxW [m]) if the car has a camera on this link, else None."""
+        """(RGB uint8 HxWx3, depth float32 HxW [m] or None) if the car has a camera on this link, else None."""
+        return None
+
+    def camera_stream(self) -> Any:
+        """An iterator of RGB frames if the car streams video on this link, else None."""
         return None
 
     def __repr__(self) -> str:

@@ -16,6 +16,7 @@ _REGISTRY: dict[str, str | type[Transport]] = {
     "serial": "roar.transports.serial_link:SerialTransport",
     "ble": "roar.transports.ble:BleTransport",
     "loop": "roar.transports.loopback:LoopbackTransport",
+    "http": "roar.transports.http_junior:HttpTransport",
 }
 # What to install for the schemes this project's extras provide.
 EXTRAS = {"ble": "ble", "sim": "sim"}

@@ -1,0 +1,304 @@
+"""The simulated ROAR Junior on HTTP, as the robot serves it:
+
+    control  http://HOST:PORT/?forward=True&left_spd=0.5&right_spd=0.5   (the robot's port 81)
+    camera   http://HOST:PORT-1/cam-lo.jpg  /cam-hi.jpg  /cam.bmp  /cam.jpg  /cam.mjpeg   (port 80)
+
+The control port runs the firmware's own HTTP reader and responses (roar_sim.junior_sim), so
+its replies are the robot's byte for byte; each connection is its own task, so a client that
+opens connections and sends nothing holds up no one. The camera frames are rendered by worker
+processes, each with its own copy of the world in which the robot is put where the simulated
+one is at the moment of the request, so rendering runs beside the simulation, not inside it.
+
+    python -m roar_sim.junior_server [--http 127.0.0.1:8081] [--track oval] [--seconds 0]
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import io
+import multiprocessing
+import sys
+import threading
+from dataclasses import dataclass
+
+from roar.protocol import spec
+from roar_sim.junior_sim import JuniorConfig, JuniorSim
+from roar_sim.track import Track
+
+CHUNK_S = 0.002  # [s] simulated time per step of the real-time loop
+RENDER_WORKERS = 2  # camera renderer processes
+MAX_REQUEST_BYTES = 4096  # [bytes] a camera request's line and headers
+JPEG_QUALITY = 80  # as the robot's camera is set up
+SIZES = {"low": (spec.JUNIOR_CAMERA_LOW_WIDTH, spec.JUNIOR_CAMERA_LOW_HEIGHT),
+         "high": (spec.JUNIOR_CAMERA_HIGH_WIDTH, spec.JUNIOR_CAMERA_HIGH_HEIGHT)}
+ROUTES = {spec.JUNIOR_ROUTE_CAMERA_LOW: ("low", "JPEG"), spec.JUNIOR_ROUTE_CAMERA_HIGH: ("high", "JPEG"),
+          spec.JUNIOR_ROUTE_CAMERA_BMP: ("low", "BMP")}
+CONTENT_TYPES = {"JPEG": "image/jpeg", "BMP": "image/bmp"}
+MJPEG_BOUNDARY = "frame"
+
+
+def encode_image(rgb, fmt: str) -> bytes:
+    from PIL import Image
+
+    out = io.BytesIO()
+    Image.fromarray(rgb).save(out, fmt, **({"quality": JPEG_QUALITY} if fmt == "JPEG" else {}))
+    return out.getvalue()
+
+
+def _render_worker(track: Track | None, conn) -> None:
+    """A renderer process: its own world, the robot placed as asked, one image per request."""
+    from roar_sim.junior_plant import JuniorPlant
+
+    plant = JuniorPlant(track)
+    while True:
+        request = conn.recv()
+        if request is None:
+            break
+        (position, orientation), (width, height), fmt = request
+        plant.place(position, orientation)
+        conn.send(encode_image(plant.camera(width, height)[0], fmt))
+    plant.close()
+
+
+class CameraPool:
+    """Renderer processes, used one request at a time each."""
+
+    def __init__(self, track: Track | None, workers: int = RENDER_WORKERS) -> None:
+        ctx = multiprocessing.get_context("spawn")  # a fresh interpreter: PyBullet clients do not fork
+        self._pipes, self._processes = [], []
+        for _ in range(workers):
+            ours, theirs = ctx.Pipe()
+            process = ctx.Process(target=_render_worker, args=(track, theirs), daemon=True)
+            process.start()
+            self._pipes.append(ours)
+            self._processes.append(process)
+        self._idle: asyncio.Queue | None = None
+
+    async def frame(self, pose, size: tuple[int, int], fmt: str) -> bytes:
+        if self._idle is None:
+            self._idle = asyncio.Queue()
+            for pipe in self._pipes:
+                self._idle.put_nowait(pipe)
+        pipe = await self._idle.get()
+        try:
+            return await asyncio.get_running_loop().run_in_executor(None, _call, pipe, (pose, size, fmt))
+        finally:
+            self._idle.put_nowait(pipe)
+
+    def close(self) -> None:
+        for pipe in self._pipes:
+            try:
+                pipe.send(None)
+            except OSError:
+                pass
+        for process in self._processes:
+            process.join(timeout=5)
+            if process.is_alive():
+                process.kill()
+
+
+def _call(pipe, request) -> bytes:
+    pipe.send(request)
+    return pipe.recv()
+
+
+@dataclass
+class Endpoints:
+    control_url: str  # http://HOST:PORT
+    camera_url: str  # http://HOST:PORT
+
+    @property
+    def vehicle_url(self) -> str:
+        """The URL a Vehicle takes: the control URL, naming the camera port unless it is the
+        control port minus one (the robot's 81/80 layout, which http:// assumes)."""
+        control, camera = (int(u.rsplit(":", 1)[1]) for u in (self.control_url, self.camera_url))
+        return self.control_url if camera == control - 1 else f"{self.control_url}?camera={camera}"
+
+
+class JuniorServer:
+    """The simulated Junior in real time (its own thread) with its two HTTP ports."""
+
+    def __init__(self, track: Track | None = None, host: str = "127.0.0.1", port: int = 8081,
+                 camera_port: int | None = None, gui: bool = False, render_workers: int = RENDER_WORKERS) -> None:
+        self.host, self.port = host, port
+        self.camera_port = port - 1 if camera_port is None and port else (camera_port or 0)
+        self.sim = JuniorSim(track, JuniorConfig(realtime=True, gui=gui))
+        self.cameras = CameraPool(track, render_workers)
+        self._running = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._servers: list[asyncio.AbstractServer] = []
+
+    # --- the simulation ------------------------------------------------------------------------
+
+    def _simulate(self) -> None:
+        while self._running.is_set():
+            self.sim.run(CHUNK_S)
+
+    # --- control port: the firmware's own HTTP ---------------------------------------------------
+
+    async def _control(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        connection = self.sim.connect()
+        try:
+            while connection.open:
+                data = await reader.read(4096)
+                if not data:
+                    break
+                for reply in connection.feed(data):
+                    writer.write(reply)
+                await writer.drain()
+        except (ConnectionError, OSError):
+            pass
+        finally:
+            writer.close()
+
+    # --- camera port -------------------------------------------------------------------------
+
+    async def _camera(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        try:
+            head = await reader.readuntil(b"\r\n\r\n")
+        except (asyncio.IncompleteReadError, asyncio.LimitOverrunError, ConnectionError):
+            writer.close()
+            return
+        parts = head.split(b"\r\n", 1)[0].split()
+        path = parts[1].decode("ascii", "replace").split("?")[0] if len(parts) == 3 else ""
+        try:
+            if path in ROUTES:
+                size, fmt = ROUTES[path]
+                image = await self.cameras.frame(self.sim.pose, SIZES[size], fmt)
+                writer.write(_response("200 OK", CONTENT_TYPES[fmt], image))
+            elif path == spec.JUNIOR_ROUTE_CAMERA_REDIRECT:
+                writer.write(_response("302 Found", "text/plain", b"", [f"Location: {spec.JUNIOR_ROUTE_CAMERA_HIGH}"]))
+            elif path == spec.JUNIOR_ROUTE_CAMERA_STREAM:
+                await self._stream(writer)
+            else:
+                writer.write(_response("404 Not Found", "text/plain", b"no such route\n"))
+            await writer.drain()
+        except (ConnectionError, OSError):
+            pass
+        finally:
+            writer.close()
+
+    async def _stream(self, writer: asyncio.StreamWriter) -> None:
+        writer.write(b"HTTP/1.1 200 OK\r\nContent-Type: multipart/x-mixed-replace; boundary=" +
+                     MJPEG_BOUNDARY.encode() + b"\r\nConnection: close\r\n\r\n")
+        while self._running.is_set():
+            image = await self.cameras.frame(self.sim.pose, SIZES["high"], "JPEG")
+            writer.write(f"--{MJPEG_BOUNDARY}\r\nContent-Type: image/jpeg\r\nContent-Length: {len(image)}\r\n\r\n"
+                         .encode() + image + b"\r\n")
+            await writer.drain()
+
+    # --- running -----------------------------------------------------------------------------
+
+    async def start(self) -> Endpoints:
+        self._running.set()
+        self._thread = threading.Thread(target=self._simulate, name="junior-sim", daemon=True)
+        self._thread.start()
+        control = await asyncio.start_server(self._control, self.host, self.port)
+        camera = await asyncio.start_server(self._camera, self.host, self.camera_port)
+        self._servers = [control, camera]
+        port = control.sockets[0].getsockname()[1]
+        camera_port = camera.sockets[0].getsockname()[1]
+        return Endpoints(f"http://{self.host}:{port}", f"http://{self.host}:{camera_port}")
+
+    async def stop(self) -> None:
+        for server in self._servers:
+            server.close()
+            await server.wait_closed()
+        self._running.clear()
+        if self._thread is not None:
+            self._thread.join()
+        self.cameras.close()
+        self.sim.close()
+
+
+def _response(status: str, content_type: str, body: bytes, extra: list[str] | None = None) -> bytes:
+    headers = [f"HTTP/1.1 {status}", f"Content-Type: {content_type}", f"Content-Length: {len(body)}",
+               "Connection: close", *(extra or [])]
+    return ("\r\n".join(headers) + "\r\n\r\n").encode("ascii") + body
+
+
+def parse_address(text: str) -> tuple[str, int]:
+    host, sep, port = text.rpartition(":")
+    if not sep or not host or not port.isdigit() or not 0 <= int(port) <= 65535:
+        raise ValueError(f"--http takes HOST:PORT, e.g. 127.0.0.1:8081, got {text!r}")
+    return host, int(port)
+
+
+async def serve(track: Track | None, host: str, port: int, seconds: float, gui: bool,
+                camera_port: int | None = None, on_ready=print) -> None:
+    server = JuniorServer(track, host, port, camera_port, gui)
+    try:
+        urls = await server.start()
+        on_ready(f"simulated Junior: control {urls.control_url}/?forward=True&left_spd=0.5&right_spd=0.5\n"
+                 f"                  camera  {urls.camera_url}{spec.JUNIOR_ROUTE_CAMERA_LOW} (also "
+                 f"{spec.JUNIOR_ROUTE_CAMERA_HIGH}, {spec.JUNIOR_ROUTE_CAMERA_BMP}, {spec.JUNIOR_ROUTE_CAMERA_STREAM})\n"
+                 f"drive it: python examples/circle.py '{urls.vehicle_url}'   (Ctrl-C stops)")
+        if seconds > 0:
+            await asyncio.sleep(seconds)
+        else:
+            await asyncio.Event().wait()
+    finally:
+        await server.stop()
+
+
+def main(argv: list[str] | None = None) -> int:
+    from roar_sim.firmware_core import CoreLoadError
+    from roar_sim.track import TrackError, get
+    from roar_sim.world import SimError
+
+    parser = argparse.ArgumentParser(prog="roar sim --junior", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--http", default="127.0.0.1:8081", metavar="HOST:PORT",
+                        help="where to serve the control route (default 127.0.0.1:8081; port 0 picks free ports); "
+                             "the camera is on the port below it")
+    parser.add_argument("--track", default="", help="oval, figure-eight or a track .json file (default: open floor)")
+    parser.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: Ctrl-C)")
+    parser.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
+    args = parser.parse_args(argv)
+    try:
+        host, port = parse_address(args.http)
+        track = get(args.track) if args.track else None
+        asyncio.run(serve(track, host, port, args.seconds, args.gui, camera_port=0 if port == 0 else None,
+                          on_ready=lambda text: print(text, flush=True)))
+    except KeyboardInterrupt:
+        return 130
+    except (ValueError, TrackError, CoreLoadError, SimError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    except OSError as e:
+        print(f"error: cannot serve on {args.http}: {e.strerror or e}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
+
+
+class InBackground:
+    """A JuniorServer on its own asyncio loop in a background thread, for tests, benchmarks and
+    programs that drive it from the same process:
+
+        with InBackground(track, port=0) as junior:     # port 0: free ports
+            Vehicle(junior.urls.control_url) ...
+            junior.server.sim.state()
+    """
+
+    def __init__(self, track: Track | None = None, host: str = "127.0.0.1", port: int = 0,
+                 render_workers: int = RENDER_WORKERS) -> None:
+        self.server = JuniorServer(track, host, port, 0 if port == 0 else None, render_workers=render_workers)
+        self._loop = asyncio.new_event_loop()
+        self._thread = threading.Thread(target=self._loop.run_forever, name="junior-http", daemon=True)
+        self.urls: Endpoints | None = None
+
+    def __enter__(self) -> InBackground:
+        self._thread.start()
+        self.urls = asyncio.run_coroutine_threadsafe(self.server.start(), self._loop).result(timeout=30)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        asyncio.run_coroutine_threadsafe(self.server.stop(), self._loop).result(timeout=30)
+        self._loop.call_soon_threadsafe(self._loop.stop)
+        self._thread.join(timeout=10)
+        self._loop.close()

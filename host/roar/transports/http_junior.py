@@ -1,0 +1,122 @@
+"""http:// -- a ROAR Junior (ESP32-CAM + L298N) over Wi-Fi, or the simulated one.
+
+    http://192.168.4.1:81                the robot: control port 81, camera on the port below (80)
+    http://127.0.0.1:8081                the simulated Junior (`roar sim --junior`), camera on 8080
+    ?mixing=smooth                       how throttle and steering become wheel duties (default
+                                         original, as the ROAR Junior client; see roar.junior)
+    ?camera=PORT   ?timeout=2            the camera's port; seconds to wait for a reply
+
+Each command the Vehicle sends becomes one GET of the control route over a kept-alive
+connection; the reply (the ultrasonic distance) is the car's range in state(). The Junior stops
+by itself 500 ms after the last request, so the Vehicle's 50 Hz resend keeps it driving.
+"""
+
+from __future__ import annotations
+
+import http.client
+import math
+import socket
+
+import numpy as np
+
+from roar.junior import MIXES, query_for
+from roar.protocol import ControlError, decode, spec
+from roar.telemetry import VehicleState
+from roar.transports.base import LinkLost, Transport, TransportError, pop_option
+
+HALF_RANGE_US = (spec.CONTROL_MAX_US - spec.CONTROL_MIN_US) / 2  # [us]
+
+
+class HttpTransport(Transport):
+    scheme = "http"
+    min_period_s = 0.005  # [s] one request and its reply on a good Wi-Fi link
+
+    def __init__(self, host: str, port: int, mixing: str = "original", camera_port: int | None = None,
+                 timeout_s: float = 2.0) -> None:
+        self.host, self.port, self.mixing, self.timeout_s = host, port, mixing, timeout_s
+        self.camera_port = camera_port if camera_port is not None else port - 1
+        self._mix = MIXES[mixing]
+        self._conn: http.client.HTTPConnection | None = None
+        self.range_m: float | None = None  # [m] the latest ultrasonic reading; inf: no echo
+        self.requests = 0
+
+    @classmethod
+    def from_url(cls, target: str, options: dict[str, str]) -> HttpTransport:
+        host, sep, port = target.strip("/").rpartition(":")
+        if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
+            raise TransportError(f"http:// needs HOST:PORT, e.g. http://192.168.4.1:81, got {target!r}")
+        mixing = pop_option(options, "mixing", str, "original")
+        if mixing not in MIXES:
+            raise TransportError(f"mixing must be one of {', '.join(MIXES)}, got {mixing!r}")
+        camera = pop_option(options, "camera", int, int(port) - 1)
+        timeout = pop_option(options, "timeout", float, 2.0)
+        if not 0 < timeout <= 30:
+            raise TransportError(f"timeout must be 0..30 s, got {timeout:g}")
+        return cls(host, int(port), mixing, camera, timeout)
+
+    def open(self) -> None:
+        self._conn = http.client.HTTPConnection(self.host, self.port, timeout=self.timeout_s)
+        self._get(query_for(0.0, 0.0), TransportError)  # a Junior answers with its distance
+
+    def _get(self, query: str, error: type[TransportError]) -> None:
+        conn = self._conn
+        if conn is None:
+            raise LinkLost(f"Junior at {self.host}:{self.port} is not connected")
+        try:
+            conn.request("GET", "/?" + query)
+            response = conn.getresponse()
+            body = response.read().decode("ascii", "replace").strip()
+        except (OSError, http.client.HTTPException) as e:
+            conn.close()
+            reason = e.strerror if isinstance(e, OSError) and e.strerror else str(e) or type(e).__name__
+            if isinstance(e, socket.timeout):
+                reason = f"no reply within {self.timeout_s:g} s"
+            raise error(f"Junior at {self.host}:{self.port}: {reason}") from None
+        if response.status != 200:
+            raise TransportError(f"Junior at {self.host}:{self.port} refused {query!r}: {response.status} {body}")
+        self.requests += 1
+        try:
+            cm = float(body)
+        except ValueError:
+            raise TransportError(f"{self.host}:{self.port} is not a Junior: it replied {body[:40]!r}") from None
+        self.range_m = cm / 100 if cm > 0 else math.inf
+
+    def write(self, data: bytes) -> None:
+        try:
+            command = decode(bytes(data).strip())
+        except ControlError as e:
+            raise TransportError(f"http:// carries control messages only: {e}") from None
+        throttle = (command.throttle_us - spec.CONTROL_NEUTRAL_US) / HALF_RANGE_US
+        steering = (command.steering_us - spec.CONTROL_NEUTRAL_US) / HALF_RANGE_US
+        self._get(query_for(*self._mix(throttle, steering)), LinkLost)
+
+    def state(self) -> VehicleState | None:
+        return VehicleState(range_m=self.range_m) if self.range_m is not None else None
+
+    def _camera_url(self, route: str) -> str:
+        return f"http://{self.host}:{self.camera_port}{route}"
+
+    def camera(self, width: int = spec.JUNIOR_CAMERA_LOW_WIDTH, height: int = spec.JUNIOR_CAMERA_LOW_HEIGHT):
+        """(RGB from the camera's JPEG route, None: the ESP32-CAM gives no depth), resized to
+        width x height if that is not one of the camera's sizes."""
+        from roar.camera import fetch
+
+        low = width <= spec.JUNIOR_CAMERA_LOW_WIDTH and height <= spec.JUNIOR_CAMERA_LOW_HEIGHT
+        rgb = fetch(self._camera_url(spec.JUNIOR_ROUTE_CAMERA_LOW if low else spec.JUNIOR_ROUTE_CAMERA_HIGH),
+                    self.timeout_s)
+        if rgb.shape[:2] != (height, width):
+            from PIL import Image
+
+            rgb = np.asarray(Image.fromarray(rgb).resize((width, height)))
+        return rgb, None
+
+    def camera_stream(self):
+        """The camera's MJPEG stream, frame by frame (numpy RGB arrays)."""
+        from roar.camera import mjpeg_frames
+
+        return mjpeg_frames(self._camera_url(spec.JUNIOR_ROUTE_CAMERA_STREAM), max(5.0, self.timeout_s))
+
+    def close(self) -> None:
+        conn, self._conn = self._conn, None
+        if conn is not None:
+            conn.close()

@@ -1,0 +1,350 @@
+"""The ROAR Junior end to end: the firmware's own HTTP reader, JuniorControl and L298N driver
+drive a PyBullet differential-drive robot through an L298N/motor model; its HTTP ports on
+loopback answer byte for byte as the robot; the host drives it through http:// and reads its
+range and camera."""
+
+import io
+import math
+import socket
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from conftest import ROOT, wait_for
+from roar import Vehicle
+from roar.junior import original_mix, query_for, smooth_mix
+from roar.protocol import spec
+from roar_sim.firmware_core import SidePins
+from roar_sim.junior_plant import ULTRASONIC_POS_M, motor_torque
+from roar_sim.junior_sim import JuniorConfig, JuniorSim
+from roar_sim.quiet_pybullet import pb
+
+FORWARD = SidePins(True, False, 1000)
+TIMEOUT_S = spec.JUNIOR_FAILSAFE_TIMEOUT_US / 1e6
+
+
+@pytest.fixture
+def sim():
+    with JuniorSim() as s:
+        s.run(0.2)  # settle on its wheels
+        yield s
+
+
+# --- the L298N and motor model ---------------------------------------------------------------
+
+def test_the_bridge_drives_brakes_and_coasts():
+    assert motor_torque(FORWARD, 0.0) > 0.05 and motor_torque(SidePins(False, True, 1000), 0.0) < -0.05
+    assert motor_torque(FORWARD, 25.0) < 0  # faster than the motor's no-load speed: back-EMF wins
+    assert motor_torque(SidePins(True, True, 1000), 10.0) < 0 < motor_torque(SidePins(False, False, 800), -10.0)
+    assert motor_torque(SidePins(True, True, 0), 10.0) == 0 == motor_torque(SidePins(True, False, 0), 10.0)
+    assert motor_torque(SidePins(True, False, 500), 0.0) == pytest.approx(motor_torque(FORWARD, 0.0) / 2)
+    assert motor_torque(SidePins(True, False, 500), 9.8) == pytest.approx(0.0, abs=1e-3)  # half speed, half duty
+
+
+def test_full_duty_tops_out_at_a_tt_motor_speed_and_it_drives_straight(sim):
+    for _ in range(40):
+        sim.get("forward=True&left_spd=1&right_spd=1")
+        sim.run(0.05)
+    s = sim.state()
+    assert 0.45 < s.speed < 0.7 and abs(s.y) < 0.1 and abs(s.yaw) < 0.1
+    assert s.left_wheel_rad_s == pytest.approx(s.right_wheel_rad_s, rel=0.05)
+
+
+def test_spin_in_place_turns_without_going_anywhere(sim):
+    x0 = sim.state().x
+    for _ in range(20):
+        sim.get("turnLeft=True&left_spd=0.6&right_spd=0.6")
+        sim.run(0.05)
+    s = sim.state()
+    assert s.yaw_rate > 2 and math.hypot(s.x - x0, s.y) < 0.1
+
+
+# --- the firmware's HTTP semantics, in the loop ----------------------------------------------
+
+# What the ROAR Junior client sends (requests.get(url, params=...) of its ackermann_to_diff).
+ORIGINAL_REQUESTS = [
+    ("forward=True&left_spd=1&right_spd=1", (1000, 1000)),
+    ("backward=True&left_spd=1&right_spd=1", (-1000, -1000)),
+    ("forward=True&left_spd=0.8500000000000001&right_spd=0", (850, 0)),
+    ("forward=True&left_spd=0&right_spd=0.9400000000000001", (0, 940)),
+    ("stop=True", (0, 0)),
+    ("forward=False&backward=True&left_spd=1&right_spd=1", (-1000, -1000)),
+]
+
+
+def duties(sim) -> tuple[int, int]:
+    def signed(p: SidePins) -> int:
+        return p.duty if p.in1 else -p.duty if p.in2 else 0
+    sim.run(0.02)  # past any dead time
+    left, right = sim.pins
+    return signed(left), signed(right)
+
+
+@pytest.mark.parametrize("query, expected", ORIGINAL_REQUESTS)
+def test_the_original_clients_requests_are_accepted(sim, query, expected):
+    status, body = sim.get(query)
+    assert status == 200 and body.isdigit()
+    assert duties(sim) == expected
+
+
+def test_parameters_apply_in_order(sim):
+    sim.get("left_spd=0.5&right_spd=0.5")
+    sim.get("stop=True&forward=True")
+    assert duties(sim) == (500, 500)
+    sim.get("forward=True&stop=True")
+    assert duties(sim) == (0, 0)
+
+
+@pytest.mark.parametrize("query, words", [
+    ("left_spd=abc", "a speed takes a number 0..1: 'left_spd=abc'"),
+    ("left_spd=nan&forward=True", "'left_spd=nan'"),
+    ("forward=True&right_spd=1.01", "'right_spd=1.01'"),
+    ("forward=True&right_spd=-0.5", "'right_spd=-0.5'"),
+    ("forward=True&speed=1", "unknown parameter: 'speed=1'"),
+    ("forward=yes", "a flag takes True or False: 'forward=yes'"),
+    ("forward=True&left_spd=" + "1" * 10_000, "request too long"),
+])
+def test_bad_queries_get_400_with_a_reason_and_change_nothing(sim, query, words):
+    sim.get("backward=True&left_spd=0.3&right_spd=0.3")
+    before = duties(sim)
+    status, body = sim.get(query)
+    assert status == 400 and words in body and body.count("\n") == 1
+    assert duties(sim) == before == (-300, -300)
+
+
+def test_the_failsafe_stops_the_motors_500_ms_after_the_last_request(sim):
+    sim.get("forward=True&left_spd=1&right_spd=1")
+    t0 = sim.t_us
+    stopped_at = None
+    while sim.t_us < t0 + 700_000:
+        sim.run(0.001)
+        left, right = sim.pins
+        if stopped_at is None and left.duty == 0 and right.duty == 0:
+            stopped_at = sim.t_us
+    assert stopped_at is not None
+    assert TIMEOUT_S * 1e6 < stopped_at - t0 <= TIMEOUT_S * 1e6 + 2_000  # within one loop (and the step taken)
+
+
+def test_a_reversal_shows_the_dead_time_on_the_pins(sim):
+    sim.keep_pin_log = True
+    sim.get("forward=True&left_spd=1&right_spd=1")
+    sim.run(0.1)
+    sim.get("backward=True&left_spd=1&right_spd=1")
+    sim.run(0.1)
+    left = [(t, p) for t, p, _ in sim.pin_log]
+    first_back = next(t for t, p in left if p.in2)
+    last_forward = max(t for t, p in left if p.in1 and t < first_back)
+    coasting = [p for t, p in left if last_forward < t < first_back]
+    assert first_back - last_forward >= spec.L298N_DEAD_TIME_US
+    assert coasting and all(not p.in1 and not p.in2 and p.duty == 0 for p in coasting)
+
+
+@pytest.mark.parametrize("distance_m", [0.15, 0.6, 1.5, 3.0])
+def test_the_ultrasonic_reads_a_placed_wall_within_2_cm(distance_m):
+    with JuniorSim(config=JuniorConfig(pose=(0.0, 0.0, 0.0))) as sim:
+        c = sim.plant.client
+        wall = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[0.05, 1.0, 0.3], physicsClientId=c)
+        sensor_x = ULTRASONIC_POS_M[0]
+        pb.createMultiBody(0, wall, -1, [sensor_x + distance_m + 0.05, 0, 0.3], physicsClientId=c)
+        sim.run(0.2)
+        sensor_now = sim.state().x + sensor_x  # the robot settles a little
+        status, body = sim.get("stop=True")
+        wall_face = sensor_x + distance_m
+        assert status == 200 and abs(int(body) - (wall_face - sensor_now) * 100) <= 2
+
+
+def test_nothing_within_4_m_reads_0_no_echo(sim):
+    assert sim.get("stop=True") == (200, "0")
+
+
+# --- the HTTP ports on loopback --------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def junior():
+    from roar_sim.junior_server import InBackground
+    from roar_sim.track import oval
+
+    with InBackground(oval(), port=0) as server:
+        yield server
+
+
+def http_get(url: str, path: str, timeout: float = 5.0):
+    import http.client
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(url)
+    conn = http.client.HTTPConnection(parts.hostname, parts.port, timeout=timeout)
+    conn.request("GET", path)
+    response = conn.getresponse()
+    body = response.read()
+    conn.close()
+    return response.status, dict(response.getheaders()), body
+
+
+@pytest.mark.parametrize("route, fmt, size", [
+    (spec.JUNIOR_ROUTE_CAMERA_LOW, "JPEG", (320, 240)), (spec.JUNIOR_ROUTE_CAMERA_HIGH, "JPEG", (800, 600)),
+    (spec.JUNIOR_ROUTE_CAMERA_BMP, "BMP", (320, 240))])
+def test_each_camera_route_returns_an_image_of_its_size(junior, route, fmt, size):
+    from PIL import Image
+
+    status, headers, body = http_get(junior.urls.camera_url, route)
+    assert status == 200 and headers["Content-Type"] == f"image/{fmt.lower()}"
+    image = Image.open(io.BytesIO(body))
+    assert image.format == fmt and image.size == size
+    assert np.asarray(image).std() > 5  # a picture, not a blank
+
+
+def test_cam_jpg_redirects_to_the_high_resolution_route(junior):
+    status, headers, _ = http_get(junior.urls.camera_url, spec.JUNIOR_ROUTE_CAMERA_REDIRECT)
+    assert status == 302 and headers["Location"] == spec.JUNIOR_ROUTE_CAMERA_HIGH
+
+
+def test_the_mjpeg_stream_gives_whole_frames(junior):
+    from roar.camera import MjpegStream
+
+    with MjpegStream(junior.urls.camera_url + spec.JUNIOR_ROUTE_CAMERA_STREAM) as stream:
+        frames = [f for f, _ in zip(stream, range(3))]
+    assert [f.shape for f in frames] == [(600, 800, 3)] * 3
+
+
+def test_the_control_port_answers_as_the_firmware(junior):
+    status, headers, body = http_get(junior.urls.control_url, "/?stop=True")
+    assert status == 200 and headers["Connection"] == "keep-alive" and body.decode().isdigit()
+    status, headers, body = http_get(junior.urls.control_url, "/?left_spd=2")
+    assert status == 400 and headers["Connection"] == "close" and b"'left_spd=2'" in body
+    assert http_get(junior.urls.control_url, "/steer")[0] == 404
+
+
+def test_idle_connections_do_not_stop_a_driver_and_two_drivers_are_served(junior):
+    """200 connections opened and never used, then two clients drive at 50 Hz for a second:
+    every request answered, the robot never stopped by its failsafe."""
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(junior.urls.control_url)
+    idle = [socket.create_connection((parts.hostname, parts.port)) for _ in range(200)]
+    try:
+        answered, stops = [], []
+
+        def driver(query):
+            import http.client
+            conn = http.client.HTTPConnection(parts.hostname, parts.port, timeout=2)
+            for _ in range(50):
+                conn.request("GET", f"/?{query}")
+                response = conn.getresponse()
+                answered.append(response.status)
+                response.read()
+                stops.append(junior.server.sim.pins[0].duty == 0 and junior.server.sim.time_s > 0.6)
+                time.sleep(0.02)
+            conn.close()
+
+        threads = [threading.Thread(target=driver, args=(q,)) for q in
+                   ("forward=True&left_spd=0.4&right_spd=0.4", "forward=True&left_spd=0.4&right_spd=0.4")]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        assert answered == [200] * 100 and not any(stops[10:])
+    finally:
+        for s in idle:
+            s.close()
+
+
+# --- the host: http:// and the camera -----------------------------------------------------------
+
+@pytest.mark.parametrize("throttle, steering, expected", [
+    (0, 0.7, (0, 0)), (0.2, 0, (1, 1)), (-0.9, 0, (-1, -1)), (0.5, 1.0, (1.0, 0)), (0.5, -0.5, (0, 0.9))])
+def test_the_original_mapping_is_the_roar_junior_clients(throttle, steering, expected):
+    assert original_mix(throttle, steering) == pytest.approx(expected)
+
+
+def test_smooth_mixing_and_the_query_for_wheel_duties():
+    assert smooth_mix(0.5, 0.0) == (0.5, 0.5) and smooth_mix(0.5, 1.0) == (1.0, 0.0)
+    assert smooth_mix(0.0, 0.5) == (0.5, -0.5)
+    assert query_for(0.0, 0.0) == "stop=True"
+    assert query_for(0.5, 0.25) == "forward=True&left_spd=0.500&right_spd=0.250"
+    assert query_for(-0.5, -1.0) == "backward=True&left_spd=0.500&right_spd=1.000"
+    assert query_for(-0.5, 0.5) == "turnLeft=True&left_spd=0.500&right_spd=0.500"
+
+
+def test_a_vehicle_drives_the_simulated_junior_over_http_and_reads_its_range(junior):
+    sim = junior.server.sim
+    with Vehicle(junior.urls.vehicle_url + "&mixing=smooth") as car:
+        yaw0 = sim.state().yaw
+        car.drive(throttle=0.6, steering=0.5)
+        assert wait_for(lambda: sim.state().speed > 0.15, timeout_s=3)
+        assert wait_for(lambda: sim.state().yaw - yaw0 < -0.3, timeout_s=5)  # steering right turns clockwise
+        state = car.state()
+        assert state.range_m is not None and (state.range_m == math.inf or 0.02 <= state.range_m <= 4.0)
+        assert car.transport.requests > 10
+    assert wait_for(lambda: abs(sim.state().speed) < 0.05, timeout_s=3)  # neutral on exit, then it stops
+
+
+def test_the_vehicle_camera_and_stream_give_frames(junior):
+    with Vehicle(junior.urls.vehicle_url) as car:
+        rgb, depth = car.camera(320, 240)
+        assert rgb.shape == (240, 320, 3) and depth is None
+        assert next(iter(car.camera_stream())).shape == (600, 800, 3)
+
+
+def test_the_circle_example_drives_the_simulated_junior(junior):
+    import subprocess
+    import sys
+
+    sim = junior.server.sim
+    proc = subprocess.Popen([sys.executable, str(ROOT / "examples" / "circle.py"), junior.urls.vehicle_url])
+    try:
+        yaw0 = sim.state().yaw
+        assert wait_for(lambda: abs(sim.state().yaw_rate) > 1.0, timeout_s=10)
+        assert wait_for(lambda: abs(sim.state().yaw - yaw0) > 2.0, timeout_s=10)
+    finally:
+        proc.terminate()
+        proc.wait(timeout=10)
+
+
+def test_bad_http_urls_and_no_junior_are_one_line():
+    from roar import TransportError
+
+    for url, words in (("http://127.0.0.1", "needs HOST:PORT"), ("http://127.0.0.1:81?mixing=tank", "mixing must be"),
+                       ("http://127.0.0.1:1", "Junior at 127.0.0.1:1")):
+        with pytest.raises(TransportError) as e:
+            Vehicle(url)
+        assert words in str(e.value) and "\n" not in str(e.value)
+
+
+def test_frames_are_delivered_whole_or_not_at_all():
+    """An MJPEG stream with a truncated JPEG, a part of garbage and bytes outside any part
+    between good frames: only the good frames come out, each whole."""
+    from PIL import Image
+
+    from roar.camera import MjpegStream, decode_image
+
+    def jpeg(colour):
+        out = io.BytesIO()
+        Image.new("RGB", (64, 48), colour).save(out, "JPEG")
+        return out.getvalue()
+
+    good = [jpeg((255, 0, 0)), jpeg((0, 255, 0)), jpeg((0, 0, 255))]
+    parts = [good[0], good[1][: len(good[1]) // 2], b"\x00garbage\xff" * 50, good[1], good[2]]
+    body = b"noise before the first part\r\n"
+    for p in parts:
+        body += b"--b\r\nContent-Type: image/jpeg\r\nContent-Length: %d\r\n\r\n" % len(p) + p + b"\r\n"
+    body += b"--b--\r\n"
+    assert decode_image(good[0][:-10]) is None and decode_image(b"") is None
+
+    listener = socket.create_server(("127.0.0.1", 0))
+
+    def serve():
+        conn, _ = listener.accept()
+        conn.recv(4096)
+        conn.sendall(b"HTTP/1.1 200 OK\r\nContent-Type: multipart/x-mixed-replace; boundary=b\r\n\r\n" + body)
+        conn.close()
+
+    threading.Thread(target=serve, daemon=True).start()
+    with MjpegStream(f"http://127.0.0.1:{listener.getsockname()[1]}/cam.mjpeg") as stream:
+        frames = list(stream)
+    listener.close()
+    colours = [tuple(int(v) for v in f[24, 32]) for f in frames]
+    assert len(frames) == 3 and stream.skipped == 2
+    assert [max(range(3), key=lambda i: c[i]) for c in colours] == [0, 1, 2]
