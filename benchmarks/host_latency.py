@@ -55,7 +55,7 @@ def run() -> None:
             latencies = []
             for i in range(LATENCY_SAMPLES):
                 throttle = 0.1 + 0.4 * (i % 2)  # alternate, so every call is a new command
-                expected = encode(car.calibration.throttle.to_us(throttle), car.calibration.steering.to_us(0.0))
+                expected = car.calibration.message(throttle, 0.0)
                 seen = len(reader.arrivals)
                 t0 = time.perf_counter()
                 car.drive(throttle, 0.0)

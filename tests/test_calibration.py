@@ -127,7 +127,7 @@ def test_every_accepted_calibration_arms_the_car_and_drives_it_both_ways(cal):
 
     def hold(throttle, steering, ms):
         nonlocal t
-        message = encode(cal.throttle.to_us(throttle), cal.steering.to_us(steering))
+        message = cal.message(throttle, steering)
         out = None
         for _ in range(ms):
             if t % 20_000 == 0:

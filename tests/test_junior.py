@@ -5,6 +5,7 @@ range and camera."""
 
 import io
 import math
+import re
 import socket
 import threading
 import time
@@ -348,3 +349,83 @@ def test_frames_are_delivered_whole_or_not_at_all():
     colours = [tuple(int(v) for v in f[24, 32]) for f in frames]
     assert len(frames) == 3 and stream.skipped == 2
     assert [max(range(3), key=lambda i: c[i]) for c in colours] == [0, 1, 2]
+
+
+def test_a_vehicle_reconnects_when_the_junior_comes_back():
+    """The robot reboots (its server goes away and returns on the same port): the Vehicle's
+    held command reaches the new one without the script doing anything."""
+    from roar_sim.junior_server import InBackground
+
+    with InBackground(render_workers=0) as first:
+        port = int(first.urls.control_url.rsplit(":", 1)[1])
+        car = Vehicle(first.urls.control_url, rate_hz=50)
+        car.drive(throttle=0.5, steering=0.0)
+        assert wait_for(lambda: first.server.sim.state().speed > 0.1, timeout_s=3)
+    try:
+        assert wait_for(lambda: not car.connected, timeout_s=3)
+        with InBackground(port=port, camera_port=0, render_workers=0) as second:
+            assert wait_for(lambda: second.server.sim.state().speed > 0.1, timeout_s=10)
+            assert car.connected and car.link_error is None
+    finally:
+        car.close()
+
+
+def test_roar_sim_junior_serves_both_ports_and_prints_them():
+    import re
+    import signal
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen([sys.executable, "-m", "roar.cli", "sim", "--junior", "--http", "127.0.0.1:0"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        banner = "".join(proc.stdout.readline() for _ in range(3))
+        control, camera = re.findall(r"(http://127\.0\.0\.1:\d+)/", banner)[:2]
+        status, _, body = http_get(control, "/?forward=True&left_spd=0.5&right_spd=0.5")
+        assert status == 200 and body.strip().isdigit()
+        status, headers, image = http_get(camera, spec.JUNIOR_ROUTE_CAMERA_LOW)
+        assert status == 200 and headers["Content-Type"] == "image/jpeg" and image[:2] == b"\xff\xd8"
+        status, _, body = http_get(control, "/?forward=maybe")
+        assert status == 400 and body.count(b"\n") <= 1
+    finally:
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=20)
+    assert proc.returncode == 130 and "Traceback" not in err
+
+
+# --- the autopilot drives it ------------------------------------------------------------------------
+
+def test_the_autopilot_laps_the_oval_with_the_junior_over_http(tmp_path, capsys, monkeypatch):
+    from roar.transports.http_junior import HttpTransport
+    from roar_sim import race
+
+    requests = []
+    real_get = HttpTransport._get
+    monkeypatch.setattr(HttpTransport, "_get", lambda self, query, error: (requests.append(query),
+                                                                           real_get(self, query, error))[1])
+    png = tmp_path / "junior.png"
+    assert race.main(["--junior", "--laps", "1", "--plot", str(png)]) == 0
+    out = capsys.readouterr().out
+    assert "ROAR Junior" in out and "lap 1:" in out and "wall contacts: 0" in out
+    ratio = float(re.search(r"lap 1: .*?([\d.]+) x the limit", out).group(1))
+    assert 1.0 <= ratio < 1.2, out  # near its own measured limits, never faster than them
+    assert png.stat().st_size > 10_000
+    # every period went out as a GET of the control route, and the curvature reached the wheels
+    assert len(requests) > 1000 and all(q.startswith("forward=True&") or q == "stop=True" for q in requests)
+    assert sum(q.split("left_spd=")[1][:5] != q.split("right_spd=")[1][:5] for q in requests if "spd" in q) > 500
+
+
+def test_the_junior_refuses_the_heading_pid(capsys):
+    from roar_sim import race
+
+    with pytest.raises(SystemExit):
+        race.main(["--junior", "--steering", "pid"])
+    assert "pure pursuit only" in capsys.readouterr().err
+
+
+def test_the_limits_table_matches_the_simulated_junior():
+    from roar_sim import junior_limits
+
+    measured = junior_limits.measure()
+    for name, table in vars(junior_limits.JUNIOR_LIMITS).items():
+        assert getattr(measured, name) == pytest.approx(table, rel=0.05), name

@@ -12,7 +12,9 @@ from roar.cli.plugins import Command
 
 SIM_DESCRIPTION = """Without --serial: race the autopilot round a track and report the laps (like `roar race`).
 With --serial: serve the simulated car on a pseudo-terminal and print its path, for any program
-that speaks serial; Ctrl-C stops it (exit status 130)."""
+that speaks serial; Ctrl-C stops it (exit status 130).
+With --junior: serve the simulated ROAR Junior's HTTP control route (--http HOST:PORT, default
+127.0.0.1:8081) and its camera routes (the port below), and print both URLs; Ctrl-C stops it."""
 
 
 def _race(argv: list[str]) -> int:
@@ -24,13 +26,24 @@ def _race(argv: list[str]) -> int:
 def _sim(argv: list[str]) -> int:
     p = argparse.ArgumentParser(prog="roar sim", description=SIM_DESCRIPTION)
     p.add_argument("--serial", action="store_true", help="serve the car as a serial port (a pty) in real time")
-    p.add_argument("--track", default="oval", help="oval, figure-eight or a track .json file (default: oval)")
+    p.add_argument("--junior", action="store_true", help="serve the simulated ROAR Junior over HTTP in real time")
+    p.add_argument("--http", default="127.0.0.1:8081", metavar="HOST:PORT",
+                   help="with --junior: the control route's address (default 127.0.0.1:8081; camera on PORT-1)")
+    p.add_argument("--track", default=None, help="oval, figure-eight or a track .json file (default: oval; with --junior an open floor)")
     p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
-    p.add_argument("--seconds", type=float, default=0.0, help="with --serial: stop after this long (default: Ctrl-C)")
+    p.add_argument("--seconds", type=float, default=0.0, help="with --serial or --junior: stop after this long (default: Ctrl-C)")
     p.add_argument("--laps", type=int, default=2, help="without --serial: laps to drive (default 2)")
     p.add_argument("--plot", type=Path, metavar="PNG", help="without --serial: write the driven path to this PNG")
     args = p.parse_args(argv)
+    if args.junior and args.serial:
+        p.error("--junior serves HTTP, not a serial port: give one of --junior, --serial")
     gui = ["--gui"] if args.gui else []
+    if args.junior:
+        from roar_sim.junior_server import main as serve_junior
+
+        track = ["--track", args.track] if args.track else []
+        return serve_junior(["--http", args.http, "--seconds", str(args.seconds), *track, *gui])
+    args.track = args.track or "oval"
     if args.serial:
         from roar_sim.serial_port import main as serve
 
@@ -41,7 +54,7 @@ def _sim(argv: list[str]) -> int:
 
 
 race = Command("race the simulated car with the autopilot (`roar race --help`)", _race)
-sim = Command("run the simulated car: a race, or a serial port with --serial", _sim)
+sim = Command("run a simulated car: a race, a serial port (--serial), or the Junior on HTTP (--junior)", _sim)
 
 if __name__ == "__main__":
     sys.exit(_sim(sys.argv[1:]))

@@ -75,6 +75,10 @@ class CameraPool:
             self._processes.append(process)
         self._idle: asyncio.Queue | None = None
 
+    @property
+    def workers(self) -> int:
+        return len(self._pipes)
+
     async def frame(self, pose, size: tuple[int, int], fmt: str) -> bytes:
         if self._idle is None:
             self._idle = asyncio.Queue()
@@ -117,17 +121,22 @@ class Endpoints:
 
 
 class JuniorServer:
-    """The simulated Junior in real time (its own thread) with its two HTTP ports."""
+    """The simulated Junior with its two HTTP ports, in real time on its own thread; or with
+    lockstep=True, time moves only when its owner calls sim.run() (paced to the wall clock if
+    realtime): a request has been applied when its reply is sent, so a client that waits for
+    each reply stays in step, as `roar race --junior` does."""
 
     def __init__(self, track: Track | None = None, host: str = "127.0.0.1", port: int = 8081,
-                 camera_port: int | None = None, gui: bool = False, render_workers: int = RENDER_WORKERS) -> None:
-        self.host, self.port = host, port
+                 camera_port: int | None = None, gui: bool = False, render_workers: int = RENDER_WORKERS,
+                 lockstep: bool = False, realtime: bool = True) -> None:
+        self.host, self.port, self.lockstep = host, port, lockstep
         self.camera_port = port - 1 if camera_port is None and port else (camera_port or 0)
-        self.sim = JuniorSim(track, JuniorConfig(realtime=True, gui=gui))
+        self.sim = JuniorSim(track, JuniorConfig(realtime=realtime or not lockstep, gui=gui))
         self.cameras = CameraPool(track, render_workers)
         self._running = threading.Event()
         self._thread: threading.Thread | None = None
         self._servers: list[asyncio.AbstractServer] = []
+        self._tasks: set[asyncio.Task] = set()
 
     # --- the simulation ------------------------------------------------------------------------
 
@@ -163,7 +172,9 @@ class JuniorServer:
         parts = head.split(b"\r\n", 1)[0].split()
         path = parts[1].decode("ascii", "replace").split("?")[0] if len(parts) == 3 else ""
         try:
-            if path in ROUTES:
+            if (path in ROUTES or path == spec.JUNIOR_ROUTE_CAMERA_STREAM) and not self.cameras.workers:
+                writer.write(_response("503 Service Unavailable", "text/plain", b"camera off\n"))
+            elif path in ROUTES:
                 size, fmt = ROUTES[path]
                 image = await self.cameras.frame(self.sim.pose, SIZES[size], fmt)
                 writer.write(_response("200 OK", CONTENT_TYPES[fmt], image))
@@ -192,18 +203,34 @@ class JuniorServer:
 
     async def start(self) -> Endpoints:
         self._running.set()
-        self._thread = threading.Thread(target=self._simulate, name="junior-sim", daemon=True)
-        self._thread.start()
-        control = await asyncio.start_server(self._control, self.host, self.port)
-        camera = await asyncio.start_server(self._camera, self.host, self.camera_port)
+        if not self.lockstep:
+            self._thread = threading.Thread(target=self._simulate, name="junior-sim", daemon=True)
+            self._thread.start()
+        control = await asyncio.start_server(self._tracked(self._control), self.host, self.port)
+        camera = await asyncio.start_server(self._tracked(self._camera), self.host, self.camera_port)
         self._servers = [control, camera]
         port = control.sockets[0].getsockname()[1]
         camera_port = camera.sockets[0].getsockname()[1]
         return Endpoints(f"http://{self.host}:{port}", f"http://{self.host}:{camera_port}")
 
+    def _tracked(self, handler):
+        """handler, its task remembered while it runs, so that stop() can end open connections."""
+        async def run(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+            task = asyncio.current_task()
+            self._tasks.add(task)
+            try:
+                await handler(reader, writer)
+            finally:
+                self._tasks.discard(task)
+        return run
+
     async def stop(self) -> None:
         for server in self._servers:
             server.close()
+        for task in list(self._tasks):
+            task.cancel()
+        await asyncio.gather(*self._tasks, return_exceptions=True)
+        for server in self._servers:
             await server.wait_closed()
         self._running.clear()
         if self._thread is not None:
@@ -272,10 +299,6 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-if __name__ == "__main__":
-    sys.exit(main())
-
-
 class InBackground:
     """A JuniorServer on its own asyncio loop in a background thread, for tests, benchmarks and
     programs that drive it from the same process:
@@ -286,8 +309,12 @@ class InBackground:
     """
 
     def __init__(self, track: Track | None = None, host: str = "127.0.0.1", port: int = 0,
-                 render_workers: int = RENDER_WORKERS) -> None:
-        self.server = JuniorServer(track, host, port, 0 if port == 0 else None, render_workers=render_workers)
+                 camera_port: int | None = None, render_workers: int = RENDER_WORKERS, **options) -> None:
+        """camera_port: default free when port is 0, else port - 1; options: JuniorServer's (gui,
+        lockstep, realtime)."""
+        if camera_port is None and port == 0:
+            camera_port = 0
+        self.server = JuniorServer(track, host, port, camera_port, render_workers=render_workers, **options)
         self._loop = asyncio.new_event_loop()
         self._thread = threading.Thread(target=self._loop.run_forever, name="junior-http", daemon=True)
         self.urls: Endpoints | None = None
@@ -302,3 +329,7 @@ class InBackground:
         self._loop.call_soon_threadsafe(self._loop.stop)
         self._thread.join(timeout=10)
         self._loop.close()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

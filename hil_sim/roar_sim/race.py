@@ -1,9 +1,14 @@
-"""Race the simulated car: the autopilot's racing agent (roar.autopilot) drives N laps through
-the firmware logic (control messages at 50 Hz, lockstep), measured against the track's
-physical-limit lap time.
+"""Race a simulated robot: the autopilot's racing agent (roar.autopilot) drives N laps through
+the firmware logic (commands at 50 Hz, lockstep), measured against the track's physical-limit
+lap time for that robot.
 
-    roar race [--track oval|figure-eight|FILE.json] [--laps 2] [--waypoints FILE]
+    roar race [--junior] [--track oval|figure-eight|FILE.json] [--laps 2] [--waypoints FILE]
               [--margin 0.9] [--steering pursuit|pid] [--plot out/race.png] [--realtime] [--gui]
+
+The ESC car (default) hears control messages on its serial link. The ROAR Junior (--junior)
+is driven as a user's script drives it: pure pursuit's curvature becomes wheel duties, each
+period one GET of its control route over a kept-alive loopback HTTP connection (the http://
+transport), answered by the Junior's firmware loop.
 
 Prints lap times, their ratio to the physical limit, the maximum and RMS cross-track error and
 wall contacts, and plots the driven path coloured by speed beside the speed along the track.
@@ -17,15 +22,16 @@ from __future__ import annotations
 
 import argparse
 import sys
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from roar.autopilot import (Command, Observation, Runner, WaypointError, lap_time, load_waypoints, race_agent,
-                            speed_profile)
+from roar.autopilot import (Agent, CarLimits, Command, Observation, Runner, WaypointError, diff_drive_agent,
+                            lap_time, load_waypoints, race_agent, speed_profile)
 from roar.calibration import Calibration
-from roar.protocol import encode, spec
+from roar.protocol import spec
 from roar_sim import plotting
 from roar_sim.actuators import EscMode
 from roar_sim.car_limits import SIMULATED_CAR
@@ -34,10 +40,13 @@ from roar_sim.harness import SimCar, SimConfig, SimError
 from roar_sim.track import Track, TrackError, get
 
 PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6  # [s] 50 Hz, like a real host
+ROBOTS = ("car", "junior")
 
 
 class SimIO:
     """The runner's car: the SimCar in lockstep, commands as control messages."""
+
+    limits: CarLimits = SIMULATED_CAR.limits
 
     def __init__(self, sim: SimCar, calibration: Calibration | None = None) -> None:
         self.sim, self.calibration = sim, calibration or Calibration()
@@ -47,11 +56,22 @@ class SimIO:
         return Observation(self.sim.time_s, s.x, s.y, s.yaw, abs(s.speed), s.yaw_rate)
 
     def send(self, command: Command) -> None:
-        c = self.calibration
-        self.sim.write(encode(c.throttle.to_us(command.throttle), c.steering.to_us(command.steering)))
+        self.sim.write(self.calibration.message(command.throttle, command.steering))
 
     def wait(self, seconds: float) -> None:
         self.sim.run(seconds)
+
+    def agent(self, line: np.ndarray, margin: float, lateral: str) -> Agent:
+        return race_agent(line, SIMULATED_CAR, PERIOD_S, margin=margin, lateral=lateral)
+
+    def touching_wall(self) -> bool:
+        return self.sim.plant.wall_contacts() > 0
+
+    def braking(self) -> bool:
+        return self.sim.esc_mode in (EscMode.BRAKE, EscMode.REVERSE)
+
+    def signed_speed(self) -> float:
+        return self.sim.state().speed
 
 
 @dataclass
@@ -61,6 +81,7 @@ class RaceResult:
     lap_times_s: list[float] = field(default_factory=list)
     cross_track_m: list[float] = field(default_factory=list)
     path: list[tuple[float, float, float, float]] = field(default_factory=list)  # (x, y, speed, arc length)
+    robot: str = "car"  # "car" (the ESC car) or "junior"
     wall_contacts: int = 0  # control periods with the car touching a wall
     travelled_m: float = 0.0  # [m] net progress along the track, all laps
     braking_periods: int = 0  # control periods the ESC spent braking or reversing the motor
@@ -115,43 +136,61 @@ def check_line(track: Track, line: np.ndarray) -> None:
 
 def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margin: float = 0.9,
          config: SimConfig | None = None, progress: bool = False, timeout_s: float | None = None,
-         lateral: str = "pursuit") -> RaceResult:
+         lateral: str = "pursuit", robot: str = "car") -> RaceResult:
+    """Race `robot` ("car": the ESC car; "junior": the ROAR Junior over HTTP) round `track`.
+    config's realtime and gui apply to either robot."""
+    if robot not in ROBOTS:
+        raise ValueError(f"robot must be one of {', '.join(ROBOTS)}, got {robot!r}")
     line = track.centerline if waypoints is None else np.asarray(waypoints)[:, :2]
     if waypoints is not None:
         check_line(track, line)
-    result = RaceResult(track, speed_profile(track.centerline, SIMULATED_CAR.limits))
-    timeout_s = timeout_s or race_timeout_s(result, laps)
+    config = config or SimConfig()
+    racer = _open_car if robot == "car" else _open_junior
     bar = None
-    lap = {"hint": None, "s": 0.0, "travelled": 0.0, "start": 0.0}
+    with racer(track, config) as io:
+        result = RaceResult(track, speed_profile(track.centerline, io.limits), robot=robot)
+        timeout_s = timeout_s or race_timeout_s(result, laps)
+        lap = {"hint": None, "s": 0.0, "travelled": 0.0, "start": 0.0}
 
-    def record(obs: Observation, _command: Command) -> None:
-        hint, s_now, cte = track.project((obs.x, obs.y), lap["hint"])
-        ds = (s_now - lap["s"] + track.length_m / 2) % track.length_m - track.length_m / 2
-        lap.update(hint=hint, s=s_now, travelled=lap["travelled"] + ds)
-        result.travelled_m = lap["travelled"]
-        result.cross_track_m.append(cte)
-        result.path.append((obs.x, obs.y, obs.speed, s_now))
-        result.wall_contacts += sim.plant.wall_contacts() > 0
-        result.braking_periods += sim.esc_mode in (EscMode.BRAKE, EscMode.REVERSE)
-        result.slowest_m_s = min(result.slowest_m_s, sim.state().speed)
-        if lap["travelled"] >= track.length_m * (len(result.lap_times_s) + 1):
-            result.lap_times_s.append(obs.t_s - lap["start"])
-            lap["start"] = obs.t_s
-        if bar:
-            bar.update(max(0.0, min(laps, lap["travelled"] / track.length_m) - bar.n))
+        def record(obs: Observation, _command: Command) -> None:
+            hint, s_now, cte = track.project((obs.x, obs.y), lap["hint"])
+            ds = (s_now - lap["s"] + track.length_m / 2) % track.length_m - track.length_m / 2
+            lap.update(hint=hint, s=s_now, travelled=lap["travelled"] + ds)
+            result.travelled_m = lap["travelled"]
+            result.cross_track_m.append(cte)
+            result.path.append((obs.x, obs.y, obs.speed, s_now))
+            result.wall_contacts += io.touching_wall()
+            result.braking_periods += io.braking()
+            result.slowest_m_s = min(result.slowest_m_s, io.signed_speed())
+            if lap["travelled"] >= track.length_m * (len(result.lap_times_s) + 1):
+                result.lap_times_s.append(obs.t_s - lap["start"])
+                lap["start"] = obs.t_s
+            if bar:
+                bar.update(max(0.0, min(laps, lap["travelled"] / track.length_m) - bar.n))
 
-    with SimCar(track, config) as sim:
         bar = _progress_bar(laps, track.name) if progress else None  # once the simulator is up
-        io = SimIO(sim)
-        io.send(Command(0.0, 0.0))  # arm: the car boots latched until it hears neutral
+        io.send(Command(0.0, 0.0))  # arm: the ESC car boots latched until it hears neutral
         io.wait(PERIOD_S)
-        agent = race_agent(line, SIMULATED_CAR, PERIOD_S, margin=margin, lateral=lateral)
-        Runner(io, agent, PERIOD_S).run(
+        Runner(io, io.agent(line, margin, lateral), PERIOD_S).run(
             until=lambda obs: len(result.lap_times_s) >= laps or obs.t_s >= timeout_s, on_step=record)
         io.wait(PERIOD_S)
     if bar:
         bar.close()
     return result
+
+
+@contextmanager
+def _open_car(track: Track, config: SimConfig):
+    with SimCar(track, config) as sim:
+        yield SimIO(sim)
+
+
+@contextmanager
+def _open_junior(track: Track, config: SimConfig):
+    from roar_sim.junior_race import JuniorIO
+
+    with JuniorIO.serving(track, realtime=config.realtime, gui=config.gui) as io:
+        yield io
 
 
 def race_timeout_s(result: RaceResult, laps: int) -> float:
@@ -168,7 +207,8 @@ def _progress_bar(laps: int, name: str):
 
 def report(result: RaceResult) -> str:
     tr = result.track
-    lines = [f"track {tr.name}: {tr.length_m:.1f} m, width {tr.width_m:.1f} m; "
+    who = "ROAR Junior (over HTTP)" if result.robot == "junior" else "ESC car"
+    lines = [f"{who} on track {tr.name}: {tr.length_m:.1f} m, width {tr.width_m:.1f} m; "
              f"physical-limit lap {result.limit_lap_s:.2f} s"]
     for i, t in enumerate(result.lap_times_s, 1):
         lines.append(f"  lap {i}: {t:6.2f} s  ({tr.length_m / t:.2f} m/s average, "
@@ -176,8 +216,9 @@ def report(result: RaceResult) -> str:
     lines.append(f"laps completed: {len(result.lap_times_s)}, total {sum(result.lap_times_s):.2f} s (simulated)")
     lines.append(f"cross-track error: max {result.max_cross_track_m:.3f} m, RMS {result.rms_cross_track_m:.3f} m")
     lines.append(f"wall contacts: {result.wall_contacts}")
-    lines.append(f"braking: {result.braking_periods * PERIOD_S:.2f} s through the firmware's brake/reverse "
-                 f"sequence (the ESC has no brake)")
+    if result.robot == "car":
+        lines.append(f"braking: {result.braking_periods * PERIOD_S:.2f} s through the firmware's brake/reverse "
+                     f"sequence (the ESC has no brake)")
     return "\n".join(lines)
 
 
@@ -196,7 +237,8 @@ def plot(result: RaceResult):
     ax_v.set_ylim(bottom=0)
     ax_v.legend(loc="lower right", fontsize=8)
     times = ", ".join(f"{t:.2f} s" for t in result.lap_times_s)
-    fig.suptitle(f"{result.track.name}: laps {times} (limit {result.limit_lap_s:.2f} s, best "
+    who = "ROAR Junior" if result.robot == "junior" else "ESC car"
+    fig.suptitle(f"{who}, {result.track.name}: laps {times} (limit {result.limit_lap_s:.2f} s, best "
                  f"{result.best_ratio:.2f} x); max cross-track {result.max_cross_track_m:.2f} m, "
                  f"wall contacts {result.wall_contacts}", fontsize=10)
     return fig
@@ -205,6 +247,8 @@ def plot(result: RaceResult):
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="roar race", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--junior", action="store_true",
+                        help="race the ROAR Junior (differential drive, over HTTP) instead of the ESC car")
     parser.add_argument("--seconds", type=float, default=None, metavar="S",
                         help="time limit in simulated seconds (default: 4 x the physical-limit laps + 10)")
     parser.add_argument("--track", default="oval", help="oval, figure-eight, or a track .json file (default: oval)")
@@ -225,12 +269,15 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--seconds must be 1..36000")
     if not 0.3 <= args.margin <= 1.0:
         parser.error("--margin must be 0.3..1.0")
+    if args.junior and args.steering != "pursuit":
+        parser.error("--junior steers by pure pursuit only (its wheel speeds set the curvature)")
     plotting.check_png_argument(parser, args.plot)
     try:
         track = get(args.track)
         waypoints = load_waypoints(args.waypoints) if args.waypoints else None
         result = race(track, args.laps, waypoints, args.margin, SimConfig(realtime=args.realtime, gui=args.gui),
-                      progress=True, lateral=args.steering, timeout_s=args.seconds)
+                      progress=True, lateral=args.steering, timeout_s=args.seconds,
+                      robot="junior" if args.junior else "car")
     except (TrackError, WaypointError, CoreLoadError, SimError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 1

@@ -30,7 +30,7 @@ from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
-from roar.protocol import spec
+from roar.protocol import encode, spec
 from roar.user_files import read_parsed
 
 LO, HI, MID = spec.CONTROL_MIN_US, spec.CONTROL_MAX_US, spec.CONTROL_NEUTRAL_US
@@ -84,6 +84,10 @@ class Calibration(BaseModel):
             raise ValueError(f"throttle +1 gives the trim pulse ({th.trim_us} us): the car could not drive forward; "
                              f"{'min_us' if th.reversed else 'max_us'} must differ from trim_us")
         return self
+
+    def message(self, throttle: float, steering: float) -> bytes:
+        """The control message for throttle and steering in [-1, 1]."""
+        return encode(self.throttle.to_us(throttle), self.steering.to_us(steering))
 
     @classmethod
     def load(cls, path: str | Path) -> Calibration:

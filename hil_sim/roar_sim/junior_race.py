@@ -1,0 +1,66 @@
+"""The ROAR Junior as `roar race` drives it: the simulated Junior serves its HTTP ports in
+lockstep, and each command goes out as a user's script sends it, through the http:// transport
+(smooth mixing: pure pursuit's curvature -> wheel duties -> one GET over a kept-alive loopback
+connection), answered by the Junior's firmware loop before time moves on."""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+
+import numpy as np
+
+from roar.autopilot import Agent, CarLimits, Command, Observation, diff_drive_agent
+from roar.calibration import Calibration
+from roar.transports import open_url
+from roar_sim.junior_limits import JUNIOR_LIMITS, JUNIOR_MODEL
+from roar_sim.junior_server import InBackground
+from roar_sim.junior_sim import JuniorSim
+from roar_sim.track import Track
+
+MIXING = "smooth"  # DiffDriveController's commands are smooth_mix's inverse
+
+
+class JuniorIO:
+    """The runner's car: the Junior in lockstep, commands over HTTP."""
+
+    limits: CarLimits = JUNIOR_LIMITS
+
+    def __init__(self, sim: JuniorSim, control_url: str) -> None:
+        self.sim, self.calibration = sim, Calibration()
+        self.transport = open_url(f"{control_url}?mixing={MIXING}")
+        self.transport.open()
+
+    @classmethod
+    @contextmanager
+    def serving(cls, track: Track, realtime: bool = False, gui: bool = False):
+        """A JuniorIO talking to a simulated Junior that serves on free loopback ports."""
+        with InBackground(track, render_workers=0, lockstep=True, realtime=realtime, gui=gui) as junior:
+            io = cls(junior.server.sim, junior.urls.control_url)
+            try:
+                yield io
+            finally:
+                io.transport.close()
+
+    def observe(self) -> Observation:
+        s = self.sim.state()
+        return Observation(self.sim.time_s, s.x, s.y, s.yaw, abs(s.speed), s.yaw_rate)
+
+    def send(self, command: Command) -> None:
+        self.transport.write(self.calibration.message(command.throttle, command.steering))
+
+    def wait(self, seconds: float) -> None:
+        self.sim.run(seconds)
+
+    def agent(self, line: np.ndarray, margin: float, lateral: str) -> Agent:
+        if lateral != "pursuit":
+            raise ValueError("the Junior steers by pure pursuit only (its wheels set the curvature)")
+        return diff_drive_agent(line, JUNIOR_MODEL, margin)
+
+    def touching_wall(self) -> bool:
+        return self.sim.plant.wall_contacts() > 0
+
+    def braking(self) -> bool:
+        return False  # the Junior has no brake sequence: with both duties at 0 it coasts
+
+    def signed_speed(self) -> float:
+        return self.sim.state().speed
