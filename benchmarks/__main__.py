@@ -2,10 +2,12 @@
 
 import sys
 
-from benchmarks import avr_emulator, host_latency, parser_throughput, race_ratio, sim_speed
+from benchmarks import (avr_emulator, host_latency, junior_camera_rate, junior_control_latency, junior_sim_speed,
+                        parser_throughput, race_ratio, sim_speed)
 from roar_sim import firmware_sizes
 
-BENCHMARKS = [parser_throughput, sim_speed, host_latency, avr_emulator, firmware_sizes, race_ratio]
+BENCHMARKS = [parser_throughput, sim_speed, host_latency, avr_emulator, firmware_sizes, race_ratio, junior_sim_speed,
+              junior_control_latency, junior_camera_rate]
 
 
 def main() -> int:

@@ -22,6 +22,8 @@ from roar_sim.junior_plant import ULTRASONIC_POS_M, motor_torque
 from roar_sim.junior_sim import JuniorConfig, JuniorSim
 from roar_sim.quiet_pybullet import pb
 
+IDLE_WAIT_S = 0.7  # [s] longer than the camera keeps capturing after its last request
+
 FORWARD = SidePins(True, False, 1000)
 TIMEOUT_S = spec.JUNIOR_FAILSAFE_TIMEOUT_US / 1e6
 
@@ -429,3 +431,19 @@ def test_the_limits_table_matches_the_simulated_junior():
     measured = junior_limits.measure()
     for name, table in vars(junior_limits.JUNIOR_LIMITS).items():
         assert getattr(measured, name) == pytest.approx(table, rel=0.05), name
+
+
+def test_a_dead_camera_renderer_gives_503_not_a_hang():
+    from roar_sim.junior_server import InBackground
+
+    with InBackground(render_workers=1) as junior:
+        status, _, _ = http_get(junior.urls.camera_url, spec.JUNIOR_ROUTE_CAMERA_LOW, timeout=30)
+        assert status == 200
+        for process in junior.server.camera._processes:
+            process.kill()
+            process.join()
+        time.sleep(IDLE_WAIT_S)  # the capture loop ends; the next request starts one on a dead renderer
+        status, _, body = http_get(junior.urls.camera_url, spec.JUNIOR_ROUTE_CAMERA_LOW, timeout=10)
+        assert status == 503 and b"camera off" in body
+        status, _, body = http_get(junior.urls.control_url, "/?stop=True")
+        assert status == 200  # control goes on

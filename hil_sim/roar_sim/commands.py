@@ -29,9 +29,11 @@ def _sim(argv: list[str]) -> int:
     p.add_argument("--junior", action="store_true", help="serve the simulated ROAR Junior over HTTP in real time")
     p.add_argument("--http", default="127.0.0.1:8081", metavar="HOST:PORT",
                    help="with --junior: the control route's address (default 127.0.0.1:8081; camera on PORT-1)")
-    p.add_argument("--track", default=None, help="oval, figure-eight or a track .json file (default: oval; with --junior an open floor)")
+    p.add_argument("--track", default=None,
+                   help="oval, figure-eight or a track .json file (default: oval; with --junior an open floor)")
     p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
-    p.add_argument("--seconds", type=float, default=0.0, help="with --serial or --junior: stop after this long (default: Ctrl-C)")
+    p.add_argument("--seconds", type=float, default=0.0,
+                   help="with --serial or --junior: stop after this long (default: Ctrl-C)")
     p.add_argument("--laps", type=int, default=2, help="without --serial: laps to drive (default 2)")
     p.add_argument("--plot", type=Path, metavar="PNG", help="without --serial: write the driven path to this PNG")
     args = p.parse_args(argv)
@@ -50,7 +52,8 @@ def _sim(argv: list[str]) -> int:
         return serve(["--track", args.track, "--seconds", str(args.seconds), *gui])
     from roar_sim.race import main as race
 
-    return race(["--track", args.track, "--laps", str(args.laps), *gui, *(["--plot", str(args.plot)] if args.plot else [])])
+    plot = ["--plot", str(args.plot)] if args.plot else []
+    return race(["--track", args.track, "--laps", str(args.laps), *gui, *plot])
 
 
 race = Command("race the simulated car with the autopilot (`roar race --help`)", _race)

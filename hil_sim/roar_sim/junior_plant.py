@@ -72,6 +72,17 @@ class JuniorState:
     right_wheel_rad_s: float  # [rad/s]
 
 
+def _cone_rays() -> np.ndarray:
+    """The ultrasonic's rays, (N, 3) [m] to its maximum range, in the chassis frame (yaw 0)."""
+    half = math.radians(ULTRASONIC_CONE_DEG / 2)
+    angles = np.linspace(-half, half, ULTRASONIC_RAYS)
+    az, el = (a.ravel() for a in np.meshgrid(angles, angles))
+    return np.stack([np.cos(az) * np.cos(el), np.sin(az) * np.cos(el), np.sin(el)], axis=1) * ULTRASONIC_MAX_M
+
+
+_ULTRASONIC_CONE = _cone_rays()
+
+
 def motor_torque(pins: SidePins, omega: float) -> float:
     """[N m] on the wheel from one L298N side and its motor, at wheel speed omega [rad/s]."""
     duty = pins.duty / FULL_SCALE
@@ -181,13 +192,12 @@ class JuniorPlant:
         nothing is within range (no echo), as the firmware reads it. Only obstacles echo (walls,
         other bodies), not the floor."""
         origin, yaw = self._mount(ULTRASONIC_POS_M)
-        half = math.radians(ULTRASONIC_CONE_DEG / 2)
-        angles = np.linspace(-half, half, ULTRASONIC_RAYS)
-        az, el = np.meshgrid(angles, angles)
-        az, el = az.ravel() + yaw, el.ravel()
-        ends = np.stack([np.cos(az) * np.cos(el), np.sin(az) * np.cos(el), np.sin(el)], axis=1) * ULTRASONIC_MAX_M
-        start = np.tile(origin, (len(ends), 1))
-        hits = pb.rayTestBatch(start.tolist(), (start + ends).tolist(), physicsClientId=self.client)
+        c, s = math.cos(yaw), math.sin(yaw)
+        cone = _ULTRASONIC_CONE
+        ends = np.column_stack([cone[:, 0] * c - cone[:, 1] * s, cone[:, 0] * s + cone[:, 1] * c, cone[:, 2]])
+        ends += origin
+        start = [origin] * len(ends)
+        hits = pb.rayTestBatch(start, ends.tolist(), physicsClientId=self.client)
         # The floor, met at a grazing angle, reflects the sound away rather than back.
         ignored = {-1, self.robot, self.world.ground, self.world.floor}
         ranges = [h[2] * ULTRASONIC_MAX_M for h in hits if h[0] not in ignored]

@@ -5,9 +5,8 @@
 
 The control port runs the firmware's own HTTP reader and responses (roar_sim.junior_sim), so
 its replies are the robot's byte for byte; each connection is its own task, so a client that
-opens connections and sends nothing holds up no one. The camera frames are rendered by worker
-processes, each with its own copy of the world in which the robot is put where the simulated
-one is at the moment of the request, so rendering runs beside the simulation, not inside it.
+opens connections and sends nothing holds up no one. The camera frames come from
+roar_sim.junior_camera: renderer processes beside the simulation, capturing while asked for.
 
     python -m roar_sim.junior_server [--http 127.0.0.1:8081] [--track oval] [--seconds 0]
 """
@@ -16,95 +15,25 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import io
-import multiprocessing
 import sys
 import threading
 from dataclasses import dataclass
 
 from roar.protocol import spec
+from roar_sim.junior_camera import RENDER_WORKERS, Camera, CameraError
 from roar_sim.junior_sim import JuniorConfig, JuniorSim
 from roar_sim.track import Track
 
 CHUNK_S = 0.002  # [s] simulated time per step of the real-time loop
-RENDER_WORKERS = 2  # camera renderer processes
 MAX_REQUEST_BYTES = 4096  # [bytes] a camera request's line and headers
-JPEG_QUALITY = 80  # as the robot's camera is set up
+CAMERA_TIMEOUT_S = 5.0  # [s] a frame not rendered by then gets 503
 SIZES = {"low": (spec.JUNIOR_CAMERA_LOW_WIDTH, spec.JUNIOR_CAMERA_LOW_HEIGHT),
          "high": (spec.JUNIOR_CAMERA_HIGH_WIDTH, spec.JUNIOR_CAMERA_HIGH_HEIGHT)}
 ROUTES = {spec.JUNIOR_ROUTE_CAMERA_LOW: ("low", "JPEG"), spec.JUNIOR_ROUTE_CAMERA_HIGH: ("high", "JPEG"),
           spec.JUNIOR_ROUTE_CAMERA_BMP: ("low", "BMP")}
+CAMERA_OFF = b"camera off: no renderer is running\n"
 CONTENT_TYPES = {"JPEG": "image/jpeg", "BMP": "image/bmp"}
 MJPEG_BOUNDARY = "frame"
-
-
-def encode_image(rgb, fmt: str) -> bytes:
-    from PIL import Image
-
-    out = io.BytesIO()
-    Image.fromarray(rgb).save(out, fmt, **({"quality": JPEG_QUALITY} if fmt == "JPEG" else {}))
-    return out.getvalue()
-
-
-def _render_worker(track: Track | None, conn) -> None:
-    """A renderer process: its own world, the robot placed as asked, one image per request."""
-    from roar_sim.junior_plant import JuniorPlant
-
-    plant = JuniorPlant(track)
-    while True:
-        request = conn.recv()
-        if request is None:
-            break
-        (position, orientation), (width, height), fmt = request
-        plant.place(position, orientation)
-        conn.send(encode_image(plant.camera(width, height)[0], fmt))
-    plant.close()
-
-
-class CameraPool:
-    """Renderer processes, used one request at a time each."""
-
-    def __init__(self, track: Track | None, workers: int = RENDER_WORKERS) -> None:
-        ctx = multiprocessing.get_context("spawn")  # a fresh interpreter: PyBullet clients do not fork
-        self._pipes, self._processes = [], []
-        for _ in range(workers):
-            ours, theirs = ctx.Pipe()
-            process = ctx.Process(target=_render_worker, args=(track, theirs), daemon=True)
-            process.start()
-            self._pipes.append(ours)
-            self._processes.append(process)
-        self._idle: asyncio.Queue | None = None
-
-    @property
-    def workers(self) -> int:
-        return len(self._pipes)
-
-    async def frame(self, pose, size: tuple[int, int], fmt: str) -> bytes:
-        if self._idle is None:
-            self._idle = asyncio.Queue()
-            for pipe in self._pipes:
-                self._idle.put_nowait(pipe)
-        pipe = await self._idle.get()
-        try:
-            return await asyncio.get_running_loop().run_in_executor(None, _call, pipe, (pose, size, fmt))
-        finally:
-            self._idle.put_nowait(pipe)
-
-    def close(self) -> None:
-        for pipe in self._pipes:
-            try:
-                pipe.send(None)
-            except OSError:
-                pass
-        for process in self._processes:
-            process.join(timeout=5)
-            if process.is_alive():
-                process.kill()
-
-
-def _call(pipe, request) -> bytes:
-    pipe.send(request)
-    return pipe.recv()
 
 
 @dataclass
@@ -132,7 +61,8 @@ class JuniorServer:
         self.host, self.port, self.lockstep = host, port, lockstep
         self.camera_port = port - 1 if camera_port is None and port else (camera_port or 0)
         self.sim = JuniorSim(track, JuniorConfig(realtime=realtime or not lockstep, gui=gui))
-        self.cameras = CameraPool(track, render_workers)
+        self.camera = Camera(track, lambda: self.sim.pose, render_workers)
+        self._served: dict[str, int] = {}  # route -> the latest frame it served
         self._running = threading.Event()
         self._thread: threading.Thread | None = None
         self._servers: list[asyncio.AbstractServer] = []
@@ -172,11 +102,13 @@ class JuniorServer:
         parts = head.split(b"\r\n", 1)[0].split()
         path = parts[1].decode("ascii", "replace").split("?")[0] if len(parts) == 3 else ""
         try:
-            if (path in ROUTES or path == spec.JUNIOR_ROUTE_CAMERA_STREAM) and not self.cameras.workers:
-                writer.write(_response("503 Service Unavailable", "text/plain", b"camera off\n"))
+            if (path in ROUTES or path == spec.JUNIOR_ROUTE_CAMERA_STREAM) and not self.camera.workers:
+                writer.write(_response("503 Service Unavailable", "text/plain", CAMERA_OFF))
             elif path in ROUTES:
                 size, fmt = ROUTES[path]
-                image = await self.cameras.frame(self.sim.pose, SIZES[size], fmt)
+                seq, image = await asyncio.wait_for(self.camera.frame(SIZES[size], fmt, self._served.get(path, 0)),
+                                                    CAMERA_TIMEOUT_S)
+                self._served[path] = max(seq, self._served.get(path, 0))
                 writer.write(_response("200 OK", CONTENT_TYPES[fmt], image))
             elif path == spec.JUNIOR_ROUTE_CAMERA_REDIRECT:
                 writer.write(_response("302 Found", "text/plain", b"", [f"Location: {spec.JUNIOR_ROUTE_CAMERA_HIGH}"]))
@@ -185,6 +117,10 @@ class JuniorServer:
             else:
                 writer.write(_response("404 Not Found", "text/plain", b"no such route\n"))
             await writer.drain()
+        except asyncio.TimeoutError:
+            writer.write(_response("503 Service Unavailable", "text/plain", b"camera timed out\n"))
+        except CameraError as e:
+            writer.write(_response("503 Service Unavailable", "text/plain", f"{e}\n".encode()))
         except (ConnectionError, OSError):
             pass
         finally:
@@ -193,8 +129,9 @@ class JuniorServer:
     async def _stream(self, writer: asyncio.StreamWriter) -> None:
         writer.write(b"HTTP/1.1 200 OK\r\nContent-Type: multipart/x-mixed-replace; boundary=" +
                      MJPEG_BOUNDARY.encode() + b"\r\nConnection: close\r\n\r\n")
+        seq = 0
         while self._running.is_set():
-            image = await self.cameras.frame(self.sim.pose, SIZES["high"], "JPEG")
+            seq, image = await asyncio.wait_for(self.camera.frame(SIZES["high"], "JPEG", seq), CAMERA_TIMEOUT_S)
             writer.write(f"--{MJPEG_BOUNDARY}\r\nContent-Type: image/jpeg\r\nContent-Length: {len(image)}\r\n\r\n"
                          .encode() + image + b"\r\n")
             await writer.drain()
@@ -207,7 +144,8 @@ class JuniorServer:
             self._thread = threading.Thread(target=self._simulate, name="junior-sim", daemon=True)
             self._thread.start()
         control = await asyncio.start_server(self._tracked(self._control), self.host, self.port)
-        camera = await asyncio.start_server(self._tracked(self._camera), self.host, self.camera_port)
+        camera = await asyncio.start_server(self._tracked(self._camera), self.host, self.camera_port,
+                                            limit=MAX_REQUEST_BYTES)
         self._servers = [control, camera]
         port = control.sockets[0].getsockname()[1]
         camera_port = camera.sockets[0].getsockname()[1]
@@ -220,6 +158,8 @@ class JuniorServer:
             self._tasks.add(task)
             try:
                 await handler(reader, writer)
+            except asyncio.CancelledError:
+                pass  # stop() ended the connection (the handler has closed it)
             finally:
                 self._tasks.discard(task)
         return run
@@ -230,12 +170,13 @@ class JuniorServer:
         for task in list(self._tasks):
             task.cancel()
         await asyncio.gather(*self._tasks, return_exceptions=True)
+        await self.camera.stop()
         for server in self._servers:
             await server.wait_closed()
         self._running.clear()
         if self._thread is not None:
             self._thread.join()
-        self.cameras.close()
+        self.camera.close()
         self.sim.close()
 
 
@@ -257,9 +198,9 @@ async def serve(track: Track | None, host: str, port: int, seconds: float, gui: 
     server = JuniorServer(track, host, port, camera_port, gui)
     try:
         urls = await server.start()
+        others = ", ".join(r for r in (*ROUTES, spec.JUNIOR_ROUTE_CAMERA_STREAM) if r != spec.JUNIOR_ROUTE_CAMERA_LOW)
         on_ready(f"simulated Junior: control {urls.control_url}/?forward=True&left_spd=0.5&right_spd=0.5\n"
-                 f"                  camera  {urls.camera_url}{spec.JUNIOR_ROUTE_CAMERA_LOW} (also "
-                 f"{spec.JUNIOR_ROUTE_CAMERA_HIGH}, {spec.JUNIOR_ROUTE_CAMERA_BMP}, {spec.JUNIOR_ROUTE_CAMERA_STREAM})\n"
+                 f"                  camera  {urls.camera_url}{spec.JUNIOR_ROUTE_CAMERA_LOW} (also {others})\n"
                  f"drive it: python examples/circle.py '{urls.vehicle_url}'   (Ctrl-C stops)")
         if seconds > 0:
             await asyncio.sleep(seconds)

@@ -69,6 +69,8 @@ class JuniorSim:
         self.t_us = 0
         self.pin_log: list[tuple[int, SidePins, SidePins]] = []  # (t [us], left, right) at each physics step
         self.keep_pin_log = False
+        # (wall clock [s], left, right) each time the firmware's outputs change, when a list
+        self.pin_changes: list[tuple[float, SidePins, SidePins]] | None = None
         self._lock = threading.Lock()
         self._next_ping_us = 0
         self._wall_start: float | None = None
@@ -129,6 +131,9 @@ class JuniorSim:
         with self._lock:
             self.board.run(loops)
             left, right = self.board.pins
+        changes = self.pin_changes
+        if changes is not None and (not changes or changes[-1][1:] != (left, right)):
+            changes.append((time.perf_counter(), left, right))
         self.t_us = t + loops * LOOP_US
         if t % PHYSICS_US == 0:
             if self.keep_pin_log:

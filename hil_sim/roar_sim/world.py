@@ -58,9 +58,11 @@ class World:
         pb.setGravity(0, 0, -9.81, physicsClientId=c)
         pb.setTimeStep(dt_s, physicsClientId=c)
         pb.setPhysicsEngineParameter(numSolverIterations=SOLVER_ITERATIONS, physicsClientId=c)
-        self.ground = self._add_ground(track)
+        # Nearest-first for the camera's software renderer: a pixel already covered by a wall or the
+        # floor is rejected by its depth test before it is shaded again for what lies beneath.
         self.walls = self._build_walls(track) if track else []
         self.floor = add_floor(track, c) if track else None
+        self.ground = self._add_ground(track)
         if gui:
             self._frame_gui(track)
 
@@ -76,8 +78,10 @@ class World:
             lo, hi = track.centerline.min(axis=0), track.centerline.max(axis=0)
             centre, half = (lo + hi) / 2, float(max(hi - lo)) / 2 + track.width_m + GROUND_HALF_M
         shape = pb.createCollisionShape(pb.GEOM_PLANE, planeNormal=[0, 0, 1], physicsClientId=c)
-        visual = pb.createVisualShape(pb.GEOM_BOX, halfExtents=[half, half, 0.0005], rgbaColor=[0.25, 0.25, 0.27, 1],
-                                      visualFramePosition=[0, 0, -0.0005], physicsClientId=c)
+        # one quad, not a box: the camera's software renderer pays for every screen-sized triangle
+        corners = [[-half, -half, 0.0], [half, -half, 0.0], [half, half, 0.0], [-half, half, 0.0]]
+        visual = pb.createVisualShape(pb.GEOM_MESH, vertices=corners, indices=[0, 1, 2, 0, 2, 3],
+                                      normals=[[0, 0, 1]] * 4, rgbaColor=[0.25, 0.25, 0.27, 1], physicsClientId=c)
         body = pb.createMultiBody(0, shape, visual, [float(centre[0]), float(centre[1]), 0], physicsClientId=c)
         pb.changeDynamics(body, -1, lateralFriction=1.0, physicsClientId=c)  # as PyBullet's plane.urdf
         return body

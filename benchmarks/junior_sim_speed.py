@@ -1,0 +1,51 @@
+"""The simulated Junior's speed in simulated seconds per wall second: bare PyBullet stepping of
+the same robot and track, against the firmware-in-the-loop Junior (JuniorBoard::poll at 1 kHz
+with its HTTP reader, the L298N and motor model, physics at 200 Hz, ultrasonic every 60 ms, a
+control request every 20 ms on a kept-alive connection). Targets: >= 30x real time, and >= 0.5
+of bare stepping; measured alternately ROUNDS times, the best of each kept."""
+
+import time
+
+from roar.junior import query_for
+from roar_sim.firmware_core import SidePins
+from roar_sim.junior_plant import JuniorPlant
+from roar_sim.junior_sim import PHYSICS_US, JuniorSim
+from roar_sim.track import oval
+
+TITLE = "Junior simulation speed (simulated s per wall s)"
+SIM_SECONDS = 10.0
+ROUNDS = 3
+PERIOD_S = 0.02  # [s] between control requests
+TARGET_SPEED, TARGET_RATIO = 30.0, 0.5
+HALF = SidePins(True, False, 500)  # forward at half duty
+
+
+def bare() -> float:
+    plant = JuniorPlant(oval(), dt_s=PHYSICS_US / 1e6)
+    try:
+        start = time.perf_counter()
+        for _ in range(int(SIM_SECONDS * 1e6 / PHYSICS_US)):
+            plant.apply(HALF, HALF)
+            plant.step()
+        return SIM_SECONDS / (time.perf_counter() - start)
+    finally:
+        plant.close()
+
+
+def harness() -> float:
+    with JuniorSim(oval()) as sim:
+        connection = sim.connect()
+        request = f"GET /?{query_for(0.5, 0.5)} HTTP/1.1\r\nHost: junior\r\n\r\n".encode()
+        start = time.perf_counter()
+        for _ in range(int(SIM_SECONDS / PERIOD_S)):
+            connection.feed(request)
+            sim.run(PERIOD_S)
+        return SIM_SECONDS / (time.perf_counter() - start)
+
+
+def run() -> None:
+    results = [(bare(), harness()) for _ in range(ROUNDS)]
+    b, h = max(r[0] for r in results), max(r[1] for r in results)
+    print(f"bare PyBullet stepping:        {b:8.1f} x real time")
+    print(f"firmware-in-the-loop Junior:   {h:8.1f} x real time   (target >= {TARGET_SPEED:.0f})")
+    print(f"ratio Junior / bare:           {h / b:8.2f}   (target >= {TARGET_RATIO})")
