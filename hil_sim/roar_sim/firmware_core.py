@@ -455,6 +455,8 @@ class JuniorBoard:
         self._reply = ffi.new("char[]", self._lib.roar_junior_reply_max())
         self._keep = ffi.new("uint8_t *")
         self.loops = 0
+        self._raw_pins: tuple | None = None
+        self._pins: tuple[SidePins, SidePins] | None = None
 
     def run(self, loops: int = 1) -> None:
         self._lib.roar_junior_board_run(self._mem, loops)
@@ -468,7 +470,12 @@ class JuniorBoard:
     @property
     def pins(self) -> tuple[SidePins, SidePins]:
         """(left, right) L298N inputs after the last loop iteration."""
-        return tuple(SidePins(bool(p.in1), bool(p.in2), p.duty) for p in (self.hal.left, self.hal.right))
+        left, right = self.hal.left, self.hal.right
+        raw = (left.in1, left.in2, left.duty, right.in1, right.in2, right.duty)
+        if raw != self._raw_pins:  # read every physics step: build new objects only on a change
+            self._raw_pins = raw
+            self._pins = (SidePins(bool(raw[0]), bool(raw[1]), raw[2]), SidePins(bool(raw[3]), bool(raw[4]), raw[5]))
+        return self._pins
 
     @property
     def distance_cm(self) -> int:

@@ -55,7 +55,7 @@ FULL_SCALE = 1000  # [permille] duty meaning 100 %
 # HC-SR04
 ULTRASONIC_MIN_M, ULTRASONIC_MAX_M = 0.02, 4.0  # [m]
 ULTRASONIC_CONE_DEG = 15.0  # full angle
-ULTRASONIC_RAYS = 7  # per side of the cone, horizontally and vertically
+ULTRASONIC_RAYS = 5  # per side of the cone, horizontally and vertically (3.75° apart)
 
 LEFT, RIGHT = 0, 1  # wheel joint indices
 SPIN_LIMIT_RAD_S = 1000.0  # [rad/s] a velocity target no wheel reaches: the force limit is the torque
@@ -72,12 +72,13 @@ class JuniorState:
     right_wheel_rad_s: float  # [rad/s]
 
 
-def _cone_rays() -> np.ndarray:
-    """The ultrasonic's rays, (N, 3) [m] to its maximum range, in the chassis frame (yaw 0)."""
+def _cone_rays() -> list[tuple[float, float, float]]:
+    """The ultrasonic's rays [m] to its maximum range, in the chassis frame (yaw 0)."""
     half = math.radians(ULTRASONIC_CONE_DEG / 2)
     angles = np.linspace(-half, half, ULTRASONIC_RAYS)
     az, el = (a.ravel() for a in np.meshgrid(angles, angles))
-    return np.stack([np.cos(az) * np.cos(el), np.sin(az) * np.cos(el), np.sin(el)], axis=1) * ULTRASONIC_MAX_M
+    rays = np.stack([np.cos(az) * np.cos(el), np.sin(az) * np.cos(el), np.sin(el)], axis=1) * ULTRASONIC_MAX_M
+    return [tuple(ray) for ray in rays.tolist()]
 
 
 _ULTRASONIC_CONE = _cone_rays()
@@ -193,11 +194,10 @@ class JuniorPlant:
         other bodies), not the floor."""
         origin, yaw = self._mount(ULTRASONIC_POS_M)
         c, s = math.cos(yaw), math.sin(yaw)
-        cone = _ULTRASONIC_CONE
-        ends = np.column_stack([cone[:, 0] * c - cone[:, 1] * s, cone[:, 0] * s + cone[:, 1] * c, cone[:, 2]])
-        ends += origin
+        ox, oy, oz = origin
+        ends = [(ox + x * c - y * s, oy + x * s + y * c, oz + z) for x, y, z in _ULTRASONIC_CONE]
         start = [origin] * len(ends)
-        hits = pb.rayTestBatch(start, ends.tolist(), physicsClientId=self.client)
+        hits = pb.rayTestBatch(start, ends, physicsClientId=self.client)
         # The floor, met at a grazing angle, reflects the sound away rather than back.
         ignored = {-1, self.robot, self.world.ground, self.world.floor}
         ranges = [h[2] * ULTRASONIC_MAX_M for h in hits if h[0] not in ignored]

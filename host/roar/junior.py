@@ -2,8 +2,8 @@
 the two ways throttle and steering become wheel duties.
 
     query_for(0.5, 0.8)                  'forward=True&left_spd=0.500&right_spd=0.800'
-    original_mix(0.3, -0.5)              (0.0, 0.9): as the ROAR Junior client maps them
-    smooth_mix(0.3, -0.5)                (0.15, 0.45): speed from throttle, turn from steering
+    original_mix(0.5, -0.5)              (0.0, 0.9): as the ROAR Junior client maps them
+    smooth_mix(0.5, -0.5)                (0.25, 0.75): speed from throttle, turn from steering
 """
 
 from __future__ import annotations
