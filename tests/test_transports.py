@@ -22,7 +22,7 @@ def test_urls_parse(url, expected):
 
 @pytest.mark.parametrize("url, words", [
     ("/dev/ttyUSB0", "not a car URL"),
-    ("tcp://host:1", "unknown URL scheme 'tcp://': use one of ble://, loop://, serial://, sim://"),
+    ("tcp://host:1", "unknown URL scheme 'tcp://': use one of ble://, http://, loop://, serial://, sim://"),
     ("serial://", "needs a port"),
     ("serial:///dev/ttyUSB0?baud=fast", "baud='fast' is not a valid int"),
     ("serial:///dev/ttyUSB0?parity=E", "unknown option(s) parity"),
