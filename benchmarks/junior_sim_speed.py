@@ -1,11 +1,12 @@
 """The simulated Junior's speed in simulated seconds per wall second: bare PyBullet stepping of
 the same robot and track, against the firmware-in-the-loop Junior (JuniorBoard::poll at 1 kHz
 with its HTTP reader, the L298N and motor model, physics at 200 Hz, ultrasonic every 60 ms, a
-control request every 20 ms on a kept-alive connection). Targets: >= 30x real time, and >= 0.5
-of bare stepping; measured alternately ROUNDS times, the best of each kept."""
+control request every 20 ms on a kept-alive connection). Targets, rounds and the best-of rule
+as for the ESC car (benchmarks.sim_speed)."""
 
 import time
 
+from benchmarks.sim_speed import compare
 from roar.junior import query_for
 from roar_sim.firmware_core import SidePins
 from roar_sim.junior_plant import JuniorPlant
@@ -14,9 +15,7 @@ from roar_sim.track import oval
 
 TITLE = "Junior simulation speed (simulated s per wall s)"
 SIM_SECONDS = 10.0
-ROUNDS = 3
 PERIOD_S = 0.02  # [s] between control requests
-TARGET_SPEED, TARGET_RATIO = 30.0, 0.5
 HALF = SidePins(True, False, 500)  # forward at half duty
 
 
@@ -44,8 +43,4 @@ def harness() -> float:
 
 
 def run() -> None:
-    results = [(bare(), harness()) for _ in range(ROUNDS)]
-    b, h = max(r[0] for r in results), max(r[1] for r in results)
-    print(f"bare PyBullet stepping:        {b:8.1f} x real time")
-    print(f"firmware-in-the-loop Junior:   {h:8.1f} x real time   (target >= {TARGET_SPEED:.0f})")
-    print(f"ratio Junior / bare:           {h / b:8.2f}   (target >= {TARGET_RATIO})")
+    compare(bare, harness, "firmware-in-the-loop Junior")

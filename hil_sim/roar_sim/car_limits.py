@@ -10,63 +10,46 @@ model changes without this table following.
 
 from __future__ import annotations
 
-import statistics
 import sys
 
 from roar.autopilot import CarLimits, CarModel
 from roar.protocol import encode, spec
 from roar_sim.actuators import SteeringServo
 from roar_sim.harness import SimCar
+from roar_sim.measuring import HOLDS_LINE, circle, drive, print_against, straight_line
 from roar_sim.plant import WHEELBASE_M
 
 SIMULATED_LIMITS = CarLimits(max_speed_m_s=2.93, max_accel_m_s2=1.78, max_brake_m_s2=3.35, max_lateral_m_s2=3.38)
 SIMULATED_CAR = CarModel(wheelbase_m=WHEELBASE_M, max_steer_rad=SteeringServo().max_angle_rad,
                          limits=SIMULATED_LIMITS)
-PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6
 N = spec.CONTROL_NEUTRAL_US
-HOLDS_LINE = 1.12  # a circle within 12 % of the slowest one's radius counts as grip
 
 
-def _drive(sim: SimCar, throttle_us: int, steering_us: int, seconds: float) -> list[tuple[float, object]]:
-    log = []
-    for _ in range(round(seconds / PERIOD_S)):
-        sim.write(encode(throttle_us, steering_us))
-        sim.run(PERIOD_S)
-        log.append((sim.time_s, sim.state()))
-    return log
+def _drive(sim: SimCar, throttle_us: int, steering_us: int, seconds: float) -> list:
+    return drive(sim, lambda: sim.write(encode(throttle_us, steering_us)), seconds)
 
 
 def measure() -> CarLimits:
     with SimCar() as sim:
         _drive(sim, N, N, 0.2)
         run = _drive(sim, spec.CONTROL_MAX_US, N, 4.0)
-        top = max(s.speed for _, s in run)
-        t10 = next(t for t, s in run if s.speed >= 0.1 * top)
-        t90 = next(t for t, s in run if s.speed >= 0.9 * top)
-        accel = 0.8 * top / (t90 - t10)
-        stop = _drive(sim, spec.CONTROL_MIN_US, N, 2.0)
-        f90 = next(t for t, s in stop if s.speed <= 0.9 * top)
-        f10 = next(t for t, s in stop if s.speed <= 0.1 * top)
-        brake = 0.8 * top / (f10 - f90)
+        top, accel, brake = straight_line(run, _drive(sim, spec.CONTROL_MIN_US, N, 2.0))
     lateral = 0.0
     for steer_us in (1650, 1700, 1750, 1800):  # circles at a fixed steering angle, faster and faster
         base_radius = None
         for throttle_us in range(1700, 2001, 50):
             with SimCar() as sim:
                 _drive(sim, N, N, 0.2)
-                log = _drive(sim, throttle_us, steer_us, 5.0)[-100:]  # the last 2 s
-            radius = statistics.median(abs(s.speed / s.yaw_rate) for _, s in log if abs(s.yaw_rate) > 1e-3)
+                radius, accel_lateral = circle(_drive(sim, throttle_us, steer_us, 5.0)[-100:])  # the last 2 s
             base_radius = base_radius or radius  # the slowest run: no slip
             if radius > HOLDS_LINE * base_radius:
                 break  # the circle has widened: the tyres slide (understeer)
-            lateral = max(lateral, statistics.median(abs(s.speed * s.yaw_rate) for _, s in log))
+            lateral = max(lateral, accel_lateral)
     return CarLimits(round(top, 2), round(accel, 2), round(brake, 2), round(lateral, 2))
 
 
 def main() -> int:
-    limits = measure()
-    for name, value in vars(limits).items():
-        print(f"{name:18} {value:6.2f}   (table: {getattr(SIMULATED_LIMITS, name):.2f})")
+    print_against(measure(), SIMULATED_LIMITS)
     return 0
 
 

@@ -13,12 +13,12 @@ simulated time keeps pace with the wall clock (or `speedup` times faster).
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 
 from roar.protocol import spec
 from roar_sim.actuators import EscMode, HobbyEsc, SteeringServo
 from roar_sim.firmware_core import Board, CarConfig, CarOutputs
+from roar_sim.lockstep import Lockstep
 from roar_sim.plant import CarState, Plant, SimError  # noqa: F401 (SimError: for callers)
 from roar_sim.track import Track
 
@@ -37,7 +37,7 @@ class SimConfig:
     gui: bool = False
 
 
-class SimCar:
+class SimCar(Lockstep):
     """A simulated car: write() control bytes, run() time, read() the car's reply lines."""
 
     def __init__(self, track: Track | None = None, config: SimConfig | None = None) -> None:
@@ -50,18 +50,8 @@ class SimCar:
         self._frames = self.board.frames
         self._replies: list[str] = []
         self._partial = b""
-        self._wall_start: float | None = None
         self._esc_out = self.esc.pulse(self.board.wire[0])
         self.board.begin()
-
-    def close(self) -> None:
-        self.plant.close()
-
-    def __enter__(self) -> SimCar:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
 
     # --- what the host sees ------------------------------------------------------------------
 
@@ -83,21 +73,10 @@ class SimCar:
         """What the firmware decided in its latest loop iteration."""
         return self.board.outputs
 
-    @property
-    def time_s(self) -> float:
-        return self.t_us / 1e6
-
     def state(self) -> CarState:
         return self.plant.state()
 
     # --- time --------------------------------------------------------------------------------
-
-    def run(self, seconds: float) -> None:
-        end = self.t_us + int(round(seconds * 1e6))
-        while self.t_us < end:
-            self._advance(end)
-            if self.config.realtime:
-                self._pace()
 
     def _advance(self, end_us: int) -> None:
         """Run the firmware up to the next physics step or end_us, whichever comes first; a
@@ -120,15 +99,6 @@ class SimCar:
             esc = self._esc_out
             self.plant.apply(esc.drive, esc.brake, self.servo.advance(PHYSICS_US / 1e6))
             self.plant.step()
-
-    def _pace(self) -> None:
-        now = time.perf_counter()
-        wall_s = self.t_us / 1e6 / self.config.speedup
-        if self._wall_start is None:
-            self._wall_start = now - wall_s
-        ahead = wall_s - (now - self._wall_start)
-        if ahead > 0.002:
-            time.sleep(ahead)
 
     @property
     def esc_mode(self) -> EscMode:

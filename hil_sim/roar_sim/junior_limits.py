@@ -12,58 +12,41 @@ model changes without this table following.
 
 from __future__ import annotations
 
-import statistics
 import sys
 
 from roar.autopilot import CarLimits, DiffDriveModel
 from roar.junior import query_for
 from roar_sim.junior_plant import WHEEL_TRACK_M
 from roar_sim.junior_sim import JuniorSim
+from roar_sim.measuring import HOLDS_LINE, circle, drive, print_against, straight_line
 
 JUNIOR_LIMITS = CarLimits(max_speed_m_s=0.55, max_accel_m_s2=3.11, max_brake_m_s2=1.36, max_lateral_m_s2=0.89)
 JUNIOR_MODEL = DiffDriveModel(track_width_m=WHEEL_TRACK_M, limits=JUNIOR_LIMITS)
-PERIOD_S = 0.02  # [s] requests at 50 Hz, as a host sends them
-HOLDS_LINE = 1.12  # a circle within 12 % of the slowest one's radius counts as grip
 
 
-def _drive(sim: JuniorSim, left: float, right: float, seconds: float) -> list[tuple[float, object]]:
-    log = []
-    for _ in range(round(seconds / PERIOD_S)):
-        sim.get(query_for(left, right))
-        sim.run(PERIOD_S)
-        log.append((sim.time_s, sim.state()))
-    return log
+def _drive(sim: JuniorSim, left: float, right: float, seconds: float) -> list:
+    return drive(sim, lambda: sim.get(query_for(left, right)), seconds)
 
 
 def measure() -> CarLimits:
     with JuniorSim() as sim:
         _drive(sim, 0, 0, 0.2)
         run = _drive(sim, 1, 1, 2.0)
-        top = max(s.speed for _, s in run)
-        t10 = next(t for t, s in run if s.speed >= 0.1 * top)
-        t90 = next(t for t, s in run if s.speed >= 0.9 * top)
-        accel = 0.8 * top / (t90 - t10)
-        stop = _drive(sim, 0, 0, 1.5)
-        f90 = next(t for t, s in stop if s.speed <= 0.9 * top)
-        f10 = next(t for t, s in stop if s.speed <= 0.1 * top)
-        brake = 0.8 * top / (f10 - f90)
+        top, accel, brake = straight_line(run, _drive(sim, 0, 0, 1.5))
     lateral = 0.0
     for inner in (0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2):  # tighter and tighter circles at full outer duty
         with JuniorSim() as sim:
             _drive(sim, 0, 0, 0.2)
-            log = _drive(sim, 1.0, inner, 3.0)[-50:]  # the last second
-        radius = statistics.median(abs(s.speed / s.yaw_rate) for _, s in log if abs(s.yaw_rate) > 1e-3)
+            radius, accel_lateral = circle(_drive(sim, 1.0, inner, 3.0)[-50:])  # the last second
         expected = (WHEEL_TRACK_M / 2) * (1 + inner) / (1 - inner)  # no slip: the wheels' speed ratio
         if radius > HOLDS_LINE * expected:
             break  # wider than the wheels ask for: they slide
-        lateral = max(lateral, statistics.median(abs(s.speed * s.yaw_rate) for _, s in log))
+        lateral = max(lateral, accel_lateral)
     return CarLimits(round(top, 2), round(accel, 2), round(brake, 2), round(lateral, 2))
 
 
 def main() -> int:
-    limits = measure()
-    for name, value in vars(limits).items():
-        print(f"{name:18} {value:6.2f}   (table: {getattr(JUNIOR_LIMITS, name):.2f})")
+    print_against(measure(), JUNIOR_LIMITS)
     return 0
 
 

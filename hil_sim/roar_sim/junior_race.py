@@ -9,24 +9,24 @@ from contextlib import contextmanager
 
 import numpy as np
 
-from roar.autopilot import Agent, CarLimits, Command, Observation, diff_drive_agent
-from roar.calibration import Calibration
+from roar.autopilot import Agent, Command, diff_drive_agent
 from roar.transports import open_url
 from roar_sim.junior_limits import JUNIOR_LIMITS, JUNIOR_MODEL
 from roar_sim.junior_server import InBackground
 from roar_sim.junior_sim import JuniorSim
+from roar_sim.race import LockstepIO
 from roar_sim.track import Track
 
 MIXING = "smooth"  # DiffDriveController's commands are smooth_mix's inverse
 
 
-class JuniorIO:
-    """The runner's car: the Junior in lockstep, commands over HTTP."""
+class JuniorIO(LockstepIO):
+    """The Junior: commands over HTTP; no brake sequence (with both duties at 0 it coasts)."""
 
-    limits: CarLimits = JUNIOR_LIMITS
+    limits = JUNIOR_LIMITS
 
     def __init__(self, sim: JuniorSim, control_url: str) -> None:
-        self.sim, self.calibration = sim, Calibration()
+        super().__init__(sim)
         self.transport = open_url(f"{control_url}?mixing={MIXING}")
         self.transport.open()
 
@@ -41,26 +41,10 @@ class JuniorIO:
             finally:
                 io.transport.close()
 
-    def observe(self) -> Observation:
-        s = self.sim.state()
-        return Observation(self.sim.time_s, s.x, s.y, s.yaw, abs(s.speed), s.yaw_rate)
-
     def send(self, command: Command) -> None:
         self.transport.write(self.calibration.message(command.throttle, command.steering))
-
-    def wait(self, seconds: float) -> None:
-        self.sim.run(seconds)
 
     def agent(self, line: np.ndarray, margin: float, lateral: str) -> Agent:
         if lateral != "pursuit":
             raise ValueError("the Junior steers by pure pursuit only (its wheels set the curvature)")
         return diff_drive_agent(line, JUNIOR_MODEL, margin)
-
-    def touching_wall(self) -> bool:
-        return self.sim.plant.wall_contacts() > 0
-
-    def braking(self) -> bool:
-        return False  # the Junior has no brake sequence: with both duties at 0 it coasts
-
-    def signed_speed(self) -> float:
-        return self.sim.state().speed

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 from roar_sim.firmware_core import HttpReader, JuniorBoard, SidePins
 from roar_sim.junior_plant import JuniorPlant, JuniorState
+from roar_sim.lockstep import Lockstep
 from roar_sim.track import Track
 
 LOOP_US = 1_000  # [us] firmware loop period
@@ -60,7 +61,7 @@ class Connection:
         return replies
 
 
-class JuniorSim:
+class JuniorSim(Lockstep):
     def __init__(self, track: Track | None = None, config: JuniorConfig | None = None) -> None:
         self.config = config or JuniorConfig()
         self.track = track
@@ -73,17 +74,7 @@ class JuniorSim:
         self.pin_changes: list[tuple[float, SidePins, SidePins]] | None = None
         self._lock = threading.Lock()
         self._next_ping_us = 0
-        self._wall_start: float | None = None
         self.pose = self.plant.pose()  # (position, quaternion) after the latest physics step, for other threads
-
-    def close(self) -> None:
-        self.plant.close()
-
-    def __enter__(self) -> JuniorSim:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
 
     # --- what a client sees ----------------------------------------------------------------------
 
@@ -100,10 +91,6 @@ class JuniorSim:
         head, _, body = reply.partition(b"\r\n\r\n")
         return int(head.split()[1]), body.decode()
 
-    @property
-    def time_s(self) -> float:
-        return self.t_us / 1e6
-
     def state(self) -> JuniorState:
         return self.plant.state()
 
@@ -112,13 +99,6 @@ class JuniorSim:
         return self.board.pins
 
     # --- time --------------------------------------------------------------------------------
-
-    def run(self, seconds: float) -> None:
-        end = self.t_us + int(round(seconds * 1e6))
-        while self.t_us < end:
-            self._advance(end)
-            if self.config.realtime:
-                self._pace()
 
     def _advance(self, end_us: int) -> None:
         """The firmware up to the next physics step or end_us; a physics period's step follows the
@@ -141,12 +121,3 @@ class JuniorSim:
             self.plant.apply(left, right)
             self.plant.step()
             self.pose = self.plant.pose()
-
-    def _pace(self) -> None:
-        now = time.perf_counter()
-        wall_s = self.t_us / 1e6 / self.config.speedup
-        if self._wall_start is None:
-            self._wall_start = now - wall_s
-        ahead = wall_s - (now - self._wall_start)
-        if ahead > 0.002:
-            time.sleep(ahead)

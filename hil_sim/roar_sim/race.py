@@ -43,12 +43,13 @@ PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6  # [s] 50 Hz, like a real host
 ROBOTS = ("car", "junior")
 
 
-class SimIO:
-    """The runner's car: the SimCar in lockstep, commands as control messages."""
+class LockstepIO:
+    """A simulated robot in lockstep as the runner's car: observed from the simulator, time moved
+    by wait(); subclasses say how a command travels and which agent drives."""
 
-    limits: CarLimits = SIMULATED_CAR.limits
+    limits: CarLimits
 
-    def __init__(self, sim: SimCar, calibration: Calibration | None = None) -> None:
+    def __init__(self, sim, calibration: Calibration | None = None) -> None:
         self.sim, self.calibration = sim, calibration or Calibration()
 
     def observe(self) -> Observation:
@@ -56,22 +57,37 @@ class SimIO:
         return Observation(self.sim.time_s, s.x, s.y, s.yaw, abs(s.speed), s.yaw_rate)
 
     def send(self, command: Command) -> None:
-        self.sim.write(self.calibration.message(command.throttle, command.steering))
+        raise NotImplementedError
 
     def wait(self, seconds: float) -> None:
         self.sim.run(seconds)
 
     def agent(self, line: np.ndarray, margin: float, lateral: str) -> Agent:
-        return race_agent(line, SIMULATED_CAR, PERIOD_S, margin=margin, lateral=lateral)
+        raise NotImplementedError
 
     def touching_wall(self) -> bool:
         return self.sim.plant.wall_contacts() > 0
 
     def braking(self) -> bool:
-        return self.sim.esc_mode in (EscMode.BRAKE, EscMode.REVERSE)
+        return False
 
     def signed_speed(self) -> float:
         return self.sim.state().speed
+
+
+class SimIO(LockstepIO):
+    """The ESC car: commands as control messages on its serial link."""
+
+    limits = SIMULATED_CAR.limits
+
+    def send(self, command: Command) -> None:
+        self.sim.write(self.calibration.message(command.throttle, command.steering))
+
+    def agent(self, line: np.ndarray, margin: float, lateral: str) -> Agent:
+        return race_agent(line, SIMULATED_CAR, PERIOD_S, margin=margin, lateral=lateral)
+
+    def braking(self) -> bool:
+        return self.sim.esc_mode in (EscMode.BRAKE, EscMode.REVERSE)
 
 
 @dataclass
