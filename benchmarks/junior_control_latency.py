@@ -26,7 +26,7 @@ def measure() -> np.ndarray:
         host, port = junior.urls.control_url.removeprefix("http://").rsplit(":", 1)
         conn = http.client.HTTPConnection(host, int(port), timeout=5)
         sent = []
-        sim.pin_changes = []
+        sim.pin_log = []
         next_t = time.perf_counter()
         for i in range(REQUESTS):
             duty = DUTIES[i % 2]
@@ -37,11 +37,11 @@ def measure() -> np.ndarray:
             next_t += PERIOD_S
             time.sleep(max(0.0, next_t - time.perf_counter()))
         time.sleep(0.05)
-        changes, sim.pin_changes = sim.pin_changes, None
+        changes, sim.pin_log = sim.pin_log, None
         conn.close()
     latencies = []
     for t0, permille in sent:
-        applied = next(t for t, left, right in changes if t >= t0 and left.duty == right.duty == permille)
+        applied = next(t for _, t, left, right in changes if t >= t0 and left.duty == right.duty == permille)
         latencies.append((applied - t0) * 1e3)
     return np.array(latencies)
 

@@ -131,17 +131,16 @@ def test_the_failsafe_stops_the_motors_500_ms_after_the_last_request(sim):
 
 
 def test_a_reversal_shows_the_dead_time_on_the_pins(sim):
-    sim.keep_pin_log = True
+    sim.pin_log = []
     sim.get("forward=True&left_spd=1&right_spd=1")
     sim.run(0.1)
     sim.get("backward=True&left_spd=1&right_spd=1")
     sim.run(0.1)
-    left = [(t, p) for t, p, _ in sim.pin_log]
-    first_back = next(t for t, p in left if p.in2)
-    last_forward = max(t for t, p in left if p.in1 and t < first_back)
-    coasting = [p for t, p in left if last_forward < t < first_back]
-    assert first_back - last_forward >= spec.L298N_DEAD_TIME_US
-    assert coasting and all(not p.in1 and not p.in2 and p.duty == 0 for p in coasting)
+    left = [(t, p) for t, _, p, _ in sim.pin_log]  # each change of the left side's pins
+    states = [(p.in1, p.in2, p.duty) for _, p in left]
+    assert states == [(True, False, 1000), (False, False, 0), (False, True, 1000)]  # forward, coast, back
+    (coast_from, _), (back_from, _) = left[1:]
+    assert back_from - coast_from >= spec.L298N_DEAD_TIME_US
 
 
 @pytest.mark.parametrize("distance_m", [0.15, 0.6, 1.5, 3.0])

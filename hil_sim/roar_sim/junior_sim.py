@@ -68,10 +68,9 @@ class JuniorSim(Lockstep):
         self.board = JuniorBoard(loop_us=LOOP_US)
         self.plant = JuniorPlant(track, PHYSICS_US / 1e6, self.config.gui, self.config.pose)
         self.t_us = 0
-        self.pin_log: list[tuple[int, SidePins, SidePins]] = []  # (t [us], left, right) at each physics step
-        self.keep_pin_log = False
-        # (wall clock [s], left, right) each time the firmware's outputs change, when a list
-        self.pin_changes: list[tuple[float, SidePins, SidePins]] | None = None
+        # When a list: (simulated t [us], wall clock [s], left, right) each time the firmware's
+        # outputs change, as seen after each run of loop iterations (at most one physics period)
+        self.pin_log: list[tuple[int, float, SidePins, SidePins]] | None = None
         self._lock = threading.Lock()
         self._next_ping_us = 0
         self.pose = self.plant.pose()  # (position, quaternion) after the latest physics step, for other threads
@@ -111,13 +110,11 @@ class JuniorSim(Lockstep):
         with self._lock:
             self.board.run(loops)
             left, right = self.board.pins
-        changes = self.pin_changes
-        if changes is not None and (not changes or changes[-1][1:] != (left, right)):
-            changes.append((time.perf_counter(), left, right))
         self.t_us = t + loops * LOOP_US
+        log = self.pin_log
+        if log is not None and (not log or log[-1][2:] != (left, right)):
+            log.append((self.t_us, time.perf_counter(), left, right))
         if t % PHYSICS_US == 0:
-            if self.keep_pin_log:
-                self.pin_log.append((t, left, right))
             self.plant.apply(left, right)
             self.plant.step()
             self.pose = self.plant.pose()
