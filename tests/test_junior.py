@@ -446,3 +446,34 @@ def test_a_dead_camera_renderer_gives_503_not_a_hang():
         assert status == 503 and b"camera off" in body
         status, _, body = http_get(junior.urls.control_url, "/?stop=True")
         assert status == 200  # control goes on
+
+
+def test_a_stream_frame_is_handed_on_before_the_next_part_starts():
+    """A whole frame with its Content-Length is delivered at once, not one frame period later
+    when the next boundary arrives."""
+    from PIL import Image
+
+    from roar.camera import MjpegStream
+
+    out = io.BytesIO()
+    Image.new("RGB", (64, 48), (0, 200, 0)).save(out, "JPEG")
+    frame = out.getvalue()
+    listener = socket.create_server(("127.0.0.1", 0))
+    done = threading.Event()
+
+    def serve():
+        conn, _ = listener.accept()
+        conn.recv(4096)
+        conn.sendall(b"HTTP/1.1 200 OK\r\nContent-Type: multipart/x-mixed-replace; boundary=b\r\n\r\n"
+                     b"--b\r\nContent-Type: image/jpeg\r\nContent-Length: %d\r\n\r\n" % len(frame) + frame + b"\r\n")
+        done.wait(10)  # the next part never comes while the client waits
+        conn.close()
+
+    threading.Thread(target=serve, daemon=True).start()
+    try:
+        with MjpegStream(f"http://127.0.0.1:{listener.getsockname()[1]}/cam.mjpeg", timeout_s=3) as stream:
+            first = next(iter(stream))
+        assert first.shape == (48, 64, 3) and first[24, 32, 1] > 150
+    finally:
+        done.set()
+        listener.close()

@@ -81,7 +81,8 @@ def fetch(url: str, timeout_s: float = 2.0, redirects: int = 3) -> np.ndarray:
 
 class MjpegStream:
     """Frames of a multipart/x-mixed-replace stream (the ESP32-CAM's /cam.mjpeg), as numpy RGB
-    arrays. Parts are found by the boundary the stream announces, not trusted by their length:
+    arrays. A part whose Content-Length bytes decode whole is handed on as soon as they are in;
+    otherwise parts are found by the boundary the stream announces, not trusted by their length:
     a truncated or garbage part is skipped and the next boundary found."""
 
     def __init__(self, url: str, timeout_s: float = 5.0) -> None:
@@ -106,6 +107,11 @@ class MjpegStream:
         buffer = b""
         while True:
             start = buffer.find(self._boundary)
+            whole = self._by_length(buffer, start) if start >= 0 else None
+            if whole is not None:  # the part's announced length holds a whole image: no need to wait
+                frame, buffer = whole  # for the next boundary, one frame period later
+                yield frame
+                continue
             end = buffer.find(self._boundary, start + 1) if start >= 0 else -1
             if start >= 0 and end > start:
                 part, buffer = buffer[start + len(self._boundary):end], buffer[end:]
@@ -126,6 +132,20 @@ class MjpegStream:
             if not chunk:
                 return
             buffer += chunk
+
+    def _by_length(self, buffer: bytes, start: int) -> tuple[np.ndarray, bytes] | None:
+        """(frame, the rest of buffer) when the part at `start` has a Content-Length, all of its
+        bytes are in, and they decode whole; None otherwise (the boundary then decides)."""
+        head_end = buffer.find(b"\r\n\r\n", start)
+        if head_end < 0:
+            return None
+        length = re.search(rb"(?im)^content-length:\s*(\d{1,9})\s*$", buffer[start:head_end])
+        body_start = head_end + 4
+        if not length or len(buffer) < body_start + int(length.group(1)):
+            return None
+        body_end = body_start + int(length.group(1))
+        frame = decode_image(buffer[body_start:body_end])
+        return None if frame is None else (frame, buffer[body_end:])
 
     def close(self) -> None:
         self._conn.close()
