@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
-"""Generate the C++ header, the Python module, the C++ vector table and the constants table of
-PROTOCOL.md from protocol/spec.toml and protocol/vectors/.
+"""Generate the C++ header, the portable Python constants (roar_wire.spec, for CPython and
+MicroPython) and the host's view of them (roar.protocol.spec), the C++ vector table and the
+constants table of PROTOCOL.md from protocol/spec.toml and protocol/vectors/.
 
     python protocol/generate.py           write the generated files
     python protocol/generate.py --check   exit 1 (naming the stale files) if any is out of date
@@ -24,6 +25,7 @@ VECTORS = ROOT / "protocol" / "vectors" / "control_messages.json"
 CPP_HEADER = ROOT / "firmware" / "core" / "include" / "roar" / "protocol.h"
 CPP_VECTORS = ROOT / "firmware" / "core" / "test" / "vectors.h"
 PY_MODULE = ROOT / "host" / "roar" / "protocol" / "spec.py"
+PORTABLE_MODULE = ROOT / "host" / "roar_wire" / "spec.py"
 DOC = ROOT / "protocol" / "PROTOCOL.md"
 DOC_BEGIN = "<!-- BEGIN GENERATED CONSTANTS (protocol/generate.py) -->"
 DOC_END = "<!-- END GENERATED CONSTANTS -->"
@@ -193,18 +195,27 @@ def _camel(key: str) -> str:
     return "".join(p.capitalize() for p in key.split("_"))
 
 
-def render_python(constants: list[Constant]) -> str:
-    lines = [f'"""{BANNER}"""', "", "from enum import IntEnum", ""]
+def render_portable(constants: list[Constant]) -> str:
+    """roar_wire/spec.py: every constant as a plain value, for CPython and MicroPython alike."""
+    lines = [f'"""{BANNER}', "", "Plain values only: this module runs on CPython and on MicroPython boards.", '"""', ""]
     section = None
     for k in constants:
-        if k.section == "parse_result":
-            continue
         if k.section != section:
             section = k.section
             lines += ["", f"# [{section}]"]
         lines.append(f"{k.py_name} = {k.value!r}  # {comment(k)}")
     results = sorted((k for k in constants if k.section == "parse_result"), key=lambda k: k.value)
-    lines += ["", "", "class ParseResult(IntEnum):", '    """Why the streaming parser reported what it did; str() is the wire token."""', ""]
+    lines += ["", "# The wire token of each parse result, indexed by its code",
+              f"PARSE_RESULT_TOKENS = ({', '.join(repr(k.key) for k in results)},)", ""]
+    return "\n".join(lines)
+
+
+def render_python(constants: list[Constant]) -> str:
+    """roar/protocol/spec.py: the portable constants, and ParseResult as an IntEnum for the host."""
+    lines = [f'"""{BANNER}', "", "The constants of roar_wire.spec, and the parse results as an IntEnum.", '"""', "",
+             "from enum import IntEnum", "", "from roar_wire.spec import *  # noqa: F401,F403 (the constants)", ""]
+    results = sorted((k for k in constants if k.section == "parse_result"), key=lambda k: k.value)
+    lines += ["", "class ParseResult(IntEnum):", '    """Why the streaming parser reported what it did; str() is the wire token."""', ""]
     for k in results:
         lines.append(f"    {k.key.upper()} = {k.value}  # {k.doc}")
     lines += ["", "    def __str__(self) -> str:", "        return self.name.lower()", ""]
@@ -289,6 +300,7 @@ def outputs() -> dict[Path, str]:
     return {
         CPP_HEADER: render_cpp_header(constants),
         PY_MODULE: render_python(constants),
+        PORTABLE_MODULE: render_portable(constants),
         CPP_VECTORS: render_cpp_vectors(cases),
         DOC: render_doc_table(constants, DOC.read_text(encoding="utf-8")),
     }

@@ -20,6 +20,24 @@ if ((${#missing[@]})); then
   fi
 fi
 
+# Node.js runs the official MicroPython WebAssembly runtime for the MicroPython tests. Any
+# Node.js >= 18 will do (Debian's, or one already installed from elsewhere, which then keeps
+# its own npm).
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
+  if [[ $(id -u) -eq 0 ]] && command -v apt-get >/dev/null; then
+    echo "setup: installing Debian packages: nodejs npm"
+    apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends nodejs npm >/dev/null
+  else
+    echo "setup: missing Node.js (install as root: apt-get install nodejs npm); MicroPython tests will skip" >&2
+  fi
+fi
+runner=hil_sim/micropython
+if command -v npm >/dev/null && [[ ! -f $runner/node_modules/.installed || $runner/package-lock.json -nt $runner/node_modules/.installed ]]; then
+  echo "setup: installing the MicroPython runtime (npm ci in $runner)"
+  (cd "$runner" && npm ci --no-audit --no-fund --loglevel=error >/dev/null) && touch "$runner/node_modules/.installed"
+fi
+
 PY=${PYTHON:-python3}
 stamp=.venv/.installed
 if [[ ! -x .venv/bin/python || ! -f $stamp || pyproject.toml -nt $stamp ]]; then

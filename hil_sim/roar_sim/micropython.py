@@ -1,0 +1,62 @@
+"""Real MicroPython for the suite: programs run in the official MicroPython WebAssembly runtime
+(npm @micropython/micropython-webassembly-pyscript, pinned in hil_sim/micropython/) on Node.js,
+with files of this repository copied into its filesystem first (hil_sim/micropython/run.mjs).
+
+    result = run(program_path, {**portable_files(), "/data.json": path})
+    result.returncode, result.stdout, result.stderr
+
+The runtime has no `machine`, `bluetooth`, `network` or `socket`: board programs get the
+stand-ins of firmware/micropython/tests/ (see firmware/micropython/README.md).
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+RUNNER_DIR = ROOT / "hil_sim" / "micropython"
+RUNTIME = RUNNER_DIR / "node_modules" / "@micropython" / "micropython-webassembly-pyscript" / "micropython.mjs"
+PORTABLE = ROOT / "host" / "roar_wire"  # the protocol module the host and the boards share
+HEAP_BYTES = 64 * 1024  # [bytes] the runtime's first heap; it grows past this only when it must
+
+
+@dataclass
+class MpRun:
+    returncode: int
+    stdout: str
+    stderr: str
+
+
+def available() -> str | None:
+    """None when Node.js and the runtime are installed, else what to do."""
+    if shutil.which("node") is None:
+        return "MicroPython tests need Node.js: apt-get install nodejs npm"
+    if not RUNTIME.exists():
+        return f"MicroPython tests need the runtime: npm ci --prefix {RUNNER_DIR.relative_to(ROOT)} (make setup does it)"
+    return None
+
+
+def portable_files() -> dict[str, Path]:
+    """The shared protocol package, as the boards hold it: /lib/roar_wire/*.py."""
+    return {f"/lib/roar_wire/{p.name}": p for p in sorted(PORTABLE.glob("*.py"))}
+
+
+def run(program: Path, files: dict[str, Path] | None = None, heapsize: int = HEAP_BYTES,
+        timeout_s: float = 300.0) -> MpRun:
+    """Run program (a .py file on this machine) under MicroPython with files ({path in the
+    runtime's filesystem: file here}) in place."""
+    manifest = {"heapsize": heapsize, "main": str(Path(program).resolve()),
+                "files": {target: str(Path(source).resolve()) for target, source in (files or {}).items()}}
+    with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as f:
+        json.dump(manifest, f)
+    try:
+        done = subprocess.run(["node", str(RUNNER_DIR / "run.mjs"), f.name], capture_output=True, text=True,
+                              timeout=timeout_s, cwd=RUNNER_DIR)
+    finally:
+        Path(f.name).unlink()
+    return MpRun(done.returncode, done.stdout, done.stderr)
