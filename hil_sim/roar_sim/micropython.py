@@ -22,6 +22,8 @@ ROOT = Path(__file__).resolve().parents[2]
 RUNNER_DIR = ROOT / "hil_sim" / "micropython"
 RUNTIME = RUNNER_DIR / "node_modules" / "@micropython" / "micropython-webassembly-pyscript" / "micropython.mjs"
 PORTABLE = ROOT / "host" / "roar_wire"  # the protocol module the host and the boards share
+BOARDS = ROOT / "firmware" / "micropython"  # the boards' programs: lib/ (shared), junior/, car/
+STANDINS = RUNNER_DIR / "standins"  # machine, network, bluetooth, time and asyncio for the suite
 HEAP_BYTES = 64 * 1024  # [bytes] the runtime's first heap; it grows past this only when it must
 
 
@@ -44,6 +46,18 @@ def available() -> str | None:
 def portable_files() -> dict[str, Path]:
     """The shared protocol package, as the boards hold it: /lib/roar_wire/*.py."""
     return {f"/lib/roar_wire/{p.name}": p for p in sorted(PORTABLE.glob("*.py"))}
+
+
+def board_files(board: str, standins: bool = True) -> dict[str, Path]:
+    """Everything one board holds, where it holds it (the protocol and lib/ under /lib, the
+    board's own files at /), without its main.py (the suite's program runs instead), and the
+    stand-ins of the hardware modules under /lib."""
+    files = portable_files()
+    files.update({f"/lib/{p.name}": p for p in sorted((BOARDS / "lib").glob("*.py"))})
+    files.update({f"/{p.name}": p for p in sorted((BOARDS / board).glob("*.py")) if p.name != "main.py"})
+    if standins:
+        files.update({f"/lib/{p.name}": p for p in sorted(STANDINS.glob("*.py"))})
+    return files
 
 
 def run(program: Path, files: dict[str, Path] | None = None, heapsize: int = HEAP_BYTES,

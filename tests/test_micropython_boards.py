@@ -1,0 +1,199 @@
+"""The MicroPython board programs (firmware/micropython) under real MicroPython, in a simulated
+world of stand-ins (hil_sim/micropython/standins): the Junior against the C++ core's Junior on
+the same requests and clock, response for response and pin for pin."""
+
+import json
+import random
+
+import pytest
+
+from conftest import ROOT
+from roar_sim import micropython
+
+if micropython.available():
+    pytest.skip(micropython.available(), allow_module_level=True)
+
+PROGRAMS = ROOT / "tests" / "micropython"
+TICKS_MS_PERIOD = 1 << 30  # [ms] MicroPython's ticks_ms() wraps here on an ESP32
+BOOT_GRACE_US = 3_000_000  # [us] the Junior's config.BOOT_GRACE_S: its loop starts after it
+WALL_CM = 100
+
+
+def run_scenario(tmp_path, program: str, board: str, scenario: dict) -> dict:
+    path = tmp_path / "scenario.json"
+    path.write_text(json.dumps(scenario))
+    result = micropython.run(PROGRAMS / program, {**micropython.board_files(board), "/scenario.json": path})
+    assert result.returncode == 0, result.stderr[-3000:]
+    out = json.loads(result.stdout.strip().splitlines()[-1])
+    assert out["errors"] == [], out["errors"]
+    return out
+
+
+# --- the Junior -------------------------------------------------------------------------------
+
+def junior_query(rng: random.Random) -> str:
+    """Mostly what a driver sends (a motion and speeds, in any order); sometimes junk."""
+    if rng.random() < 0.8:
+        params = [f"{rng.choice(['forward', 'backward', 'stop', 'turnLeft', 'turnRight'])}="
+                  f"{rng.choice(['True', 'True', 'True', 'False'])}"]
+        params += [f"{side}={rng.choice(['0', '1', '0.5', '.25', '0.8', '1.0', '0.333'])}"
+                   for side in rng.sample(["left_spd", "right_spd"], rng.randint(0, 2))]
+        rng.shuffle(params)
+        return "&".join(params)
+    names = ["forward", "stop", "left_spd", "right_spd", "speed"]
+    values = ["True", "0.5", "1.01", "nan", "maybe", "-0.5", ""]
+    return "&".join(f"{rng.choice(names)}={rng.choice(values)}" for _ in range(rng.randint(0, 3)))
+
+
+def junior_request(rng: random.Random) -> str:
+    """A request line and headers, without the blank line: most are control requests."""
+    kind = rng.random()
+    if kind < 0.8:
+        return f"GET /?{junior_query(rng)} HTTP/1.1\r\nHost: junior\r\n"
+    if kind < 0.84:
+        return f"GET /?{junior_query(rng)} HTTP/1.0\r\n"
+    if kind < 0.88:
+        return f"POST /?{junior_query(rng)} HTTP/1.1\r\n"
+    if kind < 0.92:
+        return "GET /cam-lo.jpg HTTP/1.1\r\n"
+    if kind < 0.96:
+        return f"GET /?{'forward=True&' * 30} HTTP/1.1\r\n"  # a request line over 256 bytes
+    return rng.choice(["hello\r\n", "GET /?stop=True HTTP/2\r\n", "GET ?a HTTP/1.1\r\n"])
+
+
+def junior_scenario(seed: int, seconds: float = 20.0) -> dict:
+    """Requests on up to two connections at random loop phases, with silences past the failsafe
+    and quick reversals for the dead time; the clock starts 2 s before ticks_ms() wraps."""
+    rng = random.Random(seed)
+    start_us = (TICKS_MS_PERIOD - 2000 - BOOT_GRACE_US // 1000) * 1000
+    loop0 = start_us + BOOT_GRACE_US
+    t = loop0 + 100_000
+    end = loop0 + int(seconds * 1e6)
+    events, conn, used_ms = [], 0, {}
+    open_conns = set()
+    while True:
+        text = junior_request(rng)
+        t += rng.choice([2, 3, 5, 7, 20, 20, 20, 50, 120, 499, 501, 700]) * 1000
+        t = t // 1000 * 1000 + 500  # between two loop ticks
+        if t > end - 100_000:
+            break
+        keep = rng.random() < 0.6 and "HTTP/1.1" in text
+        c = next((c for c in sorted(open_conns) if t - used_ms[c] < 1_500_000), None)
+        if c is None:
+            conn += 1
+            c = conn
+        header = "Connection: keep-alive\r\n" if keep else "Connection: close\r\n"
+        request = text + header + "\r\n"
+        if rng.random() < 0.1:  # split across two reads
+            cut = rng.randint(1, len(request) - 1)
+            events.append([t, c, "send", request[:cut]])
+            t += 1000
+            events.append([t, c, "send", request[cut:]])
+        else:
+            events.append([t, c, "send", request])
+        used_ms[c] = t
+        if keep:
+            open_conns.add(c)
+        else:
+            open_conns.discard(c)
+            events.append([t + 200, c, "close", ""])
+    return {"start_us": start_us, "end_us": end, "wall_cm": WALL_CM, "events": events}
+
+
+def cpp_junior(scenario: dict) -> dict:
+    """The C++ core's Junior (JuniorBoard and its HTTP reader) on the same events: its replies
+    and its pins after every loop tick, as changes."""
+    from roar_sim.firmware_core import HttpReader, JuniorBoard
+
+    loop0 = scenario["start_us"] + BOOT_GRACE_US
+    board = JuniorBoard(loop_us=1000, start_us=loop0)
+    board.distance_cm = scenario["wall_cm"]
+    tick = loop0  # the next loop tick
+    readers, closed, replies, changes, last = {}, set(), [], [], None
+
+    def run_to(t_us):
+        nonlocal tick, last
+        while tick <= t_us:
+            board.run(1)
+            pins = [[int(p.in1), int(p.in2), p.duty] for p in board.pins]
+            if pins != last:
+                changes.append([tick, pins])
+                last = pins
+            tick += 1000
+
+    for i, (at, conn, action, text) in enumerate(scenario["events"]):
+        run_to(at)
+        out = b""
+        if action == "close":
+            closed.add(conn)
+        elif conn not in closed:
+            reader = readers.setdefault(conn, HttpReader())
+            data = text.encode()
+            while data:
+                used, state = reader.feed(data)
+                data = data[used:]
+                if state == HttpReader.INCOMPLETE:
+                    break
+                board.hal.now_us = at % (1 << 32)  # the request arrives between two ticks
+                reply, keep = board.respond(reader)
+                board.hal.now_us = tick % (1 << 32)
+                out += reply
+                if not keep:
+                    closed.add(conn)
+                    break
+                reader.reset()
+        replies.append([i, out.decode()])
+    run_to(scenario["end_us"])
+    return {"replies": replies, "changes": changes}
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_the_micropython_junior_answers_and_drives_as_the_cpp_core(tmp_path, seed):
+    scenario = junior_scenario(seed)
+    mp = run_scenario(tmp_path, "junior_scenario.py", "junior", scenario)
+    cpp = cpp_junior(scenario)
+    loop0 = scenario["start_us"] + BOOT_GRACE_US
+    assert mp["replies"] == cpp["replies"]
+    assert [c for c in mp["changes"] if c[0] >= loop0] == cpp["changes"]
+    # the scenario exercised what it is for
+    bodies = [r for _, r in cpp["replies"]]
+    assert sum(r.startswith("HTTP/1.1 200") for r in bodies) > 40 and sum(" 400 " in r for r in bodies) >= 5
+    assert any(" 404 " in r for r in bodies) and any(" 405 " in r for r in bodies)
+    assert all(r.endswith(f"\r\n\r\n{WALL_CM}") for r in bodies if r.startswith("HTTP/1.1 200"))
+    stops = sum(1 for a, b in zip(cpp["changes"], cpp["changes"][1:]) if a[1] != [[0, 0, 0]] * 2 and b[1] == [[0, 0, 0]] * 2)
+    assert stops > 5
+    assert mp["watchdog_gap_us"] <= 1000 and mp["watchdog_timeout_ms"] >= 1000  # fed every loop
+
+
+def test_idle_connections_do_not_lock_out_a_driver_and_silence_stops_the_junior(tmp_path):
+    """Six connections that never send a byte, then a driver at 50 Hz on a kept connection:
+    every request answered, the wheels turn, and 500 ms after the last request they stop."""
+    start_us = 10_000_000
+    loop0 = start_us + BOOT_GRACE_US
+    events = [[loop0 + 100_500 + i * 1000, 100 + i, "send", ""] for i in range(6)]
+    drive = "GET /?forward=True&left_spd=0.5&right_spd=0.5 HTTP/1.1\r\nHost: junior\r\n\r\n"
+    requests = [[loop0 + 200_500 + i * 20_000, 1, "send", drive] for i in range(50)]
+    scenario = {"start_us": start_us, "end_us": loop0 + 2_500_000, "wall_cm": WALL_CM, "events": events + requests}
+    mp = run_scenario(tmp_path, "junior_scenario.py", "junior", scenario)
+    answers = [r for i, r in mp["replies"] if i >= len(events)]
+    assert len(answers) == 50 and all(r.startswith("HTTP/1.1 200 OK") and r.endswith("100") for r in answers)
+    on = [t for t, pins in mp["changes"] if pins == [[1, 0, 500], [1, 0, 500]]]
+    off = [t for t, pins in mp["changes"] if pins == [[0, 0, 0], [0, 0, 0]] and t > loop0]
+    last_request = requests[-1][0]
+    assert on == [loop0 + 201_000] and off == [last_request + 500_500]
+
+
+def test_the_clock_never_wraps_and_never_goes_back(tmp_path):
+    """roar_clock.Clock read every 1..2**29 ms across several wraps of ticks_ms()."""
+    program = tmp_path / "clock.py"
+    program.write_text(
+        "import sim\nsim.install(0)\nimport random\nfrom roar_clock import Clock\n"
+        "c = Clock()\nexpected = 0\nrandom.seed(3)\n"
+        "for i in range(400):\n"
+        "    step = random.choice([1, 7, 1000, 2**20, 2**29 - 1])\n"
+        "    sim.advance(step * 1000)\n    expected += step\n"
+        "    assert c.now() == expected, (i, c.now(), expected)\n"
+        "print('wraps', expected // 2**30)\n")
+    result = micropython.run(program, micropython.board_files("junior"))
+    assert result.returncode == 0, result.stderr
+    assert int(result.stdout.split()[-1]) >= 3
