@@ -4,6 +4,7 @@ the same requests and clock, response for response and pin for pin."""
 
 import json
 import random
+import struct
 
 import pytest
 
@@ -197,3 +198,91 @@ def test_the_clock_never_wraps_and_never_goes_back(tmp_path):
     result = micropython.run(program, micropython.board_files("junior"))
     assert result.returncode == 0, result.stderr
     assert int(result.stdout.split()[-1]) >= 3
+
+
+# --- the ESP32-CAM car ------------------------------------------------------------------------
+
+def car_scenario(seed: int, seconds: float = 20.0) -> dict:
+    """BLE writes of control messages between loop ticks: driving forward and back (the brake
+    sequence), neutral re-arming, junk and split messages, and silences past the failsafe; the
+    clock starts 3 s before ticks_ms() wraps."""
+    rng = random.Random(seed)
+    start_us = (TICKS_MS_PERIOD - 3000) * 1000
+    t, end = start_us + 50_000, start_us + int(seconds * 1e6)
+    events = [[t, "connect", ""]]
+    throttle = 1500
+    while True:
+        t += rng.choice([1, 2, 5, 9, 11, 20, 20, 20, 20, 40, 249, 251, 400]) * 1000
+        t = t // 1000 * 1000 + 500
+        if t > end - 100_000:
+            break
+        r = rng.random()
+        if r < 0.7:
+            throttle = rng.choice([1500, 1500, 1510, 1524, 1525, 1526, 1475, 1474, 1700, 2000, 1300, 1000, 1449])
+            text = f"({throttle},{rng.randint(1000, 2000)})"
+        elif r < 0.8:
+            text = rng.choice(["(1500,1500)(1600,1400)", "(15", "00,1500)", "(9999,1500)", "(1500,150", "\n"])
+        else:
+            text = rng.choice(["hello", "(abc,1500)", "(1500 1500)", "(1500,1500,1500)", "(12345,1)", "))"])
+        events.append([t, "write", text])
+    events.append([end - 50_000, "disconnect", ""])
+    return {"start_us": start_us, "end_us": end, "events": events}
+
+
+def cpp_car(scenario: dict) -> dict:
+    """The C++ core's board loop (CarBoard) on the same bytes (taken by the loop at the next
+    tick, as the MicroPython car takes its BLE writes) and frames every 20 ms from the start."""
+    from roar_sim.firmware_core import Board
+
+    start = scenario["start_us"]
+    board = Board(start_us=start)
+    board.begin()
+    tick, changes, replies, last = start, [], [], None
+
+    def run_to(t_us):
+        nonlocal tick, last
+        while tick <= t_us:
+            board.run(1)
+            out = board.outputs
+            pulses = [out.throttle_us, out.steering_us]
+            if pulses != last:
+                changes.append([tick, pulses])
+                last = pulses
+            replies.extend([tick, line + "\n"] for line in board.serial_out().decode().splitlines())
+            tick += 1000
+
+    for at, action, text in scenario["events"]:
+        run_to(at)
+        if action == "write":
+            board.serial_in(text.encode())
+    run_to(scenario["end_us"])
+    return {"changes": changes, "replies": replies}
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_the_micropython_car_drives_and_replies_as_the_cpp_core(tmp_path, seed):
+    scenario = car_scenario(seed)
+    mp = run_scenario(tmp_path, "car_scenario.py", "car", scenario)
+    cpp = cpp_car(scenario)
+    assert mp["replies"] == cpp["replies"]
+    assert mp["changes"] == cpp["changes"]
+    lines = [line for _, line in cpp["replies"]]
+    throttles = [p[0] for _, p in cpp["changes"]]
+    assert lines[0] == "READY 1\n" and lines.count("FAILSAFE\n") > 3 and lines.count("ARMED\n") > 3
+    assert {"ERR syntax\n", "ERR range\n", "ERR too_long\n", "ERR garbage\n"} <= set(lines)
+    assert 1450 in throttles and min(throttles) < 1450 and max(throttles) > 1500  # brake tap, reverse, forward
+    assert mp["watchdog_gap_us"] <= 1000 and mp["watchdog_timeout_ms"] >= 1000
+    # the Bluetooth side: the ROAR service advertised again after the host left, its values
+    service = bytes.fromhex(spec_value("BLE_SERVICE_UUID").replace("-", ""))[::-1]
+    adverts = [(bytes.fromhex(a), bytes.fromhex(r)) for _, _, a, r in mp["advertising"]]
+    assert len(adverts) == 2 and all(service in a and b"ROAR Car" in r for a, r in adverts)
+    assert len(adverts[0][0]) <= 31 and len(adverts[0][1]) <= 31
+    assert bytes.fromhex(mp["velocity"]) == struct.pack("<f", 0.0)
+    assert struct.unpack("<ff", bytes.fromhex(mp["state"]))[1] in (p[0] for _, p in cpp["changes"])
+    assert mp["led"] == 1  # off: the host has gone
+
+
+def spec_value(name: str):
+    from roar.protocol import spec
+
+    return getattr(spec, name)

@@ -1,0 +1,80 @@
+# Runs under MicroPython (tests/test_micropython_boards.py): the ESP32-CAM car's MicroPython
+# program (firmware/micropython/car) in the simulated world of hil_sim/micropython/standins,
+# through a scenario from /scenario.json:
+#   {"start_us": ..., "end_us": ..., "events": [[t_us, "write" | "connect" | "disconnect", text], ...]}
+# "write" is a BLE write to the control characteristic. Prints one JSON line: the pulses the
+# loop decided at each millisecond tick (as changes; checked against the PWM stand-ins), every
+# reply line with its tick, what the radio advertised and holds, the watchdog, the peak heap.
+import gc
+from binascii import hexlify
+import json
+
+import sim
+
+with open("/scenario.json") as f:
+    scenario = json.load(f)
+sim.install(scenario["start_us"])
+
+import bluetooth  # noqa: E402 (after the stand-ins are in place)
+import machine  # noqa: E402
+
+import car_app  # noqa: E402
+import config  # noqa: E402
+from roar_wire import spec  # noqa: E402
+
+CONTROL_UUID = spec.BLE_CONTROL_UUID
+replies = []  # [tick us, line]
+
+
+class TestConsole:
+    def read(self, n):
+        return b""
+
+    def write(self, text):
+        replies.append([sim.now_us // 1000 * 1000, text])
+
+
+changes = []  # [tick us, [throttle, steering]]
+_poll = car_app.CarBoard.poll
+
+
+def poll(self):
+    pulses = list(_poll(self))
+    tick = sim.now_us // 1000 * 1000
+    if changes and changes[-1][0] == tick:
+        changes.pop()
+    if not changes or changes[-1][1] != pulses:
+        changes.append([tick, pulses])
+    hw = [machine.pwms[config.THROTTLE_PIN].duty_ns() // 1000, machine.pwms[config.STEERING_PIN].duty_ns() // 1000]
+    assert hw == pulses, (hw, pulses)
+    return pulses
+
+
+car_app.CarBoard.poll = poll
+car_app.Console = TestConsole
+sim.spawn(car_app.main(), "main")
+
+peak = 0
+for i, (at, action, text) in enumerate(scenario["events"]):
+    sim.run_until(at)
+    radio = bluetooth.radio
+    if action == "write":
+        radio.central_write(CONTROL_UUID, text.encode())
+    elif action == "connect":
+        radio.central_connect()
+    else:
+        radio.central_disconnect()
+    if i % 20 == 0:
+        gc.collect()
+        peak = max(peak, gc.mem_alloc())
+sim.run_until(scenario["end_us"])
+
+radio = bluetooth.radio
+wdt = machine.watchdogs[0] if machine.watchdogs else None
+print(json.dumps({"changes": changes, "replies": replies, "errors": sim.errors,
+                  "advertising": [[t, i, hexlify(a).decode(), hexlify(r).decode()] for t, i, a, r in radio.advertising],
+                  "state": hexlify(radio.central_read(spec.BLE_STATE_UUID)).decode(),
+                  "velocity": hexlify(radio.central_read(spec.BLE_VELOCITY_UUID)).decode(),
+                  "led": machine.pins[config.STATUS_LED_PIN].value(),
+                  "watchdog_gap_us": wdt.longest_gap_us if wdt else None,
+                  "watchdog_timeout_ms": wdt.timeout_ms if wdt else None, "peak_heap": peak}))
