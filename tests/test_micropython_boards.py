@@ -286,3 +286,14 @@ def spec_value(name: str):
     from roar.protocol import spec
 
     return getattr(spec, name)
+
+
+# --- memory -----------------------------------------------------------------------------------
+
+HEAP_LIMIT_BYTES = 64 * 1024  # [bytes] what a board program may take of an ESP32's MicroPython heap
+
+
+@pytest.mark.parametrize("board", ["junior", "car"])
+def test_each_board_program_stays_under_64_kb_of_heap(tmp_path, board):
+    out = run_scenario(tmp_path, "heap_probe.py", board, {"board": board, "seconds": 5})
+    assert 4_000 < out["peak"] < HEAP_LIMIT_BYTES, out

@@ -5,9 +5,8 @@
 # "write" is a BLE write to the control characteristic. Prints one JSON line: the pulses the
 # loop decided at each millisecond tick (as changes; checked against the PWM stand-ins), every
 # reply line with its tick, what the radio advertised and holds, the watchdog, the peak heap.
-import gc
-from binascii import hexlify
 import json
+from binascii import hexlify
 
 import sim
 
@@ -54,27 +53,31 @@ car_app.CarBoard.poll = poll
 car_app.Console = TestConsole
 sim.spawn(car_app.main(), "main")
 
-peak = 0
-for i, (at, action, text) in enumerate(scenario["events"]):
-    sim.run_until(at)
-    radio = bluetooth.radio
-    if action == "write":
-        radio.central_write(CONTROL_UUID, text.encode())
-    elif action == "connect":
-        radio.central_connect()
-    else:
-        radio.central_disconnect()
-    if i % 20 == 0:
-        gc.collect()
-        peak = max(peak, gc.mem_alloc())
-sim.run_until(scenario["end_us"])
 
-radio = bluetooth.radio
-wdt = machine.watchdogs[0] if machine.watchdogs else None
-print(json.dumps({"changes": changes, "replies": replies, "errors": sim.errors,
-                  "advertising": [[t, i, hexlify(a).decode(), hexlify(r).decode()] for t, i, a, r in radio.advertising],
-                  "state": hexlify(radio.central_read(spec.BLE_STATE_UUID)).decode(),
-                  "velocity": hexlify(radio.central_read(spec.BLE_VELOCITY_UUID)).decode(),
-                  "led": machine.pins[config.STATUS_LED_PIN].value(),
-                  "watchdog_gap_us": wdt.longest_gap_us if wdt else None,
-                  "watchdog_timeout_ms": wdt.timeout_ms if wdt else None, "peak_heap": peak}))
+def run():
+    for at, action, text in scenario["events"]:
+        sim.run_until(at)
+        radio = bluetooth.radio
+        if action == "write":
+            radio.central_write(CONTROL_UUID, text.encode())
+        elif action == "connect":
+            radio.central_connect()
+        else:
+            radio.central_disconnect()
+        yield  # the runner collects garbage between steps
+    sim.run_until(scenario["end_us"])
+
+
+roar_steps = run()
+
+
+def roar_finish(first, peak):
+    radio = bluetooth.radio
+    wdt = machine.watchdogs[0] if machine.watchdogs else None
+    print(json.dumps({"changes": changes, "replies": replies, "errors": sim.errors,
+                      "advertising": [[t, i, hexlify(a).decode(), hexlify(r).decode()] for t, i, a, r in radio.advertising],
+                      "state": hexlify(radio.central_read(spec.BLE_STATE_UUID)).decode(),
+                      "velocity": hexlify(radio.central_read(spec.BLE_VELOCITY_UUID)).decode(),
+                      "led": machine.pins[config.STATUS_LED_PIN].value(),
+                      "watchdog_gap_us": wdt.longest_gap_us if wdt else None,
+                      "watchdog_timeout_ms": wdt.timeout_ms if wdt else None, "peak_heap": peak}))

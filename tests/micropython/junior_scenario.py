@@ -6,7 +6,6 @@
 # An HC-SR04 answers every trigger pulse with the echo of a wall at wall_cm. Prints one JSON
 # line: every reply (by event), the L298N pins the loop wrote at each millisecond tick (as
 # changes; also checked against the pins' stand-ins), the watchdog's longest gap, the peak heap.
-import gc
 import json
 
 import sim
@@ -72,23 +71,28 @@ junior_app.Motors.write = write
 events = scenario["events"]
 clients = {}
 replies = []
-peak = 0
-for i, (at, conn, action, text) in enumerate(events):
-    sim.run_until(at)
-    if action == "send":
-        if conn not in clients:
-            clients[conn] = sim_asyncio.connect(81)
-        clients[conn].send(text.encode())
-    else:
-        clients.pop(conn).close()
-    sim.run_until(at)
-    replies.append([i, clients[conn].take().decode() if conn in clients else ""])
-    if i % 20 == 0:
-        gc.collect()
-        peak = max(peak, gc.mem_alloc())
-sim.run_until(scenario["end_us"])
 
-wdt = machine.watchdogs[0] if machine.watchdogs else None
-print(json.dumps({"replies": replies, "changes": changes, "errors": sim.errors,
-                  "watchdog_gap_us": wdt.longest_gap_us if wdt else None,
-                  "watchdog_timeout_ms": wdt.timeout_ms if wdt else None, "peak_heap": peak}))
+
+def run():
+    for i, (at, conn, action, text) in enumerate(events):
+        sim.run_until(at)
+        if action == "send":
+            if conn not in clients:
+                clients[conn] = sim_asyncio.connect(81)
+            clients[conn].send(text.encode())
+        else:
+            clients.pop(conn).close()
+        sim.run_until(at)
+        replies.append([i, clients[conn].take().decode() if conn in clients else ""])
+        yield  # the runner collects garbage between steps
+    sim.run_until(scenario["end_us"])
+
+
+roar_steps = run()
+
+
+def roar_finish(first, peak):
+    wdt = machine.watchdogs[0] if machine.watchdogs else None
+    print(json.dumps({"replies": replies, "changes": changes, "errors": sim.errors,
+                      "watchdog_gap_us": wdt.longest_gap_us if wdt else None,
+                      "watchdog_timeout_ms": wdt.timeout_ms if wdt else None, "peak_heap": peak}))

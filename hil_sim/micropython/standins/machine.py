@@ -2,13 +2,13 @@
 program does to them, with the simulated time (sim.now_us), and input pins take levels the test
 program sets, calling their interrupt handlers on edges.
 
-    machine.log                   [(t_us, "pin", id, value) | (t_us, "pwm", id, freq, duty_u16) | ...]
+    machine.log = []              then every write: [(t_us, "pin", id, value) | (t_us, "pwm", id, freq, duty_u16) | ...]
     machine.pins[id].drive(1)     the test program drives an input (edges call irq handlers)
 """
 
 import sim
 
-log = []
+log = None  # a list to record every write into (None: not recorded)
 on_output = None  # called as on_output(pin_id, value) when a program sets an output pin
 pins = {}  # id -> the latest Pin made on it
 pwms = {}  # id -> the latest PWM on it
@@ -17,7 +17,8 @@ resets = []
 
 
 def _record(*entry):
-    log.append((sim.now_us,) + entry)
+    if log is not None:
+        log.append((sim.now_us,) + entry)
 
 
 class Pin:
