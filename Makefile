@@ -4,7 +4,10 @@
 # make bench  set up, then print the benchmarks
 # make gen    regenerate protocol files from protocol/spec.toml
 # make firmware  build the Nano and AnyFC F7 firmware offline; print flash/RAM per target
-.PHONY: setup run trace test bench gen core firmware clean
+# make deploy BOARD=junior|car [PORT=...]            MicroPython program onto a board (mpremote)
+# make flash-micropython IMAGE=file.bin [PORT=...]   MicroPython itself onto an ESP32 (esptool)
+# make upload ENV=nanoatmega328 [PORT=...]           a C++ board through PlatformIO
+.PHONY: setup run trace test bench gen core firmware deploy flash-micropython upload clean
 
 PY := .venv/bin/python
 
@@ -35,6 +38,17 @@ firmware: setup
 	@$(PY) -m roar_sim.avr_build
 	@$(PY) -m roar_sim.arm_build
 	@$(PY) -m roar_sim.firmware_sizes
+
+PORT_ARG = $(if $(PORT),--port $(PORT),)
+
+deploy: setup
+	@$(PY) firmware/deploy.py micropython "$(BOARD)" $(PORT_ARG)
+
+flash-micropython: setup
+	@$(PY) firmware/deploy.py micropython-image "$(IMAGE)" $(PORT_ARG)
+
+upload: setup
+	@$(PY) firmware/deploy.py pio "$(ENV)" $(PORT_ARG)
 
 clean:
 	rm -rf build out .pytest_cache .hypothesis
