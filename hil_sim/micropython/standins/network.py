@@ -2,6 +2,7 @@
 network.fail_connect = True, never), recording what the program asked for."""
 
 STA_IF, AP_IF = 0, 1
+AUTH_OPEN, AUTH_WPA_WPA2_PSK = 0, 4
 fail_connect = False
 interfaces = {}
 
