@@ -85,3 +85,10 @@ def test_micropython_and_cpython_answer_alike_and_the_junior_rules_match_the_cor
             refused += 1
             assert error == codes[reason.split(":")[0]] and applied == 0, query
     assert 50 < refused < len(cases["queries"]) - 50  # both kinds were exercised
+
+
+def test_the_sbus_frames_decode_alike_on_micropython():
+    path = ROOT / "protocol" / "vectors" / "sbus_frames.json"
+    got = json.loads(run("sbus_vectors.py", **{"/sbus.json": path}))
+    for case in json.loads(path.read_text())["cases"]:
+        assert got[case["name"]] == [True, True, 2 if case["failsafe"] else 1], case["name"]

@@ -226,6 +226,54 @@ class L298nDriver:
         return (SidePins(bool(lo.in1), bool(lo.in2), lo.duty), SidePins(bool(ro.in1), bool(ro.in2), ro.duty))
 
 
+class SbusDecoder:
+    """The core's SBUS frame decoder: feed(byte, now_us) -> 0 none, 1 frame, 2 failsafe frame,
+    3 dropped (roar_wire.sbus has the same codes)."""
+
+    def __init__(self) -> None:
+        self._lib = lib()
+        self._mem = _object("roar_sbus_decoder_size")
+        self._lib.roar_sbus_decoder_init(self._mem)
+        self._frame = ffi.new("roar_sbus_frame_t *")
+        self._status = ffi.new("roar_sbus_status_t *")
+
+    def feed(self, byte: int, now_us: int) -> int:
+        return self._lib.roar_sbus_feed(self._mem, byte, now_us)
+
+    def frame(self) -> tuple[list[int], int, int]:
+        """(channels, flags, end) of the last good frame."""
+        self._lib.roar_sbus_last_frame(self._mem, self._frame)
+        return _sbus_frame(self._frame)
+
+    def status(self) -> dict:
+        self._lib.roar_sbus_status(self._mem, self._status)
+        st = self._status
+        return {"locked": bool(st.locked), "good_frames": st.good_frames, "lost_frames": st.lost_frames,
+                "failsafe_frames": st.failsafe_frames, "dropped": st.dropped, "last_good_us": st.last_good_us}
+
+
+def _sbus_frame(f) -> tuple[list[int], int, int]:
+    flags = f.ch17 * spec.SBUS_FLAG_CH17 | f.ch18 * spec.SBUS_FLAG_CH18 | \
+        f.frame_lost * spec.SBUS_FLAG_FRAME_LOST | f.failsafe * spec.SBUS_FLAG_FAILSAFE
+    return list(f.raw), flags, f.end
+
+
+def sbus_encode(channels: list[int], flags: int = 0, end: int = 0) -> bytes:
+    f = ffi.new("roar_sbus_frame_t *")
+    f.raw = channels
+    f.ch17, f.ch18 = bool(flags & spec.SBUS_FLAG_CH17), bool(flags & spec.SBUS_FLAG_CH18)
+    f.frame_lost, f.failsafe = bool(flags & spec.SBUS_FLAG_FRAME_LOST), bool(flags & spec.SBUS_FLAG_FAILSAFE)
+    f.end = end
+    out = ffi.new("uint8_t[]", spec.SBUS_FRAME_BYTES)
+    lib().roar_sbus_encode(f, out)
+    return bytes(ffi.buffer(out))
+
+
+def sbus_decode(data: bytes) -> tuple[list[int], int, int] | None:
+    f = ffi.new("roar_sbus_frame_t *")
+    return _sbus_frame(f) if lib().roar_sbus_decode(_bytes(bytes(data)), f) else None
+
+
 class Junior:
     """The ROAR Junior's HTTP control: query strings applied in order, and its 500 ms failsafe."""
 

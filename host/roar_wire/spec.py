@@ -51,6 +51,27 @@ RC_PULSE_MAX_VALID_US = 2100  # [us] Longer receiver pulses are noise
 RC_SIGNAL_TIMEOUT_US = 100000  # [us] A channel with no valid pulse for longer than this is absent
 RC_LOCK_PULSES = 3  # [pulses] Valid pulses needed on each channel before manual control takes over
 
+# [sbus]
+SBUS_BAUD = 100000  # [baud] 8 data bits, even parity, 2 stop bits, inverted signal
+SBUS_FRAME_BYTES = 25  # [bytes] Start byte, 22 bytes of channels, flags, end byte
+SBUS_START_BYTE = 15  # 0x0F: first byte of every frame
+SBUS_END_BYTE = 0  # 0x00: last byte of an SBUS1 frame
+SBUS_SBUS2_END_FIRST = 4  # 0x04: the first of the SBUS2 end bytes 0x04, 0x14, 0x24, 0x34 (telemetry slots)
+SBUS_SBUS2_END_STEP = 16  # 0x10 between SBUS2 end bytes
+SBUS_SBUS2_END_COUNT = 4  # SBUS2 end bytes
+SBUS_CHANNELS = 16  # Proportional channels per frame, 11 bits each, packed least significant bit first
+SBUS_CHANNEL_BITS = 11  # [bits] Width of one proportional channel
+SBUS_FLAG_CH17 = 1  # Flags bit: digital channel 17
+SBUS_FLAG_CH18 = 2  # Flags bit: digital channel 18
+SBUS_FLAG_FRAME_LOST = 4  # Flags bit: the receiver skipped a frame (counted, not a failsafe)
+SBUS_FLAG_FAILSAFE = 8  # Flags bit: the receiver has lost the transmitter (failsafe)
+SBUS_US_OFFSET = 875  # [us] Pulse width of raw value 0: us = 875 + raw * 5 / 8, so raw 200..1800 is 1000..2000 us
+SBUS_US_PER_RAW_NUM = 5  # Numerator of the raw-to-us scale 5/8
+SBUS_US_PER_RAW_DEN = 8  # Denominator of the raw-to-us scale 5/8
+SBUS_GUARD_CHANNELS = 4  # A frame with any of its first this-many channels at raw 0 (875 us) is a failsafe
+SBUS_FRAME_GAP_US = 2000  # [us] A pause this long between bytes starts a new frame (frames are 3 ms long, at least 7 ms apart)
+SBUS_LOCK_FRAMES = 3  # [frames] Good frames in a row needed before the receiver's channels are used
+
 # [l298n]
 L298N_DEAD_TIME_US = 5000  # [us] Zero duty with both direction pins low on each side's direction reversal
 L298N_PWM_FREQUENCY_HZ = 30000  # [Hz] Enable-pin PWM frequency

@@ -9,6 +9,7 @@
 #include "roar/junior_board.h"
 #include "roar/junior_control.h"
 #include "roar/l298n_mixer.h"
+#include "roar/sbus.h"
 
 using namespace roar;
 
@@ -306,6 +307,58 @@ size_t roar_http_reader_feed(void* reader, const uint8_t* data, size_t n, uint8_
   while (used < n && s == HttpRead::Incomplete) s = r->feed(data[used++]);
   *state = static_cast<uint8_t>(s);
   return used;
+}
+
+}  // extern "C"
+
+namespace {
+SbusFrame from_c(const roar_sbus_frame_t& f) {
+  SbusFrame out;
+  for (uint8_t i = 0; i < kSbusChannels; ++i) out.raw[i] = f.raw[i];
+  out.ch17 = f.ch17;
+  out.ch18 = f.ch18;
+  out.frame_lost = f.frame_lost;
+  out.failsafe = f.failsafe;
+  out.end = f.end;
+  return out;
+}
+roar_sbus_frame_t to_c(const SbusFrame& f) {
+  roar_sbus_frame_t out = {};
+  for (uint8_t i = 0; i < kSbusChannels; ++i) out.raw[i] = f.raw[i];
+  out.ch17 = f.ch17;
+  out.ch18 = f.ch18;
+  out.frame_lost = f.frame_lost;
+  out.failsafe = f.failsafe;
+  out.end = f.end;
+  return out;
+}
+}  // namespace
+
+extern "C" {
+void roar_sbus_encode(const roar_sbus_frame_t* frame, uint8_t* out) { sbus_encode(from_c(*frame), out); }
+int roar_sbus_decode(const uint8_t* in, roar_sbus_frame_t* frame) {
+  SbusFrame f;
+  if (!sbus_decode(in, &f)) return 0;
+  *frame = to_c(f);
+  return 1;
+}
+size_t roar_sbus_decoder_size(void) { return sizeof(SbusDecoder); }
+void roar_sbus_decoder_init(void* decoder) { new (decoder) SbusDecoder(); }
+uint8_t roar_sbus_feed(void* decoder, uint8_t byte, uint64_t now_us) {
+  return static_cast<uint8_t>(as<SbusDecoder>(decoder)->feed(byte, now_us));
+}
+void roar_sbus_last_frame(const void* decoder, roar_sbus_frame_t* frame) {
+  *frame = to_c(static_cast<const SbusDecoder*>(decoder)->frame());
+}
+void roar_sbus_status(const void* decoder, roar_sbus_status_t* status) {
+  const SbusDecoder* d = static_cast<const SbusDecoder*>(decoder);
+  *status = roar_sbus_status_t{};
+  status->locked = d->locked();
+  status->good_frames = d->good_frames();
+  status->lost_frames = d->lost_frames();
+  status->failsafe_frames = d->failsafe_frames();
+  status->dropped = d->dropped();
+  status->last_good_us = d->last_good_us();
 }
 
 }  // extern "C"

@@ -14,6 +14,7 @@
 #include "roar/junior_board.h"
 #include "roar/junior_control.h"
 #include "roar/l298n_mixer.h"
+#include "roar/sbus.h"
 #include "roar/spsc_bytes.h"
 #include "vectors.h"
 
@@ -485,6 +486,60 @@ static void test_junior_board() {
   CHECK(r.state() == HttpRead::Incomplete && stopped_mid_request, "motors stop while a request is in progress");
 }
 
+// SBUS: random channel values round-trip; a stream of frames cut, corrupted and mixed with
+// junk never locks without three good frames in a row, and every good frame it reports is one
+// that was sent whole.
+static void test_sbus_random() {
+  Rng rng{0x5b05u};
+  int checked = 0, locked_seen = 0;
+  for (int round = 0; round < 2000; ++round) {
+    SbusFrame f = {};
+    for (uint8_t c = 0; c < kSbusChannels; ++c) f.raw[c] = static_cast<uint16_t>(rng.below(2048));
+    f.frame_lost = rng.below(4) == 0;
+    f.end = static_cast<uint8_t>(rng.below(2) ? 0 : 0x04 + 0x10 * rng.below(4));
+    uint8_t bytes[proto::kSbusFrameBytes];
+    sbus_encode(f, bytes);
+    SbusFrame back;
+    const bool ok = sbus_decode(bytes, &back) && memcmp(back.raw, f.raw, sizeof(f.raw)) == 0 &&
+                    back.frame_lost == f.frame_lost && back.end == f.end;
+    CHECK(ok, "round trip %d", round);
+    ++checked;
+  }
+  SbusDecoder d;
+  Micros t = 0;
+  uint8_t good_in_row = 0;
+  for (int piece = 0; piece < 20000; ++piece) {
+    SbusFrame f = {};
+    for (uint8_t c = 0; c < kSbusChannels; ++c) f.raw[c] = static_cast<uint16_t>(200 + rng.below(1600));
+    uint8_t bytes[proto::kSbusFrameBytes];
+    sbus_encode(f, bytes);
+    const uint32_t kind = rng.below(10);
+    size_t n = proto::kSbusFrameBytes;
+    if (kind == 0) n = 1 + rng.below(24);                                    // cut short
+    if (kind == 1) bytes[1 + rng.below(23)] ^= static_cast<uint8_t>(1 + rng.below(255));  // a corrupted byte
+    if (kind == 2) for (size_t i = 0; i < n; ++i) bytes[i] = static_cast<uint8_t>(rng.next());  // junk
+    t += rng.below(3) == 0 ? 7000 : 120;  // sometimes the frame gap, sometimes none
+    SbusResult last = SbusResult::None;
+    for (size_t i = 0; i < n; ++i) {
+      last = d.feed(bytes[i], t);
+      t += 120;
+      if (last == SbusResult::Frame) {
+        good_in_row = good_in_row < 3 ? good_in_row + 1 : 3;
+      } else if (last == SbusResult::Failsafe) {
+        good_in_row = 0;
+      }
+    }
+    CHECK(d.locked() == (good_in_row >= 3), "lock follows good frames in a row (piece %d)", piece);
+    if (kind >= 3 && last == SbusResult::Frame) {  // a whole frame was sent and reported: it is that frame
+      CHECK(memcmp(d.frame().raw, f.raw, sizeof(f.raw)) == 0, "the reported frame is the sent one (piece %d)", piece);
+    }
+    locked_seen += d.locked();
+  }
+  CHECK(checked == 2000 && locked_seen > 1000 && d.dropped() > 100 && d.good_frames() > 5000,
+        "the stream exercised lock, drops and frames: locked %d, dropped %u, good %u", locked_seen,
+        (unsigned)d.dropped(), (unsigned)d.good_frames());
+}
+
 int main() {
   test_vectors();
   test_parser_random_bytes();
@@ -497,6 +552,7 @@ int main() {
   test_spsc_bytes_between_threads();
   test_http_request_reader();
   test_junior_board();
+  test_sbus_random();
   printf("%d passed, %d failed\n", g_passed, g_failed);
   return g_failed ? 1 : 0;
 }

@@ -16,7 +16,7 @@
 extern "C" {
 #endif
 
-#define ROAR_CORE_ABI_VERSION 3
+#define ROAR_CORE_ABI_VERSION 4
 
 uint32_t roar_core_abi_version(void);
 uint32_t roar_protocol_version(void);
@@ -182,6 +182,32 @@ void roar_http_reader_init(void* reader);   /* also: ready for the next request 
 /* Feeds bytes until the request is decided; returns how many it took (the rest belongs to the
  * next request). *state: 0 incomplete, 1 complete, 2 malformed, 3 too long. */
 size_t roar_http_reader_feed(void* reader, const uint8_t* data, size_t n, uint8_t* state);
+
+/* --- SBUS receiver frames ------------------------------------------------------------------ */
+typedef struct {
+  uint16_t raw[16];    /* 11-bit channel values */
+  uint8_t ch17, ch18;  /* digital channels */
+  uint8_t frame_lost;  /* the receiver skipped a frame */
+  uint8_t failsafe;    /* the receiver's failsafe flag */
+  uint8_t end;         /* 0x00, or an SBUS2 slot byte */
+  uint8_t reserved[3];
+} roar_sbus_frame_t;
+
+typedef struct {
+  uint8_t locked;      /* kSbusLockFrames good frames in a row, no failsafe since */
+  uint8_t reserved[3];
+  uint32_t good_frames, lost_frames, failsafe_frames, dropped;
+  uint64_t last_good_us;
+} roar_sbus_status_t;
+
+void roar_sbus_encode(const roar_sbus_frame_t* frame, uint8_t* out); /* 25 bytes */
+int roar_sbus_decode(const uint8_t* in, roar_sbus_frame_t* frame);    /* 1: a well-formed frame */
+size_t roar_sbus_decoder_size(void);
+void roar_sbus_decoder_init(void* decoder);
+/* One byte with the time it arrived; returns 0 none, 1 frame, 2 failsafe frame, 3 dropped. */
+uint8_t roar_sbus_feed(void* decoder, uint8_t byte, uint64_t now_us);
+void roar_sbus_last_frame(const void* decoder, roar_sbus_frame_t* frame);
+void roar_sbus_status(const void* decoder, roar_sbus_status_t* status);
 
 #ifdef __cplusplus
 }

@@ -44,6 +44,27 @@ static constexpr uint16_t kRcPulseMaxValidUs = 2100u;  // [us] Longer receiver p
 static constexpr uint32_t kRcSignalTimeoutUs = 100000ul;  // [us] A channel with no valid pulse for longer than this is absent
 static constexpr uint16_t kRcLockPulses = 3u;  // [pulses] Valid pulses needed on each channel before manual control takes over
 
+// [sbus]
+static constexpr uint32_t kSbusBaud = 100000ul;  // [baud] 8 data bits, even parity, 2 stop bits, inverted signal
+static constexpr uint16_t kSbusFrameBytes = 25u;  // [bytes] Start byte, 22 bytes of channels, flags, end byte
+static constexpr uint16_t kSbusStartByte = 15u;  // 0x0F: first byte of every frame
+static constexpr uint16_t kSbusEndByte = 0u;  // 0x00: last byte of an SBUS1 frame
+static constexpr uint16_t kSbusSbus2EndFirst = 4u;  // 0x04: the first of the SBUS2 end bytes 0x04, 0x14, 0x24, 0x34 (telemetry slots)
+static constexpr uint16_t kSbusSbus2EndStep = 16u;  // 0x10 between SBUS2 end bytes
+static constexpr uint16_t kSbusSbus2EndCount = 4u;  // SBUS2 end bytes
+static constexpr uint16_t kSbusChannels = 16u;  // Proportional channels per frame, 11 bits each, packed least significant bit first
+static constexpr uint16_t kSbusChannelBits = 11u;  // [bits] Width of one proportional channel
+static constexpr uint16_t kSbusFlagCh17 = 1u;  // Flags bit: digital channel 17
+static constexpr uint16_t kSbusFlagCh18 = 2u;  // Flags bit: digital channel 18
+static constexpr uint16_t kSbusFlagFrameLost = 4u;  // Flags bit: the receiver skipped a frame (counted, not a failsafe)
+static constexpr uint16_t kSbusFlagFailsafe = 8u;  // Flags bit: the receiver has lost the transmitter (failsafe)
+static constexpr uint16_t kSbusUsOffset = 875u;  // [us] Pulse width of raw value 0: us = 875 + raw * 5 / 8, so raw 200..1800 is 1000..2000 us
+static constexpr uint16_t kSbusUsPerRawNum = 5u;  // Numerator of the raw-to-us scale 5/8
+static constexpr uint16_t kSbusUsPerRawDen = 8u;  // Denominator of the raw-to-us scale 5/8
+static constexpr uint16_t kSbusGuardChannels = 4u;  // A frame with any of its first this-many channels at raw 0 (875 us) is a failsafe
+static constexpr uint16_t kSbusFrameGapUs = 2000u;  // [us] A pause this long between bytes starts a new frame (frames are 3 ms long, at least 7 ms apart)
+static constexpr uint16_t kSbusLockFrames = 3u;  // [frames] Good frames in a row needed before the receiver's channels are used
+
 // [l298n]
 static constexpr uint16_t kL298nDeadTimeUs = 5000u;  // [us] Zero duty with both direction pins low on each side's direction reversal
 static constexpr uint16_t kL298nPwmFrequencyHz = 30000u;  // [Hz] Enable-pin PWM frequency
