@@ -3,11 +3,11 @@
 import sys
 
 from benchmarks import (avr_emulator, host_latency, junior_camera_rate, junior_control_latency, junior_sim_speed,
-                        micropython_boards, parser_throughput, race_ratio, sim_speed)
+                        micropython_boards, parser_throughput, race_ratio, sbus_decode, sim_speed)
 from roar_sim import firmware_sizes
 
 BENCHMARKS = [parser_throughput, sim_speed, host_latency, avr_emulator, firmware_sizes, race_ratio, junior_sim_speed,
-              junior_control_latency, junior_camera_rate, micropython_boards]
+              junior_control_latency, junior_camera_rate, micropython_boards, sbus_decode]
 
 
 def main() -> int:

@@ -23,3 +23,12 @@ def test_the_fallback_clock_advances_and_never_steps_back(probe):
     assert probe.returncode == 0, probe.lines
     assert int(probe.value("backwards")) == 0
     assert int(probe.value("advanced_us")) > 0
+
+
+def test_the_sbus_decoder_runs_on_the_emulated_cortex_m4():
+    """The core's SbusDecoder, built for the Cortex-M4, decodes every frame of the bench image,
+    and its timing (SysTick on the instruction-counted virtual clock) is the same every run."""
+    elf = arm_build.build_sbus_bench()
+    first, second = stm32_sim.run(elf), stm32_sim.run(elf)
+    assert first.returncode == 0 and first.value("frames") == "50"
+    assert first.value("frame_ticks") == second.value("frame_ticks") and int(first.value("frame_ticks")) > 0

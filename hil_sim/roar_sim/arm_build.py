@@ -4,7 +4,8 @@
   build/arm/anyfc_f7/roar_anyfc_f7.elf, linked with our own startup code and linker script, so
   the board glue is proven to compile and link here;
 * test images for QEMU's netduinoplus2 (STM32F405, Cortex-M4) that run pieces of that glue:
-  hil_sim/stm32/clock_probe.cpp (the board's clock source; see roar_sim.stm32_sim).
+  hil_sim/stm32/clock_probe.cpp (the board's clock source; see roar_sim.stm32_sim) and
+  hil_sim/stm32/sbus_bench.cpp (the SBUS decoder's cost on a Cortex-M4).
 
     python -m roar_sim.arm_build      prints the ELF path and its flash/RAM use
 """
@@ -24,6 +25,7 @@ ELF = ROOT / "build" / "arm" / "anyfc_f7" / "roar_anyfc_f7.elf"
 FLASH_BYTES, RAM_BYTES = 1024 * 1024, 320 * 1024  # STM32F745VG
 EMULATOR = ROOT / "hil_sim" / "stm32"
 CLOCK_PROBE = ROOT / "build" / "arm" / "netduinoplus2" / "clock_probe.elf"
+SBUS_BENCH = ROOT / "build" / "arm" / "netduinoplus2" / "sbus_bench.elf"
 
 
 def _link(target: str, sources: list[Path], linker_script: Path, elf: Path, what: str) -> Path:
@@ -46,6 +48,12 @@ def build_clock_probe() -> Path:
     """The board's clock_source.cpp (and startup.cpp) in a test image for the emulated STM32F405."""
     sources = [EMULATOR / "clock_probe.cpp", BOARD / "clock_source.cpp", BOARD / "startup.cpp"]
     return _link("cortex-m4f", sources, EMULATOR / "stm32f405.ld", CLOCK_PROBE, "STM32F405 clock probe")
+
+
+def build_sbus_bench() -> Path:
+    """The core's SBUS decoder timed in the emulated STM32F405 (hil_sim/stm32/sbus_bench.cpp)."""
+    sources = [EMULATOR / "sbus_bench.cpp", BOARD / "startup.cpp"]
+    return _link("cortex-m4f", sources, EMULATOR / "stm32f405.ld", SBUS_BENCH, "STM32F405 SBUS bench")
 
 
 def main() -> int:

@@ -119,6 +119,7 @@ def build(force: bool = False, variant: str | None = None) -> Path:
 BENCH_SOURCE = ROOT / "hil_sim" / "avr" / "parser_bench.cpp"
 BENCH_ELF = ROOT / "build" / "avr" / "parser_bench.elf"
 BENCH_MESSAGES = 100  # messages per timed run in parser_bench.cpp
+BENCH_SBUS_FRAMES = 10  # SBUS frames in its fourth timed run
 
 
 def build_parser_bench() -> Path:

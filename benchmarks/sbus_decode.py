@@ -1,0 +1,37 @@
+"""The SBUS decoder's cost per 25-byte frame (the IARRC car's receiver; a frame every 7 ms):
+cycles on the ATmega328P in simavr (exact), and instructions on a Cortex-M4 in QEMU's
+netduinoplus2 with -icount (calibrated against a loop of two instructions per iteration; an M4
+spends about one cycle per instruction, a little more on loads and taken branches)."""
+
+from roar_sim import arm_build, avr_build, avr_sim, stm32_sim
+
+TITLE = "SBUS decode cost per frame"
+FRAME_PERIOD_S = 0.007  # [s] between frames
+M4_HZ = 216e6  # [Hz] the STM32F745's core clock, for the share of its time
+CALIBRATION_INSTRUCTIONS = 2 * 100_000  # in sbus_bench.cpp
+M4_FRAMES = 50  # in sbus_bench.cpp
+
+
+def run() -> None:
+    missing = avr_sim.available()
+    if missing:
+        print(f"  ATmega328P: skipped ({missing})")
+    else:
+        with avr_sim.AvrCar(avr_build.build_parser_bench()) as bench:
+            bench.run(0.2)
+            cycles = bench.pulse_cycles("B5")[3][1] / avr_build.BENCH_SBUS_FRAMES
+        share = cycles / (avr_sim.F_CPU * FRAME_PERIOD_S)
+        print(f"  ATmega328P (16 MHz): {cycles:7,.0f} cycles per frame ({cycles / avr_sim.CYCLES_PER_US:.0f} us; "
+              f"{share:.3f} of the CPU)")
+    missing = stm32_sim.available()
+    if missing:
+        print(f"  Cortex-M4: skipped ({missing})")
+        return
+    result = stm32_sim.run(arm_build.build_sbus_bench())
+    if result.returncode:
+        print(f"  Cortex-M4: the bench image failed: {result.lines[-3:]}")
+        return
+    per_instruction = int(result.value("calibration_ticks")) / CALIBRATION_INSTRUCTIONS
+    instructions = int(result.value("frame_ticks")) / per_instruction / M4_FRAMES
+    print(f"  Cortex-M4 (QEMU -icount): {instructions:7,.0f} instructions per frame "
+          f"({instructions / M4_HZ * 1e6:.0f} us at 216 MHz; {instructions / (M4_HZ * FRAME_PERIOD_S):.4f} of the CPU)")
