@@ -104,6 +104,13 @@ def check_consistency(constants: list[Constant]) -> None:
         need(c["control", "max_message_bytes"] == longest, f"control.max_message_bytes must be {longest}")
         for ch in ("start_char", "separator_char", "end_char"):
             need(isinstance(c["control", ch], str) and len(c["control", ch]) == 1, f"control.{ch} must be one character")
+        for ch in ("start_char", "end_char"):
+            need(isinstance(c["setpoint", ch], str) and len(c["setpoint", ch]) == 1, f"setpoint.{ch} must be one character")
+        marks = [c["control", k] for k in ("start_char", "separator_char", "end_char")] + \
+            [c["setpoint", k] for k in ("start_char", "end_char")] + ["-"]
+        need(len(set(marks)) == len(marks), "the messages' start, separator and end characters and '-' must differ")
+        need(len(str(c["setpoint", "max_speed_mm_s"])) <= c["control", "max_digits"], "setpoint.max_speed_mm_s needs more digits than control.max_digits")
+        need(c["meta", "speed_version"] > c["meta", "protocol_version"], "meta.speed_version must be above protocol_version")
         results = [k for k in constants if k.section == "parse_result"]
         codes = sorted(k.value for k in results)
         need(codes == list(range(len(results))), "parse_result codes must be 0..n-1, each once")
@@ -244,6 +251,8 @@ def load_vectors(path: Path = VECTORS) -> list[dict]:
                 raise SpecError(f"{where}: bad event {ev}")
             if (ev["result"] == "ok") != ("throttle" in ev and "steering" in ev):
                 raise SpecError(f"{where}: ok events (and only they) carry throttle and steering")
+            if (ev["result"] == "setpoint") != ("speed" in ev) or ("speed" in ev and "steering" not in ev):
+                raise SpecError(f"{where}: setpoint events (and only they) carry speed and steering")
     return cases
 
 
@@ -262,13 +271,15 @@ def render_cpp_vectors(cases: list[dict]) -> str:
         "",
         "namespace roar_vectors {",
         "",
-        "struct Event { uint16_t at; roar::ParseResult result; uint16_t throttle; uint16_t steering; };",
+        "// first: the throttle [us] of an ok event, the speed [mm/s] of a setpoint event",
+        "struct Event { uint16_t at; roar::ParseResult result; int16_t first; uint16_t steering; };",
         "struct Case { const char* name; const char* input; size_t length; const Event* events; size_t n_events; };",
         "",
     ]
     for i, case in enumerate(cases):
         evs = ", ".join(
-            f"{{{ev['at']}, roar::ParseResult::{_camel(ev['result'])}, {ev.get('throttle', 0)}, {ev.get('steering', 0)}}}"
+            f"{{{ev['at']}, roar::ParseResult::{_camel(ev['result'])}, {ev.get('throttle', ev.get('speed', 0))}, "
+            f"{ev.get('steering', 0)}}}"
             for ev in case["events"]
         ) or "{0, roar::ParseResult::None, 0, 0}"
         lines.append(f"static const Event kEvents{i}[] = {{{evs}}};")

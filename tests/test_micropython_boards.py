@@ -223,7 +223,8 @@ def car_scenario(seed: int, seconds: float = 20.0) -> dict:
         elif r < 0.8:
             text = rng.choice(["(1500,1500)(1600,1400)", "(15", "00,1500)", "(9999,1500)", "(1500,150", "\n"])
         else:
-            text = rng.choice(["hello", "(abc,1500)", "(1500 1500)", "(1500,1500,1500)", "(12345,1)", "))"])
+            text = rng.choice(["hello", "(abc,1500)", "(1500 1500)", "(1500,1500,1500)", "(12345,1)", "))", "[1000,1500]",
+                               "[-5001,1500]"])
         events.append([t, "write", text])
     events.append([end - 50_000, "disconnect", ""])
     return {"start_us": start_us, "end_us": end, "events": events}
@@ -269,7 +270,7 @@ def test_the_micropython_car_drives_and_replies_as_the_cpp_core(tmp_path, seed):
     lines = [line for _, line in cpp["replies"]]
     throttles = [p[0] for _, p in cpp["changes"]]
     assert lines[0] == "READY 1\n" and lines.count("FAILSAFE\n") > 3 and lines.count("ARMED\n") > 3
-    assert {"ERR syntax\n", "ERR range\n", "ERR too_long\n", "ERR garbage\n"} <= set(lines)
+    assert {"ERR syntax\n", "ERR range\n", "ERR too_long\n", "ERR garbage\n", "ERR unsupported\n"} <= set(lines)
     assert 1450 in throttles and min(throttles) < 1450 and max(throttles) > 1500  # brake tap, reverse, forward
     assert mp["watchdog_gap_us"] <= 1000 and mp["watchdog_timeout_ms"] >= 1000
     # the Bluetooth side: the ROAR service advertised again after the host left, its values

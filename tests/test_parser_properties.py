@@ -13,9 +13,11 @@ from roar_sim import firmware_core
 pieces = st.one_of(
     st.builds(lambda t, s: encode(t, s), st.integers(1000, 2000), st.integers(1000, 2000)),
     st.builds(lambda t, s: f"({t},{s})".encode(), st.integers(0, 99999), st.integers(0, 99999)),
-    st.sampled_from([b"(", b")", b",", b"\n", b"\r", b" ", b"\0", b"\t", b"-", b".", b"((", b"))", b",,"]),
+    st.builds(lambda v, s: f"[{v},{s}]".encode(), st.integers(-6000, 6000), st.integers(900, 2100)),
+    st.sampled_from([b"(", b")", b",", b"\n", b"\r", b" ", b"\0", b"\t", b"-", b".", b"((", b"))", b",,", b"[", b"]",
+                     b"[-", b"--"]),
     st.binary(max_size=16),
-    st.text(alphabet="()0123456789,\n", max_size=20).map(str.encode),
+    st.text(alphabet="()[]-0123456789,\n", max_size=20).map(str.encode),
 )
 streams = st.lists(pieces, max_size=40).map(b"".join)
 

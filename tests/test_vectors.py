@@ -13,15 +13,17 @@ PARSERS = {"python": StreamDecoder, "cpp": firmware_core.Parser}
 
 
 def expected(case):
-    return [(ev["at"], ev["result"], ev.get("throttle"), ev.get("steering")) for ev in case["events"]]
+    return [(ev["at"], ev["result"], ev.get("throttle", ev.get("speed")), ev.get("steering")) for ev in case["events"]]
 
 
 def run(parser, case):
     got = []
     for chunk in case["chunks"]:
         for ev in parser.feed(chunk.encode("latin-1")):
-            cmd = ev.command
-            got.append((ev.at, str(ev.result), cmd and cmd.throttle_us, cmd and cmd.steering_us))
+            cmd, sp = ev.command, ev.setpoint
+            first = cmd.throttle_us if cmd else (sp.speed_mm_s if sp else None)
+            steering = cmd.steering_us if cmd else (sp.steering_us if sp else None)
+            got.append((ev.at, str(ev.result), first, steering))
     return got
 
 

@@ -19,7 +19,7 @@ from pathlib import Path
 from cffi import FFI
 
 from roar.protocol import spec
-from roar.protocol.control import ControlCommand, ParseEvent
+from roar.protocol.control import ControlCommand, ParseEvent, Setpoint
 from roar.protocol.spec import ParseResult
 from roar_sim import core_build
 
@@ -105,7 +105,8 @@ class Parser:
         for ev in buf[0:n]:
             result = ParseResult(ev.result)
             command = ControlCommand(ev.throttle, ev.steering) if result == ParseResult.OK else None
-            events.append(ParseEvent(self.offset + ev.at, result, command))
+            setpoint = Setpoint(ev.speed_mm_s, ev.steering) if result == ParseResult.SETPOINT else None
+            events.append(ParseEvent(self.offset + ev.at, result, command, setpoint))
         self.offset += len(data)
         return events
 

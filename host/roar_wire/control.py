@@ -1,12 +1,14 @@
-"""The control message "(THROTTLE,STEERING)": encoder, and the streaming parser with the same
-states and results as the firmware's C++ parser (protocol/PROTOCOL.md section 1.1); both run
-the golden vectors in protocol/vectors/.
+"""The control message "(THROTTLE,STEERING)" and the setpoint message "[SPEED,STEERING]":
+encoders, and the streaming parser with the same states and results as the firmware's C++
+parser (protocol/PROTOCOL.md section 1.1); both run the golden vectors in protocol/vectors/.
 
     encode(1600, 1400)                 b'(1600,1400)'
+    encode_setpoint(-750, 1500)        b'[-750,1500]'
     p = Parser()
     for byte in data:
         r = p.feed(byte)               # a spec.PARSE_RESULT_* code
         if r == OK: p.throttle_us, p.steering_us
+        if r == SETPOINT: p.speed_mm_s, p.setpoint_steering_us
 
 Runs unchanged on CPython and MicroPython.
 """
@@ -20,6 +22,7 @@ RANGE = spec.PARSE_RESULT_RANGE
 TOO_LONG = spec.PARSE_RESULT_TOO_LONG
 UNTERMINATED = spec.PARSE_RESULT_UNTERMINATED
 GARBAGE = spec.PARSE_RESULT_GARBAGE
+SETPOINT = spec.PARSE_RESULT_SETPOINT
 
 # Parser states
 IDLE = 0  # between messages
@@ -27,10 +30,15 @@ GARBAGE_RUN = 1  # inside bytes that are not a message
 THROTTLE = 2  # inside the first field
 STEERING = 3  # inside the second field
 SKIP = 4  # after an error inside a message, until its end
+SPEED = 5  # inside a setpoint's first field
+SET_STEERING = 6  # inside a setpoint's second field
 
 _START = ord(spec.CONTROL_START_CHAR)
 _SEPARATOR = ord(spec.CONTROL_SEPARATOR_CHAR)
 _END = ord(spec.CONTROL_END_CHAR)
+_SET_START = ord(spec.SETPOINT_START_CHAR)
+_SET_END = ord(spec.SETPOINT_END_CHAR)
+_MINUS = 45
 _CR, _LF = 13, 10
 _ZERO, _NINE = 48, 57
 _BETWEEN = b"\r\n \t\x00"  # bytes that separate messages without being garbage
@@ -57,16 +65,36 @@ def encode(throttle_us, steering_us):
     return b"(%d,%d)" % (throttle_us, steering_us)
 
 
+def check_speed(speed_mm_s):
+    """speed_mm_s, when a setpoint may ask it; ValueError (one line) otherwise."""
+    if isinstance(speed_mm_s, bool) or not isinstance(speed_mm_s, int):
+        raise ValueError("speed_mm_s must be an integer number of mm/s, got %r" % (speed_mm_s,))
+    if not -spec.SETPOINT_MAX_SPEED_MM_S <= speed_mm_s <= spec.SETPOINT_MAX_SPEED_MM_S:
+        raise ValueError("speed %d mm/s is beyond the protocol's %d mm/s" % (speed_mm_s, spec.SETPOINT_MAX_SPEED_MM_S))
+    return speed_mm_s
+
+
+def encode_setpoint(speed_mm_s, steering_us):
+    """The wire bytes of one setpoint (for a board with a speed controller)."""
+    check_speed(speed_mm_s)
+    check_pulse("steering_us", steering_us)
+    return b"[%d,%d]" % (speed_mm_s, steering_us)
+
+
 class Parser:
-    """Feed bytes one at a time; after OK, throttle_us and steering_us hold the message."""
+    """Feed bytes one at a time; after OK, throttle_us and steering_us hold the control message,
+    after SETPOINT, speed_mm_s and setpoint_steering_us the setpoint."""
 
     def __init__(self):
         self.state = IDLE
         self.digits = 0  # digits in the current field
         self.value = 0  # the current field so far
-        self.throttle_us = spec.CONTROL_NEUTRAL_US  # the last valid message
+        self.throttle_us = spec.CONTROL_NEUTRAL_US  # the last valid control message
         self.steering_us = spec.CONTROL_NEUTRAL_US
-        self._throttle = 0  # the first field of the message being read
+        self.speed_mm_s = 0  # the last valid setpoint
+        self.setpoint_steering_us = spec.CONTROL_NEUTRAL_US
+        self._first = 0  # the first field of the message being read
+        self._negative = False  # a setpoint's speed with a leading '-'
 
     def feed(self, byte):
         state = self.state
@@ -79,8 +107,8 @@ class Parser:
                 self.value = self.value * 10 + byte - _ZERO
                 return NONE
             return self._field_end(byte, state)
-        if byte == _START:
-            self._start()
+        if byte == _START or byte == _SET_START:
+            self._start(byte)
             return GARBAGE if state == GARBAGE_RUN else NONE
         if state == IDLE:
             if byte not in _BETWEEN:
@@ -89,33 +117,45 @@ class Parser:
             if byte in _BETWEEN:
                 self.state = IDLE
                 return GARBAGE
-        elif byte == _END or byte == _CR or byte == _LF:  # SKIP
+        elif byte == _END or byte == _SET_END or byte == _CR or byte == _LF:  # SKIP
             self.state = IDLE
         return NONE
 
-    def _start(self):
-        self.state = THROTTLE
+    def _start(self, byte):
+        self.state = THROTTLE if byte == _START else SPEED
         self.digits = 0
         self.value = 0
+        self._negative = False
 
     def _field_end(self, byte, state):
-        if byte == _SEPARATOR and state == THROTTLE and self.digits:
-            self._throttle = self.value
-            self.state = STEERING
+        first = state == THROTTLE or state == SPEED
+        setpoint = state == SPEED or state == SET_STEERING
+        if byte == _MINUS and state == SPEED and not self.digits and not self._negative:
+            self._negative = True
+            return NONE
+        if byte == _SEPARATOR and first and self.digits:
+            self._first = self.value
+            self.state = SET_STEERING if setpoint else STEERING
             self.digits = 0
             self.value = 0
             return NONE
-        if byte == _END:
+        if byte == _END or byte == _SET_END:
             self.state = IDLE
-            if state == THROTTLE or not self.digits:
+            if first or not self.digits or (byte == _SET_END) != setpoint:
                 return SYNTAX
             lo, hi = spec.CONTROL_MIN_US, spec.CONTROL_MAX_US
-            if not (lo <= self._throttle <= hi and lo <= self.value <= hi):
+            if setpoint:
+                if self._first > spec.SETPOINT_MAX_SPEED_MM_S or not lo <= self.value <= hi:
+                    return RANGE
+                self.speed_mm_s = -self._first if self._negative else self._first
+                self.setpoint_steering_us = self.value
+                return SETPOINT
+            if not (lo <= self._first <= hi and lo <= self.value <= hi):
                 return RANGE
-            self.throttle_us, self.steering_us = self._throttle, self.value
+            self.throttle_us, self.steering_us = self._first, self.value
             return OK
-        if byte == _START:
-            self._start()
+        if byte == _START or byte == _SET_START:
+            self._start(byte)
             return UNTERMINATED
         if byte == _CR or byte == _LF:
             self.state = IDLE

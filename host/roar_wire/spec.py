@@ -5,7 +5,8 @@ Plain values only: this module runs on CPython and on MicroPython boards.
 
 
 # [meta]
-META_PROTOCOL_VERSION = 1  # Bumped on any incompatible change of this file
+META_PROTOCOL_VERSION = 1  # Bumped on any incompatible change of this file; a board that drives throttle and steering says READY 1
+META_SPEED_VERSION = 2  # What a board with a speed controller says (READY 2): it also acts on setpoint messages
 
 # [control]
 CONTROL_START_CHAR = '('  # First byte of a control message
@@ -18,14 +19,21 @@ CONTROL_MAX_DIGITS = 4  # [digits] Most decimal digits in one field; a fifth dig
 CONTROL_MAX_MESSAGE_BYTES = 11  # [bytes] Length of the longest valid message, e.g. (1500,1500)
 CONTROL_EXAMPLE = '(1500,1500)'  # Neutral throttle, centred steering
 
+# [setpoint]
+SETPOINT_START_CHAR = '['  # First byte of a setpoint message
+SETPOINT_END_CHAR = ']'  # Last byte of a setpoint message (the separator is control.separator_char)
+SETPOINT_MAX_SPEED_MM_S = 5000  # [mm/s] Highest speed a setpoint may ask, forward or (with a leading minus) backward
+SETPOINT_EXAMPLE = '[2000,1500]'  # 2 m/s forward, centred steering
+
 # [parse_result]
 PARSE_RESULT_NONE = 0  # Byte consumed, no message finished
 PARSE_RESULT_OK = 1  # A valid message finished with this byte
 PARSE_RESULT_SYNTAX = 2  # Unexpected byte inside a message (non-digit, NUL, space, empty field, missing comma)
-PARSE_RESULT_RANGE = 3  # Well-formed message with a value outside min_us..max_us
+PARSE_RESULT_RANGE = 3  # Well-formed message with a value outside min_us..max_us (or a setpoint speed beyond max_speed_mm_s)
 PARSE_RESULT_TOO_LONG = 4  # A field with more than max_digits digits
 PARSE_RESULT_UNTERMINATED = 5  # A message cut short by a new start_char or a line end before end_char
 PARSE_RESULT_GARBAGE = 6  # Bytes outside any message (reported once, when the run of garbage ends)
+PARSE_RESULT_SETPOINT = 7  # A valid setpoint message finished with this byte
 
 # [serial]
 SERIAL_BAUD = 115200  # [baud] 8N1
@@ -33,6 +41,7 @@ SERIAL_REPLY_READY = 'READY'  # Line printed once at boot, followed by a space a
 SERIAL_REPLY_ERROR = 'ERR'  # Line printed for a rejected message, followed by a space and the parse_result token
 SERIAL_REPLY_FAILSAFE = 'FAILSAFE'  # Line printed when the command watchdog trips
 SERIAL_REPLY_ARMED = 'ARMED'  # Line printed when a neutral command re-arms after a failsafe
+SERIAL_ERROR_UNSUPPORTED = 'unsupported'  # Token after ERR for a valid message the board does not act on (a setpoint to a board without a speed controller)
 SERIAL_REPLY_LINE_END = '\n'  # Every reply line ends with this byte
 SERIAL_MAX_REPLY_BYTES = 24  # [bytes] Longest reply line including the line end
 
@@ -126,4 +135,4 @@ JUNIOR_CAMERA_HIGH_HEIGHT = 600  # [px] Height of the high-resolution frames
 JUNIOR_FAILSAFE_TIMEOUT_US = 500000  # [us] No control request for longer than this stops both sides
 
 # The wire token of each parse result, indexed by its code
-PARSE_RESULT_TOKENS = ('none', 'ok', 'syntax', 'range', 'too_long', 'unterminated', 'garbage',)
+PARSE_RESULT_TOKENS = ('none', 'ok', 'syntax', 'range', 'too_long', 'unterminated', 'garbage', 'setpoint',)

@@ -13,10 +13,12 @@ for case in cases:
     for chunk in case["chunks"]:
         for ch in chunk:
             result = parser.feed(ord(ch))
-            if result != control.NONE:
-                ok = result == control.OK
-                got.append([at, control.token(result), parser.throttle_us if ok else None,
-                            parser.steering_us if ok else None])
+            if result == control.OK:
+                got.append([at, "ok", parser.throttle_us, parser.steering_us])
+            elif result == control.SETPOINT:
+                got.append([at, "setpoint", parser.speed_mm_s, parser.setpoint_steering_us])
+            elif result != control.NONE:
+                got.append([at, control.token(result), None, None])
             at += 1
     out[case["name"]] = got
 print(json.dumps(out))

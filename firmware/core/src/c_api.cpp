@@ -138,10 +138,17 @@ size_t roar_parser_feed_buffer(void* parser, const uint8_t* data, size_t n, roar
     const ParseResult r = p->feed(data[i]);
     if (r == ParseResult::None) continue;
     if (count < max_events) {
-      const bool ok = r == ParseResult::Ok;
-      events[count] = roar_parse_event_t{static_cast<uint32_t>(i), static_cast<uint8_t>(r), 0,
-                                         ok ? p->command().throttle_us : uint16_t(0),
-                                         ok ? p->command().steering_us : uint16_t(0)};
+      roar_parse_event_t& e = events[count];
+      e = roar_parse_event_t{};
+      e.at = static_cast<uint32_t>(i);
+      e.result = static_cast<uint8_t>(r);
+      if (r == ParseResult::Ok) {
+        e.throttle = p->command().throttle_us;
+        e.steering = p->command().steering_us;
+      } else if (r == ParseResult::Setpoint) {
+        e.speed_mm_s = p->setpoint().speed_mm_s;
+        e.steering = p->setpoint().steering_us;
+      }
     }
     ++count;
   }

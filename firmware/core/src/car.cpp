@@ -34,6 +34,10 @@ void Car::on_watchdog(WatchdogEvent ev) {
 void Car::feed(uint8_t byte, Micros now_us) {
   const ParseResult r = parser_.feed(byte);
   if (r == ParseResult::None) return;
+  if (r == ParseResult::Setpoint) {  // a valid message, but this car drives by throttle, not speed
+    queue(Reply::Unsupported);
+    return;
+  }
   if (r != ParseResult::Ok) {
     queue(Reply::Error, r);
     return;
@@ -88,6 +92,10 @@ size_t Car::take_reply(char* buf, size_t cap) {
       break;
     case Reply::Armed:
       ok = append(buf, cap, &len, proto::kSerialReplyArmed);
+      break;
+    case Reply::Unsupported:
+      ok = append(buf, cap, &len, proto::kSerialReplyError) && append(buf, cap, &len, " ") &&
+           append(buf, cap, &len, proto::kSerialErrorUnsupported);
       break;
   }
   if (!ok || !append(buf, cap, &len, proto::kSerialReplyLineEnd)) {

@@ -62,9 +62,11 @@ static void test_vectors() {
         break;
       }
       const roar_vectors::Event& e = tc.events[seen++];
-      const bool same = e.at == i && e.result == r &&
-                        (r != ParseResult::Ok ||
-                         (p.command().throttle_us == e.throttle && p.command().steering_us == e.steering));
+      const bool values = r == ParseResult::Ok
+                              ? p.command().throttle_us == e.first && p.command().steering_us == e.steering
+                              : r != ParseResult::Setpoint ||
+                                    (p.setpoint().speed_mm_s == e.first && p.setpoint().steering_us == e.steering);
+      const bool same = e.at == i && e.result == r && values;
       if (!same) {
         ok = false;
         printf("FAIL vector %s: got %s at %u, want %s at %u\n", tc.name, parse_result_token(r), (unsigned)i,

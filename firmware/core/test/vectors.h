@@ -7,7 +7,8 @@
 
 namespace roar_vectors {
 
-struct Event { uint16_t at; roar::ParseResult result; uint16_t throttle; uint16_t steering; };
+// first: the throttle [us] of an ok event, the speed [mm/s] of a setpoint event
+struct Event { uint16_t at; roar::ParseResult result; int16_t first; uint16_t steering; };
 struct Case { const char* name; const char* input; size_t length; const Event* events; size_t n_events; };
 
 static const Event kEvents0[] = {{10, roar::ParseResult::Ok, 1500, 1500}};
@@ -49,6 +50,20 @@ static const Event kEvents35[] = {{5, roar::ParseResult::TooLong, 0, 0}, {24, ro
 static const Event kEvents36[] = {{10, roar::ParseResult::TooLong, 0, 0}};
 static const Event kEvents37[] = {{2, roar::ParseResult::Syntax, 0, 0}, {13, roar::ParseResult::Ok, 1500, 1500}};
 static const Event kEvents38[] = {{10, roar::ParseResult::Ok, 1500, 1500}};
+static const Event kEvents39[] = {{10, roar::ParseResult::Setpoint, 2000, 1500}};
+static const Event kEvents40[] = {{10, roar::ParseResult::Setpoint, -750, 1200}};
+static const Event kEvents41[] = {{7, roar::ParseResult::Setpoint, 0, 1000}, {18, roar::ParseResult::Setpoint, 5000, 2000}, {30, roar::ParseResult::Setpoint, -5000, 1500}};
+static const Event kEvents42[] = {{10, roar::ParseResult::Range, 0, 0}};
+static const Event kEvents43[] = {{8, roar::ParseResult::Range, 0, 0}};
+static const Event kEvents44[] = {{2, roar::ParseResult::Syntax, 0, 0}};
+static const Event kEvents45[] = {{2, roar::ParseResult::Syntax, 0, 0}};
+static const Event kEvents46[] = {{2, roar::ParseResult::Syntax, 0, 0}};
+static const Event kEvents47[] = {{5, roar::ParseResult::TooLong, 0, 0}};
+static const Event kEvents48[] = {{10, roar::ParseResult::Syntax, 0, 0}, {21, roar::ParseResult::Ok, 1500, 1500}};
+static const Event kEvents49[] = {{9, roar::ParseResult::Syntax, 0, 0}};
+static const Event kEvents50[] = {{10, roar::ParseResult::Setpoint, 1000, 1500}, {21, roar::ParseResult::Ok, 1600, 1400}};
+static const Event kEvents51[] = {{7, roar::ParseResult::Unterminated, 0, 0}, {17, roar::ParseResult::Ok, 1500, 1500}};
+static const Event kEvents52[] = {{2, roar::ParseResult::Garbage, 0, 0}, {11, roar::ParseResult::Setpoint, 100, 1500}};
 
 static const Case kCases[] = {
     {"neutral", "(1500,1500)", 11, kEvents0, 1},
@@ -90,6 +105,20 @@ static const Case kCases[] = {
     {"error_split_across_reads", "(1500,15000)", 12, kEvents36, 1},
     {"new_message_inside_skipped_error", "(1x(1500,1500)", 14, kEvents37, 2},
     {"trailing_garbage_unreported_until_boundary", "(1500,1500)abc", 14, kEvents38, 1},
+    {"setpoint_forward", "[2000,1500]", 11, kEvents39, 1},
+    {"setpoint_backward", "[-750,1200]", 11, kEvents40, 1},
+    {"setpoint_zero_and_limits", "[0,1000][5000,2000][-5000,1500]", 31, kEvents41, 3},
+    {"setpoint_speed_out_of_range", "[5001,1500]", 11, kEvents42, 1},
+    {"setpoint_steering_out_of_range", "[100,999]", 9, kEvents43, 1},
+    {"setpoint_minus_twice", "[--5,1500]", 10, kEvents44, 1},
+    {"setpoint_minus_after_digits", "[5-,1500]\012", 10, kEvents45, 1},
+    {"setpoint_minus_alone", "[-,1500]", 8, kEvents46, 1},
+    {"setpoint_too_long", "[12345,1500]", 12, kEvents47, 1},
+    {"control_ended_by_bracket", "(1500,1500](1500,1500)", 22, kEvents48, 2},
+    {"setpoint_ended_by_paren", "[100,1500)", 10, kEvents49, 1},
+    {"setpoint_then_control", "[1000,1500](1600,1400)", 22, kEvents50, 2},
+    {"setpoint_cut_by_control", "[100,15(1500,1500)", 18, kEvents51, 2},
+    {"garbage_then_setpoint", "xy[100,1500]", 12, kEvents52, 2},
 };
 
 static const size_t kCaseCount = sizeof(kCases) / sizeof(kCases[0]);

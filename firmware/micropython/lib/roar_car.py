@@ -156,6 +156,9 @@ class Car:
         result = self.parser.feed(byte)
         if result == control.NONE:
             return
+        if result == control.SETPOINT:  # a valid message, but this car drives by throttle, not speed
+            self._queue("%s %s" % (spec.SERIAL_REPLY_ERROR, spec.SERIAL_ERROR_UNSUPPORTED))
+            return
         if result != control.OK:
             self._queue("%s %s" % (spec.SERIAL_REPLY_ERROR, control.token(result)))
             return

@@ -1,4 +1,5 @@
-"""Encoder, strict decoder and streaming decoder for the control message "(THROTTLE,STEERING)",
+"""Encoders, strict decoder and streaming decoder for the control message "(THROTTLE,STEERING)"
+and the setpoint message "[SPEED,STEERING]",
 with host-side types (ControlCommand, ParseEvent, ParseResult) around the portable codec of
 roar_wire.control, the one Python implementation of the parser, which also runs on the
 MicroPython boards. It is the same state machine as the firmware's C++ parser (PROTOCOL.md
@@ -43,6 +44,33 @@ class ControlCommand:
 NEUTRAL = ControlCommand(spec.CONTROL_NEUTRAL_US, spec.CONTROL_NEUTRAL_US)
 
 
+@dataclass(frozen=True)
+class Setpoint:
+    """A speed-and-steering setpoint "[SPEED,STEERING]", for boards with a speed controller."""
+
+    speed_mm_s: int  # [mm/s] negative drives backwards
+    steering_us: int  # [us] 1000..2000
+
+    def __post_init__(self) -> None:
+        for name in ("speed_mm_s", "steering_us"):
+            value = getattr(self, name)
+            if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+                object.__setattr__(self, name, int(value))
+        try:
+            wire.check_speed(self.speed_mm_s)
+            wire.check_pulse("steering_us", self.steering_us)
+        except ValueError as e:
+            raise ControlError(str(e)) from None
+
+    def encode(self) -> bytes:
+        return wire.encode_setpoint(self.speed_mm_s, self.steering_us)
+
+
+def encode_setpoint(speed_mm_s: int, steering_us: int) -> bytes:
+    """The wire bytes of one setpoint; raises ControlError for values outside the protocol."""
+    return Setpoint(speed_mm_s, steering_us).encode()
+
+
 def encode(throttle_us: int, steering_us: int) -> bytes:
     """The wire bytes for one command; raises ControlError for values outside the protocol."""
     return ControlCommand(throttle_us, steering_us).encode()
@@ -63,6 +91,7 @@ class ParseEvent:
     at: int  # index of the byte that produced the event, counted over everything fed so far
     result: ParseResult
     command: ControlCommand | None = None  # set when result is OK
+    setpoint: Setpoint | None = None  # set when result is SETPOINT
 
 
 _RESULTS = tuple(ParseResult)
@@ -81,10 +110,13 @@ class StreamDecoder:
         for i, byte in enumerate(data):
             result = feed(byte)
             if result:
-                command = None
+                command = setpoint = None
+                p = self._parser
                 if result == wire.OK:
-                    command = ControlCommand(self._parser.throttle_us, self._parser.steering_us)
-                events.append(ParseEvent(self.offset + i, _RESULTS[result], command))
+                    command = ControlCommand(p.throttle_us, p.steering_us)
+                elif result == wire.SETPOINT:
+                    setpoint = Setpoint(p.speed_mm_s, p.setpoint_steering_us)
+                events.append(ParseEvent(self.offset + i, _RESULTS[result], command, setpoint))
         self.offset += len(data)
         return events
 

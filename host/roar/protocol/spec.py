@@ -14,10 +14,11 @@ class ParseResult(IntEnum):
     NONE = 0  # Byte consumed, no message finished
     OK = 1  # A valid message finished with this byte
     SYNTAX = 2  # Unexpected byte inside a message (non-digit, NUL, space, empty field, missing comma)
-    RANGE = 3  # Well-formed message with a value outside min_us..max_us
+    RANGE = 3  # Well-formed message with a value outside min_us..max_us (or a setpoint speed beyond max_speed_mm_s)
     TOO_LONG = 4  # A field with more than max_digits digits
     UNTERMINATED = 5  # A message cut short by a new start_char or a line end before end_char
     GARBAGE = 6  # Bytes outside any message (reported once, when the run of garbage ends)
+    SETPOINT = 7  # A valid setpoint message finished with this byte
 
     def __str__(self) -> str:
         return self.name.lower()

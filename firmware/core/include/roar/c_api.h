@@ -23,11 +23,12 @@ uint32_t roar_protocol_version(void);
 
 /* --- streaming control-message parser ---------------------------------------------------- */
 typedef struct {
-  uint32_t at;        /* index of the byte in this buffer that produced the event */
-  uint8_t result;     /* ParseResult code, never 0 (none) */
+  uint32_t at;         /* index of the byte in this buffer that produced the event */
+  uint8_t result;      /* ParseResult code, never 0 (none) */
   uint8_t reserved;
-  uint16_t throttle;  /* [us] valid when result is ok */
-  uint16_t steering;  /* [us] valid when result is ok */
+  uint16_t throttle;   /* [us] valid when result is ok */
+  uint16_t steering;   /* [us] valid when result is ok or setpoint */
+  int16_t speed_mm_s;  /* [mm/s] valid when result is setpoint */
 } roar_parse_event_t;
 
 size_t roar_parser_size(void);

@@ -41,7 +41,7 @@ struct CarOutputs {
   BrakePhase brake_phase;
 };
 
-enum class Reply : uint8_t { Ready, Error, Failsafe, Armed };
+enum class Reply : uint8_t { Ready, Error, Failsafe, Armed, Unsupported };
 
 class Car {
  public:

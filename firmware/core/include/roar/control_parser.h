@@ -23,13 +23,23 @@ inline ControlCommand neutral_command() {
   return ControlCommand{proto::kControlNeutralUs, proto::kControlNeutralUs};
 }
 
+// "[SPEED,STEERING]": a speed [mm/s] (a leading '-' drives backwards) and a steering pulse [us],
+// for a board with a speed controller.
+struct Setpoint {
+  int16_t speed_mm_s;    // [mm/s] -kSetpointMaxSpeedMmS..kSetpointMaxSpeedMmS
+  uint16_t steering_us;  // [us]
+};
+
 class ControlParser {
  public:
-  // Consume one byte. On ParseResult::Ok, command() holds the new message.
+  // Consume one byte. On ParseResult::Ok, command() holds the new control message; on
+  // ParseResult::Setpoint, setpoint() the new setpoint message.
   __attribute__((always_inline)) ParseResult feed(uint8_t byte);
 
-  // The last valid message (neutral until one has been parsed).
+  // The last valid control message (neutral until one has been parsed).
   const ControlCommand& command() const { return command_; }
+  // The last valid setpoint message (stopped and centred until one has been parsed).
+  const Setpoint& setpoint() const { return setpoint_; }
 
   void reset() {
     state_ = State::Idle;
@@ -37,7 +47,8 @@ class ControlParser {
   }
 
  private:
-  enum class State : uint8_t { Idle, Garbage, Skip, Throttle, Steering };
+  // Fields: Throttle and Steering of "(T,S)", Speed and SetSteering of "[V,S]".
+  enum class State : uint8_t { Idle, Garbage, Skip, Throttle, Steering, Speed, SetSteering };
 
   __attribute__((always_inline)) static bool is_line_end(uint8_t b) { return b == '\r' || b == '\n'; }
   __attribute__((always_inline)) static bool is_separator(uint8_t b) { return b == ' ' || is_line_end(b) || b == '\t' || b == '\0'; }
@@ -45,10 +56,14 @@ class ControlParser {
     return static_cast<uint16_t>(v - proto::kControlMinUs) <= proto::kControlMaxUs - proto::kControlMinUs;
   }
 
-  ParseResult start_message(ParseResult result) {
-    state_ = State::Throttle;
+  __attribute__((always_inline)) static bool is_start(uint8_t b) {
+    return b == proto::kControlStartChar || b == proto::kSetpointStartChar;
+  }
+  ParseResult start_message(uint8_t start, ParseResult result) {
+    state_ = start == proto::kControlStartChar ? State::Throttle : State::Speed;
     left_ = proto::kControlMaxDigits;
     value_ = 0;
+    negative_ = false;
     return result;
   }
   __attribute__((always_inline)) ParseResult field_end(uint8_t byte);
@@ -56,8 +71,10 @@ class ControlParser {
   State state_ = State::Idle;
   uint8_t left_ = 0;     // digits the current field may still take; 0 outside a field
   uint16_t value_ = 0;   // the current field's value so far
-  uint16_t throttle_ = 0;
+  uint16_t throttle_ = 0;  // the first field: a throttle, or a setpoint's speed magnitude
+  bool negative_ = false;  // a setpoint's speed had a leading '-'
   ControlCommand command_ = {proto::kControlNeutralUs, proto::kControlNeutralUs};
+  Setpoint setpoint_ = {0, proto::kControlNeutralUs};
 };
 
 inline ParseResult ControlParser::feed(uint8_t byte) {
@@ -70,52 +87,67 @@ inline ParseResult ControlParser::feed(uint8_t byte) {
   switch (state_) {
     case State::Throttle:
     case State::Steering:
+    case State::Speed:
+    case State::SetSteering:
       return field_end(byte);
     case State::Idle:
-      if (byte == proto::kControlStartChar) return start_message(ParseResult::None);
+      if (is_start(byte)) return start_message(byte, ParseResult::None);
       if (!is_separator(byte)) state_ = State::Garbage;
       return ParseResult::None;
     case State::Garbage:
-      if (byte == proto::kControlStartChar) return start_message(ParseResult::Garbage);
+      if (is_start(byte)) return start_message(byte, ParseResult::Garbage);
       if (!is_separator(byte)) return ParseResult::None;
       state_ = State::Idle;
       return ParseResult::Garbage;
     case State::Skip:
-      if (byte == proto::kControlStartChar) return start_message(ParseResult::None);
-      if (byte == proto::kControlEndChar || is_line_end(byte)) state_ = State::Idle;
+      if (is_start(byte)) return start_message(byte, ParseResult::None);
+      if (byte == proto::kControlEndChar || byte == proto::kSetpointEndChar || is_line_end(byte)) state_ = State::Idle;
       return ParseResult::None;
   }
   return ParseResult::None;
 }
 
-// A byte in a field that is not a digit it has room for.
+// A byte in a field that is not a digit it has room for. The bytes that end a valid control
+// message's fields (',' and ')') are tested first: they are the ones every message has.
 inline ParseResult ControlParser::field_end(uint8_t byte) {
+  const State state = state_;
   const bool has_digits = left_ != proto::kControlMaxDigits;
-  if (static_cast<uint8_t>(byte - '0') <= 9) {  // a digit beyond kControlMaxDigits
-    state_ = State::Skip;
-    return ParseResult::TooLong;
-  }
-  if (byte == proto::kControlSeparatorChar && state_ == State::Throttle && has_digits) {
-    throttle_ = value_;
-    state_ = State::Steering;
-    left_ = proto::kControlMaxDigits;
-    value_ = 0;
-    return ParseResult::None;
-  }
-  left_ = 0;
-  if (byte == proto::kControlEndChar) {
-    const bool complete = state_ == State::Steering && has_digits;
+  if (byte == proto::kControlSeparatorChar) {
+    if (has_digits && (state == State::Throttle || state == State::Speed)) {
+      throttle_ = value_;
+      state_ = state == State::Throttle ? State::Steering : State::SetSteering;
+      left_ = proto::kControlMaxDigits;
+      value_ = 0;
+      return ParseResult::None;
+    }
+  } else if (byte == proto::kControlEndChar) {
+    left_ = 0;
     state_ = State::Idle;
-    if (!complete) return ParseResult::Syntax;
+    if (state != State::Steering || !has_digits) return ParseResult::Syntax;
     if (!in_range(throttle_) || !in_range(value_)) return ParseResult::Range;
     command_ = ControlCommand{throttle_, value_};
     return ParseResult::Ok;
-  }
-  if (byte == proto::kControlStartChar) return start_message(ParseResult::Unterminated);
-  if (is_line_end(byte)) {
+  } else if (byte == proto::kSetpointEndChar) {
+    left_ = 0;
+    state_ = State::Idle;
+    if (state != State::SetSteering || !has_digits) return ParseResult::Syntax;
+    if (throttle_ > proto::kSetpointMaxSpeedMmS || !in_range(value_)) return ParseResult::Range;
+    setpoint_ = Setpoint{static_cast<int16_t>(negative_ ? -static_cast<int16_t>(throttle_) : throttle_), value_};
+    return ParseResult::Setpoint;
+  } else if (static_cast<uint8_t>(byte - '0') <= 9) {  // a digit beyond kControlMaxDigits
+    state_ = State::Skip;
+    return ParseResult::TooLong;
+  } else if (byte == '-' && state == State::Speed && !has_digits && !negative_) {
+    negative_ = true;  // a setpoint's speed backwards
+    return ParseResult::None;
+  } else if (is_start(byte)) {
+    return start_message(byte, ParseResult::Unterminated);
+  } else if (is_line_end(byte)) {
+    left_ = 0;
     state_ = State::Idle;
     return ParseResult::Unterminated;
   }
+  left_ = 0;
   state_ = State::Skip;
   return ParseResult::Syntax;
 }

@@ -7,7 +7,8 @@ namespace roar {
 namespace proto {
 
 // [meta]
-static constexpr uint16_t kMetaProtocolVersion = 1u;  // Bumped on any incompatible change of this file
+static constexpr uint16_t kMetaProtocolVersion = 1u;  // Bumped on any incompatible change of this file; a board that drives throttle and steering says READY 1
+static constexpr uint16_t kMetaSpeedVersion = 2u;  // What a board with a speed controller says (READY 2): it also acts on setpoint messages
 
 // [control]
 static constexpr char kControlStartChar = '(';  // First byte of a control message
@@ -20,12 +21,19 @@ static constexpr uint16_t kControlMaxDigits = 4u;  // [digits] Most decimal digi
 static constexpr uint16_t kControlMaxMessageBytes = 11u;  // [bytes] Length of the longest valid message, e.g. (1500,1500)
 static constexpr char kControlExample[] = "(1500,1500)";  // Neutral throttle, centred steering
 
+// [setpoint]
+static constexpr char kSetpointStartChar = '[';  // First byte of a setpoint message
+static constexpr char kSetpointEndChar = ']';  // Last byte of a setpoint message (the separator is control.separator_char)
+static constexpr uint16_t kSetpointMaxSpeedMmS = 5000u;  // [mm/s] Highest speed a setpoint may ask, forward or (with a leading minus) backward
+static constexpr char kSetpointExample[] = "[2000,1500]";  // 2 m/s forward, centred steering
+
 // [serial]
 static constexpr uint32_t kSerialBaud = 115200ul;  // [baud] 8N1
 static constexpr char kSerialReplyReady[] = "READY";  // Line printed once at boot, followed by a space and the protocol version
 static constexpr char kSerialReplyError[] = "ERR";  // Line printed for a rejected message, followed by a space and the parse_result token
 static constexpr char kSerialReplyFailsafe[] = "FAILSAFE";  // Line printed when the command watchdog trips
 static constexpr char kSerialReplyArmed[] = "ARMED";  // Line printed when a neutral command re-arms after a failsafe
+static constexpr char kSerialErrorUnsupported[] = "unsupported";  // Token after ERR for a valid message the board does not act on (a setpoint to a board without a speed controller)
 static constexpr char kSerialReplyLineEnd[] = "\012";  // Every reply line ends with this byte
 static constexpr uint16_t kSerialMaxReplyBytes = 24u;  // [bytes] Longest reply line including the line end
 
@@ -125,13 +133,14 @@ enum class ParseResult : uint8_t {
   None = 0,  // Byte consumed, no message finished
   Ok = 1,  // A valid message finished with this byte
   Syntax = 2,  // Unexpected byte inside a message (non-digit, NUL, space, empty field, missing comma)
-  Range = 3,  // Well-formed message with a value outside min_us..max_us
+  Range = 3,  // Well-formed message with a value outside min_us..max_us (or a setpoint speed beyond max_speed_mm_s)
   TooLong = 4,  // A field with more than max_digits digits
   Unterminated = 5,  // A message cut short by a new start_char or a line end before end_char
   Garbage = 6,  // Bytes outside any message (reported once, when the run of garbage ends)
+  Setpoint = 7,  // A valid setpoint message finished with this byte
 };
 
-static constexpr uint8_t kParseResultCount = 7;
+static constexpr uint8_t kParseResultCount = 8;
 
 inline const char* parse_result_token(ParseResult r) {
   switch (r) {
@@ -142,6 +151,7 @@ inline const char* parse_result_token(ParseResult r) {
     case ParseResult::TooLong: return "too_long";
     case ParseResult::Unterminated: return "unterminated";
     case ParseResult::Garbage: return "garbage";
+    case ParseResult::Setpoint: return "setpoint";
   }
   return "unknown";
 }
