@@ -275,6 +275,52 @@ def sbus_decode(data: bytes) -> tuple[list[int], int, int] | None:
     return _sbus_frame(f) if lib().roar_sbus_decode(_bytes(bytes(data)), f) else None
 
 
+class Iarrc:
+    """The IARRC car's controller (IarrcController, default configuration): SBUS bytes, host
+    bytes, encoder counts and battery readings in; control(now_us) -> a status dict with the
+    pulses, the mode and what the controller knows."""
+
+    MODES = ("boot", "disarmed", "manual", "autonomous", "failsafe", "emergency")
+    FAILSAFES = ("none", "rc_lost", "host_silent", "battery")
+
+    def __init__(self) -> None:
+        self._lib = lib()
+        self._mem = _object("roar_iarrc_size")
+        self._lib.roar_iarrc_init(self._mem)
+        self._status = ffi.new("roar_iarrc_status_t *")
+
+    def set_pid(self, kp_pm: int, ki_pm: int, kd_pm: int, ff_pm: int) -> None:
+        """Gains in per mille: us per m/s, us per m, us per m/s^2, us per m/s of setpoint."""
+        self._lib.roar_iarrc_set_pid(self._mem, kp_pm, ki_pm, kd_pm, ff_pm)
+
+    def sbus(self, data: bytes, now_us: int, byte_us: int = 120) -> None:
+        """Bytes from the receiver, byte_us apart from now_us on."""
+        for i, byte in enumerate(data):
+            self._lib.roar_iarrc_sbus_byte(self._mem, byte, now_us + i * byte_us)
+
+    def host(self, data: bytes, now_us: int) -> list[int]:
+        """Bytes from the host; the parse result of each."""
+        return [self._lib.roar_iarrc_host_byte(self._mem, b, now_us) for b in data]
+
+    def encoder(self, count: int, now_us: int) -> None:
+        self._lib.roar_iarrc_encoder(self._mem, count, now_us)
+
+    def battery(self, adc_counts: int) -> None:
+        self._lib.roar_iarrc_battery(self._mem, adc_counts)
+
+    def control(self, now_us: int, frames_started: int | None = None) -> dict:
+        """One control step; frames_started defaults to one frame per 20 ms of now_us."""
+        frames = now_us // spec.TIMING_SERVO_FRAME_US + 1 if frames_started is None else frames_started
+        self._lib.roar_iarrc_control(self._mem, now_us, frames & _U32_MASK, self._status)
+        st = self._status
+        return {"throttle_us": st.throttle_us, "steering_us": st.steering_us, "mode": self.MODES[st.mode],
+                "failsafe": self.FAILSAFES[st.failsafe], "rc_present": bool(st.rc_present),
+                "mode_switch": ("off", "manual", "autonomous")[st.mode_switch], "speed_mm_s": st.speed_mm_s,
+                "setpoint_mm_s": st.setpoint_mm_s, "distance_mm": st.distance_mm, "battery_mv": st.battery_mv,
+                "battery_low": bool(st.battery_low), "battery_cutoff": bool(st.battery_cutoff),
+                "pid_integral_mm": st.pid_integral_mm}
+
+
 class Junior:
     """The ROAR Junior's HTTP control: query strings applied in order, and its 500 ms failsafe."""
 

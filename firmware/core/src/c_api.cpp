@@ -9,6 +9,7 @@
 #include "roar/junior_board.h"
 #include "roar/junior_control.h"
 #include "roar/l298n_mixer.h"
+#include "roar/iarrc.h"
 #include "roar/sbus.h"
 
 using namespace roar;
@@ -366,6 +367,40 @@ void roar_sbus_status(const void* decoder, roar_sbus_status_t* status) {
   status->failsafe_frames = d->failsafe_frames();
   status->dropped = d->dropped();
   status->last_good_us = d->last_good_us();
+}
+
+size_t roar_iarrc_size(void) { return sizeof(IarrcController); }
+void roar_iarrc_init(void* controller) { new (controller) IarrcController(); }
+void roar_iarrc_set_pid(void* controller, int32_t kp_pm, int32_t ki_pm, int32_t kd_pm, int32_t ff_pm) {
+  as<IarrcController>(controller)->pid().set_gains(PidGains{kp_pm, ki_pm, kd_pm, ff_pm});
+}
+void roar_iarrc_sbus_byte(void* controller, uint8_t byte, uint64_t now_us) {
+  as<IarrcController>(controller)->sbus_byte(byte, now_us);
+}
+uint8_t roar_iarrc_host_byte(void* controller, uint8_t byte, uint64_t now_us) {
+  return static_cast<uint8_t>(as<IarrcController>(controller)->host_byte(byte, now_us));
+}
+void roar_iarrc_encoder(void* controller, int32_t count, uint64_t now_us) {
+  as<IarrcController>(controller)->encoder(count, now_us);
+}
+void roar_iarrc_battery(void* controller, uint16_t adc_counts) { as<IarrcController>(controller)->battery(adc_counts); }
+void roar_iarrc_control(void* controller, uint64_t now_us, uint32_t frames_started, roar_iarrc_status_t* out) {
+  IarrcController* c = as<IarrcController>(controller);
+  const IarrcOutputs o = c->control(now_us, frames_started);
+  *out = roar_iarrc_status_t{};
+  out->throttle_us = o.throttle_us;
+  out->steering_us = o.steering_us;
+  out->mode = static_cast<uint8_t>(o.mode);
+  out->failsafe = static_cast<uint8_t>(o.failsafe);
+  out->rc_present = c->rc_present(now_us);
+  out->mode_switch = static_cast<uint8_t>(c->mode_switch());
+  out->speed_mm_s = c->speed().speed_mm_s();
+  out->setpoint_mm_s = c->setpoint().speed_mm_s;
+  out->distance_mm = c->speed().distance_mm();
+  out->battery_mv = c->battery_monitor().millivolts();
+  out->battery_low = c->battery_monitor().low();
+  out->battery_cutoff = c->battery_monitor().cutoff();
+  out->pid_integral_mm = c->pid().integral_mm();
 }
 
 }  // extern "C"

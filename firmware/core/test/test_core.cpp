@@ -11,6 +11,7 @@
 #include "roar/board.h"
 #include "roar/car.h"
 #include "roar/http_request.h"
+#include "roar/iarrc.h"
 #include "roar/junior_board.h"
 #include "roar/junior_control.h"
 #include "roar/l298n_mixer.h"
@@ -542,6 +543,27 @@ static void test_sbus_random() {
         (unsigned)d.dropped(), (unsigned)d.good_frames());
 }
 
+// Quadrature: a shaft turning forward then back by random steps counts exactly its position;
+// a jump of two states at once is a missed edge, counted as an error and not as motion.
+static void test_quadrature() {
+  static const uint8_t kGray[4] = {0, 2, 3, 1};  // AB states in forward order (A is bit 1)
+  Rng rng{0x9e37u};
+  QuadratureDecoder q;
+  int32_t position = 0;
+  for (int i = 0; i < 100000; ++i) {
+    position += rng.below(2) ? 1 : -1;
+    const uint8_t ab = kGray[((position % 4) + 4) % 4];
+    q.update(ab & 2, ab & 1);
+  }
+  CHECK(q.count() == position && q.errors() == 0, "count %ld, position %ld, errors %lu", (long)q.count(),
+        (long)position, (unsigned long)q.errors());
+  const int32_t before = q.count();
+  const uint8_t now = kGray[((position % 4) + 4) % 4];
+  const uint8_t skipped = kGray[(((position + 2) % 4) + 4) % 4];  // two steps at once
+  q.update(skipped & 2, skipped & 1);
+  CHECK(q.count() == before && q.errors() == 1 && now != skipped, "a missed edge is an error, not motion");
+}
+
 int main() {
   test_vectors();
   test_parser_random_bytes();
@@ -555,6 +577,7 @@ int main() {
   test_http_request_reader();
   test_junior_board();
   test_sbus_random();
+  test_quadrature();
   printf("%d passed, %d failed\n", g_passed, g_failed);
   return g_failed ? 1 : 0;
 }

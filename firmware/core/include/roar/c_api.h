@@ -210,6 +210,31 @@ uint8_t roar_sbus_feed(void* decoder, uint8_t byte, uint64_t now_us);
 void roar_sbus_last_frame(const void* decoder, roar_sbus_frame_t* frame);
 void roar_sbus_status(const void* decoder, roar_sbus_status_t* status);
 
+/* --- the IARRC car's controller (IarrcController, default configuration) ------------------- */
+typedef struct {
+  uint16_t throttle_us, steering_us; /* the pulses to output now */
+  uint8_t mode;                      /* 0 boot, 1 disarmed, 2 manual, 3 autonomous, 4 failsafe, 5 emergency */
+  uint8_t failsafe;                  /* 0 none, 1 RC lost, 2 host silent, 3 battery */
+  uint8_t rc_present, mode_switch;   /* mode_switch: 0 off, 1 manual, 2 autonomous */
+  int32_t speed_mm_s;                /* [mm/s] from the encoder */
+  int32_t setpoint_mm_s;             /* [mm/s] the host's latest */
+  int64_t distance_mm;               /* [mm] driven since boot */
+  uint32_t battery_mv;               /* [mV] */
+  uint8_t battery_low, battery_cutoff;
+  uint8_t reserved[2];
+  int32_t pid_integral_mm;           /* [mm] */
+} roar_iarrc_status_t;
+
+size_t roar_iarrc_size(void);
+void roar_iarrc_init(void* controller);
+/* Gains in per mille: [us per m/s], [us per m], [us per m/s^2], [us per m/s] (feed-forward). */
+void roar_iarrc_set_pid(void* controller, int32_t kp_pm, int32_t ki_pm, int32_t kd_pm, int32_t ff_pm);
+void roar_iarrc_sbus_byte(void* controller, uint8_t byte, uint64_t now_us);
+uint8_t roar_iarrc_host_byte(void* controller, uint8_t byte, uint64_t now_us); /* the ParseResult code */
+void roar_iarrc_encoder(void* controller, int32_t count, uint64_t now_us);
+void roar_iarrc_battery(void* controller, uint16_t adc_counts);
+void roar_iarrc_control(void* controller, uint64_t now_us, uint32_t frames_started, roar_iarrc_status_t* out);
+
 #ifdef __cplusplus
 }
 #endif
