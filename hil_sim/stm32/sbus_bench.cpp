@@ -2,10 +2,11 @@
 // virtual time advances by a fixed amount per instruction): the core's SbusDecoder fed kFrames
 // SBUS frames, timed with SysTick (which counts virtual time; semihosting's SYS_ELAPSED reads
 // the host's clock), beside a calibration loop of exactly two instructions per iteration
-// (subs, bne). Reports "calibration_ticks N" (for kCalibration
-// iterations), "frame_ticks N" (for kFrames frames) and "frames N"; exit status 0 when every
-// frame decoded.
+// (subs, bne). Reports "calibration_ticks N" (for kCalibration iterations), "frame_ticks N"
+// (for kFrames frames) and "frames N"; exit status 0 when every frame decoded.
 #include <stdint.h>
+
+#include "semihosting.h"
 
 #include "roar/sbus.h"
 
@@ -14,19 +15,6 @@ namespace {
 constexpr uint8_t kFrames = 50;
 constexpr uint32_t kCalibration = 100000;  // iterations of the two-instruction loop
 
-int semihost(int op, const void* arg) {
-  register int r0 __asm__("r0") = op;
-  register const void* r1 __asm__("r1") = arg;
-  __asm__ volatile("bkpt 0xAB" : "+r"(r0) : "r"(r1) : "memory");
-  return r0;
-}
-void say(const char* text) { semihost(0x04, text); }  // SYS_WRITE0
-[[noreturn]] void leave(uint32_t code) {              // SYS_EXIT_EXTENDED
-  const uint32_t block[2] = {0x20026, code};
-  semihost(0x20, block);
-  for (;;) {
-  }
-}
 volatile uint32_t* const kSysTick = reinterpret_cast<volatile uint32_t*>(0xE000E010);  // CTRL, LOAD, VAL
 constexpr uint32_t kSysTickMask = 0xFFFFFF;  // a 24-bit down-counter
 
@@ -37,21 +25,6 @@ void systick_start() {
 }
 uint32_t systick() { return kSysTick[2]; }
 uint32_t ticks_since(uint32_t start) { return (start - systick()) & kSysTickMask; }
-void say_number(const char* label, uint32_t value) {
-  char text[40];
-  char digits[11];
-  int n = 0;
-  do {
-    digits[n++] = static_cast<char>('0' + value % 10);
-    value /= 10;
-  } while (value);
-  int i = 0;
-  for (const char* c = label; *c; ++c) text[i++] = *c;
-  while (n) text[i++] = digits[--n];
-  text[i++] = '\n';
-  text[i] = '\0';
-  say(text);
-}
 
 uint8_t bytes[kFrames][roar::proto::kSbusFrameBytes];
 roar::SbusDecoder decoder;
@@ -84,8 +57,8 @@ int main() {
   start = systick();
   const uint32_t good = run();
   const uint32_t frames = ticks_since(start);
-  say_number("calibration_ticks ", calibration);
-  say_number("frame_ticks ", frames);
-  say_number("frames ", good);
-  leave(good == kFrames ? 0 : 1);
+  semihosting::say_number("calibration_ticks ", calibration);
+  semihosting::say_number("frame_ticks ", frames);
+  semihosting::say_number("frames ", good);
+  semihosting::leave(good == kFrames ? 0 : 1);
 }

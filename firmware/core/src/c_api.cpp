@@ -320,8 +320,10 @@ size_t roar_http_reader_feed(void* reader, const uint8_t* data, size_t n, uint8_
 }  // extern "C"
 
 namespace {
-SbusFrame from_c(const roar_sbus_frame_t& f) {
-  SbusFrame out;
+// SbusFrame and roar_sbus_frame_t have the same fields; copy them either way.
+template <typename From, typename To>
+To copy_frame(const From& f) {
+  To out = {};
   for (uint8_t i = 0; i < kSbusChannels; ++i) out.raw[i] = f.raw[i];
   out.ch17 = f.ch17;
   out.ch18 = f.ch18;
@@ -330,16 +332,8 @@ SbusFrame from_c(const roar_sbus_frame_t& f) {
   out.end = f.end;
   return out;
 }
-roar_sbus_frame_t to_c(const SbusFrame& f) {
-  roar_sbus_frame_t out = {};
-  for (uint8_t i = 0; i < kSbusChannels; ++i) out.raw[i] = f.raw[i];
-  out.ch17 = f.ch17;
-  out.ch18 = f.ch18;
-  out.frame_lost = f.frame_lost;
-  out.failsafe = f.failsafe;
-  out.end = f.end;
-  return out;
-}
+SbusFrame from_c(const roar_sbus_frame_t& f) { return copy_frame<roar_sbus_frame_t, SbusFrame>(f); }
+roar_sbus_frame_t to_c(const SbusFrame& f) { return copy_frame<SbusFrame, roar_sbus_frame_t>(f); }
 }  // namespace
 
 extern "C" {
