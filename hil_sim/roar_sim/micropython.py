@@ -50,13 +50,23 @@ def portable_files() -> dict[str, Path]:
     return {f"/lib/roar_wire/{p.name}": p for p in sorted(PORTABLE.glob("*.py"))}
 
 
-def board_files(board: str, standins: bool = True) -> dict[str, Path]:
-    """Everything one board holds, where it holds it (the protocol and lib/ under /lib, the
-    board's own files at /), without its main.py (the suite's program runs instead), and the
-    stand-ins of the hardware modules under /lib."""
+def _library() -> dict[str, Path]:
+    """The files every board shares, as source: the protocol package and lib/, under /lib."""
     files = portable_files()
     files.update({f"/lib/{p.name}": p for p in sorted((BOARDS / "lib").glob("*.py"))})
-    files.update({f"/{p.name}": p for p in sorted((BOARDS / board).glob("*.py")) if p.name != "main.py"})
+    return files
+
+
+def _own(board: str) -> dict[str, Path]:
+    """The board's own files (main.py, config.py, its app), at /."""
+    return {f"/{p.name}": p for p in sorted((BOARDS / board).glob("*.py"))}
+
+
+def board_files(board: str, standins: bool = True) -> dict[str, Path]:
+    """Everything one board holds, where it holds it, as source, without its main.py (the
+    suite's program runs instead), and the stand-ins of the hardware modules under /lib."""
+    files = _library()
+    files.update({t: p for t, p in _own(board).items() if t != "/main.py"})
     if standins:
         files.update({f"/lib/{p.name}": p for p in sorted(STANDINS.glob("*.py"))})
     return files
@@ -64,11 +74,9 @@ def board_files(board: str, standins: bool = True) -> dict[str, Path]:
 
 def deployed_files(board: str) -> dict[str, Path]:
     """What goes on a board, where it goes: the protocol and lib/ as bytecode (.mpy) under /lib,
-    the board's own files (main.py, config.py, its app) as source at /, for students to read."""
-    files = {f"/lib/roar_wire/{p.name}": p for p in sorted(PORTABLE.glob("*.py"))}
-    files.update({f"/lib/{p.name}": p for p in sorted((BOARDS / "lib").glob("*.py"))})
-    files = {target[:-3] + ".mpy": source for target, source in files.items()}
-    files.update({f"/{p.name}": p for p in sorted((BOARDS / board).glob("*.py"))})
+    the board's own files as source at /, for students to read."""
+    files = {target[:-3] + ".mpy": source for target, source in _library().items()}
+    files.update(_own(board))
     return files
 
 
