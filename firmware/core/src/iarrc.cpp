@@ -6,12 +6,6 @@ namespace {
 // (previous AB, new AB) -> +1, -1, 0 (no change) or 2 (both lines changed: an edge was missed).
 constexpr int8_t kQuadrature[16] = {0, -1, +1, 2, +1, 0, 2, -1, -1, 2, 0, +1, 2, +1, -1, 0};
 
-uint16_t clamp_pulse(int32_t us) {
-  return static_cast<uint16_t>(us < proto::kControlMinUs ? proto::kControlMinUs
-                               : us > proto::kControlMaxUs ? proto::kControlMaxUs
-                                                           : us);
-}
-
 }  // namespace
 
 void QuadratureDecoder::update(bool a, bool b) {
@@ -186,14 +180,15 @@ IarrcOutputs IarrcController::control(Micros now_us, uint32_t frames_started) {
   uint16_t throttle = proto::kControlNeutralUs, steering = proto::kControlNeutralUs;
   if (mode_ == IarrcMode::Manual) {
     const SbusFrame& f = sbus_.frame();
-    throttle = clamp_pulse(sbus_raw_to_us(f.raw[config_.throttle_channel]));
-    steering = clamp_pulse(sbus_raw_to_us(f.raw[config_.steering_channel]));
+    throttle = sbus_raw_to_us(f.raw[config_.throttle_channel]);
+    steering = sbus_raw_to_us(f.raw[config_.steering_channel]);
   } else if (mode_ == IarrcMode::Autonomous) {
-    throttle = clamp_pulse(proto::kControlNeutralUs + pid_.step(setpoint_.speed_mm_s, speed_.speed_mm_s(), dt_us));
+    // the PID reaches at most pid_max_us (500) either side of neutral: a pulse in 1000..2000
+    throttle = static_cast<uint16_t>(proto::kControlNeutralUs + pid_.step(setpoint_.speed_mm_s, speed_.speed_mm_s(), dt_us));
     steering = setpoint_.steering_us;
   }
   throttle = brake_.step(throttle, now_us, frames_started);
-  return IarrcOutputs{throttle, steering, mode_, failsafe_};
+  return IarrcOutputs{map_pulse(throttle, config_.throttle), map_pulse(steering, config_.steering), mode_, failsafe_};
 }
 
 const char* iarrc_mode_name(IarrcMode mode) {

@@ -23,6 +23,7 @@
 #include "roar/control_parser.h"
 #include "roar/protocol.h"
 #include "roar/sbus.h"
+#include "roar/servo_output.h"
 
 namespace roar {
 
@@ -131,6 +132,8 @@ struct IarrcConfig {
   int32_t pid_max_us = 500;  // [us] the PID's reach either side of neutral
   BatteryConfig battery;
   BrakeConfig brake;
+  ChannelCalibration throttle;  // trim and end-points of the outputs, as on every car
+  ChannelCalibration steering;
 };
 
 struct IarrcOutputs {
