@@ -20,6 +20,7 @@ import threading
 from dataclasses import dataclass
 
 from roar.protocol import spec
+from roar.transports.http_junior import host_port
 from roar_sim.junior_camera import RENDER_WORKERS, Camera, CameraError
 from roar_sim.junior_sim import JuniorConfig, JuniorSim
 from roar_sim.track import Track
@@ -187,10 +188,10 @@ def _response(status: str, content_type: str, body: bytes, extra: list[str] | No
 
 
 def parse_address(text: str) -> tuple[str, int]:
-    host, sep, port = text.rpartition(":")
-    if not sep or not host or not port.isdigit() or not 0 <= int(port) <= 65535:
+    address = host_port(text)
+    if address is None:
         raise ValueError(f"--http takes HOST:PORT, e.g. 127.0.0.1:8081, got {text!r}")
-    return host, int(port)
+    return address
 
 
 async def serve(track: Track | None, host: str, port: int, seconds: float, gui: bool,

@@ -21,21 +21,26 @@ class ControlError(ValueError):
     """A control value or message that the protocol does not allow. str() is one line."""
 
 
+def _plain_ints(obj, names: tuple[str, ...]) -> None:
+    """Make integer fields of a frozen dataclass plain ints (numpy integers too; not bools)."""
+    for name in names:
+        value = getattr(obj, name)
+        if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+            object.__setattr__(obj, name, int(value))
+
+
 @dataclass(frozen=True)
 class ControlCommand:
     throttle_us: int  # [us] 1000..2000, 1500 neutral, above is forward
     steering_us: int  # [us] 1000..2000, 1500 centre, above turns right
 
     def __post_init__(self) -> None:
-        for name in ("throttle_us", "steering_us"):
-            value = getattr(self, name)
-            if isinstance(value, numbers.Integral) and not isinstance(value, bool):
-                value = int(value)  # numpy integers too
-                object.__setattr__(self, name, value)
-            try:
-                wire.check_pulse(name, value)
-            except ValueError as e:
-                raise ControlError(str(e)) from None
+        _plain_ints(self, ("throttle_us", "steering_us"))
+        try:
+            wire.check_pulse("throttle_us", self.throttle_us)
+            wire.check_pulse("steering_us", self.steering_us)
+        except ValueError as e:
+            raise ControlError(str(e)) from None
 
     def encode(self) -> bytes:
         return wire.encode(self.throttle_us, self.steering_us)
@@ -52,10 +57,7 @@ class Setpoint:
     steering_us: int  # [us] 1000..2000
 
     def __post_init__(self) -> None:
-        for name in ("speed_mm_s", "steering_us"):
-            value = getattr(self, name)
-            if isinstance(value, numbers.Integral) and not isinstance(value, bool):
-                object.__setattr__(self, name, int(value))
+        _plain_ints(self, ("speed_mm_s", "steering_us"))
         try:
             wire.check_speed(self.speed_mm_s)
             wire.check_pulse("steering_us", self.steering_us)

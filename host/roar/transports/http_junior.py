@@ -27,6 +27,14 @@ from roar.transports.base import LinkLost, Transport, TransportError, pop_option
 HALF_RANGE_US = (spec.CONTROL_MAX_US - spec.CONTROL_MIN_US) / 2  # [us]
 
 
+def host_port(text: str) -> tuple[str, int] | None:
+    """("host", port 0..65535) of "HOST:PORT", or None when it is not that."""
+    host, sep, port = text.rpartition(":")
+    if not sep or not host or not port.isdigit() or int(port) > 65535:
+        return None
+    return host, int(port)
+
+
 class HttpTransport(Transport):
     scheme = "http"
     min_period_s = 0.005  # [s] one request and its reply on a good Wi-Fi link
@@ -42,17 +50,18 @@ class HttpTransport(Transport):
 
     @classmethod
     def from_url(cls, target: str, options: dict[str, str]) -> HttpTransport:
-        host, sep, port = target.strip("/").rpartition(":")
-        if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
+        address = host_port(target.strip("/"))
+        if address is None or address[1] == 0:
             raise TransportError(f"http:// needs HOST:PORT, e.g. http://192.168.4.1:81, got {target!r}")
+        host, port = address
         mixing = pop_option(options, "mixing", str, "original")
         if mixing not in MIXES:
             raise TransportError(f"mixing must be one of {', '.join(MIXES)}, got {mixing!r}")
-        camera = pop_option(options, "camera", int, int(port) - 1)
+        camera = pop_option(options, "camera", int, port - 1)
         timeout = pop_option(options, "timeout", float, 2.0)
         if not 0 < timeout <= 30:
             raise TransportError(f"timeout must be 0..30 s, got {timeout:g}")
-        return cls(host, int(port), mixing, camera, timeout)
+        return cls(host, port, mixing, camera, timeout)
 
     def open(self) -> None:
         self._conn = http.client.HTTPConnection(self.host, self.port, timeout=self.timeout_s)
