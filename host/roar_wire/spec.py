@@ -81,6 +81,14 @@ SBUS_GUARD_CHANNELS = 4  # A frame with any of its first this-many channels at r
 SBUS_FRAME_GAP_US = 2000  # [us] A pause this long between bytes starts a new frame (frames are 3 ms long, at least 7 ms apart)
 SBUS_LOCK_FRAMES = 3  # [frames] Good frames in a row needed before the receiver's channels are used
 
+# [telemetry]
+TELEMETRY_REPLY = 'TEL'  # First word of a telemetry line
+TELEMETRY_FIELDS = 'mode failsafe battery_mv distance_mm speed_mm_s setpoint_mm_s throttle_us steering_us yaw_rate_mdeg_s kp_pm ki_pm kd_pm ff_pm overruns'  # The fields after TEL, in order: mode (boot, disarmed, manual, autonomous, failsafe, emergency), failsafe (none, rc_lost, host_silent, battery), battery [mV], distance driven [mm] (signed), speed [mm/s], speed setpoint [mm/s], outputs [us], yaw rate [mdeg/s], PID gains [per mille], task overruns since boot
+TELEMETRY_SET_GAINS = 'PID'  # Command word: PID KP KI KD FF sets the speed controller's gains (each 0..100000)
+TELEMETRY_MAX_GAIN_PM = 100000  # [permille] Largest gain a PID command may set
+TELEMETRY_PERIOD_US = 100000  # [us] Telemetry line period (10 Hz)
+TELEMETRY_MAX_LINE_BYTES = 128  # [bytes] Longest telemetry line or command including the line end
+
 # [l298n]
 L298N_DEAD_TIME_US = 5000  # [us] Zero duty with both direction pins low on each side's direction reversal
 L298N_PWM_FREQUENCY_HZ = 30000  # [Hz] Enable-pin PWM frequency

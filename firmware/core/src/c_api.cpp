@@ -10,6 +10,7 @@
 #include "roar/junior_control.h"
 #include "roar/l298n_mixer.h"
 #include "roar/iarrc.h"
+#include "roar/iarrc_board.h"
 #include "roar/sbus.h"
 
 using namespace roar;
@@ -334,6 +335,66 @@ To copy_frame(const From& f) {
 }
 SbusFrame from_c(const roar_sbus_frame_t& f) { return copy_frame<roar_sbus_frame_t, SbusFrame>(f); }
 roar_sbus_frame_t to_c(const SbusFrame& f) { return copy_frame<SbusFrame, roar_sbus_frame_t>(f); }
+
+void iarrc_status(const IarrcController& c, const IarrcOutputs& o, Micros now_us, roar_iarrc_status_t* out) {
+  *out = roar_iarrc_status_t{};
+  out->throttle_us = o.throttle_us;
+  out->steering_us = o.steering_us;
+  out->mode = static_cast<uint8_t>(o.mode);
+  out->failsafe = static_cast<uint8_t>(o.failsafe);
+  out->rc_present = c.rc_present(now_us);
+  out->mode_switch = static_cast<uint8_t>(c.mode_switch());
+  out->speed_mm_s = c.speed().speed_mm_s();
+  out->setpoint_mm_s = c.setpoint().speed_mm_s;
+  out->distance_mm = c.speed().distance_mm();
+  out->battery_mv = c.battery_monitor().millivolts();
+  out->battery_low = c.battery_monitor().low();
+  out->battery_cutoff = c.battery_monitor().cutoff();
+  out->pid_integral_mm = c.pid().integral_mm();
+}
+
+void append_to(char* buf, uint16_t* len, const char* text, size_t n) {
+  if (*len + n > ROAR_IARRC_TX_BYTES) return;  // a full UART drops the line
+  for (size_t i = 0; i < n; ++i) buf[(*len)++] = text[i];
+}
+
+// The HAL of roar_iarrc_hal_t: every call reads or writes the caller's memory; the scheduler
+// runs one task body at a time, so the lock has nothing to do.
+class IarrcMemoryHal : public IarrcHal {
+ public:
+  explicit IarrcMemoryHal(roar_iarrc_hal_t* m) : m_(m) {}
+  RawMicros now_us() override { return m_->now_us; }
+  bool read_sbus(uint8_t* byte, RawMicros* at_us) override {
+    if (m_->sbus_pos >= m_->sbus_len) return false;
+    *at_us = m_->sbus_at_us[m_->sbus_pos];
+    *byte = m_->sbus[m_->sbus_pos++];
+    return true;
+  }
+  int read_host() override { return m_->host_pos < m_->host_len ? m_->host_rx[m_->host_pos++] : -1; }
+  int read_link() override { return m_->link_pos < m_->link_len ? m_->link_rx[m_->link_pos++] : -1; }
+  void write_host(const char* text, size_t n) override { append_to(m_->host_tx, &m_->host_tx_len, text, n); }
+  void write_link(const char* text, size_t n) override { append_to(m_->link_tx, &m_->link_tx_len, text, n); }
+  int32_t encoder_count() override { return m_->encoder_count; }
+  uint16_t battery_adc() override { return m_->battery_adc; }
+  int16_t gyro_z_raw() override { return m_->gyro_z_raw; }
+  uint32_t frames_started() override { return m_->frames_started; }
+  void write_pulses(uint16_t throttle_us, uint16_t steering_us) override {
+    m_->throttle_us = throttle_us;
+    m_->steering_us = steering_us;
+  }
+  void feed_watchdog() override { ++m_->watchdog_feeds; }
+  void lock() override {}
+  void unlock() override {}
+
+ private:
+  roar_iarrc_hal_t* m_;
+};
+
+struct IarrcBoardWithHal {
+  IarrcBoardWithHal(roar_iarrc_hal_t* memory, const IarrcConfig& config) : hal(memory), board(hal, config) {}
+  IarrcMemoryHal hal;
+  IarrcBoard board;
+};
 }  // namespace
 
 extern "C" {
@@ -380,21 +441,34 @@ void roar_iarrc_encoder(void* controller, int32_t count, uint64_t now_us) {
 void roar_iarrc_battery(void* controller, uint16_t adc_counts) { as<IarrcController>(controller)->battery(adc_counts); }
 void roar_iarrc_control(void* controller, uint64_t now_us, uint32_t frames_started, roar_iarrc_status_t* out) {
   IarrcController* c = as<IarrcController>(controller);
-  const IarrcOutputs o = c->control(now_us, frames_started);
-  *out = roar_iarrc_status_t{};
-  out->throttle_us = o.throttle_us;
-  out->steering_us = o.steering_us;
-  out->mode = static_cast<uint8_t>(o.mode);
-  out->failsafe = static_cast<uint8_t>(o.failsafe);
-  out->rc_present = c->rc_present(now_us);
-  out->mode_switch = static_cast<uint8_t>(c->mode_switch());
-  out->speed_mm_s = c->speed().speed_mm_s();
-  out->setpoint_mm_s = c->setpoint().speed_mm_s;
-  out->distance_mm = c->speed().distance_mm();
-  out->battery_mv = c->battery_monitor().millivolts();
-  out->battery_low = c->battery_monitor().low();
-  out->battery_cutoff = c->battery_monitor().cutoff();
-  out->pid_integral_mm = c->pid().integral_mm();
+  iarrc_status(*c, c->control(now_us, frames_started), now_us, out);
 }
+
+uint8_t roar_iarrc_task_count(void) { return kIarrcTaskCount; }
+void roar_iarrc_task(uint8_t index, roar_task_spec_t* out) {
+  const TaskSpec& t = kIarrcTasks[index < kIarrcTaskCount ? index : 0];
+  *out = roar_task_spec_t{t.name, t.period_us, t.priority, 0, t.stack_words, t.cost_us};
+}
+size_t roar_iarrc_board_size(void) { return sizeof(IarrcBoardWithHal); }
+void roar_iarrc_board_init(void* board, roar_iarrc_hal_t* hal, uint32_t counts_per_m) {
+  IarrcConfig config;
+  if (counts_per_m > 0) config.counts_per_m = counts_per_m;
+  new (board) IarrcBoardWithHal(hal, config);
+}
+void roar_iarrc_board_begin(void* board) { as<IarrcBoardWithHal>(board)->board.begin(); }
+void roar_iarrc_board_run(void* board, uint8_t task) {
+  if (task < kIarrcTaskCount) as<IarrcBoardWithHal>(board)->board.run(static_cast<IarrcTask>(task));
+}
+void roar_iarrc_board_overran(void* board, uint8_t task, uint32_t missed) {
+  if (task < kIarrcTaskCount) as<IarrcBoardWithHal>(board)->board.overran(static_cast<IarrcTask>(task), missed);
+}
+void roar_iarrc_board_set_pid(void* board, int32_t kp_pm, int32_t ki_pm, int32_t kd_pm, int32_t ff_pm) {
+  as<IarrcBoardWithHal>(board)->board.controller().pid().set_gains(PidGains{kp_pm, ki_pm, kd_pm, ff_pm});
+}
+void roar_iarrc_board_status(const void* board, roar_iarrc_status_t* out) {
+  const IarrcBoard& b = as<IarrcBoardWithHal>(board)->board;
+  iarrc_status(b.controller(), b.outputs(), b.time(), out);
+}
+uint32_t roar_iarrc_board_overruns(const void* board) { return as<IarrcBoardWithHal>(board)->board.overruns(); }
 
 }  // extern "C"

@@ -22,6 +22,12 @@ bool append_uint(char* buf, size_t cap, size_t* len, uint32_t value) {
   return append(buf, cap, len, digits + n);
 }
 
+bool append_int(char* buf, size_t cap, size_t* len, int32_t value) {
+  if (value >= 0) return append_uint(buf, cap, len, static_cast<uint32_t>(value));
+  // -2147483648 has no positive int32_t: negate in unsigned arithmetic
+  return append(buf, cap, len, "-") && append_uint(buf, cap, len, 0u - static_cast<uint32_t>(value));
+}
+
 bool equals(const char* text, size_t length, const char* word) {
   size_t i = 0;
   for (; i < length; ++i) {

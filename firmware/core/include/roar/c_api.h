@@ -16,7 +16,7 @@
 extern "C" {
 #endif
 
-#define ROAR_CORE_ABI_VERSION 4
+#define ROAR_CORE_ABI_VERSION 5
 
 uint32_t roar_core_abi_version(void);
 uint32_t roar_protocol_version(void);
@@ -234,6 +234,54 @@ uint8_t roar_iarrc_host_byte(void* controller, uint8_t byte, uint64_t now_us); /
 void roar_iarrc_encoder(void* controller, int32_t count, uint64_t now_us);
 void roar_iarrc_battery(void* controller, uint16_t adc_counts);
 void roar_iarrc_control(void* controller, uint64_t now_us, uint32_t frames_started, roar_iarrc_status_t* out);
+
+/* --- the IARRC car's tasks (IarrcBoard) on a HAL of plain memory ---------------------------
+ * The caller is the scheduler: it fills the inputs and calls roar_iarrc_board_run for each
+ * release of a task. Received bytes wait in rx buffers (*_len bytes, *_pos of them read);
+ * written lines are appended to the tx buffers (the caller empties them; what does not fit is
+ * dropped, as on a full UART). */
+#define ROAR_IARRC_SBUS_BYTES 128
+#define ROAR_IARRC_RX_BYTES 256
+#define ROAR_IARRC_TX_BYTES 512
+
+typedef struct {
+  const char* name;
+  uint32_t period_us;   /* [us] */
+  uint8_t priority;     /* higher pre-empts lower */
+  uint8_t reserved;
+  uint16_t stack_words; /* [32-bit words] */
+  uint32_t cost_us;     /* [us] declared worst case on the STM32F745 */
+} roar_task_spec_t;
+
+typedef struct {
+  uint32_t now_us;          /* in: [us] the board's free-running 32-bit counter */
+  uint32_t frames_started;  /* in: output frames begun */
+  int32_t encoder_count;    /* in: wheel encoder (x4, signed) */
+  uint16_t battery_adc;     /* in: [ADC counts] */
+  int16_t gyro_z_raw;       /* in: MPU6000 GYRO_ZOUT, +-2000 deg/s full scale */
+  uint16_t throttle_us, steering_us; /* out: [us] pulses last written */
+  uint32_t watchdog_feeds;  /* out */
+  uint16_t sbus_len, sbus_pos, host_len, host_pos, link_len, link_pos; /* in/out */
+  uint16_t host_tx_len, link_tx_len; /* out */
+  uint32_t sbus_at_us[ROAR_IARRC_SBUS_BYTES]; /* in: now_us when each SBUS byte arrived */
+  uint8_t sbus[ROAR_IARRC_SBUS_BYTES];        /* in: received SBUS bytes */
+  uint8_t host_rx[ROAR_IARRC_RX_BYTES];       /* in: bytes from the vision computer */
+  uint8_t link_rx[ROAR_IARRC_RX_BYTES];       /* in: bytes from the Bluetooth module */
+  char host_tx[ROAR_IARRC_TX_BYTES];          /* out: lines to the vision computer */
+  char link_tx[ROAR_IARRC_TX_BYTES];          /* out: lines to the Bluetooth module */
+} roar_iarrc_hal_t;
+
+uint8_t roar_iarrc_task_count(void);
+void roar_iarrc_task(uint8_t index, roar_task_spec_t* out);
+size_t roar_iarrc_board_size(void);
+/* counts_per_m: the wheel encoder's counts per metre (0 = the default, a 66 mm wheel). */
+void roar_iarrc_board_init(void* board, roar_iarrc_hal_t* hal, uint32_t counts_per_m);
+void roar_iarrc_board_begin(void* board);             /* READY 2 on the host port */
+void roar_iarrc_board_run(void* board, uint8_t task); /* one release of a task */
+void roar_iarrc_board_overran(void* board, uint8_t task, uint32_t missed);
+void roar_iarrc_board_set_pid(void* board, int32_t kp_pm, int32_t ki_pm, int32_t kd_pm, int32_t ff_pm);
+void roar_iarrc_board_status(const void* board, roar_iarrc_status_t* out);
+uint32_t roar_iarrc_board_overruns(const void* board);
 
 #ifdef __cplusplus
 }

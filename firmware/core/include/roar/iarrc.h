@@ -168,6 +168,7 @@ class IarrcController {
   const BatteryMonitor& battery_monitor() const { return battery_; }
   const SbusDecoder& sbus() const { return sbus_; }
   SpeedPid& pid() { return pid_; }
+  const SpeedPid& pid() const { return pid_; }
   const Setpoint& setpoint() const { return setpoint_; }
 
  private:

@@ -73,6 +73,14 @@ static constexpr uint16_t kSbusGuardChannels = 4u;  // A frame with any of its f
 static constexpr uint16_t kSbusFrameGapUs = 2000u;  // [us] A pause this long between bytes starts a new frame (frames are 3 ms long, at least 7 ms apart)
 static constexpr uint16_t kSbusLockFrames = 3u;  // [frames] Good frames in a row needed before the receiver's channels are used
 
+// [telemetry]
+static constexpr char kTelemetryReply[] = "TEL";  // First word of a telemetry line
+static constexpr char kTelemetryFields[] = "mode failsafe battery_mv distance_mm speed_mm_s setpoint_mm_s throttle_us steering_us yaw_rate_mdeg_s kp_pm ki_pm kd_pm ff_pm overruns";  // The fields after TEL, in order: mode (boot, disarmed, manual, autonomous, failsafe, emergency), failsafe (none, rc_lost, host_silent, battery), battery [mV], distance driven [mm] (signed), speed [mm/s], speed setpoint [mm/s], outputs [us], yaw rate [mdeg/s], PID gains [per mille], task overruns since boot
+static constexpr char kTelemetrySetGains[] = "PID";  // Command word: PID KP KI KD FF sets the speed controller's gains (each 0..100000)
+static constexpr uint32_t kTelemetryMaxGainPm = 100000ul;  // [permille] Largest gain a PID command may set
+static constexpr uint32_t kTelemetryPeriodUs = 100000ul;  // [us] Telemetry line period (10 Hz)
+static constexpr uint16_t kTelemetryMaxLineBytes = 128u;  // [bytes] Longest telemetry line or command including the line end
+
 // [l298n]
 static constexpr uint16_t kL298nDeadTimeUs = 5000u;  // [us] Zero duty with both direction pins low on each side's direction reversal
 static constexpr uint16_t kL298nPwmFrequencyHz = 30000u;  // [Hz] Enable-pin PWM frequency

@@ -9,6 +9,7 @@ namespace roar {
 
 bool append(char* buf, size_t cap, size_t* len, const char* text);
 bool append_uint(char* buf, size_t cap, size_t* len, uint32_t value);  // decimal
+bool append_int(char* buf, size_t cap, size_t* len, int32_t value);    // decimal, '-' when negative
 
 // True when text[0..length) is exactly the NUL-terminated word.
 bool equals(const char* text, size_t length, const char* word);
