@@ -197,6 +197,10 @@ def test_the_encoder_gives_speed_and_distance():
         w.c.encoder(counts_per_m * i // 1000, w.t + i * 1000)
     st = w.c.control(w.t + 100_000)
     assert 980 <= st["speed_mm_s"] <= 1020 and 95 <= st["distance_mm"] <= 101
+    for i in range(101, 201):  # then 2 m/s: the estimate follows (its window slides)
+        w.c.encoder(counts_per_m * (100 + 2 * (i - 100)) // 1000, w.t + i * 1000)
+    st = w.c.control(w.t + 200_000)
+    assert 1980 <= st["speed_mm_s"] <= 2020 and 295 <= st["distance_mm"] <= 301
 
 
 def test_the_pid_does_not_wind_up_while_saturated():

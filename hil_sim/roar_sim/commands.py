@@ -1,6 +1,7 @@
 """The simulator's `roar` commands, registered through the "roar.commands" entry point group
-(pyproject.toml): `roar race` and `roar sim`. Each parses its own arguments; the simulator
-itself is imported only when a command runs."""
+(pyproject.toml): `roar race`, `roar sim` and `roar step-response` (the IARRC car's speed
+controller). Each parses its own arguments; the simulator itself is imported only when a command
+runs."""
 
 from __future__ import annotations
 
@@ -61,3 +62,13 @@ sim = Command("run a simulated car: a race, a serial port (--serial), or the Jun
 
 if __name__ == "__main__":
     sys.exit(_sim(sys.argv[1:]))
+
+
+def _step_response(argv: list[str]) -> int:
+    from roar_sim.step_response import main
+
+    return main(argv)
+
+
+step_response = Command("the simulated IARRC car's speed PID answering a step, plotted (`roar step-response --help`)",
+                        _step_response)

@@ -9,6 +9,7 @@ wrapping 32-bit counter a board's hardware has.
 
 from __future__ import annotations
 
+import bisect
 import os
 import re
 from dataclasses import dataclass, field
@@ -355,11 +356,13 @@ class _Rx:
         self.times: list[int] = []
         self._data, self._len, self._pos, self._times = data, length, pos, times
 
-    def load(self, hal) -> None:
+    def load(self, hal, now_us: int) -> None:
+        """Into the HAL: the bytes that have arrived by now_us, as many as fit."""
         n = min(len(self.pending), len(self._data))
-        self._data[0:n] = bytes(self.pending[:n])
         if self._times is not None:
-            self._times[0:n] = self.times[:n]
+            n = bisect.bisect_right(self.times, now_us, 0, n)
+            self._times[0:n] = [t & _U32_MASK for t in self.times[:n]]
+        self._data[0:n] = bytes(self.pending[:n])
         setattr(hal, self._len, n)
         setattr(hal, self._pos, 0)
 
@@ -396,7 +399,7 @@ class IarrcBoard:
     def sbus(self, data: bytes, at_us: int, byte_us: int = 120) -> None:
         """SBUS bytes that arrive from at_us on, byte_us apart (100 kbaud, 12 bits a byte)."""
         self._sbus.pending += data
-        self._sbus.times += [(at_us + i * byte_us) & _U32_MASK for i in range(len(data))]
+        self._sbus.times += [at_us + i * byte_us for i in range(len(data))]
 
     def host(self, data: bytes) -> None:
         self._host.pending += data
@@ -426,7 +429,7 @@ class IarrcBoard:
         h.frames_started = (now_us // spec.TIMING_SERVO_FRAME_US + 1) & _U32_MASK
         rx = {0: self._sbus, 2: self._host, 4: self._link}.get(task)
         if rx is not None:
-            rx.load(h)
+            rx.load(h, now_us)
         self._lib.roar_iarrc_board_run(self._mem, task)
         if rx is not None:
             rx.consume(h)

@@ -22,8 +22,18 @@ FRONT_WHEELS = (5, 7)
 LEFT_HINGE, RIGHT_HINGE = 4, 6
 LIDAR_LINK = 8  # hokuyo_joint
 CAMERA_LINK = 9  # zed_camera_joint
-MOTOR_MAX_SPEED_RAD_S = 60.0  # [rad/s] wheel speed at full throttle (3 m/s)
-MOTOR_MAX_TORQUE_NM = 1.5  # [N m] per rear wheel
+
+
+@dataclass(frozen=True)
+class Motor:
+    """The drive motor and the tyres, as the floor feels them."""
+
+    max_speed_rad_s: float = 60.0  # [rad/s] wheel speed at full throttle (3 m/s)
+    max_torque_nm: float = 1.5  # [N m] per rear wheel
+    tyre_friction: float = 0.5  # the wheels' friction coefficient (times the floor's 1.0); racecar.urdf's
+
+
+ROAR_MOTOR = Motor()  # the ROAR car's brushed motor
 BRAKE_MAX_TORQUE_NM = 2.0  # [N m] per rear wheel at full brake
 ROLLING_DRAG_NM = 0.02  # [N m] coasting resistance per wheel
 ENCODER_COUNTS_PER_REV = 1024  # [counts]
@@ -53,8 +63,10 @@ def ackermann_angles(steer_rad: float) -> tuple[float, float]:
 class Plant:
     """The racecar in a World (DIRECT, or GUI when gui=True) with an optional track."""
 
-    def __init__(self, track: Track | None, dt_s: float = 0.005, gui: bool = False) -> None:
+    def __init__(self, track: Track | None, dt_s: float = 0.005, gui: bool = False,
+                 motor: Motor = ROAR_MOTOR) -> None:
         self.dt_s = dt_s
+        self.motor = motor
         self.world = World(track, dt_s, gui)
         self.client = c = self.world.client
         x, y, yaw = self.world.start_pose()
@@ -62,6 +74,7 @@ class Plant:
                                physicsClientId=c)
         for w in REAR_WHEELS + FRONT_WHEELS:
             pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL, targetVelocity=0, force=0, physicsClientId=c)
+            pb.changeDynamics(self.car, w, lateralFriction=motor.tyre_friction, physicsClientId=c)
         self.walls = self.world.walls
         self.time_s = 0.0
 
@@ -86,10 +99,10 @@ class Plant:
             elif drive != 0:
                 # The motor drives the wheel towards its speed for this throttle but never holds it
                 # back: a wheel already turning faster in that direction coasts (no drag brake).
-                target = drive * MOTOR_MAX_SPEED_RAD_S
+                target = drive * self.motor.max_speed_rad_s
                 spin = pb.getJointState(self.car, w, physicsClientId=c)[1]
                 coasting = spin * target > 0 and abs(spin) > abs(target)
-                torque = ROLLING_DRAG_NM if coasting else MOTOR_MAX_TORQUE_NM * abs(drive) + ROLLING_DRAG_NM
+                torque = ROLLING_DRAG_NM if coasting else self.motor.max_torque_nm * abs(drive) + ROLLING_DRAG_NM
                 pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL, targetVelocity=target, force=torque,
                                          physicsClientId=c)
             else:
@@ -110,9 +123,12 @@ class Plant:
         (vx, vy, _), (_, _, wz) = pb.getBaseVelocity(self.car, physicsClientId=c)
         yaw = pb.getEulerFromQuaternion(orn)[2]
         speed = vx * math.cos(yaw) + vy * math.sin(yaw)
-        wheel_angle = pb.getJointState(self.car, REAR_WHEELS[0], physicsClientId=c)[0]
-        counts = int(wheel_angle / (2 * math.pi) * ENCODER_COUNTS_PER_REV)
+        counts = int(self.wheel_angle() / (2 * math.pi) * ENCODER_COUNTS_PER_REV)
         return CarState(x, y, yaw, speed, wz, counts)
+
+    def wheel_angle(self) -> float:
+        """[rad] the rear-left wheel's angle since the start (where the encoder sits)."""
+        return pb.getJointState(self.car, REAR_WHEELS[0], physicsClientId=self.client)[0]
 
     def wall_contacts(self) -> int:
         """How many wall bodies the car touches right now."""

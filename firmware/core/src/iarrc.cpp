@@ -22,15 +22,20 @@ void QuadratureDecoder::update(bool a, bool b) {
 void SpeedEstimator::update(int32_t count, Micros now_us) {
   if (filled_ == 0) first_count_ = count;
   last_count_ = count;
+  // The oldest sample kept: the one this update replaces once the window is full (read before
+  // it is overwritten), the first one before that.
   const uint8_t oldest = filled_ < kWindow ? 0 : next_;
+  const int32_t old_count = counts_[oldest];
+  const Micros old_time = times_[oldest];
+  const bool have_old = filled_ > 0;
   counts_[next_] = count;
   times_[next_] = now_us;
   next_ = static_cast<uint8_t>((next_ + 1) % kWindow);
   if (filled_ < kWindow) ++filled_;
-  if (filled_ < 2) return;
-  const Micros dt = now_us - times_[oldest];
+  if (!have_old) return;
+  const Micros dt = now_us - old_time;
   if (dt == 0) return;
-  const int64_t counts = static_cast<int64_t>(count) - counts_[oldest];
+  const int64_t counts = static_cast<int64_t>(count) - old_count;
   speed_mm_s_ = static_cast<int32_t>(counts * 1000 * 1000000 / static_cast<int64_t>(counts_per_m_) /
                                      static_cast<int64_t>(dt));
 }

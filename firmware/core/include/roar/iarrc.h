@@ -128,7 +128,7 @@ struct IarrcConfig {
   uint16_t switch_low_us = 1300;   // [us] mode below this: off
   uint16_t switch_high_us = 1700;  // [us] mode above this: autonomous; stop above this: stop
   uint32_t counts_per_m = 10240u * 1000u / 207u;  // encoder counts per metre: 10,240 per turn of a 66 mm wheel (207 mm)
-  PidGains pid = {120, 350, 0, 200};
+  PidGains pid = {500, 400, 0, 110};  // tuned on the simulated IARRC car (roar step-response)
   int32_t pid_max_us = 500;  // [us] the PID's reach either side of neutral
   BatteryConfig battery;
   BrakeConfig brake;
