@@ -76,6 +76,11 @@ class SimCar(Lockstep):
     def state(self) -> CarState:
         return self.plant.state()
 
+    @property
+    def throttle_out_us(self) -> int:
+        """[us] the throttle pulse on the wire now."""
+        return self.board.wire[0]
+
     # --- time --------------------------------------------------------------------------------
 
     def _advance(self, end_us: int) -> None:

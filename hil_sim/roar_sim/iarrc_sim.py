@@ -101,6 +101,13 @@ class IarrcCar(Lockstep):
         """Bytes from the vision computer's serial port, arriving now."""
         self.board.host(data)
 
+    write = host  # the serial port, as SimCar names it
+
+    @property
+    def throttle_out_us(self) -> int:
+        """[us] the throttle pulse the control task last wrote."""
+        return self.board.pulses[0]
+
     def link(self, data: bytes) -> None:
         """Bytes from the Bluetooth serial module (PID commands)."""
         self.board.link(data)

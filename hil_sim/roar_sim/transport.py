@@ -8,7 +8,9 @@ roar-platform[sim].
     sim:///home/me/track.json     a track file (hil_sim/README.md)
 
 Options: speedup=2 (simulated seconds per wall second, up to 4), gui=1 (PyBullet window),
-trace=drive.csv (t, x, y, yaw, speed every 20 ms), plot=drive.png (the driven path).
+trace=drive.csv (t, x, y, yaw, speed every 20 ms), plot=drive.png (the driven path),
+car=iarrc (the IARRC car: speed setpoints, telemetry; its transmitter's mode switch goes to
+autonomous when the first setpoint arrives).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import queue
 import threading
 from pathlib import Path
 
+from roar.protocol import spec
 from roar.telemetry import VehicleState
 from roar.transports.base import LinkLost, Transport, TransportError, pop_option
 from roar.user_files import unwritable
@@ -29,6 +32,8 @@ def missing_simulator(error: ImportError) -> str:
     return f"the simulator needs {error.name or 'its dependencies'}: pip install 'roar-platform[sim]'"
 
 
+CARS = ("esc", "iarrc")  # the ROAR ESC car (default), the IARRC car
+IARRC_LOCK_S = 0.1  # [s] the IARRC car's receiver locks with the mode switch at off, then it goes to autonomous
 MAX_SPEEDUP = 4.0  # the host sends at 50 Hz wall time: at 4x the car still hears from it every 80 ms
 CHUNK_S = 0.002  # [s] simulated time per pump step
 TRACE_PERIOD_S = 0.02  # [s]
@@ -40,8 +45,8 @@ class SimTransport(Transport):
     replies = True
 
     def __init__(self, track: str = "", speedup: float = 1.0, gui: bool = False,
-                 trace: Path | None = None, plot: Path | None = None) -> None:
-        self.track_name, self.speedup, self.gui = track, speedup, gui
+                 trace: Path | None = None, plot: Path | None = None, car: str = "esc") -> None:
+        self.track_name, self.speedup, self.gui, self.car = track, speedup, gui, car
         self.trace_path, self.plot_path = trace, plot
         self.sim = None  # roar_sim.harness.SimCar once open
         self.trace: list[tuple[float, float, float, float, float]] = []  # (t, x, y, yaw, speed)
@@ -64,19 +69,28 @@ class SimTransport(Transport):
             problem = path is not None and check(path)
             if problem:  # checked now, not when the drive is over
                 raise TransportError(f"{name} {problem}")
+        car = pop_option(options, "car", str, "esc")
+        if car not in CARS:
+            raise TransportError(f"car must be one of {', '.join(CARS)}, got {car!r}")
         return cls(target.strip("/") if not target.endswith(".json") else target, speedup,
-                   pop_option(options, "gui", bool, False), trace, plot)
+                   pop_option(options, "gui", bool, False), trace, plot, car)
 
     def open(self) -> None:
         try:
             from roar_sim.firmware_core import CoreLoadError
             from roar_sim.harness import SimCar, SimConfig, SimError
+            from roar_sim.iarrc_sim import IarrcCar, IarrcSimConfig
             from roar_sim.track import TrackError, get
         except ImportError as e:
             raise TransportError(missing_simulator(e)) from None
         try:
             track = get(self.track_name) if self.track_name else None
-            self.sim = SimCar(track, SimConfig(realtime=True, speedup=self.speedup, gui=self.gui))
+            if self.car == "iarrc":
+                self.sim = IarrcCar(track, IarrcSimConfig(gui=self.gui))
+                self.sim.run(IARRC_LOCK_S)  # (before the pace is kept: no waiting)
+                self.sim.config.realtime, self.sim.config.speedup = True, self.speedup
+            else:
+                self.sim = SimCar(track, SimConfig(realtime=True, speedup=self.speedup, gui=self.gui))
         except (TrackError, CoreLoadError, SimError) as e:
             raise TransportError(str(e)) from None
         self._running.set()
@@ -89,12 +103,16 @@ class SimTransport(Transport):
         try:
             while self._running.is_set():
                 while self._inbox:
-                    sim.write(self._inbox.popleft())
+                    data = self._inbox.popleft()
+                    sim.write(data)
+                    if self.car == "iarrc" and sim.transmitter.mode == "off" and spec.SETPOINT_START_CHAR.encode() in data:
+                        # The person at the transmitter flips to autonomous once the computer sends setpoints.
+                        sim.transmitter.mode = "autonomous"
                 sim.run(CHUNK_S)
                 self._outbox.extend(sim.read())
                 s = sim.state()
                 self._state = VehicleState(sim.time_s, s.x, s.y, s.yaw, s.speed, s.yaw_rate, s.encoder_counts,
-                                           float(sim.board.wire[0]))
+                                           float(sim.throttle_out_us))
                 if sim.time_s >= next_trace:
                     self.trace.append((sim.time_s, s.x, s.y, s.yaw, s.speed))
                     next_trace += TRACE_PERIOD_S

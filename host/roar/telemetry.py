@@ -14,6 +14,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from enum import Enum
 
@@ -59,6 +60,31 @@ class VehicleState:
     wheel_encoder_counts: int | None = None  # rear wheel encoder, signed
     throttle_out_us: float | None = None  # [us] the throttle pulse the car outputs now
     range_m: float | None = None  # [m] the ultrasonic range ahead (a Junior); inf: no echo within 4 m
+    battery_v: float | None = None  # [V] (a car that sends telemetry lines: the IARRC car)
+    distance_m: float | None = None  # [m] driven since the car booted, by its wheel encoder, signed
+    mode: str | None = None  # the controller's mode: disarmed, manual, autonomous, failsafe, emergency
+    failsafe: str | None = None  # why it failed safe: none, rc_lost, host_silent, battery
+    setpoint_m_s: float | None = None  # [m/s] the speed the car is holding (autonomous)
+
+
+def parse_telemetry(line: str) -> dict | None:
+    """The fields of a telemetry line ("TEL ..." in protocol/PROTOCOL.md) as VehicleState fields and
+    the PID gains, or None for any other line or a malformed one."""
+    words = line.split()
+    names = spec.TELEMETRY_FIELDS.split()
+    if len(words) != len(names) + 1 or words[0] != spec.TELEMETRY_REPLY:
+        return None
+    raw = dict(zip(names, words[1:]))
+    try:
+        numbers = {k: int(v) for k, v in raw.items() if k not in ("mode", "failsafe")}
+    except ValueError:
+        return None
+    return {"mode": raw["mode"], "failsafe": raw["failsafe"], "battery_v": numbers["battery_mv"] / 1000,
+            "distance_m": numbers["distance_mm"] / 1000, "speed_m_s": numbers["speed_mm_s"] / 1000,
+            "setpoint_m_s": numbers["setpoint_mm_s"] / 1000, "throttle_out_us": float(numbers["throttle_us"]),
+            "yaw_rate_rad_s": math.radians(numbers["yaw_rate_mdeg_s"] / 1000),
+            "pid_gains_pm": (numbers["kp_pm"], numbers["ki_pm"], numbers["kd_pm"], numbers["ff_pm"]),
+            "overruns": numbers["overruns"]}
 
 
 UNKNOWN = VehicleState()

@@ -8,6 +8,13 @@ what it does.
         print(car.state().speed_m_s)        # None where the link cannot tell
     # leaving the block sends neutral, also on exceptions and Ctrl-C
 
+A car with a speed controller (it says READY 2, or sends telemetry lines: the IARRC car,
+"sim://?car=iarrc") is driven by speed instead, and reports its battery, distance and mode:
+
+    with Vehicle("sim://?car=iarrc") as car:
+        car.drive(speed=2.0, steering=0.1)  # [m/s], steering in [-1, 1]
+        print(car.state().battery_v, car.state().distance_m, car.state().mode)
+
 Threads: drive() may be called from any thread while the program's main thread runs. When the
 main thread ends without close(), the vehicle stops sending (so the car's failsafe stops the
 car) and from then on drive() raises TransportError and `connected` is False.
@@ -16,6 +23,7 @@ car) and from then on drive() raises TransportError and `connected` is False.
 from __future__ import annotations
 
 import atexit
+import dataclasses
 import collections
 import logging
 import threading
@@ -25,15 +33,17 @@ from pathlib import Path
 from typing import Any
 
 from roar.calibration import Calibration, check_unit, load_default
-from roar.protocol import encode, spec
+from roar.protocol import encode, encode_setpoint, spec
 from roar.sender import CommandSender
-from roar.telemetry import UNKNOWN, CarEvent, EventKind, VehicleState, parse_event
+from roar.telemetry import UNKNOWN, CarEvent, EventKind, VehicleState, parse_event, parse_telemetry
 from roar.transports import Transport, TransportError, open_url
 
 log = logging.getLogger("roar")
 
 DEFAULT_PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6  # [s]
 STOP_FLUSH_TIMEOUT_S = 0.5  # [s]
+VERSION_WAIT_S = 1.0  # [s] how long drive(speed=...) waits to hear which messages the car takes
+MAX_SPEED_M_S = spec.SETPOINT_MAX_SPEED_MM_S / 1000  # [m/s]
 
 
 class Vehicle:
@@ -60,6 +70,10 @@ class Vehicle:
         self.errors = 0  # "ERR ..." replies seen
         self._events_cond = threading.Condition()
         self._throttle = self._steering = 0.0
+        self._speed = 0.0  # [m/s] on a car that drives by speed
+        self.protocol_version: int | None = None  # what the car said: READY n (2: it takes speed setpoints)
+        self._telemetry: dict = {}  # the latest telemetry line's fields
+        self._zero_speed_sent = False
         self._closed = False
         self._sender = CommandSender(self.transport, period_s, self._on_lines, reconnect)
         self._sender.start(self._message())
@@ -86,19 +100,45 @@ class Vehicle:
     def steering(self, value: float) -> None:
         self.drive(steering=value)
 
-    def drive(self, throttle: float | None = None, steering: float | None = None) -> None:
-        """Set throttle and/or steering (each in [-1, 1]); sent at once and kept fresh."""
+    def drive(self, throttle: float | None = None, steering: float | None = None, *,
+              speed: float | None = None) -> None:
+        """Set throttle and/or steering (each in [-1, 1]), or on a car with a speed controller
+        speed [m/s] and/or steering; sent at once and kept fresh."""
+        if throttle is not None and speed is not None:
+            raise ValueError("give throttle or speed, not both")
         t = self._throttle if throttle is None else check_unit("throttle", throttle)
         s = self._steering if steering is None else check_unit("steering", steering)
+        v = self._speed if speed is None else _check_speed(speed)
         self._check_usable()
-        self._throttle, self._steering = t, s
+        if speed is not None and self._speed_version() != spec.META_SPEED_VERSION:
+            heard = (f"says READY {self.protocol_version}: it drives by throttle" if self.protocol_version
+                     else f"has not said which messages it takes (no READY or telemetry line in {VERSION_WAIT_S:g} s)")
+            raise ValueError(f"drive(speed=...) needs a car with a speed controller (READY "
+                             f"{spec.META_SPEED_VERSION}); this one {heard}: use drive(throttle=...)")
+        if throttle is not None and self.protocol_version == spec.META_SPEED_VERSION:
+            raise ValueError(f"this car drives by speed (it says READY {spec.META_SPEED_VERSION}): "
+                             f"use drive(speed=..., steering=...)")
+        if speed is not None and not self._zero_speed_sent:
+            # A speed car boots (or fails safe) waiting for zero speed, as an ESC car waits for
+            # neutral: put it on the wire once before the first speed.
+            self._sender.set(self._message())
+            self._zero_speed_sent = self.flush()
+        self._throttle, self._steering, self._speed = t, s, v
         self._sender.set(self._message())
         time.sleep(0)  # yield the GIL so the sender can put it on the wire now, even in a busy loop
 
+    def _speed_version(self) -> int | None:
+        """The car's protocol version, waiting up to VERSION_WAIT_S for it to tell."""
+        with self._events_cond:
+            self._events_cond.wait_for(lambda: self.protocol_version is not None, VERSION_WAIT_S)
+        return self.protocol_version
+
     def stop(self) -> None:
-        """Neutral throttle, straight steering; returns once neutral is on the wire (so it also
-        re-arms a car whose failsafe latched, even if a new command follows at once)."""
-        self.drive(0.0, 0.0)
+        """Neutral throttle (or zero speed), straight steering; returns once it is on the wire (so
+        it also re-arms a car whose failsafe latched, even if a new command follows at once)."""
+        self._check_usable()
+        self._throttle = self._steering = self._speed = 0.0
+        self._sender.set(self._message())
         self.flush()
 
     def flush(self, timeout_s: float = STOP_FLUSH_TIMEOUT_S) -> bool:
@@ -116,6 +156,8 @@ class Vehicle:
         return (self.calibration.throttle.to_us(self._throttle), self.calibration.steering.to_us(self._steering))
 
     def _message(self) -> bytes:
+        if self.protocol_version == spec.META_SPEED_VERSION:
+            return encode_setpoint(round(self._speed * 1000), self.calibration.steering.to_us(self._steering))
         return encode(*self.pulses_us())
 
     # --- link --------------------------------------------------------------------------------
@@ -143,17 +185,40 @@ class Vehicle:
         now = time.monotonic()
         for line in lines:
             self.replies.append(line)
+            telemetry = parse_telemetry(line)
+            if telemetry is not None:
+                self._telemetry = telemetry
+                self._learn_version(spec.META_SPEED_VERSION)  # only a speed-controlled car sends these
             event = parse_event(line, now)
             if event is None:
                 continue
-            if event.kind is EventKind.ERROR:
+            if event.kind is EventKind.READY and event.detail and event.detail.isdigit():
+                self._learn_version(int(event.detail))
+            if event.kind is EventKind.ERROR and event.detail == spec.SERIAL_ERROR_UNSUPPORTED \
+                    and self.protocol_version in (None, spec.META_SPEED_VERSION):
+                # Our first (THROTTLE,STEERING) reached a car that drives by speed before we
+                # knew (a user's throttle is refused here once we know): that is how it says so.
+                log.debug("the car drives by speed: %s", line)
+                self._learn_version(spec.META_SPEED_VERSION)
+            elif event.kind is EventKind.ERROR:
                 self.errors += 1
                 log.warning("the car rejected a message: %s", line)
             elif event.kind is EventKind.FAILSAFE:
-                log.warning("the car's failsafe tripped (no valid command in time); send neutral to re-arm")
+                rearm = "zero speed (stop())" if self.protocol_version == spec.META_SPEED_VERSION else "neutral"
+                log.warning("the car's failsafe tripped (no valid command in time); send %s to re-arm", rearm)
             with self._events_cond:
                 self.events.append(event)
                 self._events_cond.notify_all()
+
+    def _learn_version(self, version: int) -> None:
+        """The car said which messages it takes: from now on send those (neutral becomes zero speed)."""
+        if version == self.protocol_version:
+            return
+        with self._events_cond:
+            self.protocol_version = version
+            self._events_cond.notify_all()
+        if not self._closed:
+            self._sender.set(self._message())
 
     # --- what the car tells ---------------------------------------------------------------------
 
@@ -187,8 +252,17 @@ class Vehicle:
         return None
 
     def state(self) -> VehicleState:
-        """The car's state as the link reports it now; fields the link cannot provide are None."""
-        return self.transport.state() or UNKNOWN
+        """The car's state as the link reports it now, completed by the car's latest telemetry
+        line (battery, distance, mode, ...); fields nobody provides are None."""
+        state = self.transport.state() or UNKNOWN
+        known = {k: v for k, v in self._telemetry.items()
+                 if k in VehicleState.__dataclass_fields__ and getattr(state, k) is None}
+        return dataclasses.replace(state, **known) if known else state
+
+    @property
+    def pid_gains_pm(self) -> tuple[int, int, int, int] | None:
+        """(kp, ki, kd, ff) per mille as the car's latest telemetry line reports them, or None."""
+        return self._telemetry.get("pid_gains_pm")
 
     def lidar(self) -> Any:
         """A 2D scan, distances [m] from right to left over 270 degrees (numpy array), or None."""
@@ -208,7 +282,7 @@ class Vehicle:
         if self._closed:
             return
         self._closed = True
-        self._throttle = self._steering = 0.0
+        self._throttle = self._steering = self._speed = 0.0
         self._sender.stop(final=self._message())
         self.transport.close()
 
@@ -227,6 +301,12 @@ def _check_rate(rate_hz) -> float:
         raise ValueError(f"rate_hz must be 5..500 (the car's failsafe needs a command every "
                          f"{spec.TIMING_FAILSAFE_TIMEOUT_US / 1000:g} ms), got {rate_hz!r}")
     return float(rate_hz)
+
+
+def _check_speed(speed) -> float:
+    if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not -MAX_SPEED_M_S <= speed <= MAX_SPEED_M_S:
+        raise ValueError(f"speed must be a number of m/s in [-{MAX_SPEED_M_S:g}, {MAX_SPEED_M_S:g}], got {speed!r}")
+    return float(speed)
 
 
 def _close_at_exit(ref: weakref.ref) -> None:
