@@ -46,10 +46,15 @@ Source begin(uint32_t core_hz) {
 
 roar::RawMicros now_us() {
   if (source == Source::Timer2) return reg::at(reg::kTim2 + reg::kCnt);
+  // Tasks and the SBUS interrupt both read the clock: the extension must not be split.
+  uint32_t primask;
+  __asm__ volatile("mrs %0, primask\n cpsid i" : "=r"(primask)::"memory");
   const uint32_t c = reg::at(reg::kDwtCyccnt);
   cycles += static_cast<uint32_t>(c - last_cycles);
   last_cycles = c;
-  return static_cast<roar::RawMicros>(cycles / cycles_per_us);
+  const uint64_t now = cycles;
+  __asm__ volatile("msr primask, %0" ::"r"(primask) : "memory");
+  return static_cast<roar::RawMicros>(now / cycles_per_us);
 }
 
 }  // namespace clock_source

@@ -39,7 +39,7 @@ CROSS_TARGETS = {
     "atmega328p": ("avr-g++", ["-std=gnu++1z", "-mmcu=atmega328p", "-DF_CPU=16000000L"], "gcc-avr avr-libc"),
     "cortex-m4f": ("arm-none-eabi-g++", ["-std=c++17", "-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16",
                                          "-mfloat-abi=hard"], "gcc-arm-none-eabi libnewlib-arm-none-eabi"),
-    "cortex-m7": ("arm-none-eabi-g++", ["-std=c++17", "-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16",
+    "cortex-m7": ("arm-none-eabi-g++", ["-std=c++17", "-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-sp-d16",
                                         "-mfloat-abi=hard"], "gcc-arm-none-eabi libnewlib-arm-none-eabi"),
 }
 HOST_ONLY_SOURCES = {"c_api.cpp"}  # placement new and the C ABI exist for the host build only

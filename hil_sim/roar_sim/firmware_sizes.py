@@ -1,5 +1,6 @@
 """Flash and RAM per target, built offline: the shared core alone for each microcontroller,
-and the whole firmware where this machine can link it (classic Nano, AnyFC F7 skeleton).
+and the whole firmware where this machine can link it (classic Nano, AnyFC F7 IARRC controller
+without FreeRTOS: its SysTick task dispatcher).
 
     python -m roar_sim.firmware_sizes
 """
@@ -38,7 +39,7 @@ def rows() -> list[tuple[str, str, int | None, int | None, str]]:
         except CoreBuildError as e:
             result.append((chip, "core, unlinked objects", None, None, str(e)))
     for chip, what, build, tool in (("ATmega328P (Nano)", "whole firmware", avr_build.build, "avr-size"),
-                                    ("STM32F745 (AnyFC F7)", "skeleton firmware", arm_build.build,
+                                    ("STM32F745 (AnyFC F7)", "IARRC controller (SysTick build)", arm_build.build,
                                      "arm-none-eabi-size")):
         try:
             flash, ram = avr_build.sizes(build(), tool)

@@ -38,3 +38,97 @@ def run(elf: Path, timeout_s: float = TIMEOUT_S) -> Result:
                            "-semihosting-config", "enable=on,target=native", "-icount", "shift=0",
                            "-kernel", str(elf)], capture_output=True, text=True, timeout=timeout_s)
     return Result(proc.returncode, proc.stderr.splitlines())
+
+
+class EmulatedIarrc:
+    """The AnyFC F7's IARRC controller (arm_build.build_iarrc_emulated()) running in QEMU, its
+    USARTs on Unix sockets: USART1 the vision computer, USART3 the Bluetooth module, USART6 the
+    SBUS receiver. QEMU waits for each socket's client at start, so nothing the board prints at
+    boot is lost. Lines it writes are collected by a reader thread per port.
+
+        with EmulatedIarrc(elf, tmp_dir) as board:
+            board.wait_line("host", lambda l: l == "READY 2")
+            board.send("sbus", frame); board.send("host", b"[1000,1500]")
+    """
+
+    PORTS = ("host", "link", "sbus")
+    _USART = {"host": 1, "link": 3, "sbus": 6}  # -serial arguments map to USART1..6 in order
+
+    def __init__(self, elf: Path, directory: Path) -> None:
+        import threading
+
+        self._paths = {name: directory / f"{name}.sock" for name in self.PORTS}
+        serial = []
+        for usart in range(1, 7):
+            name = next((n for n, u in self._USART.items() if u == usart), None)
+            serial += ["-serial", f"chardev:{name}" if name else "null"]
+        chardevs = []
+        for name, path in self._paths.items():
+            chardevs += ["-chardev", f"socket,id={name},path={path},server=on,wait=on"]
+        self.proc = subprocess.Popen([QEMU, "-M", "netduinoplus2", "-nographic", "-monitor", "none", *chardevs,
+                                      *serial, "-semihosting-config", "enable=on,target=native",
+                                      "-icount", "shift=0", "-kernel", str(elf)],
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        self._socks = {name: self._connect(path) for name, path in self._paths.items()}
+        self.lines: dict[str, list[str]] = {name: [] for name in self.PORTS}
+        self._lock = threading.Condition()
+        self._readers = [threading.Thread(target=self._read, args=(name,), daemon=True) for name in ("host", "link")]
+        for t in self._readers:
+            t.start()
+
+    def _connect(self, path: Path):
+        import socket
+        import time
+
+        deadline = time.monotonic() + TIMEOUT_S
+        while True:
+            s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+            try:
+                s.connect(str(path))
+                return s
+            except OSError:
+                s.close()
+                if time.monotonic() > deadline or self.proc.poll() is not None:
+                    raise RuntimeError(f"QEMU did not open {path.name}: {self.proc.stderr.read().decode()[-300:]}")
+                time.sleep(0.02)
+
+    def _read(self, name: str) -> None:
+        partial = b""
+        sock = self._socks[name]
+        while True:
+            try:
+                data = sock.recv(4096)
+            except OSError:
+                return
+            if not data:
+                return
+            *done, partial = (partial + data).split(b"\n")
+            with self._lock:
+                self.lines[name] += [line.decode("ascii", "replace") for line in done]
+                self._lock.notify_all()
+
+    def send(self, port: str, data: bytes) -> None:
+        self._socks[port].sendall(data)
+
+    def wait_line(self, port: str, match, timeout_s: float = 5.0, since: int = 0) -> str | None:
+        """The first line on port (from index `since`) for which match(line) is true, or None."""
+        def found():
+            return next((line for line in self.lines[port][since:] if match(line)), None)
+
+        with self._lock:
+            self._lock.wait_for(found, timeout_s)
+            return found()
+
+    def close(self) -> None:
+        for s in self._socks.values():
+            s.close()
+        if self.proc.poll() is None:
+            self.proc.kill()
+        self.proc.wait()
+        self.proc.stderr.close()
+
+    def __enter__(self) -> "EmulatedIarrc":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
