@@ -32,3 +32,18 @@ def test_the_sbus_decoder_runs_on_the_emulated_cortex_m4():
     first, second = stm32_sim.run(elf), stm32_sim.run(elf)
     assert first.returncode == 0 and first.value("frames") == "50"
     assert first.value("frame_ticks") == second.value("frame_ticks") and int(first.value("frame_ticks")) > 0
+
+
+def test_the_declared_task_costs_cover_each_task_body_on_a_cortex_m4():
+    """The task table's costs (what the scheduler tests prove deadlines with) hold: each body at
+    its worst input, counted in instructions, at one cycle each at 16 MHz plus a quarter."""
+    from roar_sim.firmware_core import iarrc_tasks
+
+    result = stm32_sim.run(arm_build.build_task_bench())
+    assert result.returncode == 0, result.lines
+    measured = stm32_sim.task_instructions(result)
+    tasks = {t.name: t for t in iarrc_tasks()}
+    assert set(measured) == set(tasks)
+    for name, instructions in measured.items():
+        assert 0 < instructions * 1.25 / 16 <= tasks[name].cost_us, (name, instructions)
+    assert measured["rc"] > measured["control"]  # 64 SBUS bytes are the heaviest run

@@ -28,6 +28,7 @@ EMULATOR = ROOT / "hil_sim" / "stm32"
 CLOCK_PROBE = ROOT / "build" / "arm" / "netduinoplus2" / "clock_probe.elf"
 SBUS_BENCH = ROOT / "build" / "arm" / "netduinoplus2" / "sbus_bench.elf"
 IARRC_EMULATED = ROOT / "build" / "arm" / "netduinoplus2" / "iarrc.elf"
+TASK_BENCH = ROOT / "build" / "arm" / "netduinoplus2" / "task_bench.elf"
 
 
 def _link(target: str, sources: list[Path], linker_script: Path, elf: Path, what: str,
@@ -67,6 +68,12 @@ def build_sbus_bench() -> Path:
     """The core's SBUS decoder timed in the emulated STM32F405 (hil_sim/stm32/sbus_bench.cpp)."""
     sources = [EMULATOR / "sbus_bench.cpp", BOARD / "startup.cpp"]
     return _link("cortex-m4f", sources, EMULATOR / "stm32f405.ld", SBUS_BENCH, "STM32F405 SBUS bench")
+
+
+def build_task_bench() -> Path:
+    """The IARRC task bodies timed in the emulated STM32F405 (hil_sim/stm32/task_bench.cpp)."""
+    sources = [EMULATOR / "task_bench.cpp", BOARD / "startup.cpp"]
+    return _link("cortex-m4f", sources, EMULATOR / "stm32f405.ld", TASK_BENCH, "STM32F405 task bench")
 
 
 FREERTOS_ELF = ROOT / "build" / "arm" / "anyfc_f7_freertos" / "roar_anyfc_f7.elf"

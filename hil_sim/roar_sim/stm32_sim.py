@@ -16,6 +16,7 @@ from pathlib import Path
 QEMU = "qemu-system-arm"
 PACKAGE = "qemu-system-arm"
 TIMEOUT_S = 30.0  # [s] wall time for one image
+CALIBRATION_INSTRUCTIONS = 2 * 100_000  # the bench images' calibration loop: 100,000 x (subs, bne)
 
 
 @dataclass(frozen=True)
@@ -38,6 +39,20 @@ def run(elf: Path, timeout_s: float = TIMEOUT_S) -> Result:
                            "-semihosting-config", "enable=on,target=native", "-icount", "shift=0",
                            "-kernel", str(elf)], capture_output=True, text=True, timeout=timeout_s)
     return Result(proc.returncode, proc.stderr.splitlines())
+
+
+def instructions(result: Result, ticks: int | str) -> float:
+    """A bench image's SysTick count (or the value of that key) in instructions, by its
+    calibration loop."""
+    ticks = int(result.value(ticks)) if isinstance(ticks, str) else ticks
+    return ticks / (int(result.value("calibration_ticks")) / CALIBRATION_INSTRUCTIONS)
+
+
+def task_instructions(result: Result) -> dict[str, float]:
+    """{task name: worst instructions} from the task bench image (arm_build.build_task_bench()),
+    whose lines read "task NAME TICKS"."""
+    rows = [line.split() for line in result.lines if line.startswith("task ")]
+    return {name: instructions(result, int(ticks)) for _, name, ticks in rows}
 
 
 class EmulatedIarrc:

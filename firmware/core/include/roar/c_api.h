@@ -250,7 +250,7 @@ typedef struct {
   uint8_t priority;     /* higher pre-empts lower */
   uint8_t reserved;
   uint16_t stack_words; /* [32-bit words] */
-  uint32_t cost_us;     /* [us] declared worst case on the STM32F745 */
+  uint32_t cost_us;     /* [us] declared worst case on the STM32F745 at 16 MHz */
 } roar_task_spec_t;
 
 typedef struct {

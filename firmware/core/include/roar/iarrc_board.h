@@ -32,7 +32,7 @@ struct TaskSpec {
   DurationUs period_us;  // [us] release period (FreeRTOS: vTaskDelayUntil)
   uint8_t priority;      // higher pre-empts lower (FreeRTOS numbering; the idle task is 0)
   uint16_t stack_words;  // [32-bit words] stack depth given to xTaskCreate
-  DurationUs cost_us;    // [us] declared worst-case execution time on the STM32F745 at 216 MHz
+  DurationUs cost_us;    // [us] declared worst-case execution time on the STM32F745 at 16 MHz
 };
 
 extern const TaskSpec kIarrcTasks[kIarrcTaskCount];
