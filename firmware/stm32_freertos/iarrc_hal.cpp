@@ -75,23 +75,21 @@ void send_next(uint32_t base, roar::SpscBytes<N>& tx) {  // the transmit interru
 
 }  // namespace
 
-extern "C" void USART1_IRQHandler() {
-  const int byte = usart_byte(reg::kUsart1);
+namespace {
+// A serial port's interrupt: a received byte into its queue, the next byte out of its ring.
+template <typename Rx, typename Tx>
+void serve(uint32_t base, Rx& rx, Tx& tx) {
+  const int byte = usart_byte(base);
   if (byte >= 0) {
     const uint8_t b = static_cast<uint8_t>(byte);
-    hal->host_rx.push_from_isr(&b, 1);
+    rx.push_from_isr(&b, 1);
   }
-  send_next(reg::kUsart1, hal->host_tx);
+  send_next(base, tx);
 }
+}  // namespace
 
-extern "C" void USART3_IRQHandler() {
-  const int byte = usart_byte(reg::kUsart3);
-  if (byte >= 0) {
-    const uint8_t b = static_cast<uint8_t>(byte);
-    hal->link_rx.push_from_isr(&b, 1);
-  }
-  send_next(reg::kUsart3, hal->link_tx);
-}
+extern "C" void USART1_IRQHandler() { serve(reg::kUsart1, hal->host_rx, hal->host_tx); }
+extern "C" void USART3_IRQHandler() { serve(reg::kUsart3, hal->link_rx, hal->link_tx); }
 
 extern "C" void USART6_IRQHandler() {
   const int byte = usart_byte(reg::kUsart6);
