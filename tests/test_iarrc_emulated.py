@@ -94,7 +94,7 @@ def test_autonomous_mode_drives_by_the_hosts_setpoints(bench):
     # The wheel does not turn in the emulator: the PID pushes the throttle up towards its limit.
     t = bench.telemetry(lambda t: t["mode"] == "autonomous" and t["throttle_out_us"] > 1800)
     assert t and t["setpoint_m_s"] == 1.0 and t["failsafe"] == "none", bench.board.lines["host"][-3:]
-    assert bench.board.wait_line("host", lambda l: "1600" in l.split()[8:9])  # steering from the setpoint
+    assert t["steering_out_us"] == 1600  # steering from the setpoint
 
 
 def test_host_silence_fails_safe_and_zero_speed_rearms(bench):

@@ -126,9 +126,14 @@ def test_telemetry_reports_battery_distance_and_state_and_takes_pid_gains():
     assert [line.split()[-5:-1] for line in link if line.startswith("TEL")][-1] == ["300", "200", "10", "100"]
 
 
-def test_a_flat_battery_cuts_the_motor():
+def test_a_low_battery_warns_and_a_flat_one_cuts_the_motor():
     car = autonomous()
     drive(car, 1000, 0.5)
+    car.battery_v = 10.2  # below the 10.5 V warning, above the cutoff
+    drive(car, 1000, 0.6)
+    fields = spec.TELEMETRY_FIELDS.split()
+    tel = [dict(zip(fields, line.split()[1:])) for line in car.read() if line.startswith(spec.TELEMETRY_REPLY)]
+    assert tel[-1]["battery_low"] == "1" and tel[-1]["mode"] == "autonomous"  # a warning: it still drives
     car.battery_v = 9.5  # below the 9.9 V cutoff
     st = drive(car, 1000, 0.7)  # the battery task runs every 0.5 s
     assert st["mode"] == "failsafe" and st["failsafe"] == "battery" and st["battery_cutoff"]

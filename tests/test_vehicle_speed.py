@@ -14,14 +14,14 @@ from roar.telemetry import parse_telemetry
 
 pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
 
-TEL = "TEL autonomous none 11850 4321 1498 1500 1712 1540 -2500 500 400 0 110 3"
+TEL = "TEL autonomous none 11850 1 4321 1498 1500 1712 1540 -2500 500 400 0 110 3"
 
 
 def test_a_telemetry_line_parses_into_state_fields():
     t = parse_telemetry(TEL)
-    assert t["mode"] == "autonomous" and t["failsafe"] == "none" and t["battery_v"] == 11.85
+    assert t["mode"] == "autonomous" and t["failsafe"] == "none" and t["battery_v"] == 11.85 and t["battery_low"]
     assert t["distance_m"] == 4.321 and t["speed_m_s"] == 1.498 and t["setpoint_m_s"] == 1.5
-    assert t["throttle_out_us"] == 1712 and t["yaw_rate_rad_s"] == pytest.approx(math.radians(-2.5))
+    assert t["throttle_out_us"] == 1712 and t["steering_out_us"] == 1540 and t["yaw_rate_rad_s"] == pytest.approx(math.radians(-2.5))
     assert t["pid_gains_pm"] == (500, 400, 0, 110) and t["overruns"] == 3
     for bad in ("TEL autonomous none 1", TEL.replace("11850", "x"), "READY 2", "", TEL + " 7"):
         assert parse_telemetry(bad) is None
@@ -35,7 +35,7 @@ def test_the_simulated_iarrc_car_drives_by_speed_and_reports_telemetry():
         time.sleep(0.5)
         s = car.state()
         assert s.mode == "autonomous" and s.failsafe == "none" and s.setpoint_m_s == 1.5
-        assert s.battery_v == pytest.approx(12.0, abs=0.02)
+        assert s.battery_v == pytest.approx(12.0, abs=0.02) and s.battery_low is False
         assert s.distance_m > 1.0 and s.x_m > 1.0  # telemetry fills what the link does not give
         assert car.pid_gains_pm == (500, 400, 0, 110)
         assert car.errors == 0

@@ -61,6 +61,7 @@ class VehicleState:
     throttle_out_us: float | None = None  # [us] the throttle pulse the car outputs now
     range_m: float | None = None  # [m] the ultrasonic range ahead (a Junior); inf: no echo within 4 m
     battery_v: float | None = None  # [V] (a car that sends telemetry lines: the IARRC car)
+    battery_low: bool | None = None  # below the car's low-voltage warning (it cuts the motor lower still)
     distance_m: float | None = None  # [m] driven since the car booted, by its wheel encoder, signed
     mode: str | None = None  # the controller's mode: disarmed, manual, autonomous, failsafe, emergency
     failsafe: str | None = None  # why it failed safe: none, rc_lost, host_silent, battery
@@ -80,8 +81,10 @@ def parse_telemetry(line: str) -> dict | None:
     except ValueError:
         return None
     return {"mode": raw["mode"], "failsafe": raw["failsafe"], "battery_v": numbers["battery_mv"] / 1000,
+            "battery_low": bool(numbers["battery_low"]),
             "distance_m": numbers["distance_mm"] / 1000, "speed_m_s": numbers["speed_mm_s"] / 1000,
             "setpoint_m_s": numbers["setpoint_mm_s"] / 1000, "throttle_out_us": float(numbers["throttle_us"]),
+            "steering_out_us": float(numbers["steering_us"]),
             "yaw_rate_rad_s": math.radians(numbers["yaw_rate_mdeg_s"] / 1000),
             "pid_gains_pm": (numbers["kp_pm"], numbers["ki_pm"], numbers["kd_pm"], numbers["ff_pm"]),
             "overruns": numbers["overruns"]}

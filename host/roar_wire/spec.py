@@ -83,7 +83,7 @@ SBUS_LOCK_FRAMES = 3  # [frames] Good frames in a row needed before the receiver
 
 # [telemetry]
 TELEMETRY_REPLY = 'TEL'  # First word of a telemetry line
-TELEMETRY_FIELDS = 'mode failsafe battery_mv distance_mm speed_mm_s setpoint_mm_s throttle_us steering_us yaw_rate_mdeg_s kp_pm ki_pm kd_pm ff_pm overruns'  # The fields after TEL, in order: mode (boot, disarmed, manual, autonomous, failsafe, emergency), failsafe (none, rc_lost, host_silent, battery), battery [mV], distance driven [mm] (signed), speed [mm/s], speed setpoint [mm/s], outputs [us], yaw rate [mdeg/s], PID gains [per mille], task overruns since boot
+TELEMETRY_FIELDS = 'mode failsafe battery_mv battery_low distance_mm speed_mm_s setpoint_mm_s throttle_us steering_us yaw_rate_mdeg_s kp_pm ki_pm kd_pm ff_pm overruns'  # The fields after TEL, in order: mode (boot, disarmed, manual, autonomous, failsafe, emergency), failsafe (none, rc_lost, host_silent, battery), battery [mV], 1 when it is below the low-voltage warning else 0, distance driven [mm] (signed), speed [mm/s], speed setpoint [mm/s], outputs [us], yaw rate [mdeg/s], PID gains [per mille], task overruns since boot
 TELEMETRY_SET_GAINS = 'PID'  # Command word: PID KP KI KD FF sets the speed controller's gains (each 0..100000)
 TELEMETRY_MAX_GAIN_PM = 100000  # [permille] Largest gain a PID command may set
 TELEMETRY_PERIOD_US = 100000  # [us] Telemetry line period (10 Hz)

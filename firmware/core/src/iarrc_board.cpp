@@ -216,6 +216,7 @@ size_t IarrcBoard::telemetry_line(char* out, size_t cap) const {
   append(out, cap, &n, " ");
   append(out, cap, &n, iarrc_failsafe_name(outputs_.failsafe));
   const int32_t numbers[] = {static_cast<int32_t>(c.battery_monitor().millivolts()),
+                             c.battery_monitor().low() ? 1 : 0,
                              distance_mm,
                              c.speed().speed_mm_s(),
                              c.setpoint().speed_mm_s,

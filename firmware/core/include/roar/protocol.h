@@ -75,7 +75,7 @@ static constexpr uint16_t kSbusLockFrames = 3u;  // [frames] Good frames in a ro
 
 // [telemetry]
 static constexpr char kTelemetryReply[] = "TEL";  // First word of a telemetry line
-static constexpr char kTelemetryFields[] = "mode failsafe battery_mv distance_mm speed_mm_s setpoint_mm_s throttle_us steering_us yaw_rate_mdeg_s kp_pm ki_pm kd_pm ff_pm overruns";  // The fields after TEL, in order: mode (boot, disarmed, manual, autonomous, failsafe, emergency), failsafe (none, rc_lost, host_silent, battery), battery [mV], distance driven [mm] (signed), speed [mm/s], speed setpoint [mm/s], outputs [us], yaw rate [mdeg/s], PID gains [per mille], task overruns since boot
+static constexpr char kTelemetryFields[] = "mode failsafe battery_mv battery_low distance_mm speed_mm_s setpoint_mm_s throttle_us steering_us yaw_rate_mdeg_s kp_pm ki_pm kd_pm ff_pm overruns";  // The fields after TEL, in order: mode (boot, disarmed, manual, autonomous, failsafe, emergency), failsafe (none, rc_lost, host_silent, battery), battery [mV], 1 when it is below the low-voltage warning else 0, distance driven [mm] (signed), speed [mm/s], speed setpoint [mm/s], outputs [us], yaw rate [mdeg/s], PID gains [per mille], task overruns since boot
 static constexpr char kTelemetrySetGains[] = "PID";  // Command word: PID KP KI KD FF sets the speed controller's gains (each 0..100000)
 static constexpr uint32_t kTelemetryMaxGainPm = 100000ul;  // [permille] Largest gain a PID command may set
 static constexpr uint32_t kTelemetryPeriodUs = 100000ul;  // [us] Telemetry line period (10 Hz)
