@@ -3,11 +3,13 @@ refused in one line on a throttle car and for bad values, and the car's telemetr
 distance, mode) through state() -- in-process (sim://?car=iarrc) and over a real pty."""
 
 import math
+import subprocess
+import sys
 import time
 
 import pytest
 
-from conftest import wait_for
+from conftest import ROOT, wait_for
 from roar import Vehicle
 from roar.protocol import spec
 from roar.telemetry import parse_telemetry
@@ -78,3 +80,24 @@ def test_over_a_serial_port_the_car_rearms_on_zero_speed_and_holds_speed():
         assert wait_for(lambda: sim.status()["setpoint_mm_s"] == 0, timeout_s=2)  # closing sent zero speed
     finally:
         pty.close()
+
+
+def test_roar_sim_serves_the_iarrc_car_on_a_pty_and_roar_send_drives_it_by_speed():
+    sim = subprocess.Popen([sys.executable, "-m", "roar.cli", "sim", "--serial", "--car", "iarrc", "--seconds", "20"],
+                           cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        first = sim.stdout.readline()
+        assert "simulated car on /dev/pts/" in first, sim.stderr.read()
+        path = first.split(" on ")[1].split()[0]
+        send = subprocess.run([sys.executable, "-m", "roar.cli", "send", f"serial://{path}", "--speed", "1.2",
+                               "--for", "3"], cwd=ROOT, capture_output=True, text=True, timeout=60)
+        assert send.returncode == 0, send.stderr
+        assert "zero speed sent; link ok" in send.stdout and "mode autonomous" in send.stdout
+        driven = float(send.stdout.split("driven ")[1].split()[0])
+        assert 1.5 < driven < 4.0  # about 1.2 m/s for 3 s, after the start
+    finally:
+        sim.kill()
+        sim.communicate()
+    bad = subprocess.run([sys.executable, "-m", "roar.cli", "sim", "--car", "iarrc"], cwd=ROOT,
+                         capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and "--car picks the car behind --serial" in bad.stderr

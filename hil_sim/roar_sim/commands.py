@@ -33,6 +33,8 @@ def _sim(argv: list[str]) -> int:
     p.add_argument("--track", default=None,
                    help="oval, figure-eight or a track .json file (default: oval; with --junior an open floor)")
     p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
+    p.add_argument("--car", choices=("esc", "iarrc"), default="esc",
+                   help="with --serial: the ROAR ESC car (default) or the IARRC car (speed setpoints, telemetry)")
     p.add_argument("--seconds", type=float, default=0.0,
                    help="with --serial or --junior: stop after this long (default: Ctrl-C)")
     p.add_argument("--laps", type=int, default=2, help="without --serial: laps to drive (default 2)")
@@ -40,6 +42,8 @@ def _sim(argv: list[str]) -> int:
     args = p.parse_args(argv)
     if args.junior and args.serial:
         p.error("--junior serves HTTP, not a serial port: give one of --junior, --serial")
+    if args.car != "esc" and not args.serial:
+        p.error("--car picks the car behind --serial; in Python use sim://?car=iarrc")
     gui = ["--gui"] if args.gui else []
     if args.junior:
         from roar_sim.junior_server import main as serve_junior
@@ -50,7 +54,7 @@ def _sim(argv: list[str]) -> int:
     if args.serial:
         from roar_sim.serial_port import main as serve
 
-        return serve(["--track", args.track, "--seconds", str(args.seconds), *gui])
+        return serve(["--track", args.track, "--seconds", str(args.seconds), "--car", args.car, *gui])
     from roar_sim.race import main as race
 
     plot = ["--plot", str(args.plot)] if args.plot else []

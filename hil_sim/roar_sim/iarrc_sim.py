@@ -35,6 +35,7 @@ IARRC_MOTOR = Motor(max_speed_rad_s=100.0, max_torque_nm=0.8, tyre_friction=1.0)
 GYRO_COUNTS_PER_DEG_S = 16.4  # MPU6000 at +-2000 deg/s
 BATTERY_UV_PER_COUNT = 8862  # [uV per ADC count] the core's default divider
 TASK_INDEX = {t.name: i for i, t in enumerate(iarrc_tasks())}
+OPERATOR_LOCK_S = 0.1  # [s] the receiver locks with the mode switch at off before the operator acts
 MODE_SWITCH_US = {"off": 1000, "manual": 1500, "autonomous": 2000}  # [us] a 3-position switch
 
 
@@ -70,6 +71,10 @@ class IarrcSimConfig:
     battery_v: float = 12.0  # [V] 3S LiPo
     task_cost: object = None  # (task index, job number) -> [us]; None: the declared costs
     clock_offset_us: int = 0  # [us] the board's counter at simulated time 0 (to test its 2^32 wrap)
+    # The person at the transmitter: after the receiver has locked with the mode switch at off,
+    # flip it to autonomous as soon as the computer sends its first setpoint (sim://?car=iarrc,
+    # roar sim --serial --car iarrc). False: the switches are the caller's (car.transmitter).
+    operator: bool = False
     realtime: bool = False
     speedup: float = 1.0
     gui: bool = False
@@ -94,12 +99,16 @@ class IarrcCar(Lockstep):
         self._link_lines: list[str] = []
         self._partial = {"host": b"", "link": b""}
         self.board.begin()
+        if self.config.operator:
+            self.run(OPERATOR_LOCK_S)
 
     # --- what the host and the user see ------------------------------------------------------
 
     def host(self, data: bytes) -> None:
         """Bytes from the vision computer's serial port, arriving now."""
         self.board.host(data)
+        if self.config.operator and self.transmitter.mode == "off" and spec.SETPOINT_START_CHAR.encode() in data:
+            self.transmitter.mode = "autonomous"
 
     write = host  # the serial port, as SimCar names it
 

@@ -1,10 +1,12 @@
 """The simulated car as a serial port: a pseudo-terminal whose other end is the firmware logic.
 
-    python -m roar_sim.serial_port [--track oval] [--seconds 0 (= until Ctrl-C)]
+    python -m roar_sim.serial_port [--track oval] [--seconds 0 (= until Ctrl-C)] [--car iarrc]
 
 prints a path such as /dev/pts/5. Anything that speaks the control message over that port (a
 pyserial script, a terminal program) drives the simulated car in real time, and reads the
 lines the firmware prints (READY, ERR <reason>, FAILSAFE, ARMED), as with a real car on USB.
+With --car iarrc it is the IARRC car: setpoints in, telemetry lines out, its transmitter's mode
+switch flipped to autonomous when the first setpoint arrives.
 """
 
 from __future__ import annotations
@@ -97,9 +99,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--track", default="oval", help="oval, figure-eight or a track .json file (default: oval)")
     parser.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: run until Ctrl-C)")
     parser.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
+    parser.add_argument("--car", choices=("esc", "iarrc"), default="esc",
+                        help="esc: the ROAR car (throttle, steering); iarrc: the IARRC car (speed setpoints)")
     args = parser.parse_args(argv)
     try:
-        car = PtyCar(SimCar(get(args.track), SimConfig(realtime=True, gui=args.gui)))
+        if args.car == "iarrc":
+            from roar_sim.iarrc_sim import IarrcCar, IarrcSimConfig
+
+            sim = IarrcCar(get(args.track), IarrcSimConfig(realtime=True, gui=args.gui, operator=True))
+        else:
+            sim = SimCar(get(args.track), SimConfig(realtime=True, gui=args.gui))
+        car = PtyCar(sim)
     except (TrackError, CoreLoadError, SimError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 1

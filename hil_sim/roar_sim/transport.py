@@ -21,7 +21,6 @@ import queue
 import threading
 from pathlib import Path
 
-from roar.protocol import spec
 from roar.telemetry import VehicleState
 from roar.transports.base import LinkLost, Transport, TransportError, pop_option
 from roar.user_files import unwritable
@@ -33,7 +32,6 @@ def missing_simulator(error: ImportError) -> str:
 
 
 CARS = ("esc", "iarrc")  # the ROAR ESC car (default), the IARRC car
-IARRC_LOCK_S = 0.1  # [s] the IARRC car's receiver locks with the mode switch at off, then it goes to autonomous
 MAX_SPEEDUP = 4.0  # the host sends at 50 Hz wall time: at 4x the car still hears from it every 80 ms
 CHUNK_S = 0.002  # [s] simulated time per pump step
 TRACE_PERIOD_S = 0.02  # [s]
@@ -86,9 +84,8 @@ class SimTransport(Transport):
         try:
             track = get(self.track_name) if self.track_name else None
             if self.car == "iarrc":
-                self.sim = IarrcCar(track, IarrcSimConfig(gui=self.gui))
-                self.sim.run(IARRC_LOCK_S)  # (before the pace is kept: no waiting)
-                self.sim.config.realtime, self.sim.config.speedup = True, self.speedup
+                self.sim = IarrcCar(track, IarrcSimConfig(gui=self.gui, realtime=True, speedup=self.speedup,
+                                                          operator=True))
             else:
                 self.sim = SimCar(track, SimConfig(realtime=True, speedup=self.speedup, gui=self.gui))
         except (TrackError, CoreLoadError, SimError) as e:
@@ -103,11 +100,7 @@ class SimTransport(Transport):
         try:
             while self._running.is_set():
                 while self._inbox:
-                    data = self._inbox.popleft()
-                    sim.write(data)
-                    if self.car == "iarrc" and sim.transmitter.mode == "off" and spec.SETPOINT_START_CHAR.encode() in data:
-                        # The person at the transmitter flips to autonomous once the computer sends setpoints.
-                        sim.transmitter.mode = "autonomous"
+                    sim.write(self._inbox.popleft())
                 sim.run(CHUNK_S)
                 self._outbox.extend(sim.read())
                 s = sim.state()

@@ -6,6 +6,7 @@ import sys
 import time
 
 from roar.cli.main import UserError
+from roar.protocol import spec
 from roar.vehicle import Vehicle
 
 MAX_SEND_S = 3600.0  # [s]
@@ -26,19 +27,28 @@ def send(args) -> int:
     if not 0 < args.seconds <= MAX_SEND_S:
         raise UserError(f"--for must be more than 0 and at most {MAX_SEND_S:g} s, got {args.seconds:g}")
     with _vehicle(args) as car:
-        car.drive(args.throttle, args.steering)
-        t_us, s_us = car.pulses_us()
-        print(f"sending ({t_us},{s_us}) to {args.url} for {args.seconds:g} s", flush=True)
+        if args.speed is not None:
+            car.drive(speed=args.speed, steering=args.steering)
+            what = f"{args.speed:g} m/s, steering {args.steering:g}"
+        else:
+            car.drive(args.throttle or 0.0, args.steering)
+            what = "({},{})".format(*car.pulses_us())
+        print(f"sending {what} to {args.url} for {args.seconds:g} s", flush=True)
         time.sleep(args.seconds)
         car.stop()
         silent = car.transport.replies and car.wait_for(timeout_s=REPLY_GRACE_S, since=0.0) is None
         link_ok = car.connected
         link = "link ok" if link_ok else f"link down: {car.link_error}"
-        replies = ", ".join(list(car.replies)[-5:]) or ("none" if car.transport.replies else "none (this link has none)")
+        lines = [r for r in car.replies if not r.startswith(spec.TELEMETRY_REPLY)]  # telemetry is summed up below
+        replies = ", ".join(lines[-5:]) or ("none" if car.transport.replies else "none (this link has none)")
+        state = car.state()
+        if state.battery_v is not None:
+            replies += f"; battery {state.battery_v:.2f} V, driven {state.distance_m:.2f} m, mode {state.mode}"
     if silent:
         raise UserError(f"no reply from a car on {args.url} (no READY, ARMED or FAILSAFE line in "
                         f"{args.seconds + REPLY_GRACE_S:g} s): is a ROAR car running there?")
-    print(f"done, neutral sent; {link}; car replies: {replies}")
+    stopped = "zero speed" if args.speed is not None else "neutral"
+    print(f"done, {stopped} sent; {link}; car replies: {replies}")
     return 0 if car.errors == 0 and link_ok else 1
 
 

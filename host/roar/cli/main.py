@@ -22,6 +22,7 @@ EXAMPLES = """examples:
   roar race --track figure-eight         the autopilot laps the simulated car against the physical limit
   roar sim --serial                      the simulated car as a serial port (prints its path)
   roar send sim:// --throttle 0.3 --steering 0.5 --for 5
+  roar send "sim://?car=iarrc" --speed 1.5 --for 3
   roar drive serial:///dev/ttyUSB0       drive with the keyboard
   roar calibrate ble://                  set trim and end-points, saved for next time
   roar <command> --help                  more about one command
@@ -49,9 +50,13 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     p = sub.add_parser("send", help="hold one command for a while, then stop",
-                       description="Send throttle and steering (each -1..1) for some seconds, then neutral.")
+                       description="Send throttle and steering (each -1..1) for some seconds, then neutral; "
+                                   "or, to a car with a speed controller (READY 2), speed and steering.")
     _add_url(p)
-    p.add_argument("--throttle", type=float, default=0.0, help="-1 (full reverse) .. 1 (full forward); default 0")
+    how = p.add_mutually_exclusive_group()
+    how.add_argument("--throttle", type=float, default=None, help="-1 (full reverse) .. 1 (full forward); default 0")
+    how.add_argument("--speed", type=float, default=None, metavar="M/S",
+                     help="the speed to hold [m/s], on a car with a speed controller (e.g. sim://?car=iarrc)")
     p.add_argument("--steering", type=float, default=0.0, help="-1 (full left) .. 1 (full right); default 0")
     p.add_argument("--for", dest="seconds", type=float, default=1.0, metavar="SECONDS",
                    help="how long to hold it (default 1 s, at most 3600)")
