@@ -165,12 +165,8 @@ class JuniorPlant:
         self.time_s += self.dt_s
 
     def state(self) -> JuniorState:
-        c = self.client
-        (x, y, _), orn = pb.getBasePositionAndOrientation(self.robot, physicsClientId=c)
-        (vx, vy, _), (_, _, wz) = pb.getBaseVelocity(self.robot, physicsClientId=c)
-        yaw = pb.getEulerFromQuaternion(orn)[2]
-        left, right = (pb.getJointState(self.robot, j, physicsClientId=c)[1] for j in (LEFT, RIGHT))
-        return JuniorState(x, y, yaw, vx * math.cos(yaw) + vy * math.sin(yaw), wz, left, right)
+        left, right = (pb.getJointState(self.robot, j, physicsClientId=self.client)[1] for j in (LEFT, RIGHT))
+        return JuniorState(*self.world.planar_motion(self.robot), left, right)
 
     def pose(self) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
         """(position, orientation quaternion) of the chassis."""

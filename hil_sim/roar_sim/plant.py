@@ -118,13 +118,8 @@ class Plant:
         self.time_s += self.dt_s
 
     def state(self) -> CarState:
-        c = self.client
-        (x, y, _), orn = pb.getBasePositionAndOrientation(self.car, physicsClientId=c)
-        (vx, vy, _), (_, _, wz) = pb.getBaseVelocity(self.car, physicsClientId=c)
-        yaw = pb.getEulerFromQuaternion(orn)[2]
-        speed = vx * math.cos(yaw) + vy * math.sin(yaw)
         counts = int(self.wheel_angle() / (2 * math.pi) * ENCODER_COUNTS_PER_REV)
-        return CarState(x, y, yaw, speed, wz, counts)
+        return CarState(*self.world.planar_motion(self.car), counts)
 
     def wheel_angle(self) -> float:
         """[rad] the rear-left wheel's angle since the start (where the encoder sits)."""

@@ -121,6 +121,15 @@ class World:
         return [pb.createMultiBody(0, shape, visual, [0, 0, 0], physicsClientId=c)]
 
 
+    def planar_motion(self, body: int) -> tuple[float, float, float, float, float]:
+        """(x [m], y [m], yaw [rad], speed along the heading [m/s], yaw rate [rad/s]) of a body
+        on the floor."""
+        c = self.client
+        (x, y, _), orn = pb.getBasePositionAndOrientation(body, physicsClientId=c)
+        (vx, vy, _), (_, _, wz) = pb.getBaseVelocity(body, physicsClientId=c)
+        yaw = pb.getEulerFromQuaternion(orn)[2]
+        return x, y, yaw, vx * math.cos(yaw) + vy * math.sin(yaw), wz
+
     def contacts(self, body: int) -> int:
         """How many wall bodies `body` touches right now."""
         touching = {pt[2] for pt in pb.getContactPoints(bodyA=body, physicsClientId=self.client)}
