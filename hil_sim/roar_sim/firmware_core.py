@@ -391,6 +391,9 @@ class IarrcBoard:
         self.link_out = bytearray()  # lines the board wrote to the Bluetooth module
         self.now_us = 0
         self.hal.throttle_us = self.hal.steering_us = spec.CONTROL_NEUTRAL_US
+        names = [t.name for t in iarrc_tasks()]
+        self._rx_of_task = {names.index("rc"): self._sbus, names.index("host"): self._host,
+                            names.index("telemetry"): self._link}  # the task that reads each port
 
     def begin(self) -> None:
         self._lib.roar_iarrc_board_begin(self._mem)
@@ -427,7 +430,7 @@ class IarrcBoard:
         h = self.hal
         h.now_us = now_us & _U32_MASK
         h.frames_started = (now_us // spec.TIMING_SERVO_FRAME_US + 1) & _U32_MASK
-        rx = {0: self._sbus, 2: self._host, 4: self._link}.get(task)
+        rx = self._rx_of_task.get(task)
         if rx is not None:
             rx.load(h, now_us)
         self._lib.roar_iarrc_board_run(self._mem, task)

@@ -34,7 +34,6 @@ COUNTS_PER_M = round(ENCODER_COUNTS_PER_REV / (2 * math.pi * ROLLING_RADIUS_M)) 
 IARRC_MOTOR = Motor(max_speed_rad_s=100.0, max_torque_nm=0.8, tyre_friction=1.0)  # 5 m/s top speed, rubber tyres
 GYRO_COUNTS_PER_DEG_S = 16.4  # MPU6000 at +-2000 deg/s
 BATTERY_UV_PER_COUNT = 8862  # [uV per ADC count] the core's default divider
-TASK_INDEX = {t.name: i for i, t in enumerate(iarrc_tasks())}
 OPERATOR_LOCK_S = 0.1  # [s] the receiver locks with the mode switch at off before the operator acts
 MODE_SWITCH_US = {"off": 1000, "manual": 1500, "autonomous": 2000}  # [us] a 3-position switch
 
@@ -87,6 +86,8 @@ class IarrcCar(Lockstep):
         self.plant = Plant(track, dt_s=PHYSICS_US / 1e6, gui=self.config.gui, motor=self.config.motor)
         self.board = IarrcBoard(counts_per_m=COUNTS_PER_M)
         self.tasks = iarrc_tasks()
+        names = [t.name for t in self.tasks]
+        self._control, self._gyro, self._battery = (names.index(n) for n in ("control", "gyro", "battery"))
         self.scheduler = Scheduler(self.tasks, self._body, cost=self.config.task_cost,
                                    overran=self.board.overran, keep_starts=False)
         self.esc, self.servo = self.config.esc, self.config.servo
@@ -150,11 +151,11 @@ class IarrcCar(Lockstep):
 
     def _body(self, task: int, now_us: int) -> None:
         b = self.board
-        if task == TASK_INDEX["control"]:
+        if task == self._control:
             b.encoder_count = int(self.plant.wheel_angle() / (2 * math.pi) * ENCODER_COUNTS_PER_REV)
-        elif task == TASK_INDEX["gyro"]:
+        elif task == self._gyro:
             b.set_inputs(gyro_z_raw=round(math.degrees(self.plant.state().yaw_rate) * GYRO_COUNTS_PER_DEG_S))
-        elif task == TASK_INDEX["battery"]:
+        elif task == self._battery:
             b.set_inputs(battery_adc=round(self.battery_v * 1e6 / BATTERY_UV_PER_COUNT))
         b.run(task, now_us + self.config.clock_offset_us)
 
