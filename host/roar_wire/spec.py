@@ -107,16 +107,20 @@ BLE_LOCAL_NAME = 'ROAR Car'  # Default advertised name
 # [udp]
 UDP_INDEX_DIGITS = 3  # [digits] XXX: zero-padded chunk index, from 0
 UDP_TOTAL_DIGITS = 3  # [digits] YYY: zero-padded index of the last chunk of the frame
-UDP_RESERVED_DIGITS = 3  # [digits] ZZZ: always 000
+UDP_RESERVED_DIGITS = 3  # [digits] ZZZ: the frame id mod frame_id_modulus (ROAR's phone: always 000)
 UDP_HEADER_BYTES = 9  # [bytes] Header length
-UDP_MAX_CHUNK_DATA_BYTES = 9200  # [bytes] Most data bytes after the header in one datagram
+UDP_FRAME_ID_MODULUS = 1000  # Frame ids count 0..999 and wrap
+UDP_MAX_CHUNK_DATA_BYTES = 9200  # [bytes] Data bytes after the header in every chunk but the last (which has 1..9200)
 UDP_MAX_DATAGRAM_BYTES = 9620  # [bytes] Receive buffer size
 UDP_REQUEST_PAYLOAD = 'ack'  # Sent by the receiver to ask for the next frame
-UDP_RECEIVE_TIMEOUT_US = 50000  # [us] A frame not complete by then is dropped
+UDP_RECEIVE_TIMEOUT_US = 50000  # [us] ROAR's receiver: no datagram for this long and the frame is dropped
+UDP_FRAME_TIMEOUT_US = 100000  # [us] Our receiver: a frame not complete this long after its first chunk arrived is dropped
+UDP_INTRINSICS_BYTES = 16  # [bytes] Camera and depth payloads start with fx, fy, cx, cy as float32 little-endian [pixels]
 UDP_PORT_RGB = 8001  # World camera: 4 float32 intrinsics fx, fy, cx, cy + JPEG
-UDP_PORT_DEPTH = 8002  # Depth: 4 float32 intrinsics + float32 depth map
-UDP_PORT_VEHICLE_STATE = 8003  # Vehicle state, UTF-8 CSV
+UDP_PORT_DEPTH = 8002  # Depth: 4 float32 intrinsics + float32 depth map [m], row-major; width = 2 cx, height = pixels / width
+UDP_PORT_VEHICLE_STATE = 8003  # Vehicle state, UTF-8 CSV of state_fields
 UDP_PORT_CONTROL = 8004  # Control to the phone: "throttle,steering" floats in [-1, 1], not chunked
+UDP_STATE_FIELDS = 'x,y,z,roll,pitch,yaw,vx,vy,vz,ax,ay,az,gx,gy,gz,hall_effect_sensor_velocity,recv_time,ix,iy,iz,r'  # The vehicle state CSV's fields, in order (ROAR's phone app): position [m], attitude [deg], velocity [m/s], acceleration [m/s^2], gyro [rad/s], wheel speed [m/s], time [s], and four more the phone fills
 
 # [junior]
 JUNIOR_CONTROL_PORT = 81  # HTTP port of the control route

@@ -99,16 +99,20 @@ static constexpr char kBleLocalName[] = "ROAR Car";  // Default advertised name
 // [udp]
 static constexpr uint16_t kUdpIndexDigits = 3u;  // [digits] XXX: zero-padded chunk index, from 0
 static constexpr uint16_t kUdpTotalDigits = 3u;  // [digits] YYY: zero-padded index of the last chunk of the frame
-static constexpr uint16_t kUdpReservedDigits = 3u;  // [digits] ZZZ: always 000
+static constexpr uint16_t kUdpReservedDigits = 3u;  // [digits] ZZZ: the frame id mod frame_id_modulus (ROAR's phone: always 000)
 static constexpr uint16_t kUdpHeaderBytes = 9u;  // [bytes] Header length
-static constexpr uint16_t kUdpMaxChunkDataBytes = 9200u;  // [bytes] Most data bytes after the header in one datagram
+static constexpr uint16_t kUdpFrameIdModulus = 1000u;  // Frame ids count 0..999 and wrap
+static constexpr uint16_t kUdpMaxChunkDataBytes = 9200u;  // [bytes] Data bytes after the header in every chunk but the last (which has 1..9200)
 static constexpr uint16_t kUdpMaxDatagramBytes = 9620u;  // [bytes] Receive buffer size
 static constexpr char kUdpRequestPayload[] = "ack";  // Sent by the receiver to ask for the next frame
-static constexpr uint16_t kUdpReceiveTimeoutUs = 50000u;  // [us] A frame not complete by then is dropped
+static constexpr uint16_t kUdpReceiveTimeoutUs = 50000u;  // [us] ROAR's receiver: no datagram for this long and the frame is dropped
+static constexpr uint32_t kUdpFrameTimeoutUs = 100000ul;  // [us] Our receiver: a frame not complete this long after its first chunk arrived is dropped
+static constexpr uint16_t kUdpIntrinsicsBytes = 16u;  // [bytes] Camera and depth payloads start with fx, fy, cx, cy as float32 little-endian [pixels]
 static constexpr uint16_t kUdpPortRgb = 8001u;  // World camera: 4 float32 intrinsics fx, fy, cx, cy + JPEG
-static constexpr uint16_t kUdpPortDepth = 8002u;  // Depth: 4 float32 intrinsics + float32 depth map
-static constexpr uint16_t kUdpPortVehicleState = 8003u;  // Vehicle state, UTF-8 CSV
+static constexpr uint16_t kUdpPortDepth = 8002u;  // Depth: 4 float32 intrinsics + float32 depth map [m], row-major; width = 2 cx, height = pixels / width
+static constexpr uint16_t kUdpPortVehicleState = 8003u;  // Vehicle state, UTF-8 CSV of state_fields
 static constexpr uint16_t kUdpPortControl = 8004u;  // Control to the phone: "throttle,steering" floats in [-1, 1], not chunked
+static constexpr char kUdpStateFields[] = "x,y,z,roll,pitch,yaw,vx,vy,vz,ax,ay,az,gx,gy,gz,hall_effect_sensor_velocity,recv_time,ix,iy,iz,r";  // The vehicle state CSV's fields, in order (ROAR's phone app): position [m], attitude [deg], velocity [m/s], acceleration [m/s^2], gyro [rad/s], wheel speed [m/s], time [s], and four more the phone fills
 
 // [junior]
 static constexpr uint16_t kJuniorControlPort = 81u;  // HTTP port of the control route
