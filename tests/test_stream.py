@@ -194,3 +194,85 @@ def test_the_original_receiver_stitches_frames_where_ours_does_not():
     our_frames = [f for at, _, d in arrivals if (f := ours.feed(d, at)) is not None]
     assert sum(not intact(f) for f in roar_frames) > 10  # chunks of two frames glued together
     assert all(intact(p) for _, p, _ in our_frames) and len(our_frames) > 1500
+
+
+# --- the simulated car's phone, and roar stream ---------------------------------------------
+
+pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
+
+
+async def phone_session(config_kwargs, seconds, control=None, ack=True):
+    from roar_sim.harness import SimCar, SimConfig
+    from roar_sim.stream_sender import Phone, StreamConfig
+
+    sim = SimCar(None, SimConfig())
+    ports = {"rgb": 0, "depth": 0, "state": 0, "control": 0}
+    phone = await Phone(sim, StreamConfig(ports=ports, **config_kwargs)).start()
+    serving = asyncio.create_task(phone.serve(seconds + 0.3))
+    rxs = {k: await StreamReceiver(k, port=0, sender=phone.bound(k), ack=ack).start() for k in ("rgb", "depth", "state")}
+    loop = asyncio.get_running_loop()
+    ctl, _ = await loop.create_datagram_endpoint(asyncio.DatagramProtocol, local_addr=("127.0.0.1", 0))
+    frames = {k: [] for k in rxs}
+    t0 = loop.time()
+    while loop.time() - t0 < seconds:
+        if control is not None:
+            ctl.sendto(control(loop.time() - t0), phone.bound("control"))
+        for k, rx in rxs.items():
+            f = await rx.next_frame(0.005)
+            if f is not None:
+                frames[k].append(f)
+    await serving
+    phone.close()
+    for rx in rxs.values():
+        rx.close()
+    ctl.close()
+    state, outputs = sim.state(), sim.outputs
+    sim.close()
+    return phone, frames, (state, outputs)
+
+
+def test_the_simulated_phone_streams_camera_depth_and_state_and_takes_control():
+    phone, frames, (state, _) = asyncio.run(phone_session(
+        {"width": 160, "height": 120, "rate_hz": 10}, 2.0, control=lambda t: wire.control_line(0.4, -1.0)))
+    assert all(len(f) >= 12 for f in frames.values()), {k: len(f) for k, f in frames.items()}  # about 10/s
+    rgb, depth, st = frames["rgb"][-1], frames["depth"][-1], frames["state"][-1]
+    assert rgb.image.shape == (120, 160, 3) and depth.image.shape == (120, 160)
+    assert rgb.intrinsics[2:] == (80.0, 60.0) and 0.05 < float(depth.image[-1, 80]) < 2.0  # the floor just ahead
+    assert st.state["hall_effect_sensor_velocity"] > 0.3 and state.speed > 0.3  # control reached the firmware
+    assert state.yaw_rate > 0.2  # steering -1: full left, anticlockwise
+    ids = [f.frame_id for f in frames["rgb"]]
+    assert ids == sorted(ids) and len(set(ids)) == len(ids)
+
+
+def test_the_phone_stops_forwarding_when_control_stops_so_the_car_fails_safe():
+    phone, frames, (state, outputs) = asyncio.run(phone_session(
+        {"width": 64, "height": 48, "rate_hz": 10, "depth": False}, 2.0,
+        control=lambda t: wire.control_line(0.5, 0.0) if t < 0.6 else b"garbage"))
+    assert phone.bad_control > 0 and frames["depth"] == []
+    # It stopped forwarding 250 ms after the last good control: the firmware's failsafe latched
+    # neutral, and the car coasts.
+    assert outputs.throttle_us == spec.CONTROL_NEUTRAL_US and outputs.latched
+    assert state.x > 0.3
+
+
+def test_roar_stream_reports_and_writes_pngs_headless(tmp_path):
+    import subprocess
+    import sys as _sys
+
+    sim = subprocess.Popen([_sys.executable, "-m", "roar.cli", "sim", "--stream", "--seconds", "8",
+                            "--size", "160x120"], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert "streaming the simulated car" in sim.stdout.readline()
+        out = subprocess.run([_sys.executable, "-m", "roar.cli", "stream", "udp://127.0.0.1", "--seconds", "3",
+                              "--out", str(tmp_path)], cwd=ROOT, capture_output=True, text=True, timeout=60,
+                             env={**__import__("os").environ, "DISPLAY": ""})
+    finally:
+        sim.kill()
+        sim.communicate()
+    assert out.returncode == 0, out.stderr
+    rates = [float(line.split()[1].removesuffix("/s")) for line in out.stdout.splitlines() if line.startswith("rgb ")]
+    assert rates and max(rates) > 10  # 20 frames/s asked of the simulator
+    assert (tmp_path / "last.png").stat().st_size > 5_000
+    bad = subprocess.run([_sys.executable, "-m", "roar.cli", "stream", "udp://127.0.0.1", "--seconds", "0.5"],
+                         cwd=ROOT, capture_output=True, text=True, timeout=60, env={**__import__("os").environ, "DISPLAY": ""})
+    assert bad.returncode == 1 and "no frame from udp://127.0.0.1" in bad.stderr  # nothing streaming now

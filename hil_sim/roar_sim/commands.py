@@ -28,6 +28,9 @@ def _sim(argv: list[str]) -> int:
     p = argparse.ArgumentParser(prog="roar sim", description=SIM_DESCRIPTION)
     p.add_argument("--serial", action="store_true", help="serve the car as a serial port (a pty) in real time")
     p.add_argument("--junior", action="store_true", help="serve the simulated ROAR Junior over HTTP in real time")
+    p.add_argument("--stream", action="store_true",
+                   help="be the car's phone: camera, depth and state over UDP (ROAR's ports 8001-8003), "
+                        "control on 8004 (`roar sim --stream --help` for its options)")
     p.add_argument("--http", default="127.0.0.1:8081", metavar="HOST:PORT",
                    help="with --junior: the control route's address (default 127.0.0.1:8081; camera on PORT-1)")
     p.add_argument("--track", default=None,
@@ -39,6 +42,10 @@ def _sim(argv: list[str]) -> int:
                    help="with --serial or --junior: stop after this long (default: Ctrl-C)")
     p.add_argument("--laps", type=int, default=2, help="without --serial: laps to drive (default 2)")
     p.add_argument("--plot", type=Path, metavar="PNG", help="without --serial: write the driven path to this PNG")
+    if "--stream" in argv:  # its own options (size, rate, push)
+        from roar_sim.stream_sender import main as stream
+
+        return stream([a for a in argv if a != "--stream"])
     args = p.parse_args(argv)
     if args.junior and args.serial:
         p.error("--junior serves HTTP, not a serial port: give one of --junior, --serial")

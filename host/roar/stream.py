@@ -19,6 +19,7 @@ flight, as ROAR's pull mode does. Datagrams that are not chunks are counted and 
 from __future__ import annotations
 
 import asyncio
+import socket
 import time
 from collections.abc import AsyncIterator
 from dataclasses import dataclass, field
@@ -33,6 +34,7 @@ KINDS = {"rgb": spec.UDP_PORT_RGB, "depth": spec.UDP_PORT_DEPTH, "state": spec.U
 FRAME_TIMEOUT_S = spec.UDP_FRAME_TIMEOUT_US / 1e6  # [s]
 MAX_PENDING_FRAMES = 4  # frames being reassembled at once; the oldest gives way
 QUEUE_FRAMES = 2  # [frames] delivered but not yet taken; older ones give way to newer (a live stream)
+RECEIVE_BUFFER_BYTES = 4 * 1024 * 1024  # [bytes] asked of the socket: a 640x480 depth map is 34 datagrams at once
 
 
 @dataclass
@@ -229,6 +231,11 @@ class StreamReceiver:
         self._transport, _ = await loop.create_datagram_endpoint(lambda: _Endpoint(self),
                                                                  local_addr=(self.host, self.port))
         self.address = self._transport.get_extra_info("sockname")[:2]
+        sock = self._transport.get_extra_info("socket")
+        try:
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, RECEIVE_BUFFER_BYTES)
+        except OSError:  # the system's limit stands
+            pass
         self._ticker = asyncio.create_task(self._tick())
         self._ask()
         return self

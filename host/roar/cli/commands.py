@@ -52,6 +52,15 @@ def send(args) -> int:
     return 0 if car.errors == 0 and link_ok else 1
 
 
+def stream(args) -> int:
+    from roar.cli.stream_view import StreamError, run
+
+    try:
+        return run(args.url, args.seconds, args.push, args.out)
+    except StreamError as e:
+        raise UserError(str(e)) from None
+
+
 def drive(args) -> int:
     from roar.cli.teleop import run
 

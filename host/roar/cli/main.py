@@ -82,6 +82,18 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("ports", help="list serial ports", description="List serial ports, marking likely car boards.")
 
+    p = sub.add_parser("stream", help="show a car's camera, depth and state streams (UDP)",
+                       description="Receive the camera, depth and state streams of a car's phone (ROAR's UDP "
+                                   "chunked format; `roar sim --stream` for the simulated car), show them in a "
+                                   "window (or PNGs without a display), and print frames/s, latency and loss "
+                                   "once a second.")
+    p.add_argument("url", metavar="URL", help="udp://HOST, the phone (udp://127.0.0.1 for `roar sim --stream`)")
+    p.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: Ctrl-C)")
+    p.add_argument("--push", action="store_true",
+                   help="listen on ports 8001-8003 for pushed frames instead of asking for each with 'ack'")
+    p.add_argument("--out", type=Path, default=None, metavar="DIR",
+                   help="write PNGs here (one a second, and the last) instead of opening a window")
+
     # Commands of other packages (the simulator's race and sim): each parses its own arguments
     # (main() hands them over), so they are listed here for --help only.
     installed = plugins.installed()

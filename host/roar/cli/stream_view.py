@@ -1,0 +1,163 @@
+"""`roar stream udp://HOST`: receive a car's camera, depth and state streams (ROAR's UDP chunked
+format; the phone on the car, or `roar sim --stream`), show them, and report once a second:
+frames/s per stream, reassembly latency (first chunk to whole frame), and frames lost.
+
+In a window when there is a display; otherwise PNGs in --out (one a second, and the last).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import sys
+import time
+from pathlib import Path
+from urllib.parse import urlsplit
+
+import numpy as np
+
+from roar.protocol import spec
+from roar.stream import KINDS, StreamReceiver
+
+REPORT_PERIOD_S = 1.0  # [s]
+
+
+class StreamError(Exception):
+    """A stream URL or option that cannot work; str() is one line."""
+
+
+def target(url: str) -> str:
+    parts = urlsplit(url)
+    if parts.scheme != "udp" or not parts.hostname:
+        raise StreamError(f"want udp://HOST (the car's phone, or 127.0.0.1 for `roar sim --stream`), got {url!r}")
+    if parts.port is not None:
+        raise StreamError(f"the streams use their own ports ({', '.join(f'{k} {p}' for k, p in KINDS.items())}); "
+                          f"give udp://HOST without a port")
+    return parts.hostname
+
+
+class _Window:
+    """Camera and depth side by side in a matplotlib window (or PNGs when headless)."""
+
+    def __init__(self, out: Path | None) -> None:
+        import matplotlib
+
+        self.headless = out is not None or not os.environ.get("DISPLAY")
+        if self.headless:
+            matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        self.plt = plt
+        self.out = out or Path("out") / "stream"
+        self.fig, (self.ax_rgb, self.ax_depth) = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
+        for ax, title in ((self.ax_rgb, "camera"), (self.ax_depth, "depth [m]")):
+            ax.set_title(title)
+            ax.axis("off")
+        self._rgb = self._depth = None
+        if not self.headless:
+            plt.ion()
+            plt.show()
+
+    def show(self, rgb: np.ndarray | None, depth: np.ndarray | None, text: str) -> None:
+        if rgb is not None:
+            if self._rgb is None:
+                self._rgb = self.ax_rgb.imshow(rgb)
+            else:
+                self._rgb.set_data(rgb)
+        if depth is not None:
+            if self._depth is None:
+                self._depth = self.ax_depth.imshow(depth, cmap="viridis", vmin=0, vmax=10)
+                self.fig.colorbar(self._depth, ax=self.ax_depth, shrink=0.8)
+            else:
+                self._depth.set_data(depth)
+        self.fig.suptitle(text, fontsize=9)
+        if not self.headless:
+            self.plt.pause(0.001)
+
+    def save(self, name: str) -> Path:
+        self.out.mkdir(parents=True, exist_ok=True)
+        path = self.out / name
+        self.fig.savefig(path, dpi=90)
+        return path
+
+
+async def watch(host: str, seconds: float, push: bool, out: Path | None, window: bool = True) -> int:
+    receivers = {}
+    for kind, port in KINDS.items():
+        rx = StreamReceiver(kind, host="0.0.0.0", port=port if push else 0,
+                            sender=None if push else (host, port), ack=not push)
+        try:
+            await rx.start()
+        except OSError as e:
+            raise StreamError(f"cannot listen for the {kind} stream: {e.strerror or e}") from None
+        receivers[kind] = rx
+    view = _Window(out) if window else None
+    latest: dict = {}
+    latencies: dict[str, list[float]] = {k: [] for k in KINDS}
+    counts = dict.fromkeys(KINDS, 0)
+    start = last_report = time.monotonic()
+    saved = 0
+    try:
+        while seconds <= 0 or time.monotonic() - start < seconds:
+            for kind, rx in receivers.items():
+                frame = await rx.next_frame(0.005)
+                if frame is not None:
+                    latest[kind] = frame
+                    counts[kind] += 1
+                    latencies[kind].append(frame.received_at - frame.first_chunk_at)
+            now = time.monotonic()
+            if now - last_report >= REPORT_PERIOD_S:
+                line = report(receivers, counts, latencies, now - last_report, latest.get("state"))
+                print(line, flush=True)
+                if view is not None and latest:
+                    view.show(_image(latest, "rgb"), _image(latest, "depth"), line)
+                    if view.headless:
+                        view.save(f"frame_{saved:04d}.png")
+                        saved += 1
+                counts = dict.fromkeys(KINDS, 0)
+                latencies = {k: [] for k in KINDS}
+                last_report = now
+    finally:
+        for rx in receivers.values():
+            rx.close()
+    total = sum(rx.counters.delivered for rx in receivers.values())
+    if total == 0:
+        raise StreamError(f"no frame from udp://{host} in {seconds:g} s: is a car streaming there "
+                          f"(`roar sim --stream`)?")
+    if view is not None and view.headless and latest:
+        view.show(_image(latest, "rgb"), _image(latest, "depth"), "last frame")
+        print(f"plots: {view.save('last.png').parent}/")
+    return 0
+
+
+def _image(latest: dict, kind: str):
+    frame = latest.get(kind)
+    return None if frame is None else frame.image
+
+
+def report(receivers, counts, latencies, period_s, state_frame) -> str:
+    parts = []
+    for kind, rx in receivers.items():
+        lat = sorted(latencies[kind])
+        p50 = f"{lat[len(lat) // 2] * 1000:.1f}" if lat else "-"
+        p99 = f"{lat[min(len(lat) - 1, int(len(lat) * 0.99))] * 1000:.1f}" if lat else "-"
+        c = rx.counters
+        lost = c.incomplete + c.malformed + c.undecodable
+        parts.append(f"{kind} {counts[kind] / period_s:4.1f}/s (latency p50 {p50} p99 {p99} ms, lost {lost})")
+    if state_frame is not None:
+        s = state_frame.state
+        parts.append(f"car x {s['x']:.2f} y {s['y']:.2f} m, {s['hall_effect_sensor_velocity']:.2f} m/s")
+    return "; ".join(parts)
+
+
+def run(url: str, seconds: float, push: bool, out: Path | None) -> int:
+    host = target(url)
+    if not 0 <= seconds <= 86400:
+        raise StreamError(f"--seconds must be 0 (until Ctrl-C) .. 86400, got {seconds:g}")
+    print(f"receiving from udp://{host} ({'pushed to this machine' if push else 'asking with ' + repr(spec.UDP_REQUEST_PAYLOAD)}); "
+          f"Ctrl-C stops", flush=True)
+    return asyncio.run(watch(host, seconds, push, out))
+
+
+if __name__ == "__main__":
+    sys.exit(run(sys.argv[1], float(sys.argv[2]) if len(sys.argv) > 2 else 5.0, False, None))
