@@ -276,3 +276,29 @@ def test_roar_stream_reports_and_writes_pngs_headless(tmp_path):
     bad = subprocess.run([_sys.executable, "-m", "roar.cli", "stream", "udp://127.0.0.1", "--seconds", "0.5"],
                          cwd=ROOT, capture_output=True, text=True, timeout=60, env={**__import__("os").environ, "DISPLAY": ""})
     assert bad.returncode == 1 and "no frame from udp://127.0.0.1" in bad.stderr  # nothing streaming now
+
+
+def test_a_vehicle_drives_the_simulated_car_through_its_phone_and_reads_its_streams():
+    import subprocess
+    import sys as _sys
+    import time
+
+    from roar import Vehicle
+    from roar.transports import TransportError
+
+    sim = subprocess.Popen([_sys.executable, "-m", "roar.cli", "sim", "--stream", "--seconds", "10",
+                            "--size", "160x120"], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert "streaming the simulated car" in sim.stdout.readline()
+        with Vehicle("udp://127.0.0.1") as car:
+            car.drive(throttle=0.4, steering=0.0)
+            time.sleep(2.5)
+            s = car.state()
+            rgb, depth = car.camera()
+        assert s.speed_m_s > 0.3 and s.x_m > 0.3 and s.time_s > 1.0
+        assert rgb.shape == (120, 160, 3) and depth.shape == (120, 160)
+    finally:
+        sim.kill()
+        sim.communicate()
+    with pytest.raises(TransportError, match="HOST only"):
+        Vehicle("udp://127.0.0.1:8004")

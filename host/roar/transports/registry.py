@@ -17,6 +17,7 @@ _REGISTRY: dict[str, str | type[Transport]] = {
     "ble": "roar.transports.ble:BleTransport",
     "loop": "roar.transports.loopback:LoopbackTransport",
     "http": "roar.transports.http_junior:HttpTransport",
+    "udp": "roar.transports.udp_phone:UdpPhoneTransport",
 }
 # What to install for the schemes this project's extras provide.
 EXTRAS = {"ble": "ble", "sim": "sim"}
