@@ -121,6 +121,10 @@ class World:
         return [pb.createMultiBody(0, shape, visual, [0, 0, 0], physicsClientId=c)]
 
 
+    # TinyRenderer: PyBullet's CPU renderer. Its EGL plugin (pb.ER_BULLET_HARDWARE_OPENGL once
+    # loaded) draws this world blank with Mesa's software OpenGL (make bench measures both).
+    renderer = pb.ER_TINY_RENDERER
+
     def planar_motion(self, body: int) -> tuple[float, float, float, float, float]:
         """(x [m], y [m], yaw [rad], speed along the heading [m/s], yaw rate [rad/s]) of a body
         on the floor."""
@@ -142,7 +146,7 @@ class World:
         forward = np.array([math.cos(yaw), math.sin(yaw), -math.tan(pitch)])
         view = pb.computeViewMatrix(list(position), (np.array(position) + forward).tolist(), [0, 0, 1])
         proj = pb.computeProjectionMatrixFOV(fov_deg, width / height, near_m, far_m)
-        _, _, rgba, depth_buf, _ = pb.getCameraImage(width, height, view, proj, renderer=pb.ER_TINY_RENDERER,
+        _, _, rgba, depth_buf, _ = pb.getCameraImage(width, height, view, proj, renderer=self.renderer,
                                                      physicsClientId=self.client)
         rgb = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3]
         d = np.asarray(depth_buf, dtype=np.float32).reshape(height, width)
