@@ -206,6 +206,16 @@ def parse_size(text: str) -> tuple[int, int]:
     return w, h
 
 
+def parse_ports(text: str) -> dict[str, int]:
+    try:
+        ports = [int(v) for v in text.split(",")]
+    except ValueError:
+        ports = []
+    if len(ports) != 4 or not all(1 <= p <= 65535 for p in ports) or len(set(ports)) != 4:
+        raise argparse.ArgumentTypeError(f"want four different ports RGB,DEPTH,STATE,CONTROL, got {text!r}")
+    return dict(zip(("rgb", "depth", "state", "control"), ports))
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="roar sim --stream", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -213,6 +223,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--size", type=parse_size, default=(320, 240), help="camera size WxH (default 320x240)")
     p.add_argument("--rate", type=float, default=20.0, help="frames per second (default 20)")
     p.add_argument("--push", metavar="HOST", help="push every frame to HOST instead of answering acks")
+    p.add_argument("--host", default="127.0.0.1",
+                   help="the address to bind the ports to (default 127.0.0.1; 0.0.0.0 for other machines)")
+    p.add_argument("--ports", type=parse_ports, default=None, metavar="RGB,DEPTH,STATE,CONTROL",
+                   help=f"the four ports (default ROAR's {','.join(str(v) for v in PORTS.values())},{spec.UDP_PORT_CONTROL})")
     p.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: Ctrl-C)")
     args = p.parse_args(argv)
     if not 0.5 <= args.rate <= 60:
@@ -225,7 +239,8 @@ def main(argv: list[str] | None = None) -> int:
     except TrackError as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
-    config = StreamConfig(width=args.size[0], height=args.size[1], rate_hz=args.rate, push_to=args.push)
+    config = StreamConfig(width=args.size[0], height=args.size[1], rate_hz=args.rate, push_to=args.push,
+                          host=args.host, ports=args.ports)
     phone = Phone(sim, config)
 
     async def run() -> None:

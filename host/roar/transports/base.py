@@ -88,3 +88,17 @@ def pop_option(options: dict[str, str], name: str, kind: type, default):
         return kind(raw)
     except ValueError:
         raise TransportError(f"option {name}={raw!r} is not a valid {kind.__name__}") from None
+
+
+def unit_command(data: bytes, scheme: str) -> tuple[float, float]:
+    """(throttle, steering), each in [-1, 1], of a control message the Vehicle wrote, for a link
+    whose car takes fractions rather than pulses (the Junior's duties, a phone's floats)."""
+    from roar.protocol import ControlError, decode, spec
+
+    try:
+        command = decode(bytes(data).strip())
+    except ControlError as e:
+        raise TransportError(f"{scheme}:// carries control messages only: {e}") from None
+    half_range_us = (spec.CONTROL_MAX_US - spec.CONTROL_MIN_US) / 2
+    return ((command.throttle_us - spec.CONTROL_NEUTRAL_US) / half_range_us,
+            (command.steering_us - spec.CONTROL_NEUTRAL_US) / half_range_us)

@@ -20,11 +20,9 @@ import socket
 import numpy as np
 
 from roar.junior import MIXES, query_for
-from roar.protocol import ControlError, decode, spec
+from roar.protocol import spec
 from roar.telemetry import VehicleState
-from roar.transports.base import LinkLost, Transport, TransportError, pop_option
-
-HALF_RANGE_US = (spec.CONTROL_MAX_US - spec.CONTROL_MIN_US) / 2  # [us]
+from roar.transports.base import LinkLost, Transport, TransportError, pop_option, unit_command
 
 
 def host_port(text: str) -> tuple[str, int] | None:
@@ -91,12 +89,7 @@ class HttpTransport(Transport):
         self.range_m = cm / 100 if cm > 0 else math.inf
 
     def write(self, data: bytes) -> None:
-        try:
-            command = decode(bytes(data).strip())
-        except ControlError as e:
-            raise TransportError(f"http:// carries control messages only: {e}") from None
-        throttle = (command.throttle_us - spec.CONTROL_NEUTRAL_US) / HALF_RANGE_US
-        steering = (command.steering_us - spec.CONTROL_NEUTRAL_US) / HALF_RANGE_US
+        throttle, steering = unit_command(data, self.scheme)
         self._get(query_for(*self._mix(throttle, steering)), LinkLost)
 
     def state(self) -> VehicleState | None:

@@ -18,12 +18,11 @@ import math
 import socket
 import threading
 
-from roar.protocol import ControlError, decode, spec
+from roar.protocol import spec
 from roar.telemetry import VehicleState
-from roar.transports.base import LinkLost, Transport, TransportError, pop_option
+from roar.transports.base import LinkLost, Transport, TransportError, pop_option, unit_command
 from roar_wire import stream as wire
 
-HALF_RANGE_US = (spec.CONTROL_MAX_US - spec.CONTROL_MIN_US) / 2  # [us]
 START_TIMEOUT_S = 5.0  # [s]
 
 
@@ -93,12 +92,7 @@ class UdpPhoneTransport(Transport):
             self._latest[kind] = frame
 
     def write(self, data: bytes) -> None:
-        try:
-            command = decode(bytes(data).strip())
-        except ControlError as e:
-            raise TransportError(f"udp:// carries control messages only: {e}") from None
-        throttle = (command.throttle_us - spec.CONTROL_NEUTRAL_US) / HALF_RANGE_US
-        steering = (command.steering_us - spec.CONTROL_NEUTRAL_US) / HALF_RANGE_US
+        throttle, steering = unit_command(data, self.scheme)
         try:
             self._sock.send(wire.control_line(throttle, steering))
         except OSError as e:  # e.g. the phone's port is closed (ICMP unreachable)
