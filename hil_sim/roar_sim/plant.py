@@ -37,6 +37,16 @@ ROAR_MOTOR = Motor()  # the ROAR car's brushed motor
 BRAKE_MAX_TORQUE_NM = 2.0  # [N m] per rear wheel at full brake
 ROLLING_DRAG_NM = 0.02  # [N m] coasting resistance per wheel
 ENCODER_COUNTS_PER_REV = 1024  # [counts]
+CAMERA_FOV_DEG = 70.0  # [deg] vertical
+CAMERA_PITCH_RAD = math.atan(0.25)  # [rad] down from level
+CAMERA_X_M, CAMERA_Z_M = 0.39, 0.09  # [m] the ZED link ahead of the base and above the floor (racecar.urdf)
+
+
+def camera_model(width: int, height: int):
+    """The simulated car's camera as roar.vision sees a camera (intrinsics and mounting)."""
+    from roar.vision.geometry import CameraModel
+
+    return CameraModel.from_fov(width, height, CAMERA_FOV_DEG, CAMERA_X_M, CAMERA_Z_M, CAMERA_PITCH_RAD)
 
 
 @dataclass(frozen=True)
@@ -81,13 +91,13 @@ class Plant:
     def close(self) -> None:
         self.world.close()
 
-    def camera(self, width: int = 160, height: int = 120, fov_deg: float = 70.0,
+    def camera(self, width: int = 160, height: int = 120, fov_deg: float = CAMERA_FOV_DEG,
                far_m: float = 10.0) -> tuple[np.ndarray, np.ndarray]:
         """(RGB uint8 HxWx3, depth float32 HxW in metres) from the ZED camera link, looking ahead
         and slightly down."""
         pos, orn = pb.getLinkState(self.car, CAMERA_LINK, physicsClientId=self.client)[:2]
         yaw = pb.getEulerFromQuaternion(orn)[2]
-        return self.world.render(pos, yaw, math.atan(0.25), width, height, fov_deg, far_m)
+        return self.world.render(pos, yaw, CAMERA_PITCH_RAD, width, height, fov_deg, far_m)
 
     def apply(self, drive: float, brake: float, steer_rad: float) -> None:
         """drive -1..1 of the motor limit, brake 0..1, steer_rad the virtual centre angle."""

@@ -41,6 +41,7 @@ from roar_sim.track import Track, TrackError, get
 
 PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6  # [s] 50 Hz, like a real host
 ROBOTS = ("car", "junior")
+LANE_CAMERA = (320, 240)  # [px] the camera the lane driver sees through
 
 
 class LockstepIO:
@@ -84,6 +85,15 @@ class SimIO(LockstepIO):
         self.sim.write(self.calibration.message(command.throttle, command.steering))
 
     def agent(self, line: np.ndarray, margin: float, lateral: str) -> Agent:
+        if lateral == "lane":  # the camera alone: the line (and the pose) stay out of the control path
+            from roar.autopilot.lane_agent import lane_agent
+            from roar.vision.geometry import BirdsEye
+            from roar.vision.lanes import LaneDetector
+            from roar_sim.plant import camera_model
+
+            w, h = LANE_CAMERA
+            detector = LaneDetector(BirdsEye(camera_model(w, h)))
+            return lane_agent(lambda: self.sim.plant.camera(w, h)[0], detector, SIMULATED_CAR, PERIOD_S, margin)
         return race_agent(line, SIMULATED_CAR, PERIOD_S, margin=margin, lateral=lateral)
 
     def braking(self) -> bool:
@@ -275,6 +285,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="fraction of the car's limits to drive at (default 0.9)")
     parser.add_argument("--steering", choices=["pursuit", "pid"], default="pursuit",
                         help="lateral control: pure pursuit (default) or the heading-error PID")
+    parser.add_argument("--driver", choices=["line", "lane"], default="line",
+                        help="line: follow the known centre line by the car's pose (default); lane: drive by "
+                             "the camera alone (lane lines, no pose; the pose only scores)")
     parser.add_argument("--plot", type=Path, metavar="PNG", help="write the path and speed plot to this PNG")
     parser.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     parser.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
@@ -287,12 +300,15 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--margin must be 0.3..1.0")
     if args.junior and args.steering != "pursuit":
         parser.error("--junior steers by pure pursuit only (its wheel speeds set the curvature)")
+    if args.driver == "lane" and (args.junior or args.waypoints):
+        parser.error("--driver lane drives the ESC car by its camera: no --junior, no --waypoints")
     plotting.check_png_argument(parser, args.plot)
     try:
         track = get(args.track)
         waypoints = load_waypoints(args.waypoints) if args.waypoints else None
         result = race(track, args.laps, waypoints, args.margin, SimConfig(realtime=args.realtime, gui=args.gui),
-                      progress=True, lateral=args.steering, timeout_s=args.seconds,
+                      progress=True, lateral="lane" if args.driver == "lane" else args.steering,
+                      timeout_s=args.seconds,
                       robot="junior" if args.junior else "car")
     except (TrackError, WaypointError, CoreLoadError, SimError) as e:
         print(f"error: {e}", file=sys.stderr)

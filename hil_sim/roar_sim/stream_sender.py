@@ -23,10 +23,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from roar.protocol import encode, spec
+from roar_sim.plant import CAMERA_FOV_DEG
 from roar_wire import stream as wire
 
 PORTS = {"rgb": spec.UDP_PORT_RGB, "depth": spec.UDP_PORT_DEPTH, "state": spec.UDP_PORT_VEHICLE_STATE}
-CAMERA_FOV_DEG = 70.0  # [deg] vertical, as Plant.camera renders
 FORWARD_PERIOD_S = 0.01  # [s] the phone's BLE writes (100 Hz)
 CONTROL_SILENCE_S = spec.TIMING_FAILSAFE_TIMEOUT_US / 1e6  # [s] stop forwarding after this
 HALF_RANGE_US = (spec.CONTROL_MAX_US - spec.CONTROL_MIN_US) // 2  # [us]

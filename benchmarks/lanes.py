@@ -1,0 +1,46 @@
+"""Driving by camera: lane detection time per 320x240 frame on one core (target <= 10 ms), and
+the camera-only lap against the pose-based autopilot's best lap on the same track in the same
+run (target <= 1.3)."""
+
+import time
+
+TITLE = "Lane detection and the camera-only lap"
+FRAMES = 40
+
+
+def run() -> None:
+    try:
+        from roar.vision.geometry import BirdsEye
+        from roar.vision.lanes import LaneDetector
+    except ImportError as e:
+        print(f"  skipped: {e}")
+        return
+    from roar_sim.plant import Plant, camera_model
+    from roar_sim.race import LANE_CAMERA, race
+    from roar_sim.track import get
+
+    w, h = LANE_CAMERA
+    plant = Plant(get("oval"))
+    frames = []
+    for _ in range(FRAMES):
+        plant.apply(0.3, 0.0, 0.0)
+        for _ in range(10):
+            plant.step()
+        frames.append(plant.camera(w, h)[0])
+    plant.close()
+    detector = LaneDetector(BirdsEye(camera_model(w, h)))
+    times = []
+    for rgb in frames:
+        start = time.perf_counter()
+        detector.detect(rgb)
+        times.append(time.perf_counter() - start)
+    times.sort()
+    print(f"  lane detection, {w}x{h}: median {times[len(times) // 2] * 1000:.1f} ms, "
+          f"worst {times[-1] * 1000:.1f} ms per frame (target <= 10 ms)")
+    for name in ("oval", "figure-eight"):
+        track = get(name)
+        camera, pose = race(track, laps=2, lateral="lane"), race(track, laps=2)
+        ratio = min(camera.lap_times_s) / min(pose.lap_times_s)
+        print(f"  {name}: camera-only best lap {min(camera.lap_times_s):.2f} s, pose-based {min(pose.lap_times_s):.2f} s, "
+              f"ratio {ratio:.2f} (target <= 1.3); cross-track max {camera.max_cross_track_m:.3f} m, "
+              f"wall contacts {camera.wall_contacts}")

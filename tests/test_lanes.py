@@ -1,0 +1,102 @@
+"""Lane detection on simulator frames with known ground truth, on recorded frames, and the
+camera-only lap: the lane driver laps both tracks with no pose in its control path."""
+
+import math
+
+import numpy as np
+import pytest
+
+pytest.importorskip("cv2", reason="pip install opencv-python-headless (make setup installs it)")
+pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
+
+from roar.autopilot.agent import Observation  # noqa: E402
+from roar.vision.geometry import BirdsEye  # noqa: E402
+from roar.vision.lanes import LaneDetector, debug_view  # noqa: E402
+from roar_sim.plant import Plant, camera_model  # noqa: E402
+from roar_sim.quiet_pybullet import pb  # noqa: E402
+from roar_sim.race import LANE_CAMERA, SimIO, race  # noqa: E402
+from roar_sim.track import get  # noqa: E402
+
+W, H = LANE_CAMERA
+
+
+@pytest.fixture(scope="module")
+def oval():
+    plant = Plant(get("oval"))
+    yield plant
+    plant.close()
+
+
+def frame_at(plant, offset_m, heading_rad, back_m=1.5):
+    """The camera frame with the car offset_m left of the oval's centre line and turned
+    heading_rad anticlockwise from it, on the straight (back_m before the start)."""
+    x0, y0, yaw0 = plant.world.start_pose()
+    nx, ny = -math.sin(yaw0), math.cos(yaw0)
+    pb.resetBasePositionAndOrientation(
+        plant.car, [x0 + offset_m * nx - back_m * math.cos(yaw0), y0 + offset_m * ny - back_m * math.sin(yaw0), 0.05],
+        pb.getQuaternionFromEuler([0, 0, yaw0 + heading_rad]), physicsClientId=plant.client)
+    for _ in range(30):
+        plant.step()
+    s = plant.state()
+    track = get("oval")
+    i, _, cte = track.project((s.x, s.y))
+    a, b = track.centerline[i], track.centerline[(i + 1) % len(track.centerline)]
+    true_heading = (s.yaw - math.atan2(b[1] - a[1], b[0] - a[0]) + math.pi) % (2 * math.pi) - math.pi
+    return plant.camera(W, H)[0], cte, true_heading
+
+
+@pytest.mark.parametrize("offset_m,heading_rad", [(0, 0), (0.15, 0), (-0.2, 0.05), (0.1, -0.08), (0.25, 0.1),
+                                                  (-0.3, -0.1)])
+def test_the_lane_offset_and_heading_match_the_ground_truth(oval, offset_m, heading_rad):
+    rgb, cte, true_heading = frame_at(oval, offset_m, heading_rad)
+    lanes = LaneDetector(BirdsEye(camera_model(W, H))).detect(rgb)
+    assert lanes.source == "yellow" and lanes.left is not None and lanes.right is not None
+    assert abs(lanes.offset_m - cte) <= 0.05
+    assert abs(lanes.heading_rad - true_heading) <= math.radians(3)
+    # Both edges a road's width (1.0 m between the lines' middles) apart, in metres in the car's
+    # frame, where they are both in view (the far part of a thin line reads a little wide).
+    assert lanes.left.y(1.0) - lanes.right.y(1.0) == pytest.approx(1.0, abs=0.1)
+
+
+def test_recorded_frames_give_the_same_lanes_and_a_debug_view(oval, tmp_path):
+    from PIL import Image
+
+    rgb, cte, _ = frame_at(oval, 0.12, 0.0)
+    Image.fromarray(rgb).save(tmp_path / "frame.png")
+    np.save(tmp_path / "frame.npy", rgb)
+    live = LaneDetector(BirdsEye(camera_model(W, H))).detect(rgb)
+    for recorded in (np.asarray(Image.open(tmp_path / "frame.png")), np.load(tmp_path / "frame.npy")):
+        detector = LaneDetector(BirdsEye(camera_model(W, H)))
+        assert detector.detect(recorded).offset_m == pytest.approx(live.offset_m, abs=1e-9)
+    debug_view(detector, rgb).savefig(tmp_path / "debug.png")
+    assert (tmp_path / "debug.png").stat().st_size > 20_000
+
+
+def test_nothing_on_the_road_means_no_lanes(oval):
+    rgb = np.full((H, W, 3), 64, np.uint8)  # bare asphalt
+    lanes = LaneDetector(BirdsEye(camera_model(W, H))).detect(rgb)
+    assert lanes.centre is None and lanes.source == "none" and lanes.offset_m is None
+
+
+def test_the_lane_driver_never_reads_the_pose():
+    from roar_sim.harness import SimCar, SimConfig
+
+    track = get("oval")
+    with SimCar(track, SimConfig()) as sim:
+        io = SimIO(sim)
+        a, b = io.agent(track.centerline, 0.9, "lane"), io.agent(track.centerline, 0.9, "lane")
+        a.setup()
+        b.setup()
+        obs = io.observe()
+        blind = Observation(obs.t_s, math.nan, math.nan, math.nan, obs.speed, math.nan)
+        assert a.step(obs) == b.step(blind)
+
+
+@pytest.mark.parametrize("name", ["oval", "figure-eight"])
+def test_camera_only_laps_stay_on_the_road_and_near_the_autopilots_pace(name):
+    track = get(name)
+    by_camera = race(track, laps=2, lateral="lane")
+    by_pose = race(track, laps=2)
+    assert len(by_camera.lap_times_s) == 2 and by_camera.wall_contacts == 0
+    assert by_camera.max_cross_track_m <= 0.15
+    assert min(by_camera.lap_times_s) <= 1.3 * min(by_pose.lap_times_s)
