@@ -1,6 +1,7 @@
-"""Driving by camera: lane detection time per 320x240 frame on one core (target <= 10 ms), and
-the camera-only lap against the pose-based autopilot's best lap on the same track in the same
-run (target <= 1.3)."""
+"""Driving by camera: lane detection time per 320x240 frame on one core (target <= 10 ms), the
+ground-plane occupancy grid's frames/s at 256x192 depth (the phone's size; target >= 30, the
+ROAR thesis: <= 10), and the camera-only lap against the pose-based autopilot's best lap on the
+same track in the same run (target <= 1.3)."""
 
 import time
 
@@ -37,6 +38,18 @@ def run() -> None:
     times.sort()
     print(f"  lane detection, {w}x{h}: median {times[len(times) // 2] * 1000:.1f} ms, "
           f"worst {times[-1] * 1000:.1f} ms per frame (target <= 10 ms)")
+    from roar.vision.occupancy import occupancy
+
+    plant = Plant(get("oval"))
+    depths = [plant.camera(256, 192)[1] for _ in range(5)]
+    plant.close()
+    depth_camera = camera_model(256, 192)
+    start = time.perf_counter()
+    for _ in range(4):
+        for depth in depths:
+            occupancy(depth, depth_camera)
+    per_frame = (time.perf_counter() - start) / (4 * len(depths))
+    print(f"  ground-plane occupancy, 256x192 depth: {1 / per_frame:.0f} frames/s (target >= 30)")
     for name in ("oval", "figure-eight"):
         track = get(name)
         camera, pose = race(track, laps=2, lateral="lane"), race(track, laps=2)

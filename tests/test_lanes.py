@@ -100,3 +100,52 @@ def test_camera_only_laps_stay_on_the_road_and_near_the_autopilots_pace(name):
     assert len(by_camera.lap_times_s) == 2 and by_camera.wall_contacts == 0
     assert by_camera.max_cross_track_m <= 0.15
     assert min(by_camera.lap_times_s) <= 1.3 * min(by_pose.lap_times_s)
+
+
+# --- obstacles by depth: the ground-plane occupancy grid ----------------------------------------
+
+def add_box(plant, x, y, half_m=0.1):
+    col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[half_m] * 3, physicsClientId=plant.client)
+    vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=[half_m] * 3, rgbaColor=[0.8, 0.2, 0.2, 1],
+                               physicsClientId=plant.client)
+    return pb.createMultiBody(0, col, vis, [x, y, half_m], physicsClientId=plant.client)
+
+
+def test_a_box_ahead_lands_in_its_cells_and_the_floor_stays_free(oval):
+    from roar.vision.occupancy import occupancy
+
+    rgb, _, _ = frame_at(oval, 0.0, 0.0)
+    s = oval.state()
+    box = add_box(oval, s.x + 1.5, s.y + 0.2)  # its near face 1.4 m ahead, 0.1..0.3 m left
+    try:
+        _, depth = oval.camera(256, 192)
+        grid = occupancy(depth, camera_model(256, 192))
+    finally:
+        pb.removeBody(box, physicsClientId=oval.client)
+    assert abs(grid.plane[2]) > 0.99 and abs(grid.plane[3]) < 0.02  # the floor found level, at z = 0
+    cells = [grid.cell_xy(r, c) for r, c in zip(*np.nonzero(grid.occupied))]
+    in_road = [(x, y) for x, y in cells if abs(y) < 0.45]  # the walls (at +-0.6 m) aside
+    assert in_road, "the box was not seen"
+    for x, y in in_road:  # within one cell of the box's near face and its sides
+        assert 1.4 - 0.1 <= x <= 1.6 + 0.1 and 0.1 - 0.1 <= y <= 0.3 + 0.1, (x, y)
+    assert grid.nearest_ahead(0.25) == pytest.approx(1.45, abs=0.1)
+    assert occupancy(oval.camera(256, 192)[1], camera_model(256, 192)).nearest_ahead(0.25) is None  # box gone
+
+
+def test_the_lane_driver_stops_for_a_box_in_its_lane():
+    from roar.autopilot.agent import Command, Runner
+    from roar_sim.harness import SimCar, SimConfig
+    from roar_sim.race import PERIOD_S
+
+    track = get("oval")
+    with SimCar(track, SimConfig()) as sim:
+        io = SimIO(sim)
+        x0, y0, _ = sim.plant.world.start_pose()
+        box = add_box(sim.plant, x0 + 2.4, y0)
+        io.send(Command(0.0, 0.0))
+        io.wait(PERIOD_S)
+        Runner(io, io.agent(track.centerline, 0.9, "lane"), PERIOD_S).run(until=lambda obs: obs.t_s > 5.0)
+        s = sim.state()
+        touching = pb.getContactPoints(sim.plant.car, box, physicsClientId=sim.plant.client)
+    assert not touching and abs(s.speed) < 0.05
+    assert 0.8 < s.x - x0 < 2.4 - 0.1 - 0.3  # it drove, and stopped short of the box

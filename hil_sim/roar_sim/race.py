@@ -93,7 +93,8 @@ class SimIO(LockstepIO):
 
             w, h = LANE_CAMERA
             detector = LaneDetector(BirdsEye(camera_model(w, h)))
-            return lane_agent(lambda: self.sim.plant.camera(w, h)[0], detector, SIMULATED_CAR, PERIOD_S, margin)
+            return lane_agent(lambda: self.sim.plant.camera(w, h), detector, SIMULATED_CAR, PERIOD_S, margin,
+                              depth_camera=camera_model(w, h))
         return race_agent(line, SIMULATED_CAR, PERIOD_S, margin=margin, lateral=lateral)
 
     def braking(self) -> bool:

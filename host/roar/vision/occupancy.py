@@ -1,0 +1,142 @@
+"""Obstacles from a depth image, ROAR's ground-plane way: depth + intrinsics -> points -> the car's
+frame (the camera's mounting) -> the floor found as a plane (RANSAC, then least squares, so a
+pitching or rolling car still finds it) -> points standing above it counted in a grid of cells
+on the floor, in metres in the car's frame.
+
+    grid = occupancy(depth, camera)          # Occupancy: .occupied (rows x cols bool), .cell_xy()
+    grid.nearest_ahead(half_width_m=0.3)     # [m] to the nearest occupied cell in the car's path
+                                             # (path=lanes.centre.y: along the lane)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from roar.vision.geometry import CameraModel
+
+CELL_M = 0.1  # [m]
+X_RANGE_M = (0.3, 4.0)  # [m] ahead
+Y_HALF_M = 2.0  # [m] either side
+MIN_HEIGHT_M = 0.04  # [m] above the floor: an obstacle, not the floor's noise
+MAX_HEIGHT_M = 0.6  # [m] above the car: not in its way
+MIN_POINTS = 3  # points a cell needs to be occupied
+STRIDE = 2  # use every STRIDE-th pixel each way
+RANSAC_ROUNDS = 40
+RANSAC_TOLERANCE_M = 0.02  # [m]
+
+
+@dataclass(frozen=True)
+class Occupancy:
+    occupied: np.ndarray  # (rows, cols) bool; row 0 nearest, column 0 leftmost
+    counts: np.ndarray  # points per cell
+    plane: tuple[float, float, float, float]  # a x + b y + c z + d = 0 in the car's frame, (a, b, c) unit, c > 0
+    cell_m: float = CELL_M
+    x0: float = X_RANGE_M[0]
+    y_left: float = Y_HALF_M
+
+    def cell_xy(self, row: int, col: int) -> tuple[float, float]:
+        """[m] the centre of a cell in the car's frame."""
+        return self.x0 + (row + 0.5) * self.cell_m, self.y_left - (col + 0.5) * self.cell_m
+
+    def nearest_ahead(self, half_width_m: float, path=None, reach_m: float = math.inf) -> float | None:
+        """[m] ahead to the nearest occupied cell within half_width_m of the path the car will
+        drive -- path(x) -> y [m] (a lane's centre line), or straight ahead -- up to reach_m
+        (as far as the path is known)."""
+        rows, cols = np.nonzero(self.occupied)
+        best = None
+        for r, c in zip(rows, cols):
+            x, y = self.cell_xy(int(r), int(c))
+            if x > reach_m:
+                continue
+            centre = 0.0 if path is None else float(path(x))
+            if abs(y - centre) <= half_width_m and (best is None or x < best):
+                best = x
+        return best
+
+
+def camera_points(depth: np.ndarray, camera: CameraModel, stride: int = STRIDE) -> np.ndarray:
+    """(N, 3) points (x ahead, y left, z up) [m] in the car's frame of a metric depth image
+    (distance along the optical axis), every stride-th pixel; far and invalid pixels dropped."""
+    h, w = depth.shape
+    v, u = np.mgrid[0:h:stride, 0:w:stride]
+    z = depth[::stride, ::stride].astype(np.float64)
+    keep = np.isfinite(z) & (z > 0.05) & (z < X_RANGE_M[1] * 2)
+    u, v, z = u[keep], v[keep], z[keep]
+    right = (u - camera.cx) / camera.fx * z
+    down = (v - camera.cy) / camera.fy * z
+    c, s = math.cos(camera.pitch_rad), math.sin(camera.pitch_rad)
+    # optical axis tilted down by pitch: ahead = z cos - down sin ... (the inverse of CameraModel.project)
+    x = camera.x_m + z * c - down * s
+    zc = camera.z_m - z * s - down * c
+    y = camera.y_m - right
+    return np.column_stack([x, y, zc])
+
+
+def fit_floor(points: np.ndarray, rng: np.random.Generator | None = None) -> tuple[float, float, float, float]:
+    """The floor as a plane through the points: RANSAC among the low points, then least squares
+    on its inliers. Falls back to z = 0 when there are too few points."""
+    rng = rng or np.random.default_rng(0)
+    low = points[points[:, 2] < 0.1]
+    if len(low) < 20:
+        return 0.0, 0.0, 1.0, 0.0
+    best, best_count = None, -1
+    for _ in range(RANSAC_ROUNDS):
+        a, b, c = low[rng.choice(len(low), 3, replace=False)]
+        n = np.cross(b - a, c - a)
+        norm = np.linalg.norm(n)
+        if norm < 1e-9:
+            continue
+        n /= norm
+        if abs(n[2]) < 0.8:  # the floor is roughly level
+            continue
+        count = int(np.sum(np.abs((low - a) @ n) < RANSAC_TOLERANCE_M))
+        if count > best_count:
+            best, best_count = (n, a), count
+    if best is None:
+        return 0.0, 0.0, 1.0, 0.0
+    n, a = best
+    inliers = low[np.abs((low - a) @ n) < RANSAC_TOLERANCE_M]
+    # least squares z = p x + q y + r on the inliers
+    A = np.column_stack([inliers[:, 0], inliers[:, 1], np.ones(len(inliers))])
+    (p, q, r), *_ = np.linalg.lstsq(A, inliers[:, 2], rcond=None)
+    n = np.array([-p, -q, 1.0])
+    scale = np.linalg.norm(n)
+    return float(n[0] / scale), float(n[1] / scale), float(n[2] / scale), float(-r / scale)
+
+
+def occupancy(depth: np.ndarray, camera: CameraModel, cell_m: float = CELL_M) -> Occupancy:
+    points = camera_points(depth, camera)
+    plane = fit_floor(points)
+    height = points @ np.array(plane[:3]) + plane[3]
+    standing = points[(height > MIN_HEIGHT_M) & (height < MAX_HEIGHT_M)]
+    rows = int(round((X_RANGE_M[1] - X_RANGE_M[0]) / cell_m))
+    cols = int(round(2 * Y_HALF_M / cell_m))
+    r = np.floor((standing[:, 0] - X_RANGE_M[0]) / cell_m).astype(int)
+    c = np.floor((Y_HALF_M - standing[:, 1]) / cell_m).astype(int)
+    inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+    counts = np.zeros((rows, cols), np.int32)
+    np.add.at(counts, (r[inside], c[inside]), 1)
+    return Occupancy(counts >= MIN_POINTS, counts, plane, cell_m)
+
+
+def figure(rgb: np.ndarray, grid: Occupancy):
+    """The camera frame beside the occupancy grid (the car at the bottom, looking up)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax, ax_grid) = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
+    ax.imshow(rgb)
+    ax.set_title("camera")
+    ax.axis("off")
+    rows, cols = grid.occupied.shape
+    extent = (grid.y_left, grid.y_left - cols * grid.cell_m, grid.x0, grid.x0 + rows * grid.cell_m)
+    ax_grid.imshow(grid.occupied, origin="lower", extent=extent, cmap="Greys", aspect="equal")
+    ax_grid.set_xlabel("y [m] (left +)")
+    ax_grid.set_ylabel("x [m] ahead")
+    ax_grid.set_title(f"occupancy, {grid.cell_m * 100:.0f} cm cells")
+    return fig
