@@ -9,6 +9,7 @@
 // the core's SbusDecoder: cycles per frame = width / kSbusFrames. No Arduino core, no interrupts.
 #include <avr/io.h>
 
+#include "../sbus_feed.h"
 #include "roar/car.h"
 #include "roar/control_parser.h"
 #include "roar/sbus.h"
@@ -76,19 +77,6 @@ constexpr uint8_t kSbusFrames = 10;
 uint8_t sbus_bytes[kSbusFrames][roar::proto::kSbusFrameBytes];
 roar::SbusDecoder sbus;
 
-__attribute__((noinline)) uint8_t run_sbus() {
-  uint8_t good = 0;
-  roar::Micros now = 100000;
-  for (uint8_t f = 0; f < kSbusFrames; ++f) {
-    now += 7000 - roar::proto::kSbusFrameBytes * 120;  // the gap before each frame
-    for (uint8_t i = 0; i < roar::proto::kSbusFrameBytes; ++i) {
-      now += 120;
-      if (sbus.feed(sbus_bytes[f][i], now) == roar::SbusResult::Frame) ++good;
-    }
-  }
-  return good;
-}
-
 __attribute__((noinline)) void run_car() {  // one clock reading per message, as a board loop takes it
   roar::Micros now = 1000;
   for (const char* p = text; *p; p += kMessageBytes) {
@@ -122,7 +110,7 @@ int main() {
     for (uint8_t c = 0; c < roar::kSbusChannels; ++c) frame.raw[c] = static_cast<uint16_t>(200 + 97 * (f + c));
     roar::sbus_encode(frame, sbus_bytes[f]);
   }
-  timed([] { accepted[2] = run_sbus(); });
+  timed([] { accepted[2] = feed_sbus_frames<uint8_t>(sbus, sbus_bytes); });
   for (;;) {
   }
 }

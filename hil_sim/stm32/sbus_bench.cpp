@@ -9,6 +9,7 @@
 #include "semihosting.h"
 
 #include "roar/sbus.h"
+#include "../sbus_feed.h"
 
 namespace {
 
@@ -29,19 +30,6 @@ uint32_t ticks_since(uint32_t start) { return (start - systick()) & kSysTickMask
 uint8_t bytes[kFrames][roar::proto::kSbusFrameBytes];
 roar::SbusDecoder decoder;
 
-__attribute__((noinline)) uint32_t run() {
-  uint32_t good = 0;
-  roar::Micros now = 100000;
-  for (uint8_t f = 0; f < kFrames; ++f) {
-    now += 7000 - roar::proto::kSbusFrameBytes * 120;
-    for (uint8_t i = 0; i < roar::proto::kSbusFrameBytes; ++i) {
-      now += 120;
-      if (decoder.feed(bytes[f][i], now) == roar::SbusResult::Frame) ++good;
-    }
-  }
-  return good;
-}
-
 }  // namespace
 
 int main() {
@@ -55,7 +43,7 @@ int main() {
   for (uint32_t n = kCalibration; n; --n) __asm__ volatile("" ::: "memory");
   const uint32_t calibration = ticks_since(start);
   start = systick();
-  const uint32_t good = run();
+  const uint32_t good = feed_sbus_frames<uint32_t>(decoder, bytes);
   const uint32_t frames = ticks_since(start);
   semihosting::say_number("calibration_ticks ", calibration);
   semihosting::say_number("frame_ticks ", frames);
