@@ -9,9 +9,6 @@
   original glued together from two frames' chunks."""
 
 import asyncio
-import contextlib
-import os
-import sys
 import time
 
 from roar.stream import Reassembler, StreamReceiver, whole
@@ -94,22 +91,6 @@ async def end_to_end(width: int, height: int) -> tuple[float, float, float]:
     return delivered / wall, phone.frames_rendered / wall, phone.render_s / max(1, phone.frames_rendered) * 1000
 
 
-@contextlib.contextmanager
-def _silenced():
-    sys.stdout.flush()
-    saved = [os.dup(1), os.dup(2)]
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, 1)
-    os.dup2(devnull, 2)
-    try:
-        yield
-    finally:
-        for fd, copy in ((1, saved[0]), (2, saved[1])):
-            os.dup2(copy, fd)
-            os.close(copy)
-        os.close(devnull)
-
-
 def renderers(width: int = 640, height: int = 480, frames: int = 5) -> dict[str, str]:
     """Per RGB + depth frame from the simulated car's camera on the oval: TinyRenderer, and
     PyBullet's EGL plugin (Mesa's software OpenGL here), each in its own world: "NN ms", and
@@ -119,11 +100,11 @@ def renderers(width: int = 640, height: int = 480, frames: int = 5) -> dict[str,
     import numpy as np
 
     from roar_sim.plant import Plant
-    from roar_sim.quiet_pybullet import pb
+    from roar_sim.quiet_pybullet import pb, silenced
     from roar_sim.track import get
 
     out = {}
-    with _silenced():  # the EGL plugin prints its GL vendor from C
+    with silenced((1, 2)):  # the EGL plugin prints its GL vendor from C
         for name, renderer in (("TinyRenderer", pb.ER_TINY_RENDERER), ("EGL", pb.ER_BULLET_HARDWARE_OPENGL)):
             plant = Plant(get("oval"))
             world = plant.world

@@ -3,22 +3,28 @@ at import, which would otherwise land in every command's output (even `roar race
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 
 
-def _import_quietly():
+@contextlib.contextmanager
+def silenced(fds: tuple[int, ...] = (2,)):
+    """What C code writes to these file descriptors (stderr by default) goes nowhere meanwhile."""
+    sys.stdout.flush()
     sys.stderr.flush()
-    saved = os.dup(2)
+    saved = [os.dup(fd) for fd in fds]
     devnull = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, 2)
+    for fd in fds:
+        os.dup2(devnull, fd)
     try:
-        import pybullet
+        yield
     finally:
-        os.dup2(saved, 2)
-        os.close(saved)
+        for fd, copy in zip(fds, saved):
+            os.dup2(copy, fd)
+            os.close(copy)
         os.close(devnull)
-    return pybullet
 
 
-pb = _import_quietly()
+with silenced():
+    import pybullet as pb

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from roar.protocol import encode, spec
-from roar_sim.plant import CAMERA_FOV_DEG
+from roar_sim.plant import CAMERA_FOV_DEG, camera_model
 from roar_wire import stream as wire
 
 PORTS = {"rgb": spec.UDP_PORT_RGB, "depth": spec.UDP_PORT_DEPTH, "state": spec.UDP_PORT_VEHICLE_STATE}
@@ -45,12 +45,6 @@ class StreamConfig:
     depth: bool = True
 
 
-def intrinsics(width: int, height: int, fov_deg: float = CAMERA_FOV_DEG) -> tuple[float, float, float, float]:
-    """(fx, fy, cx, cy) [pixels] of the simulated camera (vertical field of view fov_deg)."""
-    f = (height / 2) / math.tan(math.radians(fov_deg) / 2)
-    return f, f, width / 2, height / 2
-
-
 def jpeg(rgb: np.ndarray, quality: int) -> bytes:
     from PIL import Image
 
@@ -62,7 +56,8 @@ def jpeg(rgb: np.ndarray, quality: int) -> bytes:
 def payloads(rgb: np.ndarray, depth: np.ndarray | None, state: dict, quality: int) -> dict[str, bytes]:
     """The three streams' payloads of one rendered frame."""
     h, w = rgb.shape[:2]
-    k = intrinsics(w, h)
+    cam = camera_model(w, h)
+    k = cam.fx, cam.fy, cam.cx, cam.cy
     out = {"rgb": wire.with_intrinsics(*k, jpeg(rgb, quality)), "state": wire.state_line(state)}
     if depth is not None:
         out["depth"] = wire.with_intrinsics(*k, np.ascontiguousarray(depth, dtype="<f4").tobytes())
