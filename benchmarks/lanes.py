@@ -1,7 +1,8 @@
 """Driving by camera: lane detection time per 320x240 frame on one core (target <= 10 ms), the
-ground-plane occupancy grid's frames/s at 256x192 depth (the phone's size; target >= 30, the
-ROAR thesis: <= 10), and the camera-only lap against the pose-based autopilot's best lap on the
-same track in the same run (target <= 1.3)."""
+start-light detector's time per frame, the ground-plane occupancy grid's frames/s at 256x192
+depth (the phone's size; target >= 30, the ROAR thesis: <= 10), the camera-only lap against the
+pose-based autopilot's best lap on the same track in the same run (target <= 1.3), and a lap of
+the obstacle course past three boxes (TFmini lane changes; target 0 contacts)."""
 
 import time
 
@@ -38,6 +39,13 @@ def run() -> None:
     times.sort()
     print(f"  lane detection, {w}x{h}: median {times[len(times) // 2] * 1000:.1f} ms, "
           f"worst {times[-1] * 1000:.1f} ms per frame (target <= 10 ms)")
+    from roar.vision.start_lights import StartLightDetector
+
+    lights = StartLightDetector()
+    start = time.perf_counter()
+    for rgb in frames:
+        lights.update(rgb)
+    print(f"  start-light detection, {w}x{h}: {(time.perf_counter() - start) / len(frames) * 1000:.2f} ms per frame")
     from roar.vision.occupancy import occupancy
 
     plant = Plant(get("oval"))
@@ -57,3 +65,11 @@ def run() -> None:
         print(f"  {name}: camera-only best lap {min(camera.lap_times_s):.2f} s, pose-based {min(pose.lap_times_s):.2f} s, "
               f"ratio {ratio:.2f} (target <= 1.3); cross-track max {camera.max_cross_track_m:.3f} m, "
               f"wall contacts {camera.wall_contacts}")
+    from roar_sim.obstacles import box_course
+
+    track = get("course")
+    spots = box_course(track, 3)
+    result = race(track, laps=1, lateral="lane", boxes=spots, avoid=True)
+    lap = f"{result.lap_times_s[0]:.2f} s" if result.lap_times_s else "not completed"
+    print(f"  obstacle course ({len(spots)} boxes, TFmini lane changes): lap {lap}, box contacts "
+          f"{result.box_contacts}, wall contacts {result.wall_contacts} (target 0 and 0)")

@@ -12,6 +12,7 @@ pytest.importorskip("pybullet", reason="pip install pybullet (make setup install
 from roar.autopilot.agent import Observation  # noqa: E402
 from roar.vision.geometry import BirdsEye  # noqa: E402
 from roar.vision.lanes import LaneDetector, debug_view  # noqa: E402
+from roar_sim.obstacles import add_box  # noqa: E402
 from roar_sim.plant import Plant, camera_model  # noqa: E402
 from roar_sim.quiet_pybullet import pb  # noqa: E402
 from roar_sim.race import LANE_CAMERA, SimIO, race  # noqa: E402
@@ -104,19 +105,12 @@ def test_camera_only_laps_stay_on_the_road_and_near_the_autopilots_pace(name):
 
 # --- obstacles by depth: the ground-plane occupancy grid ----------------------------------------
 
-def add_box(plant, x, y, half_m=0.1):
-    col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[half_m] * 3, physicsClientId=plant.client)
-    vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=[half_m] * 3, rgbaColor=[0.8, 0.2, 0.2, 1],
-                               physicsClientId=plant.client)
-    return pb.createMultiBody(0, col, vis, [x, y, half_m], physicsClientId=plant.client)
-
-
 def test_a_box_ahead_lands_in_its_cells_and_the_floor_stays_free(oval):
     from roar.vision.occupancy import occupancy
 
     rgb, _, _ = frame_at(oval, 0.0, 0.0)
     s = oval.state()
-    box = add_box(oval, s.x + 1.5, s.y + 0.2)  # its near face 1.4 m ahead, 0.1..0.3 m left
+    box = add_box(oval.world, s.x + 1.5, s.y + 0.2)  # its near face 1.4 m ahead, 0.1..0.3 m left
     try:
         _, depth = oval.camera(256, 192)
         grid = occupancy(depth, camera_model(256, 192))
@@ -141,7 +135,7 @@ def test_the_lane_driver_stops_for_a_box_in_its_lane():
     with SimCar(track, SimConfig()) as sim:
         io = SimIO(sim)
         x0, y0, _ = sim.plant.world.start_pose()
-        box = add_box(sim.plant, x0 + 2.4, y0)
+        box = add_box(sim.plant.world, x0 + 2.4, y0)
         io.send(Command(0.0, 0.0))
         io.wait(PERIOD_S)
         Runner(io, io.agent(track.centerline, 0.9, "lane"), PERIOD_S).run(until=lambda obs: obs.t_s > 5.0)

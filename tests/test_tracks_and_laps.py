@@ -78,8 +78,8 @@ def test_the_autopilot_brakes_for_the_oval_corners_through_the_firmware():
     result = race.race(get("oval"), laps=2)
     assert result.braking_periods >= 10
     assert result.slowest_m_s > -0.1
-    corner = [v for x, y, v, s in result.path[len(result.path) // 2:] if abs(x) > 2.5]
-    straight = [v for x, y, v, s in result.path[len(result.path) // 2:] if abs(x) < 0.5]
+    corner = [v for x, y, v, *_ in result.path[len(result.path) // 2:] if abs(x) > 2.5]
+    straight = [v for x, y, v, *_ in result.path[len(result.path) // 2:] if abs(x) < 0.5]
     assert max(corner) < max(straight) - 0.4
 
 

@@ -34,7 +34,7 @@ def _sim(argv: list[str]) -> int:
     p.add_argument("--http", default="127.0.0.1:8081", metavar="HOST:PORT",
                    help="with --junior: the control route's address (default 127.0.0.1:8081; camera on PORT-1)")
     p.add_argument("--track", default=None,
-                   help="oval, figure-eight or a track .json file (default: oval; with --junior an open floor)")
+                   help="oval, figure-eight, course or a track .json file (default: oval; with --junior an open floor)")
     p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
     p.add_argument("--car", choices=("esc", "iarrc"), default="esc",
                    help="with --serial: the ROAR ESC car (default) or the IARRC car (speed setpoints, telemetry)")

@@ -221,7 +221,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--http", default="127.0.0.1:8081", metavar="HOST:PORT",
                         help="where to serve the control route (default 127.0.0.1:8081; port 0 picks free ports); "
                              "the camera is on the port below it")
-    parser.add_argument("--track", default="", help="oval, figure-eight or a track .json file (default: open floor)")
+    parser.add_argument("--track", default="", help="oval, figure-eight, course or a track .json file (default: open floor)")
     parser.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: Ctrl-C)")
     parser.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
     args = parser.parse_args(argv)

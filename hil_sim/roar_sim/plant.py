@@ -87,17 +87,18 @@ class Plant:
             pb.changeDynamics(self.car, w, lateralFriction=motor.tyre_friction, physicsClientId=c)
         self.walls = self.world.walls
         self.time_s = 0.0
+        self.props: list = []  # things in the world that change with time: update(time_s) each step
 
     def close(self) -> None:
         self.world.close()
 
     def camera(self, width: int = 160, height: int = 120, fov_deg: float = CAMERA_FOV_DEG,
-               far_m: float = 10.0) -> tuple[np.ndarray, np.ndarray]:
+               far_m: float = 10.0, shake_rad: tuple[float, float] = (0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
         """(RGB uint8 HxWx3, depth float32 HxW in metres) from the ZED camera link, looking ahead
-        and slightly down."""
+        and slightly down; shake_rad turns it by (yaw, pitch) more, as a shaking mount would."""
         pos, orn = pb.getLinkState(self.car, CAMERA_LINK, physicsClientId=self.client)[:2]
-        yaw = pb.getEulerFromQuaternion(orn)[2]
-        return self.world.render(pos, yaw, CAMERA_PITCH_RAD, width, height, fov_deg, far_m)
+        yaw = pb.getEulerFromQuaternion(orn)[2] + shake_rad[0]
+        return self.world.render(pos, yaw, CAMERA_PITCH_RAD + shake_rad[1], width, height, fov_deg, far_m)
 
     def apply(self, drive: float, brake: float, steer_rad: float) -> None:
         """drive -1..1 of the motor limit, brake 0..1, steer_rad the virtual centre angle."""
@@ -126,6 +127,8 @@ class Plant:
     def step(self) -> None:
         self.world.step()
         self.time_s += self.dt_s
+        for prop in self.props:
+            prop.update(self.time_s)
 
     def state(self) -> CarState:
         counts = int(self.wheel_angle() / (2 * math.pi) * ENCODER_COUNTS_PER_REV)

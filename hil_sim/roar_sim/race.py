@@ -2,8 +2,9 @@
 the firmware logic (commands at 50 Hz, lockstep), measured against the track's physical-limit
 lap time for that robot.
 
-    roar race [--junior] [--track oval|figure-eight|FILE.json] [--laps 2] [--waypoints FILE]
-              [--margin 0.9] [--steering pursuit|pid] [--plot out/race.png] [--realtime] [--gui]
+    roar race [--junior] [--track oval|figure-eight|course|FILE.json] [--laps 2] [--waypoints FILE]
+              [--margin 0.9] [--steering pursuit|pid] [--driver line|lane] [--start-lights SEED]
+              [--boxes N] [--avoid] [--record DIR] [--plot out/race.png] [--realtime] [--gui]
 
 The ESC car (default) hears control messages on its serial link. The ROAR Junior (--junior)
 is driven as a user's script drives it: pure pursuit's curvature becomes wheel duties, each
@@ -22,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,6 +39,9 @@ from roar_sim.actuators import EscMode
 from roar_sim.car_limits import SIMULATED_CAR
 from roar_sim.firmware_core import CoreLoadError
 from roar_sim.harness import SimCar, SimConfig, SimError
+from roar_sim.obstacles import MIN_GAP_M, box_course, place_boxes, touching
+from roar_sim.start_lights import StartLights, green_moment
+from roar_sim.tfmini import Tfmini
 from roar_sim.track import Track, TrackError, get
 
 PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6  # [s] 50 Hz, like a real host
@@ -77,9 +82,29 @@ class LockstepIO:
 
 
 class SimIO(LockstepIO):
-    """The ESC car: commands as control messages on its serial link."""
+    """The ESC car: commands as control messages on its serial link; `lights`, the start lights
+    beside the track, `boxes` on it, and its TFmini `laser`, if any."""
 
     limits = SIMULATED_CAR.limits
+
+    def __init__(self, sim, calibration: Calibration | None = None, lights: StartLights | None = None,
+                 boxes: list[int] | None = None, laser=None, record: Path | None = None) -> None:
+        super().__init__(sim, calibration)
+        self.lights, self.boxes, self.laser, self.record = lights, boxes or [], laser, record
+        self._frames = 0
+
+    def camera(self) -> tuple[np.ndarray, np.ndarray]:
+        """The lane driver's frame (RGB, depth); with record, also written as NNNNNN.png and
+        NNNNNN_depth.npy (metres), the folder `roar vision` reads."""
+        rgb, depth = self.sim.plant.camera(*LANE_CAMERA)
+        if self.record is not None:
+            from roar.vision.geometry import cv2
+
+            name = f"{self._frames:06d}"
+            cv2().imwrite(str(self.record / f"{name}.png"), np.ascontiguousarray(rgb[:, :, ::-1]))
+            np.save(self.record / f"{name}_depth.npy", depth)
+            self._frames += 1
+        return rgb, depth
 
     def send(self, command: Command) -> None:
         self.sim.write(self.calibration.message(command.throttle, command.steering))
@@ -93,12 +118,21 @@ class SimIO(LockstepIO):
 
             w, h = LANE_CAMERA
             detector = LaneDetector(BirdsEye(camera_model(w, h)))
-            return lane_agent(lambda: self.sim.plant.camera(w, h), detector, SIMULATED_CAR, PERIOD_S, margin,
-                              depth_camera=camera_model(w, h))
+            start = None
+            if self.lights is not None:
+                from roar.vision.start_lights import StartLightDetector
+
+                start = StartLightDetector()
+            return lane_agent(self.camera, detector, SIMULATED_CAR, PERIOD_S, margin,
+                              depth_camera=camera_model(w, h), start=start,
+                              laser=self.laser.read if self.laser is not None else None)
         return race_agent(line, SIMULATED_CAR, PERIOD_S, margin=margin, lateral=lateral)
 
     def braking(self) -> bool:
         return self.sim.esc_mode in (EscMode.BRAKE, EscMode.REVERSE)
+
+    def touching_box(self) -> bool:
+        return touching(self.sim.plant, self.boxes) > 0
 
 
 @dataclass
@@ -107,12 +141,21 @@ class RaceResult:
     limit_speeds: np.ndarray  # [m/s] the physical-limit speed at each centre-line point
     lap_times_s: list[float] = field(default_factory=list)
     cross_track_m: list[float] = field(default_factory=list)
-    path: list[tuple[float, float, float, float]] = field(default_factory=list)  # (x, y, speed, arc length)
+    path: list[tuple[float, float, float, float, float]] = field(default_factory=list)  # (x, y, speed, arc length, t)
     robot: str = "car"  # "car" (the ESC car) or "junior"
     wall_contacts: int = 0  # control periods with the car touching a wall
     travelled_m: float = 0.0  # [m] net progress along the track, all laps
     braking_periods: int = 0  # control periods the ESC spent braking or reversing the motor
     slowest_m_s: float = 0.0  # [m/s] signed: negative if the car ever rolled backwards
+    green_at_s: float | None = None  # [s] when the start lights turned green (None: no start lights)
+    moved_at_s: float | None = None  # [s] when the car first asked for throttle
+    green_frames: int = 0  # camera frames that showed green up to and including the one it moved on
+    boxes: int = 0  # boxes on the track
+    box_contacts: int = 0  # control periods with the car touching a box
+
+    @property
+    def false_start(self) -> bool:
+        return self.green_at_s is not None and self.moved_at_s is not None and self.moved_at_s < self.green_at_s
 
     @property
     def max_cross_track_m(self) -> float:
@@ -163,30 +206,46 @@ def check_line(track: Track, line: np.ndarray) -> None:
 
 def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margin: float = 0.9,
          config: SimConfig | None = None, progress: bool = False, timeout_s: float | None = None,
-         lateral: str = "pursuit", robot: str = "car") -> RaceResult:
+         lateral: str = "pursuit", robot: str = "car", start_lights: int | None = None,
+         boxes: Sequence[tuple[float, float]] = (), avoid: bool = False, record: Path | None = None) -> RaceResult:
     """Race `robot` ("car": the ESC car; "junior": the ROAR Junior over HTTP) round `track`.
-    config's realtime and gui apply to either robot."""
+    config's realtime and gui apply to either robot. The lane driver only: start_lights (a
+    seed) -- start lights turn green at a moment drawn from the seed, and the car waits for
+    them; avoid -- the car carries a TFmini and keeps to a lane, changing lanes for what is
+    ahead; record -- a folder the driver's frames are written to. boxes: (distance along the
+    centre line, offset to its left) [m] of each box."""
     if robot not in ROBOTS:
         raise ValueError(f"robot must be one of {', '.join(ROBOTS)}, got {robot!r}")
+    if (start_lights is not None or avoid or record) and (robot != "car" or lateral != "lane"):
+        raise ValueError("start lights, the TFmini and recording are for the lane driver (the ESC car driving by "
+                         "its camera)")
     line = track.centerline if waypoints is None else np.asarray(waypoints)[:, :2]
     if waypoints is not None:
         check_line(track, line)
     config = config or SimConfig()
-    racer = _open_car if robot == "car" else _open_junior
     bar = None
-    with racer(track, config) as io:
-        result = RaceResult(track, speed_profile(track.centerline, io.limits), robot=robot)
-        timeout_s = timeout_s or race_timeout_s(result, laps)
+    car = _open_car(track, config, start_lights, boxes, avoid, record) if robot == "car" else \
+        _open_junior(track, config)
+    with car as io:
+        result = RaceResult(track, speed_profile(track.centerline, io.limits), robot=robot, boxes=len(boxes))
+        lights = getattr(io, "lights", None)
+        result.green_at_s = lights.green_at_s if lights else None
+        timeout_s = timeout_s or race_timeout_s(result, laps) + (result.green_at_s or 0.0)
         lap = {"hint": None, "s": 0.0, "travelled": 0.0, "start": 0.0}
 
-        def record(obs: Observation, _command: Command) -> None:
+        def record(obs: Observation, command: Command) -> None:
+            if result.green_at_s is not None and result.moved_at_s is None:
+                result.green_frames += obs.t_s >= result.green_at_s
+                if command.throttle > 0:  # the race starts now: the first lap is timed from here
+                    result.moved_at_s = lap["start"] = obs.t_s
             hint, s_now, cte = track.project((obs.x, obs.y), lap["hint"])
             ds = (s_now - lap["s"] + track.length_m / 2) % track.length_m - track.length_m / 2
             lap.update(hint=hint, s=s_now, travelled=lap["travelled"] + ds)
             result.travelled_m = lap["travelled"]
             result.cross_track_m.append(cte)
-            result.path.append((obs.x, obs.y, obs.speed, s_now))
+            result.path.append((obs.x, obs.y, obs.speed, s_now, obs.t_s))
             result.wall_contacts += io.touching_wall()
+            result.box_contacts += bool(boxes) and io.touching_box()
             result.braking_periods += io.braking()
             result.slowest_m_s = min(result.slowest_m_s, io.signed_speed())
             if lap["travelled"] >= track.length_m * (len(result.lap_times_s) + 1):
@@ -207,9 +266,17 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
 
 
 @contextmanager
-def _open_car(track: Track, config: SimConfig):
+def _open_car(track: Track, config: SimConfig, start_seed: int | None = None,
+              boxes: Sequence[tuple[float, float]] = (), avoid: bool = False, record: Path | None = None):
     with SimCar(track, config) as sim:
-        yield SimIO(sim)
+        lights = None
+        if start_seed is not None:
+            lights = StartLights(sim.plant.world, track, green_moment(start_seed))
+            sim.plant.props.append(lights)
+        laser = Tfmini(sim.plant) if avoid else None
+        if record is not None:
+            record.mkdir(parents=True, exist_ok=True)
+        yield SimIO(sim, lights=lights, boxes=place_boxes(sim.plant.world, track, boxes), laser=laser, record=record)
 
 
 @contextmanager
@@ -240,9 +307,16 @@ def report(result: RaceResult) -> str:
     for i, t in enumerate(result.lap_times_s, 1):
         lines.append(f"  lap {i}: {t:6.2f} s  ({tr.length_m / t:.2f} m/s average, "
                      f"{t / result.limit_lap_s:.2f} x the limit)")
+    if result.green_at_s is not None:
+        moved = ("never moved" if result.moved_at_s is None else "FALSE START" if result.false_start else
+                 f"moved on the {result.green_frames}. frame that showed green "
+                 f"({result.moved_at_s - result.green_at_s:.3f} s)")
+        lines.append(f"start lights: green at {result.green_at_s:.2f} s; {moved}")
     lines.append(f"laps completed: {len(result.lap_times_s)}, total {sum(result.lap_times_s):.2f} s (simulated)")
     lines.append(f"cross-track error: max {result.max_cross_track_m:.3f} m, RMS {result.rms_cross_track_m:.3f} m")
     lines.append(f"wall contacts: {result.wall_contacts}")
+    if result.boxes:
+        lines.append(f"box contacts: {result.box_contacts} (control periods touching one of the {result.boxes} boxes)")
     if result.robot == "car":
         lines.append(f"braking: {result.braking_periods * PERIOD_S:.2f} s through the firmware's brake/reverse "
                      f"sequence (the ESC has no brake)")
@@ -278,7 +352,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="race the ROAR Junior (differential drive, over HTTP) instead of the ESC car")
     parser.add_argument("--seconds", type=float, default=None, metavar="S",
                         help="time limit in simulated seconds (default: 4 x the physical-limit laps + 10)")
-    parser.add_argument("--track", default="oval", help="oval, figure-eight, or a track .json file (default: oval)")
+    parser.add_argument("--track", default="oval", help="oval, figure-eight, course (long straights, for boxes), or a track .json file (default: oval)")
     parser.add_argument("--laps", type=int, default=2, help="laps to drive (default: 2)")
     parser.add_argument("--waypoints", type=Path, metavar="FILE",
                         help="follow this closed line (x,y,z per line) instead of the centre line")
@@ -289,6 +363,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--driver", choices=["line", "lane"], default="line",
                         help="line: follow the known centre line by the car's pose (default); lane: drive by "
                              "the camera alone (lane lines, no pose; the pose only scores)")
+    parser.add_argument("--start-lights", type=int, metavar="SEED",
+                        help="with --driver lane: start lights beside the track turn green at a moment drawn "
+                             "from SEED; the car waits for green")
+    parser.add_argument("--boxes", type=int, default=0, metavar="N",
+                        help="with --driver lane: N boxes on straight road, alternately in the right and the left "
+                             "lane (--track course has room for 3 a lap)")
+    parser.add_argument("--avoid", action="store_true",
+                        help="with --driver lane: the car carries a TFmini laser, keeps to the right lane and "
+                             "changes lanes for what is ahead in it (IARRC's rule)")
+    parser.add_argument("--record", type=Path, metavar="DIR",
+                        help="with --driver lane: write every frame the driver sees (PNG and depth .npy) to DIR, "
+                             "for `roar vision DIR`")
     parser.add_argument("--plot", type=Path, metavar="PNG", help="write the path and speed plot to this PNG")
     parser.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     parser.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
@@ -303,14 +389,29 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--junior steers by pure pursuit only (its wheel speeds set the curvature)")
     if args.driver == "lane" and (args.junior or args.waypoints):
         parser.error("--driver lane drives the ESC car by its camera: no --junior, no --waypoints")
+    if args.start_lights is not None and args.driver != "lane":
+        parser.error("--start-lights needs --driver lane (the car sees the lights through its camera)")
+    if (args.boxes or args.avoid or args.record) and args.driver != "lane":
+        parser.error("--boxes, --avoid and --record need --driver lane (the car drives by its camera and laser)")
+    if not 0 <= args.boxes <= 20:
+        parser.error("--boxes must be 0..20")
     plotting.check_png_argument(parser, args.plot)
+    if args.record is not None:
+        try:
+            args.record.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            parser.error(f"--record {args.record}: {e.strerror or e}")
     try:
         track = get(args.track)
         waypoints = load_waypoints(args.waypoints) if args.waypoints else None
+        boxes = box_course(track, args.boxes)
+        if len(boxes) < args.boxes:
+            raise TrackError(f"track {track.name!r} has straight road for {len(boxes)} boxes (each needs "
+                             f"{MIN_GAP_M:g} m from the next), not {args.boxes}: try --track course")
         result = race(track, args.laps, waypoints, args.margin, SimConfig(realtime=args.realtime, gui=args.gui),
                       progress=True, lateral="lane" if args.driver == "lane" else args.steering,
-                      timeout_s=args.seconds,
-                      robot="junior" if args.junior else "car")
+                      timeout_s=args.seconds, robot="junior" if args.junior else "car",
+                      start_lights=args.start_lights, boxes=boxes, avoid=args.avoid, record=args.record)
     except (TrackError, WaypointError, CoreLoadError, SimError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 1

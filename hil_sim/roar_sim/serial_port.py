@@ -96,7 +96,7 @@ class PtyCar:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--track", default="oval", help="oval, figure-eight or a track .json file (default: oval)")
+    parser.add_argument("--track", default="oval", help="oval, figure-eight, course or a track .json file (default: oval)")
     parser.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: run until Ctrl-C)")
     parser.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
     parser.add_argument("--car", choices=("esc", "iarrc"), default="esc",

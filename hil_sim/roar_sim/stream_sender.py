@@ -214,7 +214,7 @@ def parse_ports(text: str) -> dict[str, int]:
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="roar sim --stream", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--track", default="oval", help="oval, figure-eight or a track .json file (default oval)")
+    p.add_argument("--track", default="oval", help="oval, figure-eight, course or a track .json file (default oval)")
     p.add_argument("--size", type=parse_size, default=(320, 240), help="camera size WxH (default 320x240)")
     p.add_argument("--rate", type=float, default=20.0, help="frames per second (default 20)")
     p.add_argument("--push", metavar="HOST", help="push every frame to HOST instead of answering acks")

@@ -99,6 +99,17 @@ class Track:
         (x0, y0), (x1, y1) = self.centerline[0], self.centerline[1]
         return float(x0), float(y0), math.atan2(y1 - y0, x1 - x0)
 
+    def pose_at(self, s_m: float, offset_m: float = 0.0) -> tuple[float, float, float]:
+        """(x, y, yaw) of the point s_m [m] along the centre line (wrapping round the lap) and
+        offset_m to its left, facing along the track."""
+        s = s_m % self.length_m
+        seg = int(np.searchsorted(self.arc_start, s, side="right") - 1)
+        a, b = self.centerline[seg], self.centerline[(seg + 1) % len(self.centerline)]
+        t = (s - self.arc_start[seg]) / self.segment_lengths[seg]
+        yaw = math.atan2(b[1] - a[1], b[0] - a[0])
+        x, y = a + t * (b - a)
+        return float(x - offset_m * math.sin(yaw)), float(y + offset_m * math.cos(yaw)), yaw
+
     def edges(self) -> tuple[np.ndarray, np.ndarray]:
         """(left, right) boundary polylines, width/2 either side of the centre line."""
         pts = self.centerline
@@ -255,7 +266,14 @@ def figure_eight(radius_m: float = 2.0, width_m: float = 1.2, spacing_m: float =
     return Track("figure-eight", np.stack([x, y], axis=1), width_m)
 
 
-BUILTIN = {"oval": oval, "figure-eight": figure_eight}
+def course() -> Track:
+    """An obstacle course, IARRC's kind: an oval with long straights and wide bends, room for
+    boxes to stand in either lane (roar_sim.obstacles.box_course)."""
+    track = oval(straight_m=8.0, radius_m=2.5)
+    return Track("course", track.centerline, track.width_m)
+
+
+BUILTIN = {"oval": oval, "figure-eight": figure_eight, "course": course}
 
 
 def get(name_or_path: str) -> Track:

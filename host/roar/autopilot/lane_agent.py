@@ -1,10 +1,13 @@
 """The lane-following agent: the car drives by its camera alone -- no pose, no map.
 
-    perception  LanePerception: the camera frame -> lane lines in the car's frame (roar.vision)
-    planning    LanePlanner: a goal point on the road's centre ahead, a speed from its curvature,
-                and the ROAR lane states: following, one line lost (slower), both lost (slow,
-                keep the last steering to search), lost too long (stop); with a depth camera,
-                stop for an obstacle in the car's path (the ground-plane occupancy grid)
+    perception  LanePerception: the camera frame -> lane lines in the car's frame (roar.vision);
+                with start lights, whether they have turned green; with a TFmini, its range
+    planning    LanePlanner: wait for green; a goal point on the road's centre ahead, a speed
+                from its curvature, and the ROAR lane states: following, one line lost (slower),
+                both lost (slow, keep the last steering to search), lost too long (stop); with a
+                depth camera, stop for an obstacle in the car's path (the ground-plane occupancy
+                grid); with a TFmini, the IARRC rule: keep to one lane, and switch to the other
+                when the laser finds something ahead in this one
     control     LaneController: pure pursuit to the goal in the car's frame; the speed controller
 """
 
@@ -21,6 +24,8 @@ from roar.autopilot.agent import Agent, Command, Module, Observation
 from roar.autopilot.longitudinal import SpeedController
 from roar.autopilot.race_agent import CarModel
 from roar.vision.lanes import Lanes, LaneDetector
+from roar.vision.occupancy import Occupancy, occupancy
+from roar.vision.start_lights import StartLightDetector
 
 SEARCH_SPEED_M_S = 0.4  # [m/s] with both lines lost
 SEARCH_S = 1.0  # [s] lost this long: stop
@@ -41,8 +46,17 @@ CLEAR_S = 1.0  # [s] stopped for an obstacle: it must be out of the path this lo
 STRAIGHT_REACH_M = 0.8  # [m] with no lane seen (in a bend, mostly) only what is right ahead of the front counts
 HOLD_SPEED_M_S = 0.15  # [m/s] braking for an obstacle ends here (more would drive it backwards)
 
+LANE_OFFSET_M = 0.25  # [m] a lane's middle from the road's centre (the edges are a half-width out)
+SWITCH_M = 2.0  # [m] ahead of the nose: something this close in the car's lane makes it change lanes
+LANE_BAND_M = 0.12  # [m] something this close to the kept lane's middle is in it (a wall is 0.35 m out)
+LANE_PATH_HALF_M = 0.18  # [m] keeping to a lane, obstacles this close to its middle are in the way
+AVOID_MAX_SPEED_M_S = 1.3  # [m/s] keeping to a lane, with lane changes to make
+SWITCH_HOLD_S = 1.0  # [s] after a lane change, no other for this long
+LANE_SHIFT_M_S = 0.4  # [m/s] how fast the followed line moves across in a lane change (a smooth swerve)
+
 
 class LaneState(Enum):
+    WAITING = "waiting for green"
     FOLLOWING = "following"
     ONE_LINE = "one line lost"
     SEARCHING = "both lost"
@@ -54,7 +68,9 @@ class LaneState(Enum):
 class Seen:
     lanes: Lanes
     speed: float  # [m/s] the speedometer
-    obstacle_m: float | None = None  # [m] ahead to the nearest occupied cell in the car's path
+    grid: Occupancy | None = None  # from the depth image, when there is one
+    go: bool = True  # False while start lights have not turned green
+    laser_m: float | None = None  # [m] the TFmini's reading from the car's nose (None: nothing in range)
 
 
 @dataclass(frozen=True)
@@ -66,62 +82,109 @@ class LanePlan:
 
 class LanePerception(Module[Observation, Seen]):
     """camera() -> (RGB frame, metric depth or None); only the observation's speed is read (a
-    speedometer). With depth_camera (the depth image's CameraModel), obstacles are looked for."""
+    speedometer). With depth_camera (the depth image's CameraModel), the floor's occupancy is
+    mapped; with start (a StartLightDetector), the lights are watched; laser() -> the TFmini's
+    reading [m] or None."""
 
-    def __init__(self, camera: Callable[[], tuple], detector: LaneDetector, depth_camera=None) -> None:
-        self.camera, self.detector, self.depth_camera = camera, detector, depth_camera
+    def __init__(self, camera: Callable[[], tuple], detector: LaneDetector, depth_camera=None,
+                 start: StartLightDetector | None = None, laser: Callable[[], float | None] | None = None) -> None:
+        self.camera, self.detector, self.depth_camera, self.start = camera, detector, depth_camera, start
+        self.laser = laser
 
     def setup(self) -> None:
         self.detector.reset()
+        if self.start is not None:
+            self.start.reset()
 
     def step(self, value: Observation) -> Seen:
         rgb, depth = self.camera()
+        go = self.start is None or self.start.update(rgb)
         lanes = self.detector.detect(rgb)
-        obstacle = None
-        if depth is not None and self.depth_camera is not None:
-            from roar.vision.occupancy import occupancy
-
-            path, reach = None, STRAIGHT_REACH_M
-            if lanes.centre is not None:  # along the lane it follows, as far as its lines were seen
-                seen = [line.points[:, 0].max() for line in (lanes.yellow, lanes.left, lanes.right)
-                        if line is not None and len(line.points)]
-                path, reach = lanes.centre.y, max(seen, default=STRAIGHT_REACH_M)
-            obstacle = occupancy(depth, self.depth_camera).nearest_ahead(PATH_HALF_WIDTH_M, path, reach)
-        return Seen(lanes, value.speed, obstacle)
+        grid = occupancy(depth, self.depth_camera) if depth is not None and self.depth_camera is not None else None
+        return Seen(lanes, value.speed, grid, go, self.laser() if self.laser is not None else None)
 
 
 class LanePlanner(Module[Seen, LanePlan]):
     def __init__(self, car: CarModel, period_s: float, margin: float = 0.9, lookahead_s: float = LOOKAHEAD_S,
                  min_lookahead_m: float = MIN_LOOKAHEAD_M, max_lookahead_m: float = MAX_LOOKAHEAD_M,
-                 max_speed_m_s: float = MAX_SPEED_M_S) -> None:
-        self.car, self.period_s, self.margin, self.max_speed_m_s = car, period_s, margin, max_speed_m_s
+                 max_speed_m_s: float = MAX_SPEED_M_S, keep_lane: bool = False) -> None:
+        self.car, self.period_s, self.margin = car, period_s, margin
+        self.max_speed_m_s = min(max_speed_m_s, AVOID_MAX_SPEED_M_S) if keep_lane else max_speed_m_s
         self.lookahead_s, self.min_lookahead_m, self.max_lookahead_m = lookahead_s, min_lookahead_m, max_lookahead_m
+        self.keep_lane = keep_lane
+        self.setup()
+
+    def setup(self) -> None:
         self.lost_s = 0.0
         self._last_goal: tuple[float, float] | None = None
         self._clear_s: float | None = None  # stopped for an obstacle: how long the path has been clear
+        self.side = -1 if self.keep_lane else 0  # the lane kept: -1 right, +1 left, 0 the road's centre
+        self.offset_m = self.side * LANE_OFFSET_M  # [m] the followed line from the road's centre, moving to side's
+        self.switches = 0  # lane changes for obstacles
+        self._since_switch_s = SWITCH_HOLD_S  # [s] since the last lane change
 
-    def setup(self) -> None:
-        self.lost_s, self._last_goal, self._clear_s = 0.0, None, None
+    def _path(self, lanes: Lanes):
+        """(y(x) of the line the car follows, how far ahead it is known [m])."""
+        if lanes.centre is None:
+            return None, STRAIGHT_REACH_M
+        seen = [line.points[:, 0].max() for line in (lanes.yellow, lanes.left, lanes.right)
+                if line is not None and len(line.points)]
+        offset = self.offset_m
+        return (lambda x: lanes.centre.y(x) + offset), max(seen, default=STRAIGHT_REACH_M)
 
-    def _blocked(self, value: Seen, limits) -> bool:
+    def _obstacle_m(self, value: Seen, half_width_m: float | None = None) -> float | None:
+        """[m] to the nearest occupied cell on the car's path, as far as the lane was seen (with
+        no lane seen, in a bend mostly, only what is right ahead of the front counts)."""
+        if value.grid is None:
+            return None
+        path, reach = self._path(value.lanes)
+        if half_width_m is None:
+            half_width_m = LANE_PATH_HALF_M if self.keep_lane else PATH_HALF_WIDTH_M
+        return value.grid.nearest_ahead(half_width_m, path, reach)
+
+    def _switch_lanes(self, value: Seen) -> None:
+        """The IARRC rule: something ahead within SWITCH_M in the lane the car keeps to sends it
+        to the other lane -- what the laser hits within LANE_BAND_M of the lane's middle (as the
+        camera sees the road there), or, where the laser looks past it (leaving a bend), what
+        the depth camera finds on the lane's path. Not again within SWITCH_HOLD_S: an obstacle
+        in both lanes is one to stop for."""
+        self._since_switch_s += self.period_s
+        centre = value.lanes.centre
+        if not self.keep_lane or centre is None or self._since_switch_s < SWITCH_HOLD_S:
+            return
+        by_laser = False
+        if value.laser_m is not None and value.laser_m <= SWITCH_M:
+            lane_middle = float(centre.y(FRONT_M + value.laser_m)) + self.side * LANE_OFFSET_M
+            by_laser = abs(lane_middle) <= LANE_BAND_M  # the hit is straight ahead of the car, at y = 0
+        by_depth = self._obstacle_m(value, LANE_BAND_M)
+        if by_laser or (by_depth is not None and by_depth - FRONT_M <= SWITCH_M):
+            self.side, self.switches, self._since_switch_s = -self.side, self.switches + 1, 0.0
+
+    def _blocked(self, obstacle_m: float | None, speed: float, limits) -> bool:
         """Stop for an obstacle within braking distance; once stopped, stay until the path has
         been clear for CLEAR_S (close up, the obstacle may hide below the camera's view)."""
         if self._clear_s is not None:
-            self._clear_s = 0.0 if value.obstacle_m is not None else self._clear_s + self.period_s
+            self._clear_s = 0.0 if obstacle_m is not None else self._clear_s + self.period_s
             if self._clear_s < CLEAR_S:
                 return True
             self._clear_s = None
-        if value.obstacle_m is None:
+        if obstacle_m is None:
             return False
-        braking_m = value.speed ** 2 / (2 * BRAKING_SHARE * limits.max_brake_m_s2)
-        if value.obstacle_m - FRONT_M < braking_m + STOP_MARGIN_M:
+        braking_m = speed ** 2 / (2 * BRAKING_SHARE * limits.max_brake_m_s2)
+        if obstacle_m - FRONT_M < braking_m + STOP_MARGIN_M:
             self._clear_s = 0.0
             return True
         return False
 
     def step(self, value: Seen) -> LanePlan:
         lanes, limits = value.lanes, self.car.limits.with_margin(self.margin)
-        if self._blocked(value, limits):  # before anything else: the obstacle may hide the lines
+        if not value.go:
+            return LanePlan(LaneState.WAITING, None, 0.0)
+        self._switch_lanes(value)
+        step_m = LANE_SHIFT_M_S * self.period_s
+        self.offset_m += max(-step_m, min(step_m, self.side * LANE_OFFSET_M - self.offset_m))
+        obstacle_m = self._obstacle_m(value)
+        if self._blocked(obstacle_m, value.speed, limits):  # before anything else: it may hide the lines
             return LanePlan(LaneState.OBSTACLE, self._last_goal, 0.0)
         if lanes.centre is None:
             self.lost_s += self.period_s
@@ -130,7 +193,7 @@ class LanePlanner(Module[Seen, LanePlan]):
             return LanePlan(LaneState.SEARCHING, self._last_goal, SEARCH_SPEED_M_S)
         self.lost_s = 0.0
         lookahead = min(self.max_lookahead_m, max(self.min_lookahead_m, self.lookahead_s * value.speed))
-        goal = (lookahead, float(lanes.centre.y(lookahead)))
+        goal = (lookahead, float(lanes.centre.y(lookahead)) + self.offset_m)
         self._last_goal = goal
         xs = np.linspace(0.5, 2.0, 7)
         a, b, _ = lanes.centre.coeffs
@@ -140,8 +203,8 @@ class LanePlanner(Module[Seen, LanePlan]):
         state = LaneState.FOLLOWING if lanes.source in ("yellow", "edges") else LaneState.ONE_LINE
         if state is LaneState.ONE_LINE:
             speed *= ONE_LINE_FACTOR
-        if value.obstacle_m is not None:  # no faster than it can still stop short of it
-            room = max(0.0, value.obstacle_m - FRONT_M - STOP_MARGIN_M)
+        if obstacle_m is not None:  # no faster than it can still stop short of it
+            room = max(0.0, obstacle_m - FRONT_M - STOP_MARGIN_M)
             speed = min(speed, math.sqrt(2 * BRAKING_SHARE * limits.max_brake_m_s2 * room))
         return LanePlan(state, goal, speed)
 
@@ -158,6 +221,9 @@ class LaneController(Module[tuple[Seen, LanePlan], Command]):
         if plan.state is LaneState.OBSTACLE:  # full brake (reverse torque) until nearly still, then neutral
             self.speed.reset()
             return Command(-1.0 if seen.speed > HOLD_SPEED_M_S else 0.0, 0.0)
+        if plan.state is LaneState.WAITING:  # at neutral: the ESC car stays armed, nothing rolls
+            self.speed.reset()
+            return Command(0.0, 0.0)
         if plan.state is LaneState.STOPPED or plan.goal is None:
             return Command(self.speed.step(0.0, seen.speed, self.period_s), 0.0)
         gx, gy = plan.goal
@@ -167,8 +233,12 @@ class LaneController(Module[tuple[Seen, LanePlan], Command]):
 
 
 def lane_agent(camera: Callable[[], tuple], detector: LaneDetector, car: CarModel, period_s: float,
-               margin: float = 0.9, depth_camera=None) -> Agent:
+               margin: float = 0.9, depth_camera=None, start: StartLightDetector | None = None,
+               laser: Callable[[], float | None] | None = None) -> Agent:
     """An agent that follows the road's centre by camera at `margin` of the car's grip; camera()
-    gives (RGB, depth or None), and with depth_camera it stops for obstacles in its path."""
-    return Agent(LanePerception(camera, detector, depth_camera), LanePlanner(car, period_s, margin),
+    gives (RGB, depth or None); with depth_camera it stops for obstacles in its path, with start
+    it waits for the start lights' green; with laser (the TFmini's reading) it keeps to the right
+    lane and changes lanes for what the laser finds ahead."""
+    return Agent(LanePerception(camera, detector, depth_camera, start, laser),
+                 LanePlanner(car, period_s, margin, keep_lane=laser is not None),
                  LaneController(car, SpeedController(car.limits.max_speed_m_s), period_s))
