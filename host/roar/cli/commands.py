@@ -61,6 +61,20 @@ def stream(args) -> int:
         raise UserError(str(e)) from None
 
 
+def vision(args) -> int:
+    if not (1 <= args.fov < 180 and 0 < args.height <= 5 and -5 <= args.ahead <= 5 and -45 <= args.pitch <= 89
+            and 0.1 <= args.fps <= 120):
+        raise UserError("want --fov 1..179 deg, --height 0..5 m, --ahead -5..5 m, --pitch -45..89 deg, --fps 0.1..120")
+    try:
+        from roar.cli.vision_frames import FramesError, run
+
+        return run(args.folder, args.out, args.video, args.fps, args.fov, args.height, args.ahead, args.pitch)
+    except ImportError as e:
+        raise UserError(f"roar vision needs {e.name}: pip install 'roar-platform[vision]'") from None
+    except FramesError as e:
+        raise UserError(str(e)) from None
+
+
 def drive(args) -> int:
     from roar.cli.teleop import run
 

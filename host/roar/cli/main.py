@@ -94,6 +94,24 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, default=None, metavar="DIR",
                    help="write PNGs here (one a second, and the last) instead of opening a window")
 
+    p = sub.add_parser("vision", help="lane detection and obstacles over a folder of recorded frames",
+                       description="Run the car's perception over recorded frames (a real car's or the "
+                                   "simulator's): lane lines in every image (PNG/JPEG, or RGB .npy) in name "
+                                   "order, and the ground-plane occupancy grid where a NAME_depth.npy (metres) "
+                                   "lies beside it. Writes a debug view per frame, optionally a video, and "
+                                   "prints offset, heading and the nearest obstacle per frame. The camera is the "
+                                   "simulated car's unless --fov/--height/--ahead/--pitch say otherwise.")
+    p.add_argument("folder", type=Path, metavar="FOLDER", help="the recorded frames")
+    p.add_argument("--out", type=Path, default=Path("out/vision"), metavar="DIR",
+                   help="where the debug views go (default: out/vision)")
+    p.add_argument("--video", type=Path, default=None, metavar="MP4", help="also write the lane views as a video")
+    p.add_argument("--fps", type=float, default=10.0, help="the video's frame rate (default 10)")
+    p.add_argument("--fov", type=float, default=70.0, metavar="DEG", help="vertical field of view (default 70)")
+    p.add_argument("--height", type=float, default=0.09, metavar="M", help="camera above the floor (default 0.09)")
+    p.add_argument("--ahead", type=float, default=0.39, metavar="M",
+                   help="camera ahead of the car's reference point, the rear axle (default 0.39)")
+    p.add_argument("--pitch", type=float, default=14.04, metavar="DEG", help="tilted down from level (default 14.04)")
+
     # Commands of other packages (the simulator's race and sim): each parses its own arguments
     # (main() hands them over), so they are listed here for --help only.
     installed = plugins.installed()

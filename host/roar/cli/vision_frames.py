@@ -1,0 +1,117 @@
+"""`roar vision FOLDER`: the car's perception over recorded frames -- a real car's or the
+simulator's. Every image (PNG/JPEG, or an RGB array in NPY) in the folder, in name order, goes
+through the lane detector (the moving ROIs carry from frame to frame, as live); a depth image
+beside it (NAME_depth.npy, metres) goes through the ground-plane occupancy grid too. Writes a
+debug view per frame (NAME_lanes.png, NAME_occupancy.png) into --out, optionally a video of the
+lane views, and prints one line per frame: the car's offset and heading against the road's
+centre, which lines were seen, and the nearest obstacle ahead.
+
+The camera is the simulated car's unless told otherwise: --fov (vertical), --height, --ahead
+and --pitch describe a real car's mounting.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
+DEPTH_SUFFIX = "_depth.npy"
+DEFAULT_FOV_DEG = 70.0  # [deg] the simulated car's camera (roar_sim.plant)
+DEFAULT_HEIGHT_M = 0.09  # [m]
+DEFAULT_AHEAD_M = 0.39  # [m]
+DEFAULT_PITCH_DEG = math.degrees(math.atan(0.25))  # [deg] down from level
+
+
+class FramesError(Exception):
+    """A folder or option that cannot work; str() is one line."""
+
+
+def frames_in(folder: Path) -> list[Path]:
+    """The RGB frames of a folder, in name order (depth arrays are not frames)."""
+    if not folder.is_dir():
+        raise FramesError(f"{folder} is not a folder")
+    found = sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES
+                   or (p.suffix == ".npy" and not p.name.endswith(DEPTH_SUFFIX)))
+    if not found:
+        raise FramesError(f"no frames in {folder}: want PNG/JPEG images or RGB arrays in .npy files")
+    return found
+
+
+def load_rgb(path: Path) -> np.ndarray:
+    if path.suffix == ".npy":
+        try:
+            rgb = np.load(path, allow_pickle=False)
+        except (OSError, ValueError) as e:
+            raise FramesError(f"{path.name}: not a numpy array ({e})") from None
+    else:
+        from roar.vision.geometry import cv2
+
+        bgr = cv2().imread(str(path), cv2().IMREAD_COLOR)
+        if bgr is None:
+            raise FramesError(f"{path.name}: not an image OpenCV can read")
+        rgb = bgr[:, :, ::-1]
+    if rgb.ndim != 3 or rgb.shape[2] < 3 or rgb.dtype != np.uint8:
+        raise FramesError(f"{path.name}: want an H x W x 3 RGB image of bytes, got {rgb.dtype} {rgb.shape}")
+    return np.ascontiguousarray(rgb[:, :, :3])
+
+
+def _figure_rgb(fig) -> np.ndarray:
+    fig.canvas.draw()
+    return np.asarray(fig.canvas.buffer_rgba())[:, :, :3].copy()
+
+
+def run(folder: Path, out: Path, video: Path | None = None, fps: float = 10.0, fov_deg: float = DEFAULT_FOV_DEG,
+        height_m: float = DEFAULT_HEIGHT_M, ahead_m: float = DEFAULT_AHEAD_M,
+        pitch_deg: float = DEFAULT_PITCH_DEG) -> int:
+    import matplotlib.pyplot as plt
+
+    from roar.vision.geometry import BirdsEye, CameraModel, cv2
+    from roar.vision.lanes import LaneDetector, debug_view
+    from roar.vision.occupancy import figure, occupancy
+
+    paths = frames_in(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    detector, size, writer = None, None, None
+    for path in paths:
+        rgb = load_rgb(path)
+        h, w = rgb.shape[:2]
+        if size is None:
+            size = (w, h)
+            camera = CameraModel.from_fov(w, h, fov_deg, ahead_m, height_m, math.radians(pitch_deg))
+            detector = LaneDetector(BirdsEye(camera))
+        elif size != (w, h):
+            raise FramesError(f"{path.name} is {w}x{h}, the frames before it {size[0]}x{size[1]}: one camera a folder")
+        lanes = detector.detect(rgb)
+        fig = debug_view(detector, rgb)
+        fig.savefig(out / f"{path.stem}_lanes.png")
+        if video is not None:
+            view = _figure_rgb(fig)
+            if writer is None:
+                writer = cv2().VideoWriter(str(video), cv2().VideoWriter_fourcc(*"mp4v"), fps,
+                                           (view.shape[1], view.shape[0]))
+                if not writer.isOpened():
+                    raise FramesError(f"cannot write the video {video} (OpenCV has no MP4 writer here?)")
+            writer.write(np.ascontiguousarray(view[:, :, ::-1]))
+        plt.close(fig)
+        line = (f"{path.name}: lines {lanes.source}"
+                + (f", offset {lanes.offset_m:+.3f} m, heading {math.degrees(lanes.heading_rad):+.1f} deg"
+                   if lanes.centre is not None else ""))
+        depth_path = path.with_name(path.stem + DEPTH_SUFFIX)
+        if depth_path.exists():
+            depth = np.load(depth_path, allow_pickle=False)
+            dh, dw = depth.shape[:2]
+            grid = occupancy(depth.astype(np.float32), CameraModel.from_fov(dw, dh, fov_deg, ahead_m, height_m,
+                                                                             math.radians(pitch_deg)))
+            nearest = grid.nearest_ahead(0.25)
+            line += f"; obstacle ahead {'none' if nearest is None else f'{nearest:.2f} m'}"
+            occupancy_fig = figure(rgb, grid)
+            occupancy_fig.savefig(out / f"{path.stem}_occupancy.png")
+            plt.close(occupancy_fig)
+        print(line, flush=True)
+    if writer is not None:
+        writer.release()
+    print(f"{len(paths)} frames; debug views in {out}" + (f", video {video}" if video is not None else ""))
+    return 0
