@@ -390,7 +390,12 @@ def test_roar_sim_junior_serves_both_ports_and_prints_them():
         assert status == 400 and body.count(b"\n") <= 1
     finally:
         proc.send_signal(signal.SIGINT)
-        _, err = proc.communicate(timeout=20)
+        try:
+            _, err = proc.communicate(timeout=20)
+        except subprocess.TimeoutExpired:  # fail, but leave no server behind
+            proc.kill()
+            proc.communicate()
+            raise
     assert proc.returncode == 130 and "Traceback" not in err
 
 

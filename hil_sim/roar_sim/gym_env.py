@@ -1,0 +1,175 @@
+"""ROAR's Gym environment with the firmware in the loop:
+
+    env = gymnasium.make("roar_sim.gym_env:roar/Race-v0", track="figure-eight")
+
+(the module prefix makes Gymnasium import this module, which registers roar/Race-v0; Gymnasium
+1.x has no plug-in entry points, so `import roar_sim.gym_env` then `gymnasium.make("roar/Race-v0")`
+is the other way).
+
+Each action travels the way a user's script drives the car: throttle and steering -> the control
+message's bytes (roar.protocol, through the library's calibration) -> the firmware core's board
+loop at 1 kHz -> the emulated ESC and servo -> the PyBullet car; 50 actions a second.
+
+    observation  {"state": [x, y, cos yaw, sin yaw, speed, yaw rate, cross-track, heading error],
+                  "lidar": ranges [m] over 270 deg, right to left (a scan every 2nd action;
+                           lidar_beams=0 leaves it out, the fastest),
+                  "camera": RGB and "depth": metres, when camera=(width, height) is asked for}
+    reward       metres of progress along the centre line, minus contact_penalty a step at a wall
+    terminated   touching a wall (crash_ends=True), or off the track
+    truncated    after max_seconds of simulated time
+
+reset(seed=...) builds a fresh world, so the same seed and actions give the same observations
+bit for bit; the seed draws the start: up to 0.1 m across the centre line and 0.05 rad of heading.
+"""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from roar.calibration import Calibration
+from roar.protocol import spec
+from roar_sim.harness import SimCar, SimConfig
+from roar_sim.quiet_pybullet import pb
+from roar_sim.track import MAX_DISTANCE_M, MAX_EXTENT_M, Track, get
+
+PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6  # [s] one action
+LIDAR_BEAMS = 72  # over 270 deg
+LIDAR_EVERY = 2  # actions per scan: 25 scans/s (a Hokuyo UST-10LX turns at 40 Hz); held in between
+LIDAR_RANGE_M = 10.0  # [m]
+START_OFFSET_M = 0.1  # [m] most the seed moves the start across the centre line
+START_HEADING_RAD = 0.05  # [rad] most the seed turns it
+FAR_M = 10.0  # [m] the depth camera's far plane
+VIEW_SIZE = (320, 240)  # [px] render()'s chase view
+MAX_SPEED_M_S = 20.0  # [m/s] the state's bound (the car tops out near 3)
+MAX_YAW_RATE_RAD_S = 50.0  # [rad/s]
+
+
+class RaceEnv(gym.Env):
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": round(1 / PERIOD_S)}
+
+    def __init__(self, track: str | Track = "oval", camera: tuple[int, int] | None = None, max_seconds: float = 60.0,
+                 contact_penalty: float = 1.0, crash_ends: bool = True, lidar_beams: int = LIDAR_BEAMS,
+                 render_mode: str | None = None) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
+        if not 0 <= lidar_beams <= 1080:
+            raise ValueError(f"lidar_beams must be 0 (no lidar) .. 1080, got {lidar_beams!r}")
+        self.track = track if isinstance(track, Track) else get(track)
+        self.lidar_beams = lidar_beams
+        self.camera_size, self.max_seconds = camera, max_seconds
+        self.contact_penalty, self.crash_ends, self.render_mode = contact_penalty, crash_ends, render_mode
+        self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)  # throttle, steering (+ = right)
+        far = MAX_DISTANCE_M + MAX_EXTENT_M  # [m] no track reaches further from the origin
+        self._state_high = np.array([far, far, 1.0, 1.0, MAX_SPEED_M_S, MAX_YAW_RATE_RAD_S, far, math.pi], np.float32)
+        observation = {"state": spaces.Box(-self._state_high, self._state_high, (8,), np.float32)}
+        if lidar_beams:
+            observation["lidar"] = spaces.Box(0.0, LIDAR_RANGE_M, (lidar_beams,), np.float32)
+        if camera is not None:
+            w, h = camera
+            observation["camera"] = spaces.Box(0, 255, (h, w, 3), np.uint8)
+            observation["depth"] = spaces.Box(0.0, FAR_M, (h, w), np.float32)
+        self.observation_space = spaces.Dict(observation)
+        self.calibration = Calibration()
+        self.sim: SimCar | None = None
+        self._hint: int | None = None
+        self._s = self._cte = 0.0  # [m] along the centre line, and across it
+        self._scan: np.ndarray | None = None  # the latest lidar scan
+        self._steps = 0
+
+    # --- gymnasium ---------------------------------------------------------------------------
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        self.close()
+        self.sim = SimCar(self.track, SimConfig(gui=self.render_mode == "human"))
+        x, y, yaw = self.track.start_pose
+        offset = float(self.np_random.uniform(-START_OFFSET_M, START_OFFSET_M))
+        yaw += float(self.np_random.uniform(-START_HEADING_RAD, START_HEADING_RAD))
+        plant = self.sim.plant
+        pb.resetBasePositionAndOrientation(plant.car, [x - offset * math.sin(yaw), y + offset * math.cos(yaw), 0.05],
+                                           pb.getQuaternionFromEuler([0, 0, yaw]), physicsClientId=plant.client)
+        self._send(0.0, 0.0)  # the ESC car boots latched until it hears neutral
+        self.sim.run(PERIOD_S)
+        self._hint, self._s, self._cte = self.track.project(self._xy())
+        self._scan, self._steps = None, 0
+        return self._observation(), self._info()
+
+    def step(self, action):
+        if self.sim is None:
+            raise RuntimeError("call reset() before step()")
+        values = np.asarray(action, dtype=np.float64).reshape(-1)
+        if values.shape != (2,) or not np.all(np.isfinite(values)):
+            raise ValueError(f"an action is (throttle, steering), two finite numbers in -1..1; got {action!r}")
+        throttle, steering = (float(v) for v in np.clip(values, -1.0, 1.0))
+        self._send(throttle, steering)
+        self.sim.run(PERIOD_S)
+        length = self.track.length_m
+        self._hint, s_now, self._cte = self.track.project(self._xy(), self._hint)
+        progress = (s_now - self._s + length / 2) % length - length / 2
+        self._s, cte = s_now, self._cte
+        touching = self.sim.plant.wall_contacts() > 0
+        reward = progress - (self.contact_penalty if touching else 0.0)
+        off_track = abs(cte) > self.track.width_m / 2
+        terminated = off_track or (touching and self.crash_ends)
+        truncated = self.sim.t_us / 1e6 >= self.max_seconds
+        return self._observation(), float(reward), bool(terminated), bool(truncated), self._info(touching)
+
+    def render(self):
+        if self.render_mode != "rgb_array" or self.sim is None:
+            return None
+        s = self.sim.state()
+        behind, up = 1.2, 0.8  # [m] the chase camera
+        position = [s.x - behind * math.cos(s.yaw), s.y - behind * math.sin(s.yaw), up]
+        rgb, _ = self.sim.plant.world.render(position, s.yaw, math.atan2(up, behind + 1.0), *VIEW_SIZE, 60.0)
+        return rgb
+
+    def close(self) -> None:
+        if self.sim is not None:
+            self.sim.close()
+            self.sim = None
+
+    # --- helpers -----------------------------------------------------------------------------
+
+    def _send(self, throttle: float, steering: float) -> None:
+        self.sim.write(self.calibration.message(throttle, steering))
+
+    def _xy(self) -> tuple[float, float]:
+        s = self.sim.state()
+        return s.x, s.y
+
+    def _observation(self) -> dict:
+        plant, s = self.sim.plant, self.sim.state()
+        a, b = self._segment()
+        heading_error = (s.yaw - math.atan2(b[1] - a[1], b[0] - a[0]) + math.pi) % (2 * math.pi) - math.pi
+        state = np.array([s.x, s.y, math.cos(s.yaw), math.sin(s.yaw), s.speed, s.yaw_rate, self._cte, heading_error],
+                         np.float32)
+        state = np.clip(state, -self._state_high, self._state_high)
+        observation = {"state": state}
+        if self.lidar_beams:
+            if self._steps % LIDAR_EVERY == 0:
+                scan = plant.lidar(beams=self.lidar_beams, range_m=LIDAR_RANGE_M).astype(np.float32)
+                self._scan = np.clip(scan, 0.0, LIDAR_RANGE_M)
+            observation["lidar"] = self._scan.copy()
+        self._steps += 1
+        if self.camera_size is not None:
+            rgb, depth = plant.camera(*self.camera_size, far_m=FAR_M)
+            observation["camera"] = np.ascontiguousarray(rgb)
+            observation["depth"] = np.clip(depth, 0.0, FAR_M).astype(np.float32)
+        return observation
+
+    def _segment(self) -> tuple[np.ndarray, np.ndarray]:
+        pts = self.track.centerline
+        i = self._hint or 0
+        return pts[i], pts[(i + 1) % len(pts)]
+
+    def _info(self, touching: bool = False) -> dict:
+        return {"time_s": self.sim.t_us / 1e6, "progress_m": self._s, "wall_contact": touching,
+                "throttle_us": self.sim.throttle_out_us}
+
+
+if "roar/Race-v0" not in gym.registry:
+    gym.register(id="roar/Race-v0", entry_point="roar_sim.gym_env:RaceEnv")

@@ -1,0 +1,152 @@
+"""ROAR's Gym environment: Gymnasium's own checker passes, actions go through the protocol and the
+firmware core, the same seed and actions give the same observations bit for bit (also across
+processes in an async vector environment), a crash terminates and the time limit truncates."""
+
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+gym = pytest.importorskip("gymnasium", reason="pip install gymnasium (make setup installs it)")
+pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
+
+ENV_ID = "roar_sim.gym_env:roar/Race-v0"
+
+
+def rollout(env, seed: int, steps: int):
+    """(observations, rewards) for `steps` actions drawn from a generator seeded with `seed`."""
+    rng = np.random.default_rng(seed)
+    observation, _ = env.reset(seed=seed)
+    observations, rewards = [observation], []
+    for _ in range(steps):
+        action = np.array([rng.uniform(0.0, 0.6), rng.uniform(-0.3, 0.3)], np.float32)
+        observation, reward, terminated, truncated, _ = env.step(action)
+        observations.append(observation)
+        rewards.append(reward)
+        if terminated or truncated:
+            break
+    return observations, rewards
+
+
+def same(a, b) -> bool:
+    return a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a)
+
+
+def test_the_same_seed_and_actions_give_the_same_observations_bit_for_bit():
+    env = gym.make(ENV_ID, camera=(64, 48))
+    try:
+        first, rewards_1 = rollout(env, 5, 60)
+        second, rewards_2 = rollout(env, 5, 60)
+        other, _ = rollout(env, 6, 60)
+    finally:
+        env.close()
+    assert len(first) == len(second) and all(same(a, b) for a, b in zip(first, second)) and rewards_1 == rewards_2
+    assert not same(first[0], other[0])  # the seed draws the start
+    assert first[0]["camera"].shape == (48, 64, 3) and first[0]["depth"].shape == (48, 64)
+
+
+def test_actions_drive_the_car_through_the_firmware_and_progress_is_the_reward():
+    env = gym.make(ENV_ID)
+    try:
+        env.reset(seed=0)
+        total = 0.0
+        for _ in range(50):
+            _, reward, terminated, _, info = env.step(np.array([0.5, 0.0], np.float32))
+            total += reward
+        assert not terminated and info["throttle_us"] > 1500  # the firmware's pulse to the ESC
+        speed = env.unwrapped.sim.state().speed
+        assert speed > 0.5 and 0.5 < total < 3.0  # metres along the centre line in 1 s
+        with pytest.raises(ValueError, match="two finite numbers"):
+            env.step(np.array([np.nan, 0.0]))
+    finally:
+        env.close()
+
+
+def test_a_wall_terminates_and_the_time_limit_truncates():
+    env = gym.make(ENV_ID, max_seconds=1.0)
+    try:
+        env.reset(seed=0)
+        steps = 0
+        while True:
+            _, _, terminated, truncated, _ = env.step(np.array([0.2, 0.0], np.float32))
+            steps += 1
+            if terminated or truncated:
+                break
+        assert truncated and not terminated and steps == 49  # 1 s of 20 ms actions after the arming period
+    finally:
+        env.close()
+    env = gym.make(ENV_ID)
+    try:
+        env.reset(seed=0)
+        for _ in range(500):  # full throttle, hard left: into the inner wall
+            _, reward, terminated, truncated, info = env.step(np.array([1.0, -1.0], np.float32))
+            if terminated:
+                break
+        assert terminated and not truncated
+    finally:
+        env.close()
+
+
+def test_an_async_vector_environment_gives_what_serial_ones_give():
+    envs = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="async")
+    try:
+        observations, _ = envs.reset(seed=[11, 12])
+        rng = np.random.default_rng(0)
+        actions = [rng.uniform([0.0, -0.3], [0.6, 0.3], (2, 2)).astype(np.float32) for _ in range(30)]
+        vector = [observations]
+        for action in actions:
+            observations, *_ = envs.step(action)
+            vector.append(observations)
+    finally:
+        envs.close()
+    for i, seed in enumerate((11, 12)):
+        env = gym.make(ENV_ID)
+        try:
+            serial = [env.reset(seed=seed)[0]]
+            serial += [env.step(action[i])[0] for action in actions]
+        finally:
+            env.close()
+        assert all(same({k: v[i] for k, v in vec.items()}, one) for vec, one in zip(vector, serial))
+
+
+CHECK = """
+import gymnasium as gym
+from gymnasium.utils.env_checker import check_env
+env = gym.make("roar_sim.gym_env:roar/Race-v0", render_mode="rgb_array")
+check_env(env.unwrapped)
+env.reset(seed=0)
+frame = env.render()
+assert frame.shape == (240, 320, 3) and frame.std() > 5
+print("CHECKED")
+"""
+
+
+def test_gymnasiums_checker_passes_with_both_render_modes():
+    """check_env makes the environment in every declared render mode, `human` (the PyBullet
+    window) too: on a virtual screen."""
+    xvfb_run = shutil.which("xvfb-run")
+    if xvfb_run is None:
+        pytest.skip("xvfb-run not installed: apt-get install xvfb xauth")
+    result = subprocess.run([xvfb_run, "-a", sys.executable, "-W", "error::UserWarning:gymnasium", "-c", CHECK],
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0 and "CHECKED" in result.stdout, result.stderr[-3000:]
+
+
+def test_the_lidar_is_a_scan_every_second_action_or_none_at_all():
+    env = gym.make(ENV_ID)
+    try:
+        env.reset(seed=0)
+        scans = [env.step(np.array([0.6, 0.0], np.float32))[0]["lidar"] for _ in range(6)]
+    finally:
+        env.close()
+    assert scans[0].shape == (72,) and np.all(scans[0] > 0)
+    assert [np.array_equal(a, b) for a, b in zip(scans, scans[1:])] == [False, True, False, True, False]
+    env = gym.make(ENV_ID, lidar_beams=0)
+    try:
+        assert set(env.reset(seed=0)[0]) == {"state"} and set(env.observation_space.spaces) == {"state"}
+    finally:
+        env.close()
+    with pytest.raises(ValueError, match="lidar_beams"):
+        gym.make(ENV_ID, lidar_beams=-1)
