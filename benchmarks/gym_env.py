@@ -29,20 +29,18 @@ def run() -> None:
             sim.run(PERIOD_S)
         bare = STEPS / (time.perf_counter() - start)
     action = np.array([0.2, 0.0], np.float32)
-    env = gym.make("roar_sim.gym_env:roar/Race-v0")
-    env.reset(seed=0)
-    start = time.perf_counter()
-    for _ in range(STEPS):
-        env.step(action)
-    one = STEPS / (time.perf_counter() - start)
-    env.close()
-    env = gym.make("roar_sim.gym_env:roar/Race-v0", lidar_beams=0)
-    env.reset(seed=0)
-    start = time.perf_counter()
-    for _ in range(STEPS):
-        env.step(action)
-    state_only = STEPS / (time.perf_counter() - start)
-    env.close()
+
+    def steps_per_s(**options) -> float:
+        env = gym.make("roar_sim.gym_env:roar/Race-v0", **options)
+        env.reset(seed=0)
+        start = time.perf_counter()
+        for _ in range(STEPS):
+            env.step(action)
+        rate = STEPS / (time.perf_counter() - start)
+        env.close()
+        return rate
+
+    one, state_only = steps_per_s(), steps_per_s(lidar_beams=0)
     envs = gym.make_vec("roar_sim.gym_env:roar/Race-v0", num_envs=2, vectorization_mode="async")
     envs.reset(seed=[0, 1])
     actions = np.tile(action, (2, 1))

@@ -40,12 +40,14 @@ class SimConfig:
 class SimCar(Lockstep):
     """A simulated car: write() control bytes, run() time, read() the car's reply lines."""
 
-    def __init__(self, track: Track | None = None, config: SimConfig | None = None) -> None:
+    def __init__(self, track: Track | None = None, config: SimConfig | None = None, world=None,
+                 pose: tuple[float, float, float] | None = None) -> None:
+        """world (and pose): one car more in a world another steps (roar_sim.fleet)."""
         self.config = config or SimConfig()
         self.track = track
         self.board = Board(self.config.firmware, loop_us=LOOP_US, frame_us=FRAME_US)
         self.esc, self.servo = self.config.esc, self.config.servo
-        self.plant = Plant(track, dt_s=PHYSICS_US / 1e6, gui=self.config.gui)
+        self.plant = Plant(track, dt_s=PHYSICS_US / 1e6, gui=self.config.gui, world=world, pose=pose)
         self.t_us = 0
         self._frames = self.board.frames
         self._replies: list[str] = []
@@ -87,10 +89,15 @@ class SimCar(Lockstep):
         """Run the firmware up to the next physics step or end_us, whichever comes first; a
         physics period's step follows the loop iteration at its start (where frames start)."""
         t = self.t_us
-        period_end = (t // PHYSICS_US + 1) * PHYSICS_US
-        loops = max(1, (min(period_end, end_us) - t) // LOOP_US)
+        self.firmware(loops_until(t, end_us))
+        if t % PHYSICS_US == 0:
+            self.actuate()
+            self.plant.step()
+
+    def firmware(self, loops: int) -> None:
+        """`loops` iterations of the board loop; the ESC and servo take a frame that started."""
         self.board.run(loops)
-        self.t_us = t + loops * LOOP_US
+        self.t_us += loops * LOOP_US
         if self.board.frames != self._frames:  # an output frame started: the ESC and servo take it
             self._frames = self.board.frames
             throttle_us, steering_us = self.board.wire
@@ -100,11 +107,18 @@ class SimCar(Lockstep):
         if out:
             *lines, self._partial = (self._partial + out).split(b"\n")
             self._replies += [line.decode("ascii", "replace") for line in lines]
-        if t % PHYSICS_US == 0:
-            esc = self._esc_out
-            self.plant.apply(esc.drive, esc.brake, self.servo.advance(PHYSICS_US / 1e6))
-            self.plant.step()
+
+    def actuate(self) -> None:
+        """The ESC's and servo's outputs onto the car, for the physics step to come."""
+        esc = self._esc_out
+        self.plant.apply(esc.drive, esc.brake, self.servo.advance(PHYSICS_US / 1e6))
 
     @property
     def esc_mode(self) -> EscMode:
         return self.esc.mode
+
+
+def loops_until(t_us: int, end_us: int) -> int:
+    """Board-loop iterations from t_us to the next physics step or end_us, whichever is first."""
+    period_end = (t_us // PHYSICS_US + 1) * PHYSICS_US
+    return max(1, (min(period_end, end_us) - t_us) // LOOP_US)

@@ -71,15 +71,18 @@ def ackermann_angles(steer_rad: float) -> tuple[float, float]:
 
 
 class Plant:
-    """The racecar in a World (DIRECT, or GUI when gui=True) with an optional track."""
+    """The racecar in a World (DIRECT, or GUI when gui=True) with an optional track; or, given
+    `world`, one more car in that world (which then steps it: see step() and tick()), at `pose`."""
 
     def __init__(self, track: Track | None, dt_s: float = 0.005, gui: bool = False,
-                 motor: Motor = ROAR_MOTOR) -> None:
+                 motor: Motor = ROAR_MOTOR, world: World | None = None,
+                 pose: tuple[float, float, float] | None = None) -> None:
         self.dt_s = dt_s
         self.motor = motor
-        self.world = World(track, dt_s, gui)
+        self._owns_world = world is None
+        self.world = World(track, dt_s, gui) if world is None else world
         self.client = c = self.world.client
-        x, y, yaw = self.world.start_pose()
+        x, y, yaw = pose if pose is not None else self.world.start_pose()
         self.car = pb.loadURDF("racecar/racecar.urdf", [x, y, 0.05], pb.getQuaternionFromEuler([0, 0, yaw]),
                                physicsClientId=c)
         for w in REAR_WHEELS + FRONT_WHEELS:
@@ -90,7 +93,8 @@ class Plant:
         self.props: list = []  # things in the world that change with time: update(time_s) each step
 
     def close(self) -> None:
-        self.world.close()
+        if self._owns_world:
+            self.world.close()
 
     def camera(self, width: int = 160, height: int = 120, fov_deg: float = CAMERA_FOV_DEG,
                far_m: float = 10.0, shake_rad: tuple[float, float] = (0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
@@ -126,6 +130,10 @@ class Plant:
 
     def step(self) -> None:
         self.world.step()
+        self.tick()
+
+    def tick(self) -> None:
+        """Time moves on after a physics step of the world (in a shared world, whoever steps it)."""
         self.time_s += self.dt_s
         for prop in self.props:
             prop.update(self.time_s)
