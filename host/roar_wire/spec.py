@@ -122,6 +122,15 @@ UDP_PORT_VEHICLE_STATE = 8003  # Vehicle state, UTF-8 CSV of state_fields
 UDP_PORT_CONTROL = 8004  # Control to the phone: "throttle,steering" floats in [-1, 1], not chunked
 UDP_STATE_FIELDS = 'x,y,z,roll,pitch,yaw,vx,vy,vz,ax,ay,az,gx,gy,gz,hall_effect_sensor_velocity,recv_time,ix,iy,iz,r'  # The vehicle state CSV's fields, in order (ROAR's phone app): position [m], attitude [deg], velocity [m/s], acceleration [m/s^2], gyro [rad/s], wheel speed [m/s], time [s], and four more the phone fills
 
+# [v2v]
+V2V_GROUP = '224.1.1.1'  # IPv4 multicast group (ROAR's UDPMulticastCommunicator)
+V2V_PORT = 5004  # UDP port every car sends to and listens on
+V2V_TTL = 2  # [hops] Multicast time to live: the cars' own network
+V2V_FIELDS = 'car_id,seq,x,y,yaw,speed'  # One datagram: UTF-8 CSV of these, in order: sender id (0..255), sequence number (0..2^32-1, wraps), position [m], heading [rad], speed [m/s]
+V2V_PERIOD_US = 50000  # [us] A car sends its state this often (20 Hz)
+V2V_TIMEOUT_US = 500000  # [us] A follower that has heard nothing from its leader this long stops (its own failsafe)
+V2V_MAX_DATAGRAM_BYTES = 128  # [bytes] Longer datagrams are not V2V messages
+
 # [junior]
 JUNIOR_CONTROL_PORT = 81  # HTTP port of the control route
 JUNIOR_CAMERA_PORT = 80  # HTTP port of the camera routes

@@ -114,6 +114,15 @@ static constexpr uint16_t kUdpPortVehicleState = 8003u;  // Vehicle state, UTF-8
 static constexpr uint16_t kUdpPortControl = 8004u;  // Control to the phone: "throttle,steering" floats in [-1, 1], not chunked
 static constexpr char kUdpStateFields[] = "x,y,z,roll,pitch,yaw,vx,vy,vz,ax,ay,az,gx,gy,gz,hall_effect_sensor_velocity,recv_time,ix,iy,iz,r";  // The vehicle state CSV's fields, in order (ROAR's phone app): position [m], attitude [deg], velocity [m/s], acceleration [m/s^2], gyro [rad/s], wheel speed [m/s], time [s], and four more the phone fills
 
+// [v2v]
+static constexpr char kV2vGroup[] = "224.1.1.1";  // IPv4 multicast group (ROAR's UDPMulticastCommunicator)
+static constexpr uint16_t kV2vPort = 5004u;  // UDP port every car sends to and listens on
+static constexpr uint16_t kV2vTtl = 2u;  // [hops] Multicast time to live: the cars' own network
+static constexpr char kV2vFields[] = "car_id,seq,x,y,yaw,speed";  // One datagram: UTF-8 CSV of these, in order: sender id (0..255), sequence number (0..2^32-1, wraps), position [m], heading [rad], speed [m/s]
+static constexpr uint16_t kV2vPeriodUs = 50000u;  // [us] A car sends its state this often (20 Hz)
+static constexpr uint32_t kV2vTimeoutUs = 500000ul;  // [us] A follower that has heard nothing from its leader this long stops (its own failsafe)
+static constexpr uint16_t kV2vMaxDatagramBytes = 128u;  // [bytes] Longer datagrams are not V2V messages
+
 // [junior]
 static constexpr uint16_t kJuniorControlPort = 81u;  // HTTP port of the control route
 static constexpr uint16_t kJuniorCameraPort = 80u;  // HTTP port of the camera routes
