@@ -65,13 +65,14 @@ def platoon(track: Track, gap_m: float = 1.5, cruise_m_s: float = 1.0, seconds: 
                 command = agent.step(observed[name])
                 car.write(calibration.message(command.throttle, command.steering))
             fleet.run(PERIOD_S)
-            along = {}
+            along, speed = {}, {}
             for name, car in (("lead", lead), ("follow", follow)):
                 s = car.state()
                 hint[name], along[name], _ = track.project((s.x, s.y), hint.get(name))
+                speed[name] = s.speed
             run.times_s.append(fleet.time_s)
             run.gaps_m.append((along["lead"] - along["follow"]) % track.length_m)
-            run.leader_speeds.append(lead.state().speed)
-            run.follower_speeds.append(follow.state().speed)
+            run.leader_speeds.append(speed["lead"])
+            run.follower_speeds.append(speed["follow"])
             run.contacts += fleet.touching(0, 1)
     return run
