@@ -22,6 +22,7 @@ FRONT_WHEELS = (5, 7)
 LEFT_HINGE, RIGHT_HINGE = 4, 6
 LIDAR_LINK = 8  # hokuyo_joint
 CAMERA_LINK = 9  # zed_camera_joint
+LIDAR_MIN_RANGE_M = 0.06  # [m] a Hokuyo UST-10LX's minimum range; beams start this far out
 
 
 @dataclass(frozen=True)
@@ -156,7 +157,11 @@ class Plant:
         pos, orn = pb.getLinkState(self.car, LIDAR_LINK, physicsClientId=c)[:2]
         yaw = pb.getEulerFromQuaternion(orn)[2]
         angles = yaw + np.linspace(-fov_rad / 2, fov_rad / 2, beams)
-        start = np.tile(pos, (beams, 1))
-        end = start + range_m * np.stack([np.cos(angles), np.sin(angles), np.zeros(beams)], axis=1)
+        directions = np.stack([np.cos(angles), np.sin(angles), np.zeros(beams)], axis=1)
+        # Beams start at the housing's edge: from the link's centre, inside its own collision box,
+        # Bullet now and then reports a hit at distance 0 (the lidar seeing itself).
+        start = np.asarray(pos) + LIDAR_MIN_RANGE_M * directions
+        end = np.asarray(pos) + range_m * directions
         hits = pb.rayTestBatch(start.tolist(), end.tolist(), physicsClientId=c)
-        return np.array([h[2] * range_m if h[0] >= 0 else range_m for h in hits])
+        reach = range_m - LIDAR_MIN_RANGE_M
+        return np.array([LIDAR_MIN_RANGE_M + h[2] * reach if h[0] >= 0 else range_m for h in hits])
