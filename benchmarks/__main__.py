@@ -4,12 +4,12 @@ import sys
 
 from benchmarks import (avr_emulator, fleet, gym_env, host_latency, iarrc_controller, junior_camera_rate, junior_control_latency, lanes,
                         junior_sim_speed, micropython_boards, parser_throughput, race_ratio, sbus_decode, sim_speed,
-                        udp_stream)
+                        sweep, udp_stream)
 from roar_sim import firmware_sizes
 
 BENCHMARKS = [parser_throughput, sim_speed, host_latency, avr_emulator, firmware_sizes, race_ratio, junior_sim_speed,
               junior_control_latency, junior_camera_rate, micropython_boards, sbus_decode, iarrc_controller,
-              udp_stream, lanes, gym_env, fleet]
+              udp_stream, lanes, gym_env, fleet, sweep]
 
 
 def main() -> int:

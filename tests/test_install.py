@@ -41,7 +41,7 @@ def test_the_base_install_drives_a_car_without_the_simulator_or_bluetooth(base_v
 
 
 @pytest.mark.parametrize("argv, extra", [(["send", "sim://", "--for", "0.1"], "sim"), (["race"], "sim"),
-                                         (["sim", "--serial"], "sim"), (["scan"], "ble"),
+                                         (["sim", "--serial"], "sim"), (["sweep"], "sweep"), (["scan"], "ble"),
                                          (["send", "ble://", "--for", "0.1"], "ble")])
 def test_the_simulator_and_bluetooth_say_what_to_install(base_venv, argv, extra):
     proc = run(base_venv, "roar", *argv)

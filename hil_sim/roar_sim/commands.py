@@ -1,6 +1,6 @@
 """The simulator's `roar` commands, registered through the "roar.commands" entry point group
-(pyproject.toml): `roar race`, `roar sim` and `roar step-response` (the IARRC car's speed
-controller). Each parses its own arguments; the simulator itself is imported only when a command
+(pyproject.toml): `roar race`, `roar sim`, `roar step-response` (the IARRC car's speed
+controller) and `roar sweep`. Each parses its own arguments; the simulator itself is imported only when a command
 runs."""
 
 from __future__ import annotations
@@ -83,3 +83,13 @@ def _step_response(argv: list[str]) -> int:
 
 step_response = Command("the simulated IARRC car's speed PID answering a step, plotted (`roar step-response --help`)",
                         _step_response)
+
+
+def _sweep(argv: list[str]) -> int:
+    from roar_sim.sweep import main
+
+    return main(argv)
+
+
+sweep = Command("race a grid of autopilot parameters x tracks as Ray tasks; CSV table and plot (`roar sweep --help`)",
+                _sweep)

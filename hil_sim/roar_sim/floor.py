@@ -10,7 +10,6 @@ from __future__ import annotations
 import tempfile
 from pathlib import Path
 
-import matplotlib.image
 import numpy as np
 from roar_sim.quiet_pybullet import pb
 
@@ -94,9 +93,11 @@ def add_floor(track: Track, client: int) -> int:
     visual = pb.createVisualShape(pb.GEOM_MESH, vertices=vertices, indices=indices, uvs=uvs,
                                   normals=[[0, 0, 1]] * len(vertices), physicsClientId=client)
     body = pb.createMultiBody(0, -1, visual, [0, 0, 0], physicsClientId=client)
+    from PIL import Image  # here: only a car with a camera needs the floor's paint
+
     with tempfile.TemporaryDirectory(prefix="roar-floor-") as tmp:  # PyBullet loads textures from files
         path = Path(tmp) / "floor.png"
-        matplotlib.image.imsave(path, image.rgb)
+        Image.fromarray(image.rgb).save(path)
         texture = pb.loadTexture(str(path), physicsClientId=client)
     pb.changeVisualShape(body, -1, textureUniqueId=texture, physicsClientId=client)
     return body

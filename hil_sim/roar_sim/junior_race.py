@@ -44,7 +44,7 @@ class JuniorIO(LockstepIO):
     def send(self, command: Command) -> None:
         self.transport.write(self.calibration.message(command.throttle, command.steering))
 
-    def agent(self, line: np.ndarray, margin: float, lateral: str) -> Agent:
+    def agent(self, line: np.ndarray, margin: float, lateral: str, k_dd_s: float | None = None) -> Agent:
         if lateral != "pursuit":
             raise ValueError("the Junior steers by pure pursuit only (its wheels set the curvature)")
-        return diff_drive_agent(line, JUNIOR_MODEL, margin)
+        return diff_drive_agent(line, JUNIOR_MODEL, margin, **({} if k_dd_s is None else {"k_dd_s": k_dd_s}))

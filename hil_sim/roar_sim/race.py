@@ -3,7 +3,7 @@ the firmware logic (commands at 50 Hz, lockstep), measured against the track's p
 lap time for that robot.
 
     roar race [--junior] [--track oval|figure-eight|course|FILE.json] [--laps 2] [--waypoints FILE]
-              [--margin 0.9] [--steering pursuit|pid] [--driver line|lane] [--start-lights SEED]
+              [--margin 0.9] [--k-dd S] [--steering pursuit|pid] [--driver line|lane] [--start-lights SEED]
               [--boxes N] [--avoid] [--record DIR] [--plot out/race.png] [--realtime] [--gui]
 
 The ESC car (default) hears control messages on its serial link. The ROAR Junior (--junior)
@@ -32,6 +32,7 @@ import numpy as np
 
 from roar.autopilot import (Agent, CarLimits, Command, Observation, Runner, WaypointError, diff_drive_agent,
                             lap_time, load_waypoints, race_agent, speed_profile)
+from roar.autopilot.pure_pursuit import PurePursuit
 from roar.calibration import Calibration
 from roar.protocol import spec
 from roar_sim import plotting
@@ -46,6 +47,8 @@ from roar_sim.track import Track, TrackError, get
 
 PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6  # [s] 50 Hz, like a real host
 ROBOTS = ("car", "junior")
+MARGIN_RANGE = (0.3, 1.0)  # fraction of the robot's limits a race may be driven at
+K_DD_RANGE_S = (0.05, 2.0)  # [s] pure pursuit's look-ahead per m/s a race may use
 LANE_CAMERA = (320, 240)  # [px] the camera the lane driver sees through
 
 
@@ -68,7 +71,8 @@ class LockstepIO:
     def wait(self, seconds: float) -> None:
         self.sim.run(seconds)
 
-    def agent(self, line: np.ndarray, margin: float, lateral: str) -> Agent:
+    def agent(self, line: np.ndarray, margin: float, lateral: str, k_dd_s: float | None = None) -> Agent:
+        """The driver; k_dd_s: pure pursuit's look-ahead per m/s [s] (None: the autopilot's default)."""
         raise NotImplementedError
 
     def touching_wall(self) -> bool:
@@ -109,7 +113,7 @@ class SimIO(LockstepIO):
     def send(self, command: Command) -> None:
         self.sim.write(self.calibration.message(command.throttle, command.steering))
 
-    def agent(self, line: np.ndarray, margin: float, lateral: str) -> Agent:
+    def agent(self, line: np.ndarray, margin: float, lateral: str, k_dd_s: float | None = None) -> Agent:
         if lateral == "lane":  # the camera alone: the line (and the pose) stay out of the control path
             from roar.autopilot.lane_agent import lane_agent
             from roar.vision.geometry import BirdsEye
@@ -126,7 +130,8 @@ class SimIO(LockstepIO):
             return lane_agent(self.camera, detector, SIMULATED_CAR, PERIOD_S, margin,
                               depth_camera=camera_model(w, h), start=start,
                               laser=self.laser.read if self.laser is not None else None)
-        return race_agent(line, SIMULATED_CAR, PERIOD_S, margin=margin, lateral=lateral)
+        pursuit = None if k_dd_s is None else PurePursuit(SIMULATED_CAR.wheelbase_m, k_dd_s=k_dd_s)
+        return race_agent(line, SIMULATED_CAR, PERIOD_S, margin=margin, lateral=lateral, pursuit=pursuit)
 
     def braking(self) -> bool:
         return self.sim.esc_mode in (EscMode.BRAKE, EscMode.REVERSE)
@@ -207,13 +212,15 @@ def check_line(track: Track, line: np.ndarray) -> None:
 def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margin: float = 0.9,
          config: SimConfig | None = None, progress: bool = False, timeout_s: float | None = None,
          lateral: str = "pursuit", robot: str = "car", start_lights: int | None = None,
-         boxes: Sequence[tuple[float, float]] = (), avoid: bool = False, record: Path | None = None) -> RaceResult:
+         boxes: Sequence[tuple[float, float]] = (), avoid: bool = False, record: Path | None = None,
+         k_dd_s: float | None = None) -> RaceResult:
     """Race `robot` ("car": the ESC car; "junior": the ROAR Junior over HTTP) round `track`.
     config's realtime and gui apply to either robot. The lane driver only: start_lights (a
     seed) -- start lights turn green at a moment drawn from the seed, and the car waits for
     them; avoid -- the car carries a TFmini and keeps to a lane, changing lanes for what is
     ahead; record -- a folder the driver's frames are written to. boxes: (distance along the
-    centre line, offset to its left) [m] of each box."""
+    centre line, offset to its left) [m] of each box. k_dd_s: pure pursuit's look-ahead per m/s
+    [s] (None: the autopilot's default)."""
     if robot not in ROBOTS:
         raise ValueError(f"robot must be one of {', '.join(ROBOTS)}, got {robot!r}")
     if (start_lights is not None or avoid or record) and (robot != "car" or lateral != "lane"):
@@ -257,7 +264,7 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
         bar = _progress_bar(laps, track.name) if progress else None  # once the simulator is up
         io.send(Command(0.0, 0.0))  # arm: the ESC car boots latched until it hears neutral
         io.wait(PERIOD_S)
-        Runner(io, io.agent(line, margin, lateral), PERIOD_S).run(
+        Runner(io, io.agent(line, margin, lateral, k_dd_s), PERIOD_S).run(
             until=lambda obs: len(result.lap_times_s) >= laps or obs.t_s >= timeout_s, on_step=record)
         io.wait(PERIOD_S)
     if bar:
@@ -358,6 +365,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="follow this closed line (x,y,z per line) instead of the centre line")
     parser.add_argument("--margin", type=float, default=0.9,
                         help="fraction of the car's limits to drive at (default 0.9)")
+    parser.add_argument("--k-dd", type=float, default=None, metavar="S",
+                        help="pure pursuit's look-ahead per m/s of speed [s] (default 0.35 for the car, 0.5 for the "
+                             "Junior; `roar sweep` tunes it)")
     parser.add_argument("--steering", choices=["pursuit", "pid"], default="pursuit",
                         help="lateral control: pure pursuit (default) or the heading-error PID")
     parser.add_argument("--driver", choices=["line", "lane"], default="line",
@@ -383,8 +393,12 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--laps must be 1..100")
     if args.seconds is not None and not 1 <= args.seconds <= 36_000:
         parser.error("--seconds must be 1..36000")
-    if not 0.3 <= args.margin <= 1.0:
-        parser.error("--margin must be 0.3..1.0")
+    if not MARGIN_RANGE[0] <= args.margin <= MARGIN_RANGE[1]:
+        parser.error(f"--margin must be {MARGIN_RANGE[0]:g}..{MARGIN_RANGE[1]:g}")
+    if args.k_dd is not None and not K_DD_RANGE_S[0] <= args.k_dd <= K_DD_RANGE_S[1]:
+        parser.error(f"--k-dd must be {K_DD_RANGE_S[0]:g}..{K_DD_RANGE_S[1]:g} s")
+    if args.k_dd is not None and (args.steering != "pursuit" or args.driver != "line"):
+        parser.error("--k-dd tunes pure pursuit: it needs the line driver steering by pursuit")
     if args.junior and args.steering != "pursuit":
         parser.error("--junior steers by pure pursuit only (its wheel speeds set the curvature)")
     if args.driver == "lane" and (args.junior or args.waypoints):
@@ -411,7 +425,8 @@ def main(argv: list[str] | None = None) -> int:
         result = race(track, args.laps, waypoints, args.margin, SimConfig(realtime=args.realtime, gui=args.gui),
                       progress=True, lateral="lane" if args.driver == "lane" else args.steering,
                       timeout_s=args.seconds, robot="junior" if args.junior else "car",
-                      start_lights=args.start_lights, boxes=boxes, avoid=args.avoid, record=args.record)
+                      start_lights=args.start_lights, boxes=boxes, avoid=args.avoid, record=args.record,
+                      k_dd_s=args.k_dd)
     except (TrackError, WaypointError, CoreLoadError, SimError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 1

@@ -136,10 +136,11 @@ class DiffDriveController(Module[tuple[Observation, Plan], Command]):
 
 
 def diff_drive_agent(points: np.ndarray, robot: DiffDriveModel, margin: float = 0.9,
-                     pursuit: PurePursuit | None = None) -> Agent:
-    """An agent that laps `points` with a differential-drive robot at `margin` of its limits."""
+                     pursuit: PurePursuit | None = None, k_dd_s: float = 0.5) -> Agent:
+    """An agent that laps `points` with a differential-drive robot at `margin` of its limits
+    (pure pursuit's look-ahead k_dd_s [s] per m/s, unless `pursuit` is given)."""
     xy = np.asarray(points, dtype=float)[:, :2]
-    pursuit = pursuit or PurePursuit(wheelbase_m=robot.track_width_m, k_dd_s=0.5, min_lookahead_m=0.35)
+    pursuit = pursuit or PurePursuit(wheelbase_m=robot.track_width_m, k_dd_s=k_dd_s, min_lookahead_m=0.35)
     speeds = speed_profile(xy, robot.limits.with_margin(margin))
     planner = RacePlanner(xy, speeds, LoopWaypointFollower(xy), pursuit)
     return Agent(Passthrough(), planner, DiffDriveController(robot))
