@@ -1,9 +1,12 @@
 """Platooning: the V2V message and its multicast link on loopback, and two cars in one world --
 the follower holds its gap within 0.2 m at steady speed, and stops by itself when the leader's
-messages stop."""
+messages stop; the messages over loopback, and over a real veth link between network namespaces
+(skipped with the reason where the machine does not allow them)."""
 
 import math
+import os
 import socket
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -77,24 +80,64 @@ def test_cars_hear_each_other_over_multicast_and_not_themselves():
 
 
 pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
+from roar_sim.netns import NetnsUnavailable, veth_pair  # noqa: E402
 from roar_sim.platoon import platoon  # noqa: E402
 from roar_sim.track import get  # noqa: E402
 
 
-def test_the_follower_holds_its_gap_at_steady_speed():
-    run = platoon(get("oval"), gap_m=1.5, cruise_m_s=1.0, seconds=15.0, port=free_port())
+@pytest.fixture(params=["loopback", "netns"])
+def v2v_path(request):
+    """How the V2V messages travel: loopback, or a real veth link between this network namespace
+    and a new one (the follower's socket there); the link's packet count is checked after."""
+    if request.param == "loopback":
+        yield {}
+        return
+    try:
+        with veth_pair() as link:
+            sent = Path(f"/sys/class/net/{link.here}/statistics/tx_packets")
+            before = int(sent.read_text())
+            yield {"across": link}
+            assert int(sent.read_text()) - before >= 100  # the leader's messages went over the link
+    except NetnsUnavailable as e:
+        pytest.skip(f"platooning across network namespaces: {e}")
+
+
+def test_the_follower_holds_its_gap_at_steady_speed(v2v_path):
+    run = platoon(get("oval"), gap_m=1.5, cruise_m_s=1.0, seconds=15.0, port=free_port(), **v2v_path)
     t, gaps = np.array(run.times_s), np.array(run.gaps_m)
     steady = t > 6.0
     assert np.all(np.abs(gaps[steady] - 1.5) <= 0.2), (gaps[steady].min(), gaps[steady].max())
     assert run.contacts == 0 and np.mean(run.follower_speeds[-50:]) == pytest.approx(1.0, abs=0.1)
 
 
-def test_the_follower_stops_by_itself_when_the_leader_goes_silent():
+def test_the_follower_stops_by_itself_when_the_leader_goes_silent(v2v_path):
     silent_s = 6.0
-    run = platoon(get("oval"), gap_m=1.5, cruise_m_s=1.0, seconds=9.0, silence_from_s=silent_s, port=free_port())
+    run = platoon(get("oval"), gap_m=1.5, cruise_m_s=1.0, seconds=9.0, silence_from_s=silent_s, port=free_port(),
+                  **v2v_path)
     t = np.array(run.times_s)
     follower, leader = np.array(run.follower_speeds), np.array(run.leader_speeds)
     timeout_s = spec.V2V_TIMEOUT_US / 1e6
     assert np.all(follower[t < silent_s + timeout_s - 0.05][-10:] > 0.5)  # it followed until the timeout
     assert np.all(np.abs(follower[t > silent_s + timeout_s + 1.5]) < 0.1)  # then stopped, on its own
     assert np.all(leader[t > silent_s + 1.0] > 0.8) and run.contacts == 0  # the leader drove on
+
+
+def test_roar_platoon_reports_the_gap_and_the_stop(tmp_path):
+    import subprocess
+    import sys
+
+    plot = tmp_path / "platoon.png"
+    args = ["--seconds", "9", "--silence-at", "7", "--plot", str(plot)]
+    if os.geteuid() == 0:
+        args.append("--netns")  # the command's own link; the API's is tested above on both paths
+    done = subprocess.run([sys.executable, "-m", "roar.cli", "platoon", *args], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert "held within +-0.2 m" in done.stdout and "the follower stopped (below 0.1 m/s)" in done.stdout
+    assert ("namespace" in done.stdout) == ("--netns" in args)
+    assert "contacts between the cars: 0" in done.stdout and plot.read_bytes()[:4] == b"\x89PNG"
+    for bad, message in ((["--gap", "9"], "--gap must be 0.5..5 m"), (["--silence-at", "20"], "--silence-at must"),
+                         (["--track", "nowhere"], "error: unknown track 'nowhere'")):
+        done = subprocess.run([sys.executable, "-m", "roar.cli", "platoon", *bad], capture_output=True, text=True,
+                              timeout=60)
+        assert done.returncode in (1, 2) and message in done.stderr and "Traceback" not in done.stderr

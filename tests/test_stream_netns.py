@@ -3,16 +3,14 @@ one, the sender in the other namespace; with netem on the link (loss, duplicatio
 delay) where the kernel has it, skipped with the reason where it does not (or without root)."""
 
 import asyncio
-import os
-import shutil
 import subprocess
 import sys
-import uuid
 
 import pytest
 
 from conftest import ROOT
 from roar.stream import StreamReceiver
+from roar_sim.netns import NetnsUnavailable, veth_pair
 
 SENDER = r'''
 import socket, sys
@@ -36,25 +34,12 @@ def run(*cmd, check=True):
 
 @pytest.fixture
 def veth():
-    """(namespace, address here, address there); the pair and the namespace are removed after."""
-    if os.geteuid() != 0 or not shutil.which("ip"):
-        pytest.skip("network namespaces need root and iproute2 (apt-get install iproute2)")
-    tag = uuid.uuid4().hex[:6]
-    ns, here, there = f"roar{tag}", f"rh{tag}", f"rt{tag}"
-    if run("ip", "netns", "add", ns, check=False).returncode:
-        pytest.skip("this machine does not allow network namespaces")
+    """(namespace, link end here, link end there); the pair and the namespace are removed after."""
     try:
-        run("ip", "link", "add", here, "type", "veth", "peer", "name", there)
-        run("ip", "link", "set", there, "netns", ns)
-        run("ip", "addr", "add", "10.77.0.1/24", "dev", here)
-        run("ip", "link", "set", here, "up")
-        run("ip", "netns", "exec", ns, "ip", "addr", "add", "10.77.0.2/24", "dev", there)
-        run("ip", "netns", "exec", ns, "ip", "link", "set", there, "up")
-        run("ip", "netns", "exec", ns, "ip", "link", "set", "lo", "up")
-        yield ns, here, there
-    finally:
-        run("ip", "link", "del", here, check=False)
-        run("ip", "netns", "del", ns, check=False)
+        with veth_pair("10.77.0") as link:
+            yield link.ns, link.here, link.there
+    except NetnsUnavailable as e:
+        pytest.skip(str(e))
 
 
 def stream_across(ns):

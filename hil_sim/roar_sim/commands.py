@@ -1,6 +1,6 @@
 """The simulator's `roar` commands, registered through the "roar.commands" entry point group
 (pyproject.toml): `roar race`, `roar sim`, `roar step-response` (the IARRC car's speed
-controller) and `roar sweep`. Each parses its own arguments; the simulator itself is imported only when a command
+controller), `roar sweep` and `roar platoon`. Each parses its own arguments; the simulator itself is imported only when a command
 runs."""
 
 from __future__ import annotations
@@ -93,3 +93,12 @@ def _sweep(argv: list[str]) -> int:
 
 sweep = Command("race a grid of autopilot parameters x tracks as Ray tasks; CSV table and plot (`roar sweep --help`)",
                 _sweep)
+
+
+def _platoon(argv: list[str]) -> int:
+    from roar_sim.platoon import main
+
+    return main(argv)
+
+
+platoon = Command("two simulated cars platooning over UDP multicast (`roar platoon --help`)", _platoon)

@@ -10,7 +10,7 @@ from typing import Callable
 
 GROUP = "roar.commands"
 # Commands this project's extras provide, so a base install can say what to install.
-EXTRA_COMMANDS = {"race": "sim", "sim": "sim", "step-response": "sim", "sweep": "sweep"}
+EXTRA_COMMANDS = {"platoon": "sim", "race": "sim", "sim": "sim", "step-response": "sim", "sweep": "sweep"}
 
 
 @dataclass(frozen=True)
