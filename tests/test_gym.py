@@ -1,6 +1,7 @@
 """ROAR's Gym environment: Gymnasium's own checker passes, actions go through the protocol and the
 firmware core, the same seed and actions give the same observations bit for bit (also across
-processes in an async vector environment), a crash terminates and the time limit truncates."""
+processes in an async vector environment), a crash terminates and the time limit truncates; the
+ROAR Junior as the robot, driven by its HTTP requests."""
 
 import shutil
 import subprocess
@@ -119,6 +120,7 @@ check_env(env.unwrapped)
 env.reset(seed=0)
 frame = env.render()
 assert frame.shape == (240, 320, 3) and frame.std() > 5
+check_env(gym.make("roar_sim.gym_env:roar/Race-v0", robot="junior", render_mode="rgb_array").unwrapped)
 print("CHECKED")
 """
 
@@ -150,3 +152,32 @@ def test_the_lidar_is_a_scan_every_second_action_or_none_at_all():
         env.close()
     with pytest.raises(ValueError, match="lidar_beams"):
         gym.make(ENV_ID, lidar_beams=-1)
+
+
+def test_the_junior_drives_by_its_http_requests_and_observes_its_ultrasonic():
+    """robot="junior": each action is the GET the http:// transport sends, read by the Junior's
+    firmware; the L298N duties are the firmware's, the range is its reply."""
+    env = gym.make(ENV_ID, robot="junior")
+    try:
+        observation, _ = env.reset(seed=0)
+        assert set(observation) == {"state", "ultrasonic"}
+        total, ranges = 0.0, []
+        for _ in range(150):
+            observation, reward, terminated, _, info = env.step(np.array([0.8, 0.0], np.float32))
+            total += reward
+            ranges.append(float(observation["ultrasonic"][0]))
+        assert not terminated and info["duty_permille"] == (800, 800)
+        assert 0.6 < total < 1.6  # metres along the centre line in 3 s (the Junior tops out near 0.55 m/s)
+        # the reply to the latest request: the firmware's whole centimetres, one period old
+        assert ranges[-1] == pytest.approx(env.unwrapped.sim.board.distance_cm / 100, abs=0.05)
+        assert all(abs(r * 100 - round(r * 100)) < 1e-4 for r in ranges)
+        assert ranges[-1] < ranges[0] - 0.5  # the bend's wall ahead comes nearer
+        first, _ = rollout(env, 3, 40)
+        second, _ = rollout(env, 3, 40)
+        assert all(same(a, b) for a, b in zip(first, second))
+    finally:
+        env.close()
+    with pytest.raises(ValueError, match="no lidar"):
+        gym.make(ENV_ID, robot="junior", lidar_beams=72)
+    with pytest.raises(ValueError, match="robot must be"):
+        gym.make(ENV_ID, robot="truck")

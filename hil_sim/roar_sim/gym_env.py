@@ -1,6 +1,7 @@
 """ROAR's Gym environment with the firmware in the loop:
 
     env = gymnasium.make("roar_sim.gym_env:roar/Race-v0", track="figure-eight")
+    env = gymnasium.make("roar_sim.gym_env:roar/Race-v0", robot="junior")   # the ROAR Junior
 
 (the module prefix makes Gymnasium import this module, which registers roar/Race-v0; Gymnasium
 1.x has no plug-in entry points, so `import roar_sim.gym_env` then `gymnasium.make("roar/Race-v0")`
@@ -8,11 +9,15 @@ is the other way).
 
 Each action travels the way a user's script drives the car: throttle and steering -> the control
 message's bytes (roar.protocol, through the library's calibration) -> the firmware core's board
-loop at 1 kHz -> the emulated ESC and servo -> the PyBullet car; 50 actions a second.
+loop at 1 kHz -> the emulated ESC and servo -> the PyBullet car; 50 actions a second. With
+robot="junior", the ROAR Junior as the http:// transport drives it: throttle and steering ->
+wheel duties (smooth mixing) -> the GET request's bytes -> the Junior's firmware (its HTTP reader,
+JuniorControl, the L298N pins) -> the two motors; its reply, the ultrasonic distance, is observed.
 
     observation  {"state": [x, y, cos yaw, sin yaw, speed, yaw rate, cross-track, heading error],
                   "lidar": ranges [m] over 270 deg, right to left (a scan every 2nd action;
-                           lidar_beams=0 leaves it out, the fastest),
+                           lidar_beams=0 leaves it out, the fastest; the car only),
+                  "ultrasonic": [m] the Junior's reply (4 m when no echo; the Junior only),
                   "camera": RGB and "depth": metres, when camera=(width, height) is asked for}
     reward       metres of progress along the centre line, minus contact_penalty a step at a wall
     terminated   touching a wall (crash_ends=True), or off the track
@@ -32,11 +37,15 @@ from gymnasium import spaces
 
 from roar.calibration import Calibration
 from roar.protocol import spec
+from roar.junior import query_for, smooth_mix
 from roar_sim.harness import SimCar, SimConfig
+from roar_sim.junior_plant import ULTRASONIC_MAX_M
+from roar_sim.junior_sim import JuniorConfig, JuniorSim
 from roar_sim.quiet_pybullet import pb
 from roar_sim.track import MAX_DISTANCE_M, MAX_EXTENT_M, Track, get
 
 PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6  # [s] one action
+ROBOTS = ("car", "junior")
 LIDAR_BEAMS = 72  # over 270 deg
 LIDAR_EVERY = 2  # actions per scan: 25 scans/s (a Hokuyo UST-10LX turns at 40 Hz); held in between
 LIDAR_RANGE_M = 10.0  # [m]
@@ -52,14 +61,19 @@ class RaceEnv(gym.Env):
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": round(1 / PERIOD_S)}
 
     def __init__(self, track: str | Track = "oval", camera: tuple[int, int] | None = None, max_seconds: float = 60.0,
-                 contact_penalty: float = 1.0, crash_ends: bool = True, lidar_beams: int = LIDAR_BEAMS,
-                 render_mode: str | None = None) -> None:
+                 contact_penalty: float = 1.0, crash_ends: bool = True, lidar_beams: int | None = None,
+                 render_mode: str | None = None, robot: str = "car") -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
+        if robot not in ROBOTS:
+            raise ValueError(f"robot must be one of {', '.join(ROBOTS)}, got {robot!r}")
+        lidar_beams = (LIDAR_BEAMS if robot == "car" else 0) if lidar_beams is None else lidar_beams
+        if robot == "junior" and lidar_beams:
+            raise ValueError("the Junior has no lidar (its ultrasonic range is observed): leave lidar_beams out")
         if not 0 <= lidar_beams <= 1080:
             raise ValueError(f"lidar_beams must be 0 (no lidar) .. 1080, got {lidar_beams!r}")
         self.track = track if isinstance(track, Track) else get(track)
-        self.lidar_beams = lidar_beams
+        self.robot, self.lidar_beams = robot, lidar_beams
         self.camera_size, self.max_seconds = camera, max_seconds
         self.contact_penalty, self.crash_ends, self.render_mode = contact_penalty, crash_ends, render_mode
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)  # throttle, steering (+ = right)
@@ -68,13 +82,14 @@ class RaceEnv(gym.Env):
         observation = {"state": spaces.Box(-self._state_high, self._state_high, (8,), np.float32)}
         if lidar_beams:
             observation["lidar"] = spaces.Box(0.0, LIDAR_RANGE_M, (lidar_beams,), np.float32)
+        if robot == "junior":
+            observation["ultrasonic"] = spaces.Box(0.0, ULTRASONIC_MAX_M, (1,), np.float32)
         if camera is not None:
             w, h = camera
             observation["camera"] = spaces.Box(0, 255, (h, w, 3), np.uint8)
             observation["depth"] = spaces.Box(0.0, FAR_M, (h, w), np.float32)
         self.observation_space = spaces.Dict(observation)
-        self.calibration = Calibration()
-        self.sim: SimCar | None = None
+        self.body: _Car | _Junior | None = None
         self._hint: int | None = None
         self._s = self._cte = 0.0  # [m] along the centre line, and across it
         self._scan: np.ndarray | None = None  # the latest lidar scan
@@ -85,14 +100,13 @@ class RaceEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         self.close()
-        self.sim = SimCar(self.track, SimConfig(gui=self.render_mode == "human"))
         x, y, yaw = self.track.start_pose
         offset = float(self.np_random.uniform(-START_OFFSET_M, START_OFFSET_M))
         yaw += float(self.np_random.uniform(-START_HEADING_RAD, START_HEADING_RAD))
-        plant = self.sim.plant
-        pb.resetBasePositionAndOrientation(plant.car, [x - offset * math.sin(yaw), y + offset * math.cos(yaw), 0.05],
-                                           pb.getQuaternionFromEuler([0, 0, yaw]), physicsClientId=plant.client)
-        self._send(0.0, 0.0)  # the ESC car boots latched until it hears neutral
+        pose = (x - offset * math.sin(yaw), y + offset * math.cos(yaw), yaw)
+        self.body = (_Car if self.robot == "car" else _Junior)(self.track, pose, self.render_mode == "human")
+        self.sim = self.body.sim
+        self.body.send(0.0, 0.0)  # the ESC car boots latched until it hears neutral
         self.sim.run(PERIOD_S)
         self._hint, self._s, self._cte = self.track.project(self._xy())
         self._scan, self._steps = None, 0
@@ -105,7 +119,7 @@ class RaceEnv(gym.Env):
         if values.shape != (2,) or not np.all(np.isfinite(values)):
             raise ValueError(f"an action is (throttle, steering), two finite numbers in -1..1; got {action!r}")
         throttle, steering = (float(v) for v in np.clip(values, -1.0, 1.0))
-        self._send(throttle, steering)
+        self.body.send(throttle, steering)
         self.sim.run(PERIOD_S)
         length = self.track.length_m
         self._hint, s_now, self._cte = self.track.project(self._xy(), self._hint)
@@ -128,14 +142,11 @@ class RaceEnv(gym.Env):
         return rgb
 
     def close(self) -> None:
-        if self.sim is not None:
-            self.sim.close()
-            self.sim = None
+        if self.body is not None:
+            self.body.sim.close()
+            self.body = self.sim = None
 
     # --- helpers -----------------------------------------------------------------------------
-
-    def _send(self, throttle: float, steering: float) -> None:
-        self.sim.write(self.calibration.message(throttle, steering))
 
     def _xy(self) -> tuple[float, float]:
         s = self.sim.state()
@@ -154,9 +165,11 @@ class RaceEnv(gym.Env):
                 scan = plant.lidar(beams=self.lidar_beams, range_m=LIDAR_RANGE_M).astype(np.float32)
                 self._scan = np.clip(scan, 0.0, LIDAR_RANGE_M)
             observation["lidar"] = self._scan.copy()
+        if self.robot == "junior":
+            observation["ultrasonic"] = np.array([self.body.range_m], np.float32)
         self._steps += 1
         if self.camera_size is not None:
-            rgb, depth = plant.camera(*self.camera_size, far_m=FAR_M)
+            rgb, depth = plant.camera(*self.camera_size)
             observation["camera"] = np.ascontiguousarray(rgb)
             observation["depth"] = np.clip(depth, 0.0, FAR_M).astype(np.float32)
         return observation
@@ -167,8 +180,47 @@ class RaceEnv(gym.Env):
         return pts[i], pts[(i + 1) % len(pts)]
 
     def _info(self, touching: bool = False) -> dict:
-        return {"time_s": self.sim.t_us / 1e6, "progress_m": self._s, "wall_contact": touching,
-                "throttle_us": self.sim.throttle_out_us}
+        return {"time_s": self.sim.t_us / 1e6, "progress_m": self._s, "wall_contact": touching, **self.body.info()}
+
+
+class _Car:
+    """The ESC car: an action is a control message on its serial link."""
+
+    def __init__(self, track: Track, pose: tuple[float, float, float], gui: bool) -> None:
+        self.sim = SimCar(track, SimConfig(gui=gui))
+        self.calibration = Calibration()
+        x, y, yaw = pose
+        plant = self.sim.plant
+        pb.resetBasePositionAndOrientation(plant.car, [x, y, 0.05], pb.getQuaternionFromEuler([0, 0, yaw]),
+                                           physicsClientId=plant.client)
+
+    def send(self, throttle: float, steering: float) -> None:
+        self.sim.write(self.calibration.message(throttle, steering))
+
+    def info(self) -> dict:
+        return {"throttle_us": self.sim.throttle_out_us}
+
+
+class _Junior:
+    """The ROAR Junior: an action is the GET request the http:// transport would send (smooth
+    mixing), fed to the firmware's HTTP reader on one kept-open connection; its reply is the
+    ultrasonic distance."""
+
+    def __init__(self, track: Track, pose: tuple[float, float, float], gui: bool) -> None:
+        self.sim = JuniorSim(track, JuniorConfig(gui=gui, pose=pose))
+        self.connection = self.sim.connect()
+        self.range_m = ULTRASONIC_MAX_M
+
+    def send(self, throttle: float, steering: float) -> None:
+        request = f"GET /?{query_for(*smooth_mix(throttle, steering))} HTTP/1.1\r\nHost: junior\r\n" \
+                  f"Accept-Encoding: identity\r\n\r\n"
+        reply = self.connection.feed(request.encode())[0]
+        cm = float(reply.partition(b"\r\n\r\n")[2] or 0)
+        self.range_m = min(ULTRASONIC_MAX_M, cm / 100) if cm > 0 else ULTRASONIC_MAX_M
+
+    def info(self) -> dict:
+        left, right = self.sim.pins
+        return {"duty_permille": (left.duty, right.duty)}
 
 
 if "roar/Race-v0" not in gym.registry:
