@@ -12,7 +12,6 @@ import math
 
 import numpy as np
 
-from roar_sim.quiet_pybullet import pb
 
 MIN_RANGE_M, MAX_RANGE_M = 0.3, 12.0  # [m]
 RATE_HZ = 100  # [Hz] samples
@@ -42,7 +41,7 @@ class Tfmini:
             direction = [math.cos(yaw), math.sin(yaw), 0.0]
             starts.append(start)
             ends.append([a + MAX_RANGE_M * d for a, d in zip(start, direction)])
-        hits = pb.rayTestBatch(starts, ends, physicsClientId=self.plant.client)
+        hits = self.plant.world.ray_test(starts, ends, self.plant.car)
         distances = [h[2] * MAX_RANGE_M for h in hits if h[0] >= 0 and h[0] != self.plant.car]
         if not distances:
             return None

@@ -123,20 +123,28 @@ class Track:
         """(segment index, arc-length position [m], signed cross-track error [m], left positive) of a
         point. With `hint` (the previous index) only nearby segments are searched, so progress is
         followed through a figure-eight crossing."""
-        pts = self.centerline
+        pts, ab, ab2 = self.centerline, self._segments, self._segments_sq
         n = len(pts)
         idx = np.arange(n) if hint is None else (np.arange(hint - window, hint + window + 1) % n)
-        a, b = pts[idx], pts[(idx + 1) % n]
-        ab = b - a
-        p = np.asarray(xy, dtype=float)
-        t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.einsum("ij,ij->i", ab, ab), 0.0, 1.0)
-        closest = a + t[:, None] * ab
-        d = np.linalg.norm(closest - p, axis=1)
-        k = int(np.argmin(d))
+        px, py = float(xy[0]), float(xy[1])
+        a, d = pts[idx], ab[idx]
+        ax, ay, dx, dy = a[:, 0], a[:, 1], d[:, 0], d[:, 1]
+        t = np.clip(((px - ax) * dx + (py - ay) * dy) / ab2[idx], 0.0, 1.0)
+        ex, ey = ax + t * dx - px, ay + t * dy - py  # from the point to the closest point of each segment
+        k = int(np.argmin(ex * ex + ey * ey))
         seg = int(idx[k])
         s = float(self.arc_start[seg] + t[k] * self.segment_lengths[seg])
-        cross = ab[k, 0] * (p[1] - a[k, 1]) - ab[k, 1] * (p[0] - a[k, 0])
-        return seg, s, float(math.copysign(d[k], cross))
+        cross = dx[k] * (py - ay[k]) - dy[k] * (px - ax[k])
+        return seg, s, float(math.copysign(math.hypot(ex[k], ey[k]), cross))
+
+    @cached_property
+    def _segments(self) -> np.ndarray:
+        """Each centre-line segment as a vector, from its point to the next (closed)."""
+        return np.roll(self.centerline, -1, axis=0) - self.centerline
+
+    @cached_property
+    def _segments_sq(self) -> np.ndarray:
+        return np.einsum("ij,ij->i", self._segments, self._segments)
 
     # --- files -----------------------------------------------------------------------------------
 
