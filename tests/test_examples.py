@@ -64,3 +64,21 @@ def test_the_same_script_drives_the_simulator_and_a_serial_car(tmp_path, pty_car
     assert len(driving) > 50
     off_circle_m = [abs(math.hypot(x, y + radius) - radius) for x, y in driving[len(driving) // 4:]]
     assert max(off_circle_m) < 0.15
+
+
+def test_the_ppo_training_example_trains_saves_and_drives(tmp_path):
+    """examples/train_ppo.py, a few steps: only where stable-baselines3 (and PyTorch) are installed,
+    which `make setup` does not do."""
+    import pytest
+
+    pytest.importorskip("stable_baselines3", reason="pip install stable-baselines3 (it brings PyTorch; make setup "
+                                                    "leaves both out)")
+    example = ROOT / "examples" / "train_ppo.py"
+    trained = subprocess.run([sys.executable, str(example), "--steps", "128", "--envs", "2", "--out", str(tmp_path)],
+                             capture_output=True, text=True, timeout=300)
+    assert trained.returncode == 0, trained.stderr[-2000:]
+    assert (tmp_path / "model.zip").exists() and (tmp_path / "normalise.pkl").exists()
+    driven = subprocess.run([sys.executable, str(example), "--drive", str(tmp_path / "model.zip")],
+                            capture_output=True, text=True, timeout=300)
+    assert driven.returncode == 0, driven.stderr[-2000:]
+    assert " laps of oval in " in driven.stdout

@@ -108,9 +108,10 @@ class RaceEnv(gym.Env):
         self.sim = self.body.sim
         self.body.send(0.0, 0.0)  # the ESC car boots latched until it hears neutral
         self.sim.run(PERIOD_S)
-        self._hint, self._s, self._cte = self.track.project(self._xy())
+        state = self.sim.state()
+        self._hint, self._s, self._cte = self.track.project((state.x, state.y))
         self._scan, self._steps = None, 0
-        return self._observation(), self._info()
+        return self._observation(state), self._info()
 
     def step(self, action):
         if self.sim is None:
@@ -122,7 +123,8 @@ class RaceEnv(gym.Env):
         self.body.send(throttle, steering)
         self.sim.run(PERIOD_S)
         length = self.track.length_m
-        self._hint, s_now, self._cte = self.track.project(self._xy(), self._hint)
+        state = self.sim.state()  # one reading for the reward and the observation
+        self._hint, s_now, self._cte = self.track.project((state.x, state.y), self._hint)
         progress = (s_now - self._s + length / 2) % length - length / 2
         self._s, cte = s_now, self._cte
         touching = self.sim.plant.wall_contacts() > 0
@@ -130,7 +132,7 @@ class RaceEnv(gym.Env):
         off_track = abs(cte) > self.track.width_m / 2
         terminated = off_track or (touching and self.crash_ends)
         truncated = self.sim.t_us / 1e6 >= self.max_seconds
-        return self._observation(), float(reward), bool(terminated), bool(truncated), self._info(touching)
+        return self._observation(state), float(reward), bool(terminated), bool(truncated), self._info(touching)
 
     def render(self):
         if self.render_mode != "rgb_array" or self.sim is None:
@@ -148,12 +150,8 @@ class RaceEnv(gym.Env):
 
     # --- helpers -----------------------------------------------------------------------------
 
-    def _xy(self) -> tuple[float, float]:
-        s = self.sim.state()
-        return s.x, s.y
-
-    def _observation(self) -> dict:
-        plant, s = self.sim.plant, self.sim.state()
+    def _observation(self, s) -> dict:
+        plant = self.sim.plant
         a, b = self._segment()
         heading_error = (s.yaw - math.atan2(b[1] - a[1], b[0] - a[0]) + math.pi) % (2 * math.pi) - math.pi
         state = np.array([s.x, s.y, math.cos(s.yaw), math.sin(s.yaw), s.speed, s.yaw_rate, self._cte, heading_error],

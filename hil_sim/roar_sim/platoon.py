@@ -12,7 +12,6 @@ from __future__ import annotations
 from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field
 
-from roar.autopilot.agent import Observation
 from roar.autopilot.platoon import cruise_agent, follow_agent
 from roar.calibration import Calibration
 from roar.protocol import spec
@@ -20,6 +19,7 @@ from roar.v2v import V2VLink
 from roar_sim.car_limits import SIMULATED_CAR
 from roar_sim.fleet import Fleet
 from roar_sim.netns import VethPair, call_in
+from roar_sim.race import observation
 from roar_sim.track import Track
 
 PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6  # [s] each car's control period
@@ -70,8 +70,7 @@ def platoon(track: Track, gap_m: float = 1.5, cruise_m_s: float = 1.0, seconds: 
             t = fleet.time_s
             observed = {}
             for name, car in (("lead", lead), ("follow", follow)):
-                s = car.state()
-                observed[name] = Observation(t, s.x, s.y, s.yaw, abs(s.speed), s.yaw_rate)
+                observed[name] = observation(t, car.state())
             o = observed["lead"]
             if step % V2V_EVERY == 0 and (silence_from_s is None or t < silence_from_s):
                 lead_link.send(o.x, o.y, o.yaw, o.speed)

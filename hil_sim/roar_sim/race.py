@@ -52,6 +52,11 @@ K_DD_RANGE_S = (0.05, 2.0)  # [s] pure pursuit's look-ahead per m/s a race may u
 LANE_CAMERA = (320, 240)  # [px] the camera the lane driver sees through
 
 
+def observation(t_s: float, s) -> Observation:
+    """What the autopilot observes of a simulated robot's state `s` at t_s [s]."""
+    return Observation(t_s, s.x, s.y, s.yaw, abs(s.speed), s.yaw_rate)
+
+
 class LockstepIO:
     """A simulated robot in lockstep as the runner's car: observed from the simulator, time moved
     by wait(); subclasses say how a command travels and which agent drives."""
@@ -62,8 +67,7 @@ class LockstepIO:
         self.sim, self.calibration = sim, calibration or Calibration()
 
     def observe(self) -> Observation:
-        s = self.sim.state()
-        return Observation(self.sim.time_s, s.x, s.y, s.yaw, abs(s.speed), s.yaw_rate)
+        return observation(self.sim.time_s, self.sim.state())
 
     def send(self, command: Command) -> None:
         raise NotImplementedError
