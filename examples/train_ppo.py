@@ -16,8 +16,6 @@ import argparse
 import sys
 from pathlib import Path
 
-import roar_sim.gym_env  # noqa: F401 -- registers roar/Race-v0
-
 try:
     from stable_baselines3 import PPO
     from stable_baselines3.common.env_util import make_vec_env
@@ -25,7 +23,7 @@ try:
 except ImportError:
     sys.exit("this example needs stable-baselines3: pip install stable-baselines3")
 
-ENV_ID = "roar/Race-v0"
+ENV_ID = "roar_sim.gym_env:roar/Race-v0"  # the prefix registers it in every worker process too
 
 
 def environments(track: str, count: int, seed: int):

@@ -8,6 +8,7 @@ so the floor is a grid of small cells rather than two huge triangles.
 from __future__ import annotations
 
 import tempfile
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -76,29 +77,45 @@ class FloorImage:
 
 def add_floor(track: Track, client: int) -> int:
     """Add the painted floor (visual only: the car drives on the plane below) and return its body."""
-    image = FloorImage(track)
-    cell_m = max(CELL_M, float(image.extent.max()) / MAX_CELLS)  # [m]
-    nx, ny = (np.ceil(image.extent / cell_m)).astype(int)
-    x0, y0 = image.origin
-    w, h = image.extent
-    vertices, uvs, indices = [], [], []
-    for j in range(ny + 1):
-        for i in range(nx + 1):
-            vertices.append([x0 + w * i / nx, y0 + h * j / ny, FLOOR_Z_M])
-            uvs.append([i / nx, j / ny])
-    for j in range(ny):
-        for i in range(nx):
-            a = j * (nx + 1) + i
-            indices += [a, a + 1, a + nx + 2, a, a + nx + 2, a + nx + 1]
+    vertices, uvs, indices, png = _floor_kit(track)
     visual = pb.createVisualShape(pb.GEOM_MESH, vertices=vertices, indices=indices, uvs=uvs,
                                   normals=[[0, 0, 1]] * len(vertices), physicsClientId=client)
     body = pb.createMultiBody(0, -1, visual, [0, 0, 0], physicsClientId=client)
-    from PIL import Image  # here: only a car with a camera needs the floor's paint
-
-    with tempfile.TemporaryDirectory(prefix="roar-floor-") as tmp:  # PyBullet loads textures from files
-        path = Path(tmp) / "floor.png"
-        Image.fromarray(image.rgb).save(path)
-        texture = pb.loadTexture(str(path), physicsClientId=client)
+    texture = pb.loadTexture(str(png), physicsClientId=client)  # PyBullet loads textures from files
     pb.changeVisualShape(body, -1, textureUniqueId=texture, physicsClientId=client)
     return body
 
+
+_KITS: dict[bytes, tuple[list, list, list, Path]] = {}  # by track fingerprint
+_KITS_LOCK = threading.Lock()
+_TEXTURES: tempfile.TemporaryDirectory | None = None  # removed when the process ends
+
+
+def _floor_kit(track: Track) -> tuple[list, list, list, Path]:
+    """(vertices, uvs, indices, texture PNG) of a track's floor, made once per track shape: a
+    new world of the same track (every Gym reset) only loads them."""
+    global _TEXTURES
+    with _KITS_LOCK:
+        if track.fingerprint in _KITS:
+            return _KITS[track.fingerprint]
+        image = FloorImage(track)
+        cell_m = max(CELL_M, float(image.extent.max()) / MAX_CELLS)  # [m]
+        nx, ny = (np.ceil(image.extent / cell_m)).astype(int)
+        x0, y0 = image.origin
+        w, h = image.extent
+        vertices, uvs, indices = [], [], []
+        for j in range(ny + 1):
+            for i in range(nx + 1):
+                vertices.append([x0 + w * i / nx, y0 + h * j / ny, FLOOR_Z_M])
+                uvs.append([i / nx, j / ny])
+        for j in range(ny):
+            for i in range(nx):
+                a = j * (nx + 1) + i
+                indices += [a, a + 1, a + nx + 2, a, a + nx + 2, a + nx + 1]
+        from PIL import Image  # here: only a car with a camera needs the floor's paint
+
+        _TEXTURES = _TEXTURES or tempfile.TemporaryDirectory(prefix="roar-floor-")
+        png = Path(_TEXTURES.name) / f"{track.fingerprint.hex()[:16]}.png"
+        Image.fromarray(image.rgb).save(png)
+        _KITS[track.fingerprint] = vertices, uvs, indices, png
+        return _KITS[track.fingerprint]

@@ -18,6 +18,7 @@ the car can drive it, the track must also:
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 from dataclasses import dataclass
@@ -88,6 +89,12 @@ class Track:
     def arc_start(self) -> np.ndarray:
         """[m] arc length from the first point to the start of each segment."""
         return np.concatenate([[0.0], np.cumsum(self.segment_lengths)[:-1]])
+
+    @cached_property
+    def fingerprint(self) -> bytes:
+        """The same for tracks of the same shape: a key for what is built from the shape alone
+        (wall meshes, floor textures), built once per process."""
+        return hashlib.sha256(np.float64(self.width_m).tobytes() + self.centerline.tobytes()).digest()
 
     @cached_property
     def length_m(self) -> float:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import ctypes
 import math
 import os
+import threading
 
 import numpy as np
 import pybullet_data
@@ -43,6 +44,9 @@ def display_problem() -> str | None:
     return None
 
 
+_CACHE_LOCK = threading.Lock()
+
+
 class World:
     """A PyBullet client (DIRECT, or GUI when gui=True) with gravity, the ground and, with a
     track, its walls and painted floor. Robots add their own bodies to `client`."""
@@ -52,7 +56,7 @@ class World:
         if problem:
             raise SimError(problem)
         self.track, self.dt_s = track, dt_s
-        self._rays: int | None = None  # the walls-only client of ray_test, made when first needed
+        self._rays: tuple[int, int, threading.Lock] | None = None  # ray_test's walls-only client
         self.client = pb.connect(pb.GUI if gui else pb.DIRECT)
         c = self.client
         pb.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=c)
@@ -112,10 +116,11 @@ class World:
         if not self.walls or pb.getNumBodies(physicsClientId=c) != len(self._own_bodies()) + 1:
             return pb.rayTestBatch(starts, ends, physicsClientId=c)
         if self._rays is None:
-            self._rays = pb.connect(pb.DIRECT)
-            self._ray_walls = _mesh_body(self._rays, *self._wall_mesh, visual=False)
-        hits = pb.rayTestBatch(starts, ends, physicsClientId=self._rays)
-        return [(self.walls[0], *h[1:]) if h[0] == self._ray_walls else h for h in hits]
+            self._rays = _walls_only(self.track, self._wall_mesh)
+        client, walls, lock = self._rays
+        with lock:
+            hits = pb.rayTestBatch(starts, ends, physicsClientId=client)
+        return [(self.walls[0], *h[1:]) if h[0] == walls else h for h in hits]
 
     def _own_bodies(self) -> list[int]:
         return [*self.walls, *([self.floor] if self.floor is not None else []), self.ground]
@@ -155,14 +160,35 @@ class World:
         pb.stepSimulation(physicsClientId=self.client)
 
     def close(self) -> None:
-        for client in (self.client, self._rays):
-            if client is not None and pb.isConnected(client):
-                pb.disconnect(client)
+        if pb.isConnected(self.client):
+            pb.disconnect(self.client)
+
+
+_WALL_MESHES: dict[bytes, tuple[list[list[float]], list[int]]] = {}  # by track fingerprint
+_WALLS_ONLY: dict[bytes, tuple[int, int, threading.Lock]] = {}  # by track fingerprint
+
+
+def _walls_only(track: Track, mesh) -> tuple[int, int, threading.Lock]:
+    """(client, wall body, its lock): a client holding only the track's walls, shared by every
+    world of that track in this process (the walls never move), made once."""
+    with _CACHE_LOCK:
+        if track.fingerprint not in _WALLS_ONLY:
+            client = pb.connect(pb.DIRECT)
+            _WALLS_ONLY[track.fingerprint] = (client, _mesh_body(client, *mesh, visual=False), threading.Lock())
+        return _WALLS_ONLY[track.fingerprint]
 
 
 def wall_mesh(track: Track) -> tuple[list[list[float]], list[int]]:
-    """(vertices, indices) of the wall boxes along both edges. A segment that would lie inside
-    another part of the track (the crossing of a figure-eight) is left out."""
+    """(vertices, indices) of the wall boxes along both edges, computed once per track shape. A
+    segment that would lie inside another part of the track (the crossing of a figure-eight) is
+    left out."""
+    with _CACHE_LOCK:
+        if track.fingerprint not in _WALL_MESHES:
+            _WALL_MESHES[track.fingerprint] = _build_wall_mesh(track)
+        return _WALL_MESHES[track.fingerprint]
+
+
+def _build_wall_mesh(track: Track) -> tuple[list[list[float]], list[int]]:
     cl = track.centerline
     n = len(cl)
     vertices: list[list[float]] = []
