@@ -58,6 +58,26 @@ def test_projection_signs():
 
 
 @pytest.mark.parametrize("name", sorted(BUILTIN))
+def test_projection_near_a_hint_in_plain_floats_equals_numpys(name):
+    """project() searches a small window in plain floats and a large one with numpy: the same
+    segment, position and cross-track error, to the last bits."""
+    tr = get(name)
+    rng = np.random.default_rng(7)
+    for _ in range(300):
+        hint = int(rng.integers(len(tr.centerline)))
+        p = tr.centerline[hint] + rng.uniform(-0.7, 0.7, 2)
+        for window in (1, 6, 12):
+            near = tr.project(p, hint, window)
+            idx = np.arange(hint - window, hint + window + 1) % len(tr.centerline)
+            a, d = tr.centerline[idx], tr._segments[idx]
+            t = np.clip(((p - a) * d).sum(axis=1) / tr._segments_sq[idx], 0, 1)
+            k = int(np.argmin(np.linalg.norm(a + t[:, None] * d - p, axis=1)))
+            assert near[0] == idx[k]
+            assert near[1] == pytest.approx(tr.arc_start[idx[k]] + t[k] * tr.segment_lengths[idx[k]], abs=1e-12)
+            assert abs(near[2]) == pytest.approx(np.linalg.norm(a[k] + t[k] * d[k] - p), abs=1e-12)
+
+
+@pytest.mark.parametrize("name", sorted(BUILTIN))
 def test_the_autopilot_laps_every_builtin_track_without_touching_a_wall(name):
     result = race.race(get(name), laps=2)
     assert len(result.lap_times_s) == 2

@@ -74,6 +74,9 @@ class RaceEnv(gym.Env):
             raise ValueError(f"lidar_beams must be 0 (no lidar) .. 1080, got {lidar_beams!r}")
         self.track = track if isinstance(track, Track) else get(track)
         self.robot, self.lidar_beams = robot, lidar_beams
+        # centre-line segments searched each side of the last one: what the state's speed bound
+        # crosses in one step, and 2 more
+        self._window = math.ceil(MAX_SPEED_M_S * PERIOD_S / float(self.track.segment_lengths.min())) + 2
         self.camera_size, self.max_seconds = camera, max_seconds
         self.contact_penalty, self.crash_ends, self.render_mode = contact_penalty, crash_ends, render_mode
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)  # throttle, steering (+ = right)
@@ -116,15 +119,15 @@ class RaceEnv(gym.Env):
     def step(self, action):
         if self.sim is None:
             raise RuntimeError("call reset() before step()")
-        values = np.asarray(action, dtype=np.float64).reshape(-1)
-        if values.shape != (2,) or not np.all(np.isfinite(values)):
+        values = np.asarray(action, dtype=np.float64).reshape(-1).tolist()
+        if len(values) != 2 or not all(map(math.isfinite, values)):
             raise ValueError(f"an action is (throttle, steering), two finite numbers in -1..1; got {action!r}")
-        throttle, steering = (float(v) for v in np.clip(values, -1.0, 1.0))
+        throttle, steering = (min(1.0, max(-1.0, v)) for v in values)
         self.body.send(throttle, steering)
         self.sim.run(PERIOD_S)
         length = self.track.length_m
         state = self.sim.state()  # one reading for the reward and the observation
-        self._hint, s_now, self._cte = self.track.project((state.x, state.y), self._hint)
+        self._hint, s_now, self._cte = self.track.project((state.x, state.y), self._hint, self._window)
         progress = (s_now - self._s + length / 2) % length - length / 2
         self._s, cte = s_now, self._cte
         touching = self.sim.plant.wall_contacts() > 0

@@ -31,6 +31,7 @@ from roar.user_files import read_parsed
 
 MIN_POINTS = 8
 MIN_SPACING_M = 0.01  # [m]
+SMALL_WINDOW = 12  # segments each side: project() searches this few in plain floats
 MAX_SPACING_M = 2.0  # [m]
 MIN_WIDTH_M, MAX_WIDTH_M = 0.4, 5.0  # [m]
 MAX_EXTENT_M = 200.0  # [m] side of the square the track must fit in
@@ -130,6 +131,8 @@ class Track:
         """(segment index, arc-length position [m], signed cross-track error [m], left positive) of a
         point. With `hint` (the previous index) only nearby segments are searched, so progress is
         followed through a figure-eight crossing."""
+        if hint is not None and window <= SMALL_WINDOW:
+            return self._project_near(float(xy[0]), float(xy[1]), hint, window)
         pts, ab, ab2 = self.centerline, self._segments, self._segments_sq
         n = len(pts)
         idx = np.arange(n) if hint is None else (np.arange(hint - window, hint + window + 1) % n)
@@ -143,6 +146,29 @@ class Track:
         s = float(self.arc_start[seg] + t[k] * self.segment_lengths[seg])
         cross = dx[k] * (py - ay[k]) - dy[k] * (px - ax[k])
         return seg, s, float(math.copysign(math.hypot(ex[k], ey[k]), cross))
+
+    def _project_near(self, px: float, py: float, hint: int, window: int) -> tuple[int, float, float]:
+        """project() over a few segments, in plain floats: numpy's per-call cost is most of the
+        time for so few (an environment step projects once)."""
+        pts, ab, ab2 = self._plain
+        n = len(pts)
+        best = math.inf
+        for j in range(hint - window, hint + window + 1):
+            i = j % n
+            ax, ay = pts[i]
+            dx, dy = ab[i]
+            t = min(1.0, max(0.0, ((px - ax) * dx + (py - ay) * dy) / ab2[i]))
+            ex, ey = ax + t * dx - px, ay + t * dy - py
+            d2 = ex * ex + ey * ey
+            if d2 < best:
+                best, seg, tk, e, a, d = d2, i, t, (ex, ey), (ax, ay), (dx, dy)
+        s = float(self.arc_start[seg] + tk * self.segment_lengths[seg])
+        cross = d[0] * (py - a[1]) - d[1] * (px - a[0])
+        return seg, s, float(math.copysign(math.hypot(*e), cross))
+
+    @cached_property
+    def _plain(self) -> tuple[list, list, list]:
+        return self.centerline.tolist(), self._segments.tolist(), self._segments_sq.tolist()
 
     @cached_property
     def _segments(self) -> np.ndarray:
