@@ -8,7 +8,7 @@ import time
 import numpy as np
 
 TITLE = "Gym environment steps/s (50 Hz control)"
-STEPS = 300
+STEPS = 1000
 
 
 def run() -> None:

@@ -55,6 +55,7 @@ FAR_M = 10.0  # [m] the depth camera's far plane
 VIEW_SIZE = (320, 240)  # [px] render()'s chase view
 MAX_SPEED_M_S = 20.0  # [m/s] the state's bound (the car tops out near 3)
 MAX_YAW_RATE_RAD_S = 50.0  # [rad/s]
+SLIDE_M_S = 3.0  # [m/s] allowed sideways besides the speed along the heading, for the projection's search
 
 
 class RaceEnv(gym.Env):
@@ -74,9 +75,7 @@ class RaceEnv(gym.Env):
             raise ValueError(f"lidar_beams must be 0 (no lidar) .. 1080, got {lidar_beams!r}")
         self.track = track if isinstance(track, Track) else get(track)
         self.robot, self.lidar_beams = robot, lidar_beams
-        # centre-line segments searched each side of the last one: what the state's speed bound
-        # crosses in one step, and 2 more
-        self._window = math.ceil(MAX_SPEED_M_S * PERIOD_S / float(self.track.segment_lengths.min())) + 2
+        self._shortest_m = float(self.track.segment_lengths.min())  # [m] of a centre-line segment
         self.camera_size, self.max_seconds = camera, max_seconds
         self.contact_penalty, self.crash_ends, self.render_mode = contact_penalty, crash_ends, render_mode
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)  # throttle, steering (+ = right)
@@ -127,7 +126,9 @@ class RaceEnv(gym.Env):
         self.sim.run(PERIOD_S)
         length = self.track.length_m
         state = self.sim.state()  # one reading for the reward and the observation
-        self._hint, s_now, self._cte = self.track.project((state.x, state.y), self._hint, self._window)
+        # centre-line segments searched each side of the last one: what the car can cross in a step
+        window = math.ceil((abs(state.speed) + SLIDE_M_S) * PERIOD_S / self._shortest_m) + 1
+        self._hint, s_now, self._cte = self.track.project((state.x, state.y), self._hint, window)
         progress = (s_now - self._s + length / 2) % length - length / 2
         self._s, cte = s_now, self._cte
         touching = self.sim.plant.wall_contacts() > 0
