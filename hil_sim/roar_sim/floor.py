@@ -8,13 +8,12 @@ so the floor is a grid of small cells rather than two huge triangles.
 from __future__ import annotations
 
 import tempfile
-import threading
 from pathlib import Path
 
 import numpy as np
 from roar_sim.quiet_pybullet import pb
 
-from roar_sim.track import Track
+from roar_sim.track import Track, per_shape
 
 ASPHALT_RGB = (64, 64, 69)
 EDGE_LINE_RGB = (240, 240, 240)
@@ -86,36 +85,34 @@ def add_floor(track: Track, client: int) -> int:
     return body
 
 
-_KITS: dict[bytes, tuple[list, list, list, Path]] = {}  # by track fingerprint
-_KITS_LOCK = threading.Lock()
 _TEXTURES: tempfile.TemporaryDirectory | None = None  # removed when the process ends
 
 
 def _floor_kit(track: Track) -> tuple[list, list, list, Path]:
     """(vertices, uvs, indices, texture PNG) of a track's floor, made once per track shape: a
     new world of the same track (every Gym reset) only loads them."""
-    global _TEXTURES
-    with _KITS_LOCK:
-        if track.fingerprint in _KITS:
-            return _KITS[track.fingerprint]
-        image = FloorImage(track)
-        cell_m = max(CELL_M, float(image.extent.max()) / MAX_CELLS)  # [m]
-        nx, ny = (np.ceil(image.extent / cell_m)).astype(int)
-        x0, y0 = image.origin
-        w, h = image.extent
-        vertices, uvs, indices = [], [], []
-        for j in range(ny + 1):
-            for i in range(nx + 1):
-                vertices.append([x0 + w * i / nx, y0 + h * j / ny, FLOOR_Z_M])
-                uvs.append([i / nx, j / ny])
-        for j in range(ny):
-            for i in range(nx):
-                a = j * (nx + 1) + i
-                indices += [a, a + 1, a + nx + 2, a, a + nx + 2, a + nx + 1]
-        from PIL import Image  # here: only a car with a camera needs the floor's paint
+    return per_shape("floor", track, lambda: _make_floor_kit(track))
 
-        _TEXTURES = _TEXTURES or tempfile.TemporaryDirectory(prefix="roar-floor-")
-        png = Path(_TEXTURES.name) / f"{track.fingerprint.hex()[:16]}.png"
-        Image.fromarray(image.rgb).save(png)
-        _KITS[track.fingerprint] = vertices, uvs, indices, png
-        return _KITS[track.fingerprint]
+
+def _make_floor_kit(track: Track) -> tuple[list, list, list, Path]:
+    global _TEXTURES
+    image = FloorImage(track)
+    cell_m = max(CELL_M, float(image.extent.max()) / MAX_CELLS)  # [m]
+    nx, ny = (np.ceil(image.extent / cell_m)).astype(int)
+    x0, y0 = image.origin
+    w, h = image.extent
+    vertices, uvs, indices = [], [], []
+    for j in range(ny + 1):
+        for i in range(nx + 1):
+            vertices.append([x0 + w * i / nx, y0 + h * j / ny, FLOOR_Z_M])
+            uvs.append([i / nx, j / ny])
+    for j in range(ny):
+        for i in range(nx):
+            a = j * (nx + 1) + i
+            indices += [a, a + 1, a + nx + 2, a, a + nx + 2, a + nx + 1]
+    from PIL import Image  # here: only a car with a camera needs the floor's paint
+
+    _TEXTURES = _TEXTURES or tempfile.TemporaryDirectory(prefix="roar-floor-")
+    png = Path(_TEXTURES.name) / f"{track.fingerprint.hex()[:16]}.png"
+    Image.fromarray(image.rgb).save(png)
+    return vertices, uvs, indices, png

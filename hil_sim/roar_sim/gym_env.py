@@ -107,7 +107,6 @@ class RaceEnv(gym.Env):
         yaw += float(self.np_random.uniform(-START_HEADING_RAD, START_HEADING_RAD))
         pose = (x - offset * math.sin(yaw), y + offset * math.cos(yaw), yaw)
         self.body = (_Car if self.robot == "car" else _Junior)(self.track, pose, self.render_mode == "human")
-        self.sim = self.body.sim
         self.body.send(0.0, 0.0)  # the ESC car boots latched until it hears neutral
         self.sim.run(PERIOD_S)
         state = self.sim.state()
@@ -150,7 +149,12 @@ class RaceEnv(gym.Env):
     def close(self) -> None:
         if self.body is not None:
             self.body.sim.close()
-            self.body = self.sim = None
+            self.body = None
+
+    @property
+    def sim(self) -> SimCar | JuniorSim | None:
+        """The simulated robot (None before reset() and after close())."""
+        return None if self.body is None else self.body.sim
 
     # --- helpers -----------------------------------------------------------------------------
 

@@ -162,6 +162,6 @@ class Plant:
         # Bullet now and then reports a hit at distance 0 (the lidar seeing itself).
         start = np.asarray(pos) + LIDAR_MIN_RANGE_M * directions
         end = np.asarray(pos) + range_m * directions
-        hits = self.world.ray_test(start.tolist(), end.tolist(), self.car)
+        hits = self.world.ray_test(start.tolist(), end.tolist())
         reach = range_m - LIDAR_MIN_RANGE_M
         return np.array([LIDAR_MIN_RANGE_M + h[2] * reach if h[0] >= 0 else range_m for h in hits])

@@ -35,7 +35,7 @@ import socket
 import sys
 from collections.abc import Callable, Iterable, Sequence
 from contextlib import closing
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 
 from roar_sim import plotting
@@ -127,8 +127,7 @@ def failed_row(run: Run, why: str) -> dict:
 
 
 def _run_columns(run: Run) -> dict:
-    d = asdict(run)
-    return {"track": d["track"], "robot": d["robot"], "k_dd_s": d["k_dd_s"], "margin": d["margin"], "laps": d["laps"]}
+    return {"track": run.track, "robot": run.robot, "k_dd_s": run.k_dd_s, "margin": run.margin, "laps": run.laps}
 
 
 class Table:

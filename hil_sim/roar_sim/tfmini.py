@@ -41,7 +41,7 @@ class Tfmini:
             direction = [math.cos(yaw), math.sin(yaw), 0.0]
             starts.append(start)
             ends.append([a + MAX_RANGE_M * d for a, d in zip(start, direction)])
-        hits = self.plant.world.ray_test(starts, ends, self.plant.car)
+        hits = self.plant.world.ray_test(starts, ends)
         distances = [h[2] * MAX_RANGE_M for h in hits if h[0] >= 0 and h[0] != self.plant.car]
         if not distances:
             return None

@@ -21,13 +21,18 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 
 from roar.user_files import read_parsed
+
+T = TypeVar("T")
 
 MIN_POINTS = 8
 MIN_SPACING_M = 0.01  # [m]
@@ -38,6 +43,20 @@ MAX_EXTENT_M = 200.0  # [m] side of the square the track must fit in
 MAX_DISTANCE_M = 1000.0  # [m] of any point from the origin
 MIN_CROSSING_DEG = 45.0  # [deg] shallowest angle at which the track may cross itself
 CHECK_STEP_FRACTION = 0.25  # the shape checks look at the centre line every width/4
+
+
+_SHAPES: dict[tuple[str, bytes], object] = {}
+_SHAPES_LOCK = threading.RLock()
+
+
+def per_shape(what: str, track: Track, make: Callable[[], T]) -> T:
+    """make()'s result for `what` of this track's shape, made once per shape in this process
+    (wall meshes, floor textures, ray clients: every fresh world of a track reuses them)."""
+    key = (what, track.fingerprint)
+    with _SHAPES_LOCK:
+        if key not in _SHAPES:
+            _SHAPES[key] = make()
+        return _SHAPES[key]  # type: ignore[return-value]
 
 
 class TrackError(ValueError):
@@ -92,7 +111,7 @@ class Track:
         return np.concatenate([[0.0], np.cumsum(self.segment_lengths)[:-1]])
 
     @cached_property
-    def fingerprint(self) -> bytes:
+    def fingerprint(self) -> bytes:  # per_shape's key
         """The same for tracks of the same shape: a key for what is built from the shape alone
         (wall meshes, floor textures), built once per process."""
         return hashlib.sha256(np.float64(self.width_m).tobytes() + self.centerline.tobytes()).digest()

@@ -14,7 +14,7 @@ import pybullet_data
 
 from roar_sim.floor import add_floor
 from roar_sim.quiet_pybullet import pb
-from roar_sim.track import Track
+from roar_sim.track import Track, per_shape
 
 WALL_HEIGHT_M, WALL_THICKNESS_M = 0.3, 0.05  # [m] higher than the lidar (0.17 m)
 GROUND_HALF_M = 25.0  # [m] asphalt shown beyond the track (or around the origin without one)
@@ -42,9 +42,6 @@ def display_problem() -> str | None:
         return f"--gui needs a display: cannot open DISPLAY={display}"
     x11.XCloseDisplay(connection)
     return None
-
-
-_CACHE_LOCK = threading.Lock()
 
 
 class World:
@@ -104,19 +101,18 @@ class World:
     def _build_walls(self, track: Track) -> list[int]:
         """One static triangle mesh of wall boxes along both edges (one body keeps the physics
         fast)."""
-        self._wall_mesh = wall_mesh(track)
-        return [_mesh_body(self.client, *self._wall_mesh, visual=True)]
+        return [_mesh_body(self.client, *wall_mesh(track), visual=True)]
 
-    def ray_test(self, starts: list, ends: list, caster: int) -> list:
-        """pb.rayTestBatch for a sensor on body `caster`. While the world holds nothing but its
-        walls, ground, floor and the caster, the rays go to a second client that holds only the
-        walls: the same mesh, so the same answers, without the caster's own wheels and boxes near
+    def ray_test(self, starts: list, ends: list) -> list:
+        """pb.rayTestBatch for a sensor on a robot in this world. While the world holds nothing but
+        its walls, ground, floor and that robot, the rays go to a second client that holds only the
+        walls: the same mesh, so the same answers, without the robot's own wheels and boxes near
         the rays' starts, which cost Bullet up to 2 ms a 72-beam scan (most of a lidar's time)."""
         c = self.client
         if not self.walls or pb.getNumBodies(physicsClientId=c) != len(self._own_bodies()) + 1:
             return pb.rayTestBatch(starts, ends, physicsClientId=c)
         if self._rays is None:
-            self._rays = _walls_only(self.track, self._wall_mesh)
+            self._rays = _walls_only(self.track)
         client, walls, lock = self._rays
         with lock:
             hits = pb.rayTestBatch(starts, ends, physicsClientId=client)
@@ -164,28 +160,21 @@ class World:
             pb.disconnect(self.client)
 
 
-_WALL_MESHES: dict[bytes, tuple[list[list[float]], list[int]]] = {}  # by track fingerprint
-_WALLS_ONLY: dict[bytes, tuple[int, int, threading.Lock]] = {}  # by track fingerprint
-
-
-def _walls_only(track: Track, mesh) -> tuple[int, int, threading.Lock]:
+def _walls_only(track: Track) -> tuple[int, int, threading.Lock]:
     """(client, wall body, its lock): a client holding only the track's walls, shared by every
-    world of that track in this process (the walls never move), made once."""
-    with _CACHE_LOCK:
-        if track.fingerprint not in _WALLS_ONLY:
-            client = pb.connect(pb.DIRECT)
-            _WALLS_ONLY[track.fingerprint] = (client, _mesh_body(client, *mesh, visual=False), threading.Lock())
-        return _WALLS_ONLY[track.fingerprint]
+    world of that track in this process (the walls never move)."""
+    def make() -> tuple[int, int, threading.Lock]:
+        client = pb.connect(pb.DIRECT)
+        return client, _mesh_body(client, *wall_mesh(track), visual=False), threading.Lock()
+
+    return per_shape("walls-only ray client", track, make)
 
 
 def wall_mesh(track: Track) -> tuple[list[list[float]], list[int]]:
     """(vertices, indices) of the wall boxes along both edges, computed once per track shape. A
     segment that would lie inside another part of the track (the crossing of a figure-eight) is
     left out."""
-    with _CACHE_LOCK:
-        if track.fingerprint not in _WALL_MESHES:
-            _WALL_MESHES[track.fingerprint] = _build_wall_mesh(track)
-        return _WALL_MESHES[track.fingerprint]
+    return per_shape("wall mesh", track, lambda: _build_wall_mesh(track))
 
 
 def _build_wall_mesh(track: Track) -> tuple[list[list[float]], list[int]]:
