@@ -17,6 +17,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from roar.errors import RoarError
+
 ROOT = Path(__file__).resolve().parents[2]
 CORE = ROOT / "firmware" / "core"
 BUILD = ROOT / "build" / "host"
@@ -48,7 +50,7 @@ EMBEDDED_FLAGS = ["-Os", "-ffunction-sections", "-fdata-sections", "-fno-excepti
                   "-Wall", "-Wextra", "-Werror"]
 
 
-class CoreBuildError(RuntimeError):
+class CoreBuildError(RoarError):
     """The host build failed; str() is one line naming the first compiler error."""
 
 

@@ -19,6 +19,7 @@ from pathlib import Path
 
 from cffi import FFI
 
+from roar.errors import RoarError
 from roar.protocol import spec
 from roar.protocol.control import ControlCommand, ParseEvent, Setpoint
 from roar.protocol.spec import ParseResult
@@ -28,7 +29,7 @@ HEADER = core_build.CORE / "include" / "roar" / "c_api.h"
 _U32_MASK = 0xFFFFFFFF
 
 
-class CoreLoadError(RuntimeError):
+class CoreLoadError(RoarError):
     """The core library could not be built or loaded; str() is one line."""
 
 

@@ -20,6 +20,7 @@ import multiprocessing
 from dataclasses import dataclass
 from typing import Callable
 
+from roar.errors import RoarError
 from roar_sim.track import Track
 
 RENDER_WORKERS = 2  # renderer processes
@@ -61,7 +62,7 @@ def _call(pipe, request) -> bytes:
     return pipe.recv()
 
 
-class CameraError(RuntimeError):
+class CameraError(RoarError):
     pass
 
 

@@ -21,11 +21,13 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import TypeVar
 
+from roar.errors import RoarError
+
 CLONE_NEWNET = 0x40000000  # setns(2)'s namespace type for a network namespace
 T = TypeVar("T")
 
 
-class NetnsUnavailable(Exception):
+class NetnsUnavailable(RoarError):
     """This machine (or user) cannot make network namespaces: the reason, in one line."""
 
 

@@ -13,6 +13,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from roar.errors import RoarError
 from roar.protocol import spec
 from roar.protocol.control import encode_setpoint
 
@@ -25,7 +26,7 @@ SAMPLE_S = 0.005  # [s]
 HOST_PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6  # [s]
 
 
-class StepError(RuntimeError):
+class StepError(RoarError):
     """The step could not be measured; str() is one line."""
 
 

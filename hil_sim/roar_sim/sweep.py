@@ -38,6 +38,7 @@ from contextlib import closing
 from dataclasses import dataclass
 from pathlib import Path
 
+from roar.errors import RoarError
 from roar_sim import plotting
 
 COLUMNS = ("track", "robot", "k_dd_s", "margin", "laps", "status", "laps_done", "best_lap_s", "limit_lap_s",
@@ -49,7 +50,7 @@ MAX_RUNS = 10_000  # a grid larger than this is a typo
 CONNECT_TIMEOUT_S = 5.0  # [s] for a Ray cluster's address to answer
 
 
-class SweepError(Exception):
+class SweepError(RoarError):
     """Bad input for a sweep or a Ray that cannot start: one line for the user."""
 
 

@@ -30,6 +30,7 @@ from typing import TypeVar
 
 import numpy as np
 
+from roar.errors import RoarError
 from roar.user_files import read_parsed
 
 T = TypeVar("T")
@@ -59,7 +60,7 @@ def per_shape(what: str, track: Track, make: Callable[[], T]) -> T:
         return _SHAPES[key]  # type: ignore[return-value]
 
 
-class TrackError(ValueError):
+class TrackError(RoarError, ValueError):
     """An invalid track or track file; str() is one line."""
 
 

@@ -12,6 +12,7 @@ import threading
 import numpy as np
 import pybullet_data
 
+from roar.errors import RoarError
 from roar_sim.floor import add_floor
 from roar_sim.quiet_pybullet import pb
 from roar_sim.track import Track, per_shape
@@ -21,7 +22,7 @@ GROUND_HALF_M = 25.0  # [m] asphalt shown beyond the track (or around the origin
 SOLVER_ITERATIONS = 10  # contact solver iterations per step (PyBullet default 50): a car on a plane settles in few
 
 
-class SimError(RuntimeError):
+class SimError(RoarError):
     """The simulator cannot start as asked; str() is one line."""
 
 

@@ -6,6 +6,7 @@
 """
 
 from roar.calibration import Calibration, CalibrationError, ChannelCalibration
+from roar.errors import RoarError
 from roar.telemetry import CarEvent, EventKind, VehicleState
 from roar.transports import LinkLost, TransportError
 from roar.vehicle import Vehicle
@@ -13,4 +14,4 @@ from roar.vehicle import Vehicle
 __version__ = "0.1.0"
 
 __all__ = ["Calibration", "CalibrationError", "CarEvent", "ChannelCalibration", "EventKind", "LinkLost",
-           "TransportError", "Vehicle", "VehicleState"]
+           "RoarError", "TransportError", "Vehicle", "VehicleState"]

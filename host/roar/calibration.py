@@ -30,6 +30,7 @@ from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
+from roar.errors import RoarError
 from roar.protocol import encode, spec
 from roar.user_files import read_parsed
 
@@ -38,7 +39,7 @@ ARM_WINDOW = spec.TIMING_ARM_WINDOW_US  # [us] the car arms on a throttle within
 THROTTLE_TRIM_RANGE = (MID - ARM_WINDOW, MID + ARM_WINDOW)  # [us]
 
 
-class CalibrationError(ValueError):
+class CalibrationError(RoarError, ValueError):
     """An invalid calibration or calibration file; str() is one line."""
 
 

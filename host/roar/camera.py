@@ -20,11 +20,13 @@ from urllib.parse import urlsplit
 
 import numpy as np
 
+from roar.errors import RoarError
+
 MAX_FRAME_BYTES = 4 * 1024 * 1024  # [bytes] a part larger than this is not a camera frame
 MAX_HEADER_BYTES = 8 * 1024  # [bytes]
 
 
-class CameraError(Exception):
+class CameraError(RoarError):
     """A camera that cannot be reached or sent no image; str() is one line."""
 
 

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from roar.autopilot.agent import Module, Observation
+from roar.errors import RoarError
 from roar.user_files import read_text
 
 MIN_WAYPOINTS = 3
@@ -27,7 +28,7 @@ SAME_POINT_M = 0.001  # [m] a point this close to the one before repeats it
 MIN_LOOP_M = 1.0  # [m] the shortest loop worth following
 
 
-class WaypointError(ValueError):
+class WaypointError(RoarError, ValueError):
     """An invalid waypoint file; str() is one line naming the file and line."""
 
 

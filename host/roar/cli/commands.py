@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 import time
 
-from roar.cli.main import UserError
+from roar.cli.errors import UserError
 from roar.protocol import spec
 from roar.vehicle import Vehicle
 

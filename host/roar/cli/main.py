@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import argparse
 import logging
-import os
 import sys
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
-from roar.calibration import CalibrationError, default_path
+from roar.calibration import default_path
 from roar.cli import plugins
+from roar.cli.errors import UserError, run_command
 
 EXAMPLES = """examples:
   roar race --track figure-eight         the autopilot laps the simulated car against the physical limit
@@ -27,10 +27,6 @@ EXAMPLES = """examples:
   roar calibrate ble://                  set trim and end-points, saved for next time
   roar <command> --help                  more about one command
 """
-
-
-class UserError(Exception):
-    """A one-line message for the user; exit status 1."""
 
 
 def _add_url(p: argparse.ArgumentParser) -> None:
@@ -144,28 +140,22 @@ def main(argv: list[str] | None = None) -> int:
     plugin_call = _plugin_call(argv)
     args = parser.parse_args(plugin_call[0] if plugin_call else argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="roar: %(message)s")
-    from roar.cli import commands
-    from roar.transports import TransportError
+    return run_command(f"roar {args.command}", _run, args, plugin_call[1] if plugin_call else None)
 
-    try:
-        if plugin_call:
-            installed = plugins.installed()
-            if args.command not in installed:
-                raise UserError(plugins.missing_message(args.command))
-            try:
-                return installed[args.command].load().main(plugin_call[1])
-            except ImportError as e:  # the plug-in is there but an extra it needs is not
-                raise UserError(plugins.missing_message(args.command, e.name)) from None
+
+def _run(args: argparse.Namespace, plugin_argv: list[str] | None) -> int:
+    """One command: ours (roar.cli.commands), or a plug-in's with its own arguments."""
+    if plugin_argv is None:
+        from roar.cli import commands
+
         return getattr(commands, args.command)(args)
-    except KeyboardInterrupt:
-        print(file=sys.stderr)
-        return 130
-    except BrokenPipeError:  # `roar ... | head`: the reader left; say nothing more
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 141
-    except (UserError, TransportError, CalibrationError, ValueError) as e:
-        print(f"roar {args.command}: error: {e}", file=sys.stderr)
-        return 1
+    installed = plugins.installed()
+    if args.command not in installed:
+        raise UserError(plugins.missing_message(args.command))
+    try:
+        return installed[args.command].load().main(plugin_argv)
+    except ImportError as e:  # the plug-in is there but an extra it needs is not
+        raise UserError(plugins.missing_message(args.command, e.name)) from None
 
 
 if __name__ == "__main__":

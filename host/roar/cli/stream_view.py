@@ -16,13 +16,14 @@ from urllib.parse import urlsplit
 
 import numpy as np
 
+from roar.errors import RoarError
 from roar.protocol import spec
 from roar.stream import KINDS, StreamReceiver
 
 REPORT_PERIOD_S = 1.0  # [s]
 
 
-class StreamError(Exception):
+class StreamError(RoarError):
     """A stream URL or option that cannot work; str() is one line."""
 
 

@@ -17,6 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
+from roar.errors import RoarError
+
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
 DEPTH_SUFFIX = "_depth.npy"
 DEFAULT_FOV_DEG = 70.0  # [deg] the simulated car's camera (roar_sim.plant)
@@ -25,7 +27,7 @@ DEFAULT_AHEAD_M = 0.39  # [m]
 DEFAULT_PITCH_DEG = math.degrees(math.atan(0.25))  # [deg] down from level
 
 
-class FramesError(Exception):
+class FramesError(RoarError):
     """A folder or option that cannot work; str() is one line."""
 
 

@@ -5,10 +5,11 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from typing import Any, ClassVar
 
+from roar.errors import RoarError
 from roar.telemetry import VehicleState
 
 
-class TransportError(Exception):
+class TransportError(RoarError):
     """The link to the car cannot be opened or used. str() is one line a user can act on."""
 
 
