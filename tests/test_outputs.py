@@ -5,7 +5,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from roar.protocol import spec
-from roar_sim.firmware_core import L298nDriver, RcOverride, calibration_valid, map_pulse, mix_ackermann
+from roar_sim.firmware_core import L298nDriver, RcOverride, calibration_valid, map_pulse
 
 # --- output mapping ---------------------------------------------------------------------------
 
@@ -83,25 +83,6 @@ def test_invalid_pulse_breaks_the_lock_and_values_are_clamped():
 
 
 # --- L298N ------------------------------------------------------------------------------------
-
-
-@pytest.mark.parametrize("thr, steer, want", [
-    (1500, 1500, (0, 0)),
-    (2000, 1500, (1000, 1000)),
-    (1000, 1500, (-1000, -1000)),
-    (1500, 2000, (1000, -1000)),   # steering right: spin right in place
-    (2000, 2000, (1000, 0)),       # scaled down together
-    (1750, 1750, (1000, 0)),
-    (1750, 1625, (750, 250)),
-])
-def test_mixing(thr, steer, want):
-    assert mix_ackermann(thr, steer) == want
-
-
-@given(st.integers(0, 4000), st.integers(0, 4000))
-def test_mixing_stays_in_full_scale(thr, steer):
-    left, right = mix_ackermann(thr, steer)
-    assert -1000 <= left <= 1000 and -1000 <= right <= 1000
 
 
 def test_reversal_has_zero_duty_dead_time():

@@ -23,24 +23,48 @@ def test_check_mode_reports_clean_tree():
 def test_python_constants_match_spec():
     from roar.protocol import spec
     for k in generate.load_spec():
-        if k.section != "parse_result":
-            assert getattr(spec, k.py_name) == k.value
+        assert getattr(spec, k.py_name) == k.value
     assert spec.CONTROL_EXAMPLE == "(1500,1500)" and len(spec.CONTROL_EXAMPLE) == spec.CONTROL_MAX_MESSAGE_BYTES
 
 
 def test_cpp_header_carries_every_constant():
     header = generate.CPP_HEADER.read_text()
     for k in generate.load_spec():
-        if k.section != "parse_result":
+        if k.section not in generate.ENUMS:
             assert f" {k.cpp_name}" in header
 
 
-def test_parse_result_codes_agree_with_the_core():
-    from roar.protocol.spec import ParseResult
+@pytest.mark.parametrize("section", generate.ENUMS)
+def test_enum_codes_and_words_agree_between_the_core_and_python(section):
+    """Each enum section is a C++ enum class with its words, a Python IntEnum whose str() is the
+    word, and the portable module's tuple of words, all with the same codes."""
+    from roar.protocol import spec
+    from roar_wire import spec as portable
+
     header = generate.CPP_HEADER.read_text()
-    for r in ParseResult:
-        camel = "".join(p.capitalize() for p in r.name.lower().split("_"))
-        assert f"{camel} = {int(r)}," in header
+    name = "".join(p.capitalize() for p in section.split("_"))
+    enum = getattr(spec, name)
+    assert [str(e) for e in enum] == list(getattr(portable, f"{section.upper()}_TOKENS"))
+    assert f"static constexpr uint8_t k{name}Count = {len(enum)};" in header
+    for e in enum:
+        camel = "".join(p.capitalize() for p in e.name.lower().split("_"))
+        assert f"  {camel} = {int(e)}," in header and f'case {name}::{camel}: return "{e}";' in header
+
+
+def test_the_telemetry_words_the_core_prints_are_the_spec_s():
+    """The IARRC board's TEL line spells its mode and failsafe with the generated words (with no
+    transmitter it stays disarmed)."""
+    from roar.protocol.spec import IarrcFailsafe, IarrcMode
+    from roar_sim.firmware_core import IarrcBoard
+
+    board = IarrcBoard()
+    board.begin()
+    for t in range(0, 200_000, 1_000):
+        for task in range(6):
+            board.run(task, t)
+    line = next(line for line in board.host_out.decode().splitlines() if line.startswith("TEL "))
+    mode, failsafe = line.split()[1:3]
+    assert (mode, failsafe) == (str(IarrcMode.DISARMED), str(IarrcFailsafe.NONE)) == ("disarmed", "none")
 
 
 @pytest.mark.parametrize("body, message", [

@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 
 from roar_sim.avr_build import sizes
-from roar_sim.core_build import (CORE, CROSS_TARGETS, EMBEDDED_FLAGS, HOST_ONLY_SOURCES, ROOT, CoreBuildError,
+from roar_sim.core_build import (CORE, CROSS_TARGETS, EMBEDDED_FLAGS, ROOT, CoreBuildError,
                                  core_sources, run_build)
 
 BOARD = ROOT / "firmware" / "stm32_freertos"
@@ -36,7 +36,7 @@ def _link(target: str, sources: list[Path], linker_script: Path, elf: Path, what
     cxx, flags, packages = CROSS_TARGETS[target]
     if not shutil.which(cxx):
         raise CoreBuildError(f"{cxx} not found: apt-get install {packages}")
-    core = [p for p in core_sources() if p.name not in HOST_ONLY_SOURCES]
+    core = core_sources()
     elf.parent.mkdir(parents=True, exist_ok=True)
     common = [*(f"-D{d}" for d in defines), "-I", str(CORE / "include"), "-I", str(BOARD),
               *(f"-I{i}" for i in includes)]

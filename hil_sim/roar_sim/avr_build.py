@@ -16,7 +16,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from roar_sim.core_build import CORE, HOST_ONLY_SOURCES, ROOT, CoreBuildError, core_sources, run_build
+from roar_sim.core_build import CORE, ROOT, CoreBuildError, core_sources, run_build
 
 ARDUINO_AVR = Path("/usr/share/arduino/hardware/arduino/avr")
 ARDUINO_CORE = ARDUINO_AVR / "cores" / "arduino"
@@ -83,8 +83,7 @@ def _arduino_core() -> Path:
 
 
 def our_sources() -> list[Path]:
-    core = [p for p in core_sources() if p.name not in HOST_ONLY_SOURCES]
-    return core + sorted(BOARD_SOURCES.glob("*.cpp"))
+    return core_sources() + sorted(BOARD_SOURCES.glob("*.cpp"))
 
 
 def build(force: bool = False, variant: str | None = None) -> Path:
@@ -128,7 +127,7 @@ def build_parser_bench() -> Path:
     if missing:
         raise CoreBuildError(missing)
     BENCH_ELF.parent.mkdir(parents=True, exist_ok=True)
-    sources = [BENCH_SOURCE] + [p for p in core_sources() if p.name not in HOST_ONLY_SOURCES]
+    sources = [BENCH_SOURCE] + core_sources()
     _run(["avr-g++", *OUR_CXX_FLAGS, *DEFINES, "-I", str(CORE / "include"), *map(str, sources), "-fuse-linker-plugin",
           "-Wl,--gc-sections", "-o", str(BENCH_ELF)], "parser bench")
     return BENCH_ELF

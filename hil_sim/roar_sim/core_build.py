@@ -21,6 +21,7 @@ from roar.errors import RoarError
 
 ROOT = Path(__file__).resolve().parents[2]
 CORE = ROOT / "firmware" / "core"
+HOST_BOARD = ROOT / "firmware" / "host"  # the C ABI and the memory-backed HALs: host build only
 BUILD = ROOT / "build" / "host"
 
 WARNINGS = ["-Wall", "-Wextra", "-Wpedantic", "-Werror"]
@@ -44,7 +45,6 @@ CROSS_TARGETS = {
     "cortex-m7": ("arm-none-eabi-g++", ["-std=c++17", "-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-sp-d16",
                                         "-mfloat-abi=hard"], "gcc-arm-none-eabi libnewlib-arm-none-eabi"),
 }
-HOST_ONLY_SOURCES = {"c_api.cpp"}  # placement new and the C ABI exist for the host build only
 # Every microcontroller build: small code, unused sections dropped, no exceptions/RTTI, no warnings.
 EMBEDDED_FLAGS = ["-Os", "-ffunction-sections", "-fdata-sections", "-fno-exceptions", "-fno-rtti",
                   "-Wall", "-Wextra", "-Werror"]
@@ -66,8 +66,13 @@ def core_sources() -> list[Path]:
     return sorted((CORE / "src").glob("*.cpp"))
 
 
+def host_sources() -> list[Path]:
+    return sorted(HOST_BOARD.glob("*.cpp"))
+
+
 def _inputs(extra: list[Path]) -> list[Path]:
-    return core_sources() + sorted((CORE / "include").rglob("*.h")) + sorted((CORE / "test").glob("*.h")) + extra
+    return (core_sources() + host_sources() + sorted((CORE / "include").rglob("*.h")) + sorted(HOST_BOARD.glob("*.h"))
+            + sorted((CORE / "test").glob("*.h")) + extra)
 
 
 def output_path(target: str = "library", variant: str = "release") -> Path:
@@ -97,7 +102,7 @@ def build(target: str = "library", variant: str = "release", force: bool = False
     fd, tmp = tempfile.mkstemp(prefix=name + ".", dir=out.parent)
     os.close(fd)
     cmd = [compiler(), "-std=c++17", *WARNINGS, *VARIANTS[variant], *link_flags, "-I", str(CORE / "include"),
-           "-I", str(CORE / "test"), *map(str, core_sources() + extra), "-o", tmp]
+           "-I", str(HOST_BOARD), "-I", str(CORE / "test"), *map(str, core_sources() + host_sources() + extra), "-o", tmp]
     try:
         run_build(cmd, f"host build of firmware/core failed ({variant})")
     except CoreBuildError:
@@ -117,8 +122,6 @@ def cross_compile(target: str) -> list[Path]:
     out_dir.mkdir(parents=True, exist_ok=True)
     objects = []
     for src in core_sources():
-        if src.name in HOST_ONLY_SOURCES:
-            continue
         obj = out_dir / (src.stem + ".o")
         run_build([cxx, *flags, *EMBEDDED_FLAGS, "-I", str(CORE / "include"), "-c", str(src), "-o", str(obj)],
                   f"{target} build of firmware/core failed")

@@ -25,7 +25,7 @@ from roar.protocol.control import ControlCommand, ParseEvent, Setpoint
 from roar.protocol.spec import ParseResult
 from roar_sim import core_build
 
-HEADER = core_build.CORE / "include" / "roar" / "c_api.h"
+HEADER = core_build.HOST_BOARD / "c_api.h"
 _U32_MASK = 0xFFFFFFFF
 
 
@@ -206,12 +206,6 @@ class SidePins:
     in1: bool
     in2: bool
     duty: int  # [permille]
-
-
-def mix_ackermann(throttle_us: int, steering_us: int) -> tuple[int, int]:
-    left, right = ffi.new("int16_t *"), ffi.new("int16_t *")
-    lib().roar_mix_ackermann(throttle_us, steering_us, left, right)
-    return left[0], right[0]
 
 
 class L298nDriver:

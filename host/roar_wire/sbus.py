@@ -11,7 +11,8 @@ Runs unchanged on CPython and MicroPython.
 
 from roar_wire import spec
 
-NONE, FRAME, FAILSAFE, DROPPED = 0, 1, 2, 3
+NONE, FRAME = spec.SBUS_RESULT_NONE, spec.SBUS_RESULT_FRAME  # what feed() reports for a byte
+FAILSAFE, DROPPED = spec.SBUS_RESULT_FAILSAFE, spec.SBUS_RESULT_DROPPED
 FRAME_BYTES = spec.SBUS_FRAME_BYTES
 CHANNELS = spec.SBUS_CHANNELS
 _MASK = (1 << spec.SBUS_CHANNEL_BITS) - 1

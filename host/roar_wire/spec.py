@@ -83,11 +83,31 @@ SBUS_LOCK_FRAMES = 3  # [frames] Good frames in a row needed before the receiver
 
 # [telemetry]
 TELEMETRY_REPLY = 'TEL'  # First word of a telemetry line
-TELEMETRY_FIELDS = 'mode failsafe battery_mv battery_low distance_mm speed_mm_s setpoint_mm_s throttle_us steering_us yaw_rate_mdeg_s kp_pm ki_pm kd_pm ff_pm overruns'  # The fields after TEL, in order: mode (boot, disarmed, manual, autonomous, failsafe, emergency), failsafe (none, rc_lost, host_silent, battery), battery [mV], 1 when it is below the low-voltage warning else 0, distance driven [mm] (signed), speed [mm/s], speed setpoint [mm/s], outputs [us], yaw rate [mdeg/s], PID gains [per mille], task overruns since boot
+TELEMETRY_FIELDS = 'mode failsafe battery_mv battery_low distance_mm speed_mm_s setpoint_mm_s throttle_us steering_us yaw_rate_mdeg_s kp_pm ki_pm kd_pm ff_pm overruns'  # The fields after TEL, in order: mode (an iarrc_mode word), failsafe (an iarrc_failsafe word), battery [mV], 1 when it is below the low-voltage warning else 0, distance driven [mm] (signed), speed [mm/s], speed setpoint [mm/s], outputs [us], yaw rate [mdeg/s], PID gains [per mille], task overruns since boot
 TELEMETRY_SET_GAINS = 'PID'  # Command word: PID KP KI KD FF sets the speed controller's gains (each 0..100000)
 TELEMETRY_MAX_GAIN_PM = 100000  # [permille] Largest gain a PID command may set
 TELEMETRY_PERIOD_US = 100000  # [us] Telemetry line period (10 Hz)
 TELEMETRY_MAX_LINE_BYTES = 128  # [bytes] Longest telemetry line or command including the line end
+
+# [iarrc_mode]
+IARRC_MODE_BOOT = 0  # Starting up: neutral and centre
+IARRC_MODE_DISARMED = 1  # Neutral and centre; the RC mode switch must be seen at off before the car drives
+IARRC_MODE_MANUAL = 2  # The transmitter's sticks drive (mode switch at manual)
+IARRC_MODE_AUTONOMOUS = 3  # The host's speed setpoints drive through the speed PID (mode switch at autonomous)
+IARRC_MODE_FAILSAFE = 4  # Neutral and centre: the RC signal, the host or the battery was lost (see iarrc_failsafe); out through disarmed, or in autonomous by a host that comes back with zero speed
+IARRC_MODE_EMERGENCY = 5  # Neutral and centre: the RC stop switch; out through disarmed
+
+# [iarrc_failsafe]
+IARRC_FAILSAFE_NONE = 0  # Not failed safe
+IARRC_FAILSAFE_RC_LOST = 1  # No good SBUS frame for rc.signal_timeout_us, or a receiver failsafe frame
+IARRC_FAILSAFE_HOST_SILENT = 2  # In autonomous, no setpoint for timing.failsafe_timeout_us
+IARRC_FAILSAFE_BATTERY = 3  # The battery fell below its cutoff
+
+# [sbus_result]
+SBUS_RESULT_NONE = 0  # Byte taken, no frame finished
+SBUS_RESULT_FRAME = 1  # A good frame finished with this byte
+SBUS_RESULT_FAILSAFE = 2  # A well-formed frame that says the transmitter is gone (the flag, or a guard channel at raw 0)
+SBUS_RESULT_DROPPED = 3  # sbus.frame_bytes bytes that were not a frame; searching for the next start byte
 
 # [l298n]
 L298N_DEAD_TIME_US = 5000  # [us] Zero duty with both direction pins low on each side's direction reversal
@@ -155,5 +175,14 @@ JUNIOR_CAMERA_HIGH_WIDTH = 800  # [px] Width of the high-resolution frames (/cam
 JUNIOR_CAMERA_HIGH_HEIGHT = 600  # [px] Height of the high-resolution frames
 JUNIOR_FAILSAFE_TIMEOUT_US = 500000  # [us] No control request for longer than this stops both sides
 
-# The wire token of each parse result, indexed by its code
+# The word of each parse_result code, indexed by the code
 PARSE_RESULT_TOKENS = ('none', 'ok', 'syntax', 'range', 'too_long', 'unterminated', 'garbage', 'setpoint',)
+
+# The word of each sbus_result code, indexed by the code
+SBUS_RESULT_TOKENS = ('none', 'frame', 'failsafe', 'dropped',)
+
+# The word of each iarrc_mode code, indexed by the code
+IARRC_MODE_TOKENS = ('boot', 'disarmed', 'manual', 'autonomous', 'failsafe', 'emergency',)
+
+# The word of each iarrc_failsafe code, indexed by the code
+IARRC_FAILSAFE_TOKENS = ('none', 'rc_lost', 'host_silent', 'battery',)

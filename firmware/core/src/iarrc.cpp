@@ -196,16 +196,4 @@ IarrcOutputs IarrcController::control(Micros now_us, uint32_t frames_started) {
   return IarrcOutputs{map_pulse(throttle, config_.throttle), map_pulse(steering, config_.steering), mode_, failsafe_};
 }
 
-const char* iarrc_mode_name(IarrcMode mode) {
-  switch (mode) {
-    case IarrcMode::Boot: return "boot";
-    case IarrcMode::Disarmed: return "disarmed";
-    case IarrcMode::Manual: return "manual";
-    case IarrcMode::Autonomous: return "autonomous";
-    case IarrcMode::Failsafe: return "failsafe";
-    case IarrcMode::Emergency: return "emergency";
-  }
-  return "unknown";
-}
-
 }  // namespace roar

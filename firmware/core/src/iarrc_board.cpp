@@ -29,8 +29,6 @@ class Locked {
   IarrcHal& hal_;
 };
 
-const char* const kFailsafeNames[] = {"none", "rc_lost", "host_silent", "battery"};
-
 // MPU6000 at +-2000 deg/s: 16.4 counts per deg/s -> mdeg/s = raw * 10000 / 164
 int32_t gyro_mdeg_s(int16_t raw) { return static_cast<int32_t>(raw) * 10000 / 164; }
 
@@ -57,8 +55,6 @@ bool parse_gains(const char* text, size_t n, PidGains* gains) {
 }
 
 }  // namespace
-
-const char* iarrc_failsafe_name(IarrcFailsafe why) { return kFailsafeNames[static_cast<uint8_t>(why)]; }
 
 void IarrcBoard::begin() {
   char line[16];
@@ -212,9 +208,9 @@ size_t IarrcBoard::telemetry_line(char* out, size_t cap) const {
   size_t n = 0;
   append(out, cap, &n, proto::kTelemetryReply);
   append(out, cap, &n, " ");
-  append(out, cap, &n, iarrc_mode_name(outputs_.mode));
+  append(out, cap, &n, iarrc_mode_token(outputs_.mode));
   append(out, cap, &n, " ");
-  append(out, cap, &n, iarrc_failsafe_name(outputs_.failsafe));
+  append(out, cap, &n, iarrc_failsafe_token(outputs_.failsafe));
   const int32_t numbers[] = {static_cast<int32_t>(c.battery_monitor().millivolts()),
                              c.battery_monitor().low() ? 1 : 0,
                              distance_mm,

@@ -115,8 +115,7 @@ class BatteryMonitor {
   bool cutoff_ = false;
 };
 
-enum class IarrcMode : uint8_t { Boot = 0, Disarmed = 1, Manual = 2, Autonomous = 3, Failsafe = 4, Emergency = 5 };
-enum class IarrcFailsafe : uint8_t { None = 0, RcLost = 1, HostSilent = 2, Battery = 3 };
+// IarrcMode and IarrcFailsafe (with their TEL words) are wire facts: roar/protocol.h.
 enum class ModeSwitch : uint8_t { Off = 0, Manual = 1, Autonomous = 2 };
 
 struct IarrcConfig {
@@ -194,6 +193,5 @@ class IarrcController {
   bool controlled_ = false;
 };
 
-const char* iarrc_mode_name(IarrcMode mode);
 
 }  // namespace roar

@@ -105,6 +105,4 @@ class IarrcBoard {
   bool command_overflow_ = false;
 };
 
-const char* iarrc_failsafe_name(IarrcFailsafe why);
-
 }  // namespace roar

@@ -10,7 +10,7 @@
 #include "roar/clock.h"
 #include "roar/http_request.h"
 #include "roar/junior_control.h"
-#include "roar/l298n_mixer.h"
+#include "roar/l298n_driver.h"
 
 namespace roar {
 

@@ -8,7 +8,7 @@
 #include <stdint.h>
 
 #include "roar/clock.h"
-#include "roar/l298n_mixer.h"
+#include "roar/l298n_driver.h"
 #include "roar/protocol.h"
 
 namespace roar {

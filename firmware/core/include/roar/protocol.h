@@ -75,7 +75,7 @@ static constexpr uint16_t kSbusLockFrames = 3u;  // [frames] Good frames in a ro
 
 // [telemetry]
 static constexpr char kTelemetryReply[] = "TEL";  // First word of a telemetry line
-static constexpr char kTelemetryFields[] = "mode failsafe battery_mv battery_low distance_mm speed_mm_s setpoint_mm_s throttle_us steering_us yaw_rate_mdeg_s kp_pm ki_pm kd_pm ff_pm overruns";  // The fields after TEL, in order: mode (boot, disarmed, manual, autonomous, failsafe, emergency), failsafe (none, rc_lost, host_silent, battery), battery [mV], 1 when it is below the low-voltage warning else 0, distance driven [mm] (signed), speed [mm/s], speed setpoint [mm/s], outputs [us], yaw rate [mdeg/s], PID gains [per mille], task overruns since boot
+static constexpr char kTelemetryFields[] = "mode failsafe battery_mv battery_low distance_mm speed_mm_s setpoint_mm_s throttle_us steering_us yaw_rate_mdeg_s kp_pm ki_pm kd_pm ff_pm overruns";  // The fields after TEL, in order: mode (an iarrc_mode word), failsafe (an iarrc_failsafe word), battery [mV], 1 when it is below the low-voltage warning else 0, distance driven [mm] (signed), speed [mm/s], speed setpoint [mm/s], outputs [us], yaw rate [mdeg/s], PID gains [per mille], task overruns since boot
 static constexpr char kTelemetrySetGains[] = "PID";  // Command word: PID KP KI KD FF sets the speed controller's gains (each 0..100000)
 static constexpr uint32_t kTelemetryMaxGainPm = 100000ul;  // [permille] Largest gain a PID command may set
 static constexpr uint32_t kTelemetryPeriodUs = 100000ul;  // [us] Telemetry line period (10 Hz)
@@ -163,8 +163,8 @@ enum class ParseResult : uint8_t {
 
 static constexpr uint8_t kParseResultCount = 8;
 
-inline const char* parse_result_token(ParseResult r) {
-  switch (r) {
+inline const char* parse_result_token(ParseResult code) {
+  switch (code) {
     case ParseResult::None: return "none";
     case ParseResult::Ok: return "ok";
     case ParseResult::Syntax: return "syntax";
@@ -173,6 +173,70 @@ inline const char* parse_result_token(ParseResult r) {
     case ParseResult::Unterminated: return "unterminated";
     case ParseResult::Garbage: return "garbage";
     case ParseResult::Setpoint: return "setpoint";
+  }
+  return "unknown";
+}
+
+// What the SBUS decoder reports for each byte.
+enum class SbusResult : uint8_t {
+  None = 0,  // Byte taken, no frame finished
+  Frame = 1,  // A good frame finished with this byte
+  Failsafe = 2,  // A well-formed frame that says the transmitter is gone (the flag, or a guard channel at raw 0)
+  Dropped = 3,  // sbus.frame_bytes bytes that were not a frame; searching for the next start byte
+};
+
+static constexpr uint8_t kSbusResultCount = 4;
+
+inline const char* sbus_result_token(SbusResult code) {
+  switch (code) {
+    case SbusResult::None: return "none";
+    case SbusResult::Frame: return "frame";
+    case SbusResult::Failsafe: return "failsafe";
+    case SbusResult::Dropped: return "dropped";
+  }
+  return "unknown";
+}
+
+// The IARRC controller's mode (the word is the mode field of a TEL line).
+enum class IarrcMode : uint8_t {
+  Boot = 0,  // Starting up: neutral and centre
+  Disarmed = 1,  // Neutral and centre; the RC mode switch must be seen at off before the car drives
+  Manual = 2,  // The transmitter's sticks drive (mode switch at manual)
+  Autonomous = 3,  // The host's speed setpoints drive through the speed PID (mode switch at autonomous)
+  Failsafe = 4,  // Neutral and centre: the RC signal, the host or the battery was lost (see iarrc_failsafe); out through disarmed, or in autonomous by a host that comes back with zero speed
+  Emergency = 5,  // Neutral and centre: the RC stop switch; out through disarmed
+};
+
+static constexpr uint8_t kIarrcModeCount = 6;
+
+inline const char* iarrc_mode_token(IarrcMode code) {
+  switch (code) {
+    case IarrcMode::Boot: return "boot";
+    case IarrcMode::Disarmed: return "disarmed";
+    case IarrcMode::Manual: return "manual";
+    case IarrcMode::Autonomous: return "autonomous";
+    case IarrcMode::Failsafe: return "failsafe";
+    case IarrcMode::Emergency: return "emergency";
+  }
+  return "unknown";
+}
+
+// Why the IARRC controller failed safe (the word is the failsafe field of a TEL line).
+enum class IarrcFailsafe : uint8_t {
+  None = 0,  // Not failed safe
+  RcLost = 1,  // No good SBUS frame for rc.signal_timeout_us, or a receiver failsafe frame
+  HostSilent = 2,  // In autonomous, no setpoint for timing.failsafe_timeout_us
+  Battery = 3,  // The battery fell below its cutoff
+};
+
+static constexpr uint8_t kIarrcFailsafeCount = 4;
+
+inline const char* iarrc_failsafe_token(IarrcFailsafe code) {
+  switch (code) {
+    case IarrcFailsafe::None: return "none";
+    case IarrcFailsafe::RcLost: return "rc_lost";
+    case IarrcFailsafe::HostSilent: return "host_silent";
+    case IarrcFailsafe::Battery: return "battery";
   }
   return "unknown";
 }

@@ -33,13 +33,6 @@ struct SbusFrame {
   uint8_t end;      // the end byte: 0x00, or the SBUS2 slot
 };
 
-enum class SbusResult : uint8_t {
-  None = 0,      // byte taken, no frame finished
-  Frame = 1,     // a good frame: frame() holds it
-  Failsafe = 2,  // a well-formed frame that says the transmitter is gone (flag or guard)
-  Dropped = 3,   // 25 bytes that were not a frame; searching for the next start byte
-};
-
 // [us] of a raw channel value: 875 + raw * 5 / 8.
 inline uint16_t sbus_raw_to_us(uint16_t raw) {
   return static_cast<uint16_t>(proto::kSbusUsOffset + raw * proto::kSbusUsPerRawNum / proto::kSbusUsPerRawDen);

@@ -1,33 +1,11 @@
-#include "roar/l298n_mixer.h"
+#include "roar/l298n_driver.h"
 
 namespace roar {
 namespace {
 
-constexpr int32_t kFull = proto::kL298nDutyFullScale;              // [permille]
-constexpr int32_t kHalfRange = (proto::kControlMaxUs - proto::kControlMinUs) / 2;  // [us]
-
-// Pulse width -> -kFull..kFull.
-int32_t to_permille(uint16_t pulse_us) {
-  int32_t v = (static_cast<int32_t>(pulse_us) - proto::kControlNeutralUs) * kFull / kHalfRange;
-  return v < -kFull ? -kFull : (v > kFull ? kFull : v);
-}
-
-int32_t abs32(int32_t v) { return v < 0 ? -v : v; }
+constexpr int32_t kFull = proto::kL298nDutyFullScale;  // [permille]
 
 }  // namespace
-
-SideDuties mix_ackermann(uint16_t throttle_us, uint16_t steering_us) {
-  const int32_t t = to_permille(throttle_us);
-  const int32_t s = to_permille(steering_us);
-  int32_t left = t + s;
-  int32_t right = t - s;
-  const int32_t peak = abs32(left) > abs32(right) ? abs32(left) : abs32(right);
-  if (peak > kFull) {
-    left = left * kFull / peak;
-    right = right * kFull / peak;
-  }
-  return SideDuties{static_cast<int16_t>(left), static_cast<int16_t>(right)};
-}
 
 SidePins L298nSide::step(int16_t duty_permille, Micros now_us, DurationUs dead_time_us) {
   const int8_t want = duty_permille > 0 ? 1 : (duty_permille < 0 ? -1 : 0);

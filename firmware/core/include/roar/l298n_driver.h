@@ -1,6 +1,6 @@
-// L298N differential drive (ROAR Junior): Ackermann-style (throttle, steering) pulses mix to
-// per-side signed duties; each side then drives two direction pins and one PWM duty, with a
-// zero-duty dead time whenever that side reverses. See PROTOCOL.md section 2.5.
+// L298N differential drive (ROAR Junior): each side's signed duty (from the Junior's HTTP control,
+// junior_control.h) drives two direction pins and one PWM duty, with a zero-duty dead time
+// whenever that side reverses. See PROTOCOL.md section 2.5.
 #pragma once
 #include <stdint.h>
 
@@ -14,10 +14,6 @@ struct SideDuties {
   int16_t left;
   int16_t right;
 };
-
-// left = t + s, right = t - s (t, s in -1..1 from the pulses; steering above neutral turns
-// right), scaled down together when either exceeds full scale.
-SideDuties mix_ackermann(uint16_t throttle_us, uint16_t steering_us);
 
 struct SidePins {
   bool in1;       // high = this side forward

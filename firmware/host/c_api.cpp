@@ -1,16 +1,15 @@
-// extern "C" wrappers over the core, for the host build. Placement new puts each object in the
-// caller's memory; the objects are trivially destructible, so no destroy call is needed.
-#include "roar/c_api.h"
+// extern "C" wrappers over the core and the host board (memory_boards.h), and nothing else.
+// Placement new puts each object in the caller's memory; the objects are trivially
+// destructible, so no destroy call is needed.
+#include "c_api.h"
 
 #include <new>
 
-#include "roar/board.h"
+#include "memory_boards.h"
 #include "roar/http_request.h"
-#include "roar/junior_board.h"
-#include "roar/junior_control.h"
-#include "roar/l298n_mixer.h"
 #include "roar/iarrc.h"
-#include "roar/iarrc_board.h"
+#include "roar/junior_control.h"
+#include "roar/l298n_driver.h"
 #include "roar/sbus.h"
 
 using namespace roar;
@@ -26,93 +25,41 @@ const T* as(const void* p) {
   return static_cast<const T*>(p);
 }
 
-roar_side_pins_t to_c(const SidePins& s) { return roar_side_pins_t{s.in1, s.in2, s.duty}; }
-
-roar_car_outputs_t to_c(const CarOutputs& o, const Car& car) {
-  return roar_car_outputs_t{o.throttle_us, o.steering_us, static_cast<uint8_t>(o.source),
-                            static_cast<uint8_t>(o.brake_phase), static_cast<uint8_t>(car.latched() ? 1 : 0), 0};
-}
-
-// The HAL of roar_host_hal_t: every call reads or writes the caller's memory.
-class MemoryHal : public Hal {
- public:
-  explicit MemoryHal(roar_host_hal_t* m) : m_(m) {}
-  roar_host_hal_t& memory() { return *m_; }
-  RawMicros now_us() override { return m_->now_us; }
-  void write_pulses(uint16_t throttle_us, uint16_t steering_us) override {
-    m_->pending_us[0] = throttle_us;
-    m_->pending_us[1] = steering_us;
-  }
-  uint32_t frames_started() override { return m_->frames_started; }
-  int read_byte() override { return m_->rx_pos < m_->rx_len ? m_->rx[m_->rx_pos++] : -1; }
-  size_t write_room() override { return sizeof(m_->tx) - m_->tx_len; }
-  void write(const char* text, size_t length) override {
-    for (size_t i = 0; i < length && m_->tx_len < sizeof(m_->tx); ++i) m_->tx[m_->tx_len++] = text[i];
-  }
-  void feed_watchdog() override { ++m_->watchdog_feeds; }
-
- private:
-  roar_host_hal_t* m_;
-};
-
-// CarBoard on the memory HAL, with the output timer a board's hardware would run.
-struct HostBoard {
-  HostBoard(roar_host_hal_t* m, const CarConfig& cfg) : hal(m), board(hal, cfg) {
-    for (uint8_t ch = 0; ch < 2; ++ch) m->pending_us[ch] = m->wire_us[ch] = proto::kControlNeutralUs;  // as at boot
-  }
-
-  void run(uint32_t loops) {
-    roar_host_hal_t* const mem = &hal.memory();
-    for (uint32_t i = 0; i < loops; ++i) {
-      const uint32_t late = mem->now_us - mem->next_frame_us;  // [us] past the due frame start
-      if (static_cast<int32_t>(late) >= 0 && mem->frame_us > 0) {
-        const uint32_t started = 1 + late / mem->frame_us;  // more than one if time jumped ahead
-        mem->frames_started += started;
-        mem->next_frame_us += started * mem->frame_us;
-        mem->wire_us[0] = mem->pending_us[0];
-        mem->wire_us[1] = mem->pending_us[1];
-        for (uint8_t ch = 0; ch < 2; ++ch) {
-          if (mem->rc_us[ch]) board.rc_pulse(static_cast<RcChannel>(ch), mem->rc_us[ch]);
-        }
-      }
-      mem->outputs = to_c(board.poll(), board.car());
-      mem->now_us += mem->loop_us;
-    }
-  }
-
-  MemoryHal hal;
-  CarBoard board;
-};
-
-// JuniorBoard on a HAL of roar_junior_hal_t.
-class JuniorMemoryHal : public JuniorHal {
- public:
-  explicit JuniorMemoryHal(roar_junior_hal_t* m) : m_(m) {}
-  roar_junior_hal_t& memory() { return *m_; }
-  RawMicros now_us() override { return m_->now_us; }
-  void write_motors(const DrivePins& pins) override {
-    m_->left = to_c(pins.left);
-    m_->right = to_c(pins.right);
-  }
-  void feed_watchdog() override { ++m_->watchdog_feeds; }
-
- private:
-  roar_junior_hal_t* m_;
-};
-
-struct HostJunior {
-  explicit HostJunior(roar_junior_hal_t* m) : hal(m), board(hal) {}
-  void run(uint32_t loops) {
-    for (uint32_t i = 0; i < loops; ++i) {
-      board.poll();
-      hal.memory().now_us += hal.memory().loop_us;
-    }
-  }
-  JuniorMemoryHal hal;
-  JuniorBoard board;
-};
-
 }  // namespace
+
+// Every code of c_api.h's enums is the core's own (tests/test_c_abi.py checks that each enum
+// is listed here whole).
+#define ROAR_SAME_CODE(cxx, c) static_assert(static_cast<int>(cxx) == (c), #c " in c_api.h differs from " #cxx)
+ROAR_SAME_CODE(WatchdogEvent::None, ROAR_WATCHDOG_EVENT_NONE);
+ROAR_SAME_CODE(WatchdogEvent::Tripped, ROAR_WATCHDOG_EVENT_TRIPPED);
+ROAR_SAME_CODE(WatchdogEvent::Armed, ROAR_WATCHDOG_EVENT_ARMED);
+ROAR_SAME_CODE(BrakePhase::NeedsSequence, ROAR_BRAKE_PHASE_NEEDS_SEQUENCE);
+ROAR_SAME_CODE(BrakePhase::Neutral1, ROAR_BRAKE_PHASE_NEUTRAL1);
+ROAR_SAME_CODE(BrakePhase::Tap, ROAR_BRAKE_PHASE_TAP);
+ROAR_SAME_CODE(BrakePhase::Neutral2, ROAR_BRAKE_PHASE_NEUTRAL2);
+ROAR_SAME_CODE(BrakePhase::ReverseReady, ROAR_BRAKE_PHASE_REVERSE_READY);
+ROAR_SAME_CODE(ControlSource::Failsafe, ROAR_CONTROL_SOURCE_FAILSAFE);
+ROAR_SAME_CODE(ControlSource::Host, ROAR_CONTROL_SOURCE_HOST);
+ROAR_SAME_CODE(ControlSource::Rc, ROAR_CONTROL_SOURCE_RC);
+ROAR_SAME_CODE(RcChannel::Throttle, ROAR_RC_CHANNEL_THROTTLE);
+ROAR_SAME_CODE(RcChannel::Steering, ROAR_RC_CHANNEL_STEERING);
+ROAR_SAME_CODE(HttpRead::Incomplete, ROAR_HTTP_READ_INCOMPLETE);
+ROAR_SAME_CODE(HttpRead::Complete, ROAR_HTTP_READ_COMPLETE);
+ROAR_SAME_CODE(HttpRead::Malformed, ROAR_HTTP_READ_MALFORMED);
+ROAR_SAME_CODE(HttpRead::TooLong, ROAR_HTTP_READ_TOO_LONG);
+ROAR_SAME_CODE(JuniorQueryError::None, ROAR_JUNIOR_QUERY_ERROR_NONE);
+ROAR_SAME_CODE(JuniorQueryError::UnknownName, ROAR_JUNIOR_QUERY_ERROR_UNKNOWN_NAME);
+ROAR_SAME_CODE(JuniorQueryError::BadFlag, ROAR_JUNIOR_QUERY_ERROR_BAD_FLAG);
+ROAR_SAME_CODE(JuniorQueryError::BadSpeed, ROAR_JUNIOR_QUERY_ERROR_BAD_SPEED);
+ROAR_SAME_CODE(ModeSwitch::Off, ROAR_MODE_SWITCH_OFF);
+ROAR_SAME_CODE(ModeSwitch::Manual, ROAR_MODE_SWITCH_MANUAL);
+ROAR_SAME_CODE(ModeSwitch::Autonomous, ROAR_MODE_SWITCH_AUTONOMOUS);
+ROAR_SAME_CODE(IarrcTask::Rc, ROAR_IARRC_TASK_RC);
+ROAR_SAME_CODE(IarrcTask::Control, ROAR_IARRC_TASK_CONTROL);
+ROAR_SAME_CODE(IarrcTask::Host, ROAR_IARRC_TASK_HOST);
+ROAR_SAME_CODE(IarrcTask::Gyro, ROAR_IARRC_TASK_GYRO);
+ROAR_SAME_CODE(IarrcTask::Telemetry, ROAR_IARRC_TASK_TELEMETRY);
+ROAR_SAME_CODE(IarrcTask::Battery, ROAR_IARRC_TASK_BATTERY);
 
 extern "C" {
 
@@ -209,11 +156,6 @@ void roar_rc_command(const void* rc, uint16_t* throttle, uint16_t* steering) {
   *steering = c.steering_us;
 }
 
-void roar_mix_ackermann(uint16_t throttle_us, uint16_t steering_us, int16_t* left, int16_t* right) {
-  const SideDuties d = mix_ackermann(throttle_us, steering_us);
-  *left = d.left;
-  *right = d.right;
-}
 size_t roar_l298n_size(void) { return sizeof(L298nDriver); }
 void roar_l298n_init(void* drv, uint32_t dead_time_us) { new (drv) L298nDriver(dead_time_us); }
 void roar_l298n_step(void* drv, int16_t left, int16_t right, uint64_t now_us, roar_side_pins_t* left_out,
@@ -282,24 +224,24 @@ void roar_car_step(void* car, uint64_t now_us, uint32_t frames_started, roar_car
 size_t roar_car_take_reply(void* car, char* buf, size_t cap) { return as<Car>(car)->take_reply(buf, cap); }
 
 
-size_t roar_board_size(void) { return sizeof(HostBoard); }
+size_t roar_board_size(void) { return sizeof(HostCarBoard); }
 
 int roar_board_init(void* board, roar_host_hal_t* hal, const roar_car_config_t* c) {
   const CarConfig cfg = car_config(c);
   if (!config_valid(cfg)) return -1;
-  new (board) HostBoard(hal, cfg);
+  new (board) HostCarBoard(hal, cfg);
   return 0;
 }
-void roar_board_begin(void* board) { as<HostBoard>(board)->board.begin(); }
-void roar_board_feed(void* board, const uint8_t* data, size_t n) { as<HostBoard>(board)->board.feed(data, n); }
-void roar_board_run(void* board, uint32_t loops) { as<HostBoard>(board)->run(loops); }
+void roar_board_begin(void* board) { as<HostCarBoard>(board)->board.begin(); }
+void roar_board_feed(void* board, const uint8_t* data, size_t n) { as<HostCarBoard>(board)->board.feed(data, n); }
+void roar_board_run(void* board, uint32_t loops) { as<HostCarBoard>(board)->run(loops); }
 
 
-size_t roar_junior_board_size(void) { return sizeof(HostJunior); }
-void roar_junior_board_init(void* board, roar_junior_hal_t* hal) { new (board) HostJunior(hal); }
-void roar_junior_board_run(void* board, uint32_t loops) { as<HostJunior>(board)->run(loops); }
+size_t roar_junior_board_size(void) { return sizeof(HostJuniorBoard); }
+void roar_junior_board_init(void* board, roar_junior_hal_t* hal) { new (board) HostJuniorBoard(hal); }
+void roar_junior_board_run(void* board, uint32_t loops) { as<HostJuniorBoard>(board)->run(loops); }
 size_t roar_junior_board_respond(void* board, const void* reader, char* out, size_t cap, uint8_t* keep_open) {
-  HostJunior* j = as<HostJunior>(board);
+  HostJuniorBoard* j = as<HostJuniorBoard>(board);
   bool keep = false;
   const size_t n = j->board.respond(*as<HttpRequestReader>(reader), j->hal.memory().distance_cm, out, cap, &keep);
   *keep_open = keep ? 1 : 0;
@@ -353,48 +295,6 @@ void iarrc_status(const IarrcController& c, const IarrcOutputs& o, Micros now_us
   out->pid_integral_mm = c.pid().integral_mm();
 }
 
-void append_to(char* buf, uint16_t* len, const char* text, size_t n) {
-  if (*len + n > ROAR_IARRC_TX_BYTES) return;  // a full UART drops the line
-  for (size_t i = 0; i < n; ++i) buf[(*len)++] = text[i];
-}
-
-// The HAL of roar_iarrc_hal_t: every call reads or writes the caller's memory; the scheduler
-// runs one task body at a time, so the lock has nothing to do.
-class IarrcMemoryHal : public IarrcHal {
- public:
-  explicit IarrcMemoryHal(roar_iarrc_hal_t* m) : m_(m) {}
-  RawMicros now_us() override { return m_->now_us; }
-  bool read_sbus(uint8_t* byte, RawMicros* at_us) override {
-    if (m_->sbus_pos >= m_->sbus_len) return false;
-    *at_us = m_->sbus_at_us[m_->sbus_pos];
-    *byte = m_->sbus[m_->sbus_pos++];
-    return true;
-  }
-  int read_host() override { return m_->host_pos < m_->host_len ? m_->host_rx[m_->host_pos++] : -1; }
-  int read_link() override { return m_->link_pos < m_->link_len ? m_->link_rx[m_->link_pos++] : -1; }
-  void write_host(const char* text, size_t n) override { append_to(m_->host_tx, &m_->host_tx_len, text, n); }
-  void write_link(const char* text, size_t n) override { append_to(m_->link_tx, &m_->link_tx_len, text, n); }
-  int32_t encoder_count() override { return m_->encoder_count; }
-  uint16_t battery_adc() override { return m_->battery_adc; }
-  int16_t gyro_z_raw() override { return m_->gyro_z_raw; }
-  uint32_t frames_started() override { return m_->frames_started; }
-  void write_pulses(uint16_t throttle_us, uint16_t steering_us) override {
-    m_->throttle_us = throttle_us;
-    m_->steering_us = steering_us;
-  }
-  void feed_watchdog() override { ++m_->watchdog_feeds; }
-  void lock() override {}
-  void unlock() override {}
-
- private:
-  roar_iarrc_hal_t* m_;
-};
-
-struct IarrcBoardWithHal {
-  IarrcBoardWithHal(roar_iarrc_hal_t* memory, const IarrcConfig& config) : hal(memory), board(hal, config) {}
-  IarrcMemoryHal hal;
-  IarrcBoard board;
-};
 }  // namespace
 
 extern "C" {
@@ -449,26 +349,26 @@ void roar_iarrc_task(uint8_t index, roar_task_spec_t* out) {
   const TaskSpec& t = kIarrcTasks[index < kIarrcTaskCount ? index : 0];
   *out = roar_task_spec_t{t.name, t.period_us, t.priority, 0, t.stack_words, t.cost_us};
 }
-size_t roar_iarrc_board_size(void) { return sizeof(IarrcBoardWithHal); }
+size_t roar_iarrc_board_size(void) { return sizeof(HostIarrcBoard); }
 void roar_iarrc_board_init(void* board, roar_iarrc_hal_t* hal, uint32_t counts_per_m) {
   IarrcConfig config;
   if (counts_per_m > 0) config.counts_per_m = counts_per_m;
-  new (board) IarrcBoardWithHal(hal, config);
+  new (board) HostIarrcBoard(hal, config);
 }
-void roar_iarrc_board_begin(void* board) { as<IarrcBoardWithHal>(board)->board.begin(); }
+void roar_iarrc_board_begin(void* board) { as<HostIarrcBoard>(board)->board.begin(); }
 void roar_iarrc_board_run(void* board, uint8_t task) {
-  if (task < kIarrcTaskCount) as<IarrcBoardWithHal>(board)->board.run(static_cast<IarrcTask>(task));
+  if (task < kIarrcTaskCount) as<HostIarrcBoard>(board)->board.run(static_cast<IarrcTask>(task));
 }
 void roar_iarrc_board_overran(void* board, uint8_t task, uint32_t missed) {
-  if (task < kIarrcTaskCount) as<IarrcBoardWithHal>(board)->board.overran(static_cast<IarrcTask>(task), missed);
+  if (task < kIarrcTaskCount) as<HostIarrcBoard>(board)->board.overran(static_cast<IarrcTask>(task), missed);
 }
 void roar_iarrc_board_set_pid(void* board, int32_t kp_pm, int32_t ki_pm, int32_t kd_pm, int32_t ff_pm) {
-  as<IarrcBoardWithHal>(board)->board.controller().pid().set_gains(PidGains{kp_pm, ki_pm, kd_pm, ff_pm});
+  as<HostIarrcBoard>(board)->board.controller().pid().set_gains(PidGains{kp_pm, ki_pm, kd_pm, ff_pm});
 }
 void roar_iarrc_board_status(const void* board, roar_iarrc_status_t* out) {
-  const IarrcBoard& b = as<IarrcBoardWithHal>(board)->board;
+  const IarrcBoard& b = as<HostIarrcBoard>(board)->board;
   iarrc_status(b.controller(), b.outputs(), b.time(), out);
 }
-uint32_t roar_iarrc_board_overruns(const void* board) { return as<IarrcBoardWithHal>(board)->board.overruns(); }
+uint32_t roar_iarrc_board_overruns(const void* board) { return as<HostIarrcBoard>(board)->board.overruns(); }
 
 }  // extern "C"

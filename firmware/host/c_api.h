@@ -1,7 +1,8 @@
-/* C ABI over the firmware core, for the host build: the simulator and the tests load it from
- * Python, whose binding (hil_sim/roar_sim/firmware_core.py) reads this very header with cffi, so
- * the declarations below are the only place the ABI is written. Keep them plain C that cffi
- * parses: no macros other than integer #defines, no includes or conditionals outside the guards.
+/* C ABI over the firmware core and the host board (memory_boards.h), for the host build: the
+ * simulator and the tests load it from Python, whose binding (hil_sim/roar_sim/core/library.py)
+ * reads this very header with cffi, so the declarations below are the only place the ABI is
+ * written; its Python enums are built from the enums here. Keep them plain C that cffi parses: no
+ * macros other than integer #defines, no includes or conditionals outside the guards.
  *
  * Objects live in caller-provided memory of roar_*_size() bytes, aligned to 8; nothing
  * allocates. Times are Micros: microseconds on the core's 64-bit clock, which never wraps; the
@@ -16,10 +17,47 @@
 extern "C" {
 #endif
 
-#define ROAR_CORE_ABI_VERSION 5
+#define ROAR_CORE_ABI_VERSION 6
 
 uint32_t roar_core_abi_version(void);
 uint32_t roar_protocol_version(void);
+
+/* --- codes that cross the ABI ----------------------------------------------------------------
+ * Each enum is one of the core's enum classes (c_api.cpp static_asserts every value against it);
+ * fields and results carry them as uint8_t. The streaming parser's and the SBUS decoder's
+ * results and the IARRC controller's modes and failsafes are wire facts, in protocol/spec.toml
+ * (ParseResult, SbusResult, IarrcMode, IarrcFailsafe in roar/protocol.h). */
+enum roar_watchdog_event { ROAR_WATCHDOG_EVENT_NONE = 0, ROAR_WATCHDOG_EVENT_TRIPPED = 1, ROAR_WATCHDOG_EVENT_ARMED = 2 };
+enum roar_brake_phase {
+  ROAR_BRAKE_PHASE_NEEDS_SEQUENCE = 0,
+  ROAR_BRAKE_PHASE_NEUTRAL1 = 1,
+  ROAR_BRAKE_PHASE_TAP = 2,
+  ROAR_BRAKE_PHASE_NEUTRAL2 = 3,
+  ROAR_BRAKE_PHASE_REVERSE_READY = 4
+};
+enum roar_control_source { ROAR_CONTROL_SOURCE_FAILSAFE = 0, ROAR_CONTROL_SOURCE_HOST = 1, ROAR_CONTROL_SOURCE_RC = 2 };
+enum roar_rc_channel { ROAR_RC_CHANNEL_THROTTLE = 0, ROAR_RC_CHANNEL_STEERING = 1 };
+enum roar_http_read {
+  ROAR_HTTP_READ_INCOMPLETE = 0,
+  ROAR_HTTP_READ_COMPLETE = 1,
+  ROAR_HTTP_READ_MALFORMED = 2,
+  ROAR_HTTP_READ_TOO_LONG = 3
+};
+enum roar_junior_query_error {
+  ROAR_JUNIOR_QUERY_ERROR_NONE = 0,
+  ROAR_JUNIOR_QUERY_ERROR_UNKNOWN_NAME = 1,
+  ROAR_JUNIOR_QUERY_ERROR_BAD_FLAG = 2,
+  ROAR_JUNIOR_QUERY_ERROR_BAD_SPEED = 3
+};
+enum roar_mode_switch { ROAR_MODE_SWITCH_OFF = 0, ROAR_MODE_SWITCH_MANUAL = 1, ROAR_MODE_SWITCH_AUTONOMOUS = 2 };
+enum roar_iarrc_task {
+  ROAR_IARRC_TASK_RC = 0,
+  ROAR_IARRC_TASK_CONTROL = 1,
+  ROAR_IARRC_TASK_HOST = 2,
+  ROAR_IARRC_TASK_GYRO = 3,
+  ROAR_IARRC_TASK_TELEMETRY = 4,
+  ROAR_IARRC_TASK_BATTERY = 5
+};
 
 /* --- streaming control-message parser ---------------------------------------------------- */
 typedef struct {
@@ -42,16 +80,16 @@ size_t roar_parser_feed_buffer(void* parser, const uint8_t* data, size_t n, roar
 /* --- command watchdog (failsafe) ----------------------------------------------------------- */
 size_t roar_watchdog_size(void);
 void roar_watchdog_init(void* wd, uint32_t timeout_us);
-/* Returns 1 when the command may drive the car; *event gets 0 none, 1 tripped, 2 armed. */
+/* Returns 1 when the command may drive the car; *event gets a roar_watchdog_event. */
 int roar_watchdog_accept(void* wd, uint16_t throttle, uint16_t steering, uint64_t now_us, uint8_t* event);
-uint8_t roar_watchdog_poll(void* wd, uint64_t now_us);
+uint8_t roar_watchdog_poll(void* wd, uint64_t now_us); /* a roar_watchdog_event */
 int roar_watchdog_latched(const void* wd);
 
 /* --- brake/reverse FSM --------------------------------------------------------------------- */
 size_t roar_brake_size(void);
 void roar_brake_init(void* fsm, uint16_t neutral_us, uint16_t tap_us, uint32_t step_us);
 uint16_t roar_brake_step(void* fsm, uint16_t command_us, uint64_t now_us, uint32_t frames_started);
-uint8_t roar_brake_phase(const void* fsm);
+uint8_t roar_brake_phase(const void* fsm); /* a roar_brake_phase */
 
 /* --- output mapping ------------------------------------------------------------------------ */
 uint16_t roar_map_pulse(uint16_t command_us, int16_t trim_us, uint16_t min_us, uint16_t max_us);
@@ -60,17 +98,16 @@ int roar_calibration_valid(int16_t trim_us, uint16_t min_us, uint16_t max_us);
 /* --- RC override --------------------------------------------------------------------------- */
 size_t roar_rc_size(void);
 void roar_rc_init(void* rc);
-void roar_rc_pulse(void* rc, uint8_t channel, uint16_t width_us, uint64_t now_us); /* 0 throttle, 1 steering */
+void roar_rc_pulse(void* rc, uint8_t channel, uint16_t width_us, uint64_t now_us); /* a roar_rc_channel */
 int roar_rc_active(const void* rc, uint64_t now_us);
 void roar_rc_command(const void* rc, uint16_t* throttle, uint16_t* steering);
 
-/* --- L298N and the Junior's HTTP control ------------------------------------------------------- */
+/* --- L298N and the Junior's HTTP control ------------------------------------------------------ */
 typedef struct {
   uint8_t in1, in2; /* direction pins */
   uint16_t duty;    /* [permille] */
 } roar_side_pins_t;
 
-void roar_mix_ackermann(uint16_t throttle_us, uint16_t steering_us, int16_t* left, int16_t* right);
 size_t roar_l298n_size(void);
 void roar_l298n_init(void* drv, uint32_t dead_time_us);
 void roar_l298n_step(void* drv, int16_t left, int16_t right, uint64_t now_us, roar_side_pins_t* left_out,
@@ -78,8 +115,8 @@ void roar_l298n_step(void* drv, int16_t left, int16_t right, uint64_t now_us, ro
 
 size_t roar_junior_size(void);
 void roar_junior_init(void* junior);
-/* Applies a query string (without '?'): the parameters applied, or -(JuniorQueryError) when the
- * query was refused (nothing changed). */
+/* Applies a query string (without '?'): the parameters applied, or -(a roar_junior_query_error)
+ * when the query was refused (nothing changed). */
 int roar_junior_apply_query(void* junior, const char* query, size_t n, uint64_t now_us);
 /* Signed per-side duties [permille] to drive now; both 0 when stopped or timed out. */
 void roar_junior_duties(const void* junior, uint64_t now_us, int16_t* left, int16_t* right);
@@ -104,8 +141,8 @@ typedef struct {
 typedef struct {
   uint16_t throttle_us;
   uint16_t steering_us;
-  uint8_t source;      /* 0 failsafe, 1 host, 2 rc */
-  uint8_t brake_phase; /* BrakePhase */
+  uint8_t source;      /* a roar_control_source */
+  uint8_t brake_phase; /* a roar_brake_phase */
   uint8_t latched;
   uint8_t reserved;
 } roar_car_outputs_t;
@@ -181,7 +218,7 @@ size_t roar_junior_reply_max(void);
 size_t roar_http_reader_size(void);
 void roar_http_reader_init(void* reader);   /* also: ready for the next request */
 /* Feeds bytes until the request is decided; returns how many it took (the rest belongs to the
- * next request). *state: 0 incomplete, 1 complete, 2 malformed, 3 too long. */
+ * next request). *state: a roar_http_read. */
 size_t roar_http_reader_feed(void* reader, const uint8_t* data, size_t n, uint8_t* state);
 
 /* --- SBUS receiver frames ------------------------------------------------------------------ */
@@ -205,7 +242,7 @@ void roar_sbus_encode(const roar_sbus_frame_t* frame, uint8_t* out); /* 25 bytes
 int roar_sbus_decode(const uint8_t* in, roar_sbus_frame_t* frame);    /* 1: a well-formed frame */
 size_t roar_sbus_decoder_size(void);
 void roar_sbus_decoder_init(void* decoder);
-/* One byte with the time it arrived; returns 0 none, 1 frame, 2 failsafe frame, 3 dropped. */
+/* One byte with the time it arrived; returns an SbusResult code (protocol/spec.toml sbus_result). */
 uint8_t roar_sbus_feed(void* decoder, uint8_t byte, uint64_t now_us);
 void roar_sbus_last_frame(const void* decoder, roar_sbus_frame_t* frame);
 void roar_sbus_status(const void* decoder, roar_sbus_status_t* status);
@@ -213,9 +250,9 @@ void roar_sbus_status(const void* decoder, roar_sbus_status_t* status);
 /* --- the IARRC car's controller (IarrcController, default configuration) ------------------- */
 typedef struct {
   uint16_t throttle_us, steering_us; /* the pulses to output now */
-  uint8_t mode;                      /* 0 boot, 1 disarmed, 2 manual, 3 autonomous, 4 failsafe, 5 emergency */
-  uint8_t failsafe;                  /* 0 none, 1 RC lost, 2 host silent, 3 battery */
-  uint8_t rc_present, mode_switch;   /* mode_switch: 0 off, 1 manual, 2 autonomous */
+  uint8_t mode;                      /* an IarrcMode code (protocol/spec.toml iarrc_mode) */
+  uint8_t failsafe;                  /* an IarrcFailsafe code (protocol/spec.toml iarrc_failsafe) */
+  uint8_t rc_present, mode_switch;   /* mode_switch: a roar_mode_switch */
   int32_t speed_mm_s;                /* [mm/s] from the encoder */
   int32_t setpoint_mm_s;             /* [mm/s] the host's latest */
   int64_t distance_mm;               /* [mm] driven since boot */
@@ -230,7 +267,7 @@ void roar_iarrc_init(void* controller);
 /* Gains in per mille: [us per m/s], [us per m], [us per m/s^2], [us per m/s] (feed-forward). */
 void roar_iarrc_set_pid(void* controller, int32_t kp_pm, int32_t ki_pm, int32_t kd_pm, int32_t ff_pm);
 void roar_iarrc_sbus_byte(void* controller, uint8_t byte, uint64_t now_us);
-uint8_t roar_iarrc_host_byte(void* controller, uint8_t byte, uint64_t now_us); /* the ParseResult code */
+uint8_t roar_iarrc_host_byte(void* controller, uint8_t byte, uint64_t now_us); /* a ParseResult code */
 void roar_iarrc_encoder(void* controller, int32_t count, uint64_t now_us);
 void roar_iarrc_battery(void* controller, uint16_t adc_counts);
 void roar_iarrc_control(void* controller, uint64_t now_us, uint32_t frames_started, roar_iarrc_status_t* out);
@@ -277,7 +314,7 @@ size_t roar_iarrc_board_size(void);
 /* counts_per_m: the wheel encoder's counts per metre (0 = the default, a 66 mm wheel). */
 void roar_iarrc_board_init(void* board, roar_iarrc_hal_t* hal, uint32_t counts_per_m);
 void roar_iarrc_board_begin(void* board);             /* READY 2 on the host port */
-void roar_iarrc_board_run(void* board, uint8_t task); /* one release of a task */
+void roar_iarrc_board_run(void* board, uint8_t task); /* one release of a task (a roar_iarrc_task) */
 void roar_iarrc_board_overran(void* board, uint8_t task, uint32_t missed);
 void roar_iarrc_board_set_pid(void* board, int32_t kp_pm, int32_t ki_pm, int32_t kd_pm, int32_t ff_pm);
 void roar_iarrc_board_status(const void* board, roar_iarrc_status_t* out);
