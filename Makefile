@@ -18,7 +18,7 @@ run: setup
 	@.venv/bin/roar race --track oval --laps 3 --plot out/race.png
 
 trace: setup
-	@$(PY) -m roar_sim.scripted_drive --plot out/scripted_drive.png
+	@$(PY) -m roar_sim.runs.scripted_drive --plot out/scripted_drive.png
 
 # pytest exits 5 when it collects no tests; that is a failure of the suite, not a pass.
 test: setup
@@ -31,13 +31,13 @@ gen: setup
 	@$(PY) protocol/generate.py
 
 core: setup
-	@$(PY) -m roar_sim.core_build --variant release
-	@$(PY) -m roar_sim.core_build --variant sanitize
+	@$(PY) -m roar_sim.toolchains.native --variant release
+	@$(PY) -m roar_sim.toolchains.native --variant sanitize
 
 firmware: setup
-	@$(PY) -m roar_sim.avr_build
-	@$(PY) -m roar_sim.arm_build
-	@$(PY) -m roar_sim.firmware_sizes
+	@$(PY) -m roar_sim.toolchains.avr
+	@$(PY) -m roar_sim.toolchains.arm
+	@$(PY) -m roar_sim.toolchains.sizes
 
 PORT_ARG = $(if $(PORT),--port $(PORT),)
 

@@ -15,18 +15,19 @@ PARSER_TARGET = 330  # [cycles per message]
 
 
 def run() -> None:
-    from roar_sim import avr_build, avr_sim
+    from roar_sim.emulators import simavr
+    from roar_sim.toolchains import avr
 
-    missing = avr_sim.available()
+    missing = simavr.available()
     if missing:
         print(f"  skipped: {missing}")
         return
-    with avr_sim.AvrCar(avr_build.build_parser_bench()) as bench:
+    with simavr.AvrCar(avr.build_parser_bench()) as bench:
         bench.run(0.2)
         parser_cycles, plain_cycles, car_cycles = (w for _, w in bench.pulse_cycles("B5")[:3])
-    per_parser, per_plain, per_car = (c / avr_build.BENCH_MESSAGES for c in (parser_cycles, plain_cycles, car_cycles))
+    per_parser, per_plain, per_car = (c / avr.BENCH_MESSAGES for c in (parser_cycles, plain_cycles, car_cycles))
     message_bytes = len(encode(1500, 1500))
-    line_cycles = message_bytes * BITS_PER_BYTE / spec.SERIAL_BAUD * avr_sim.F_CPU  # one message on the wire
+    line_cycles = message_bytes * BITS_PER_BYTE / spec.SERIAL_BAUD * simavr.F_CPU  # one message on the wire
     verdict = "ok" if per_parser <= PARSER_TARGET else "OVER TARGET"
     print(f"  cycles per message: core parser {per_parser:,.0f} (target <= {PARSER_TARGET}, {verdict}); "
           f"plain single-pass reference {per_plain:,.0f}; ratio {per_parser / per_plain:.2f}")
@@ -35,7 +36,7 @@ def run() -> None:
           f"receive path {per_car / line_cycles:.3f}")
 
     latencies = []
-    with avr_sim.AvrCar() as nano:
+    with simavr.AvrCar() as nano:
         nano.run(0.05)
         nano.write(encode(1500, 1500) + b"\n")
         nano.run(0.1)
@@ -47,7 +48,7 @@ def run() -> None:
             nano.run(0.05)
             arrived = nano.sent_at[sent]  # the cycle this command's last byte entered the UART
             first = next(r for r, w in nano.pulse_cycles("D5") if r > arrived and abs(w / 16 - width) < 10)
-            latencies.append((first - arrived) / avr_sim.CYCLES_PER_US / 1000)
+            latencies.append((first - arrived) / simavr.CYCLES_PER_US / 1000)
     frame_ms = spec.TIMING_SERVO_FRAME_US / 1000
     print(f"  command byte -> new pulse: p50 {statistics.median(latencies):.1f} ms, max {max(latencies):.1f} ms "
           f"({TRIALS} commands at spread phases); max / frame period {max(latencies) / frame_ms:.2f}")

@@ -9,8 +9,8 @@ SECONDS = 10.0  # [s] simulated
 
 def run() -> None:
     from roar.protocol import encode
-    from roar_sim.fleet import Fleet
-    from roar_sim.track import get
+    from roar_sim.runs.fleet import Fleet
+    from roar_sim.world.track import get
 
     rates = {}
     for count in (1, 2):

@@ -20,8 +20,8 @@ def run() -> None:
         return
     from roar.calibration import Calibration
     from roar_sim.gym_env import LIDAR_BEAMS, LIDAR_EVERY, LIDAR_RANGE_M, PERIOD_S
-    from roar_sim.harness import SimCar
-    from roar_sim.track import get
+    from roar_sim.robots.esc import SimCar
+    from roar_sim.world.track import get
 
     message = Calibration().message(0.2, 0.0)
 

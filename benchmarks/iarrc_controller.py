@@ -5,10 +5,12 @@ jitter, each task's worst response); and each task body's cost on a Cortex-M4 (Q
 import random
 import time
 
-from roar_sim import arm_build, stm32_sim
-from roar_sim.firmware_core import iarrc_tasks
-from roar_sim.rtos import Scheduler
-from roar_sim.step_response import measure
+from roar_sim.emulators import qemu
+
+from roar_sim.toolchains import arm
+from roar_sim.core.library import iarrc_tasks
+from roar_sim.clock.rtos import Scheduler
+from roar_sim.runs.step_response import measure
 
 TITLE = "IARRC controller: speed step, task schedule, task costs"
 SCHEDULE_S = 10.0  # [s] simulated
@@ -40,12 +42,12 @@ def run() -> None:
     for t, st in zip(tasks, s.stats):
         print(f"    {t.name:<10} {t.period_us / 1000:5.0f} ms {t.priority:4d} {t.cost_us:4d} us {st.max_response_us:6d} us")
 
-    missing = stm32_sim.available()
+    missing = qemu.available()
     if missing:
         print(f"  Cortex-M4 task costs: skipped ({missing})")
         return
-    result = stm32_sim.run(arm_build.build_task_bench())
-    measured = stm32_sim.task_instructions(result)
+    result = qemu.run(arm.build_task_bench())
+    measured = qemu.task_instructions(result)
     print("  Cortex-M4 task bodies at their worst input (QEMU -icount):")
     for t in tasks:
         n = measured[t.name]

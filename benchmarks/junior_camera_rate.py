@@ -9,8 +9,8 @@ import time
 
 from roar import Vehicle
 from roar.protocol import spec
-from roar_sim.junior_server import InBackground
-from roar_sim.track import oval
+from roar_sim.links.junior_http import InBackground
+from roar_sim.world.track import oval
 
 TITLE = "Junior camera frames served at 320x240 while driving"
 SECONDS = 4.0  # [s] per round

@@ -10,7 +10,7 @@ import time
 import numpy as np
 
 from roar.junior import query_for
-from roar_sim.junior_server import InBackground
+from roar_sim.links.junior_http import InBackground
 
 TITLE = "Junior HTTP control request -> duty on the simulated pins"
 REQUESTS = 500  # 10 s at 50 Hz

@@ -8,10 +8,10 @@ import time
 
 from benchmarks.sim_speed import compare
 from roar.junior import query_for
-from roar_sim.firmware_core import SidePins
-from roar_sim.junior_plant import JuniorPlant
-from roar_sim.junior_sim import PHYSICS_US, JuniorSim
-from roar_sim.track import oval
+from roar_sim.core.library import SidePins
+from roar_sim.plants.junior import JuniorPlant
+from roar_sim.robots.junior import PHYSICS_US, JuniorSim
+from roar_sim.world.track import oval
 
 TITLE = "Junior simulation speed (simulated s per wall s)"
 SIM_SECONDS = 10.0

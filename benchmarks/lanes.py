@@ -17,9 +17,9 @@ def run() -> None:
     except ImportError as e:
         print(f"  skipped: {e}")
         return
-    from roar_sim.plant import Plant, camera_model
-    from roar_sim.race import LANE_CAMERA, race
-    from roar_sim.track import get
+    from roar_sim.plants.racecar import Plant, camera_model
+    from roar_sim.runs.race import LANE_CAMERA, race
+    from roar_sim.world.track import get
 
     w, h = LANE_CAMERA
     plant = Plant(get("oval"))
@@ -65,7 +65,7 @@ def run() -> None:
         print(f"  {name}: camera-only best lap {min(camera.lap_times_s):.2f} s, pose-based {min(pose.lap_times_s):.2f} s, "
               f"ratio {ratio:.2f} (target <= 1.3); cross-track max {camera.max_cross_track_m:.3f} m, "
               f"wall contacts {camera.wall_contacts}")
-    from roar_sim.obstacles import box_course
+    from roar_sim.world.obstacles import box_course
 
     track = get("course")
     spots = box_course(track, 3)

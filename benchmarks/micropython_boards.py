@@ -7,7 +7,7 @@ import json
 import tempfile
 from pathlib import Path
 
-from roar_sim import micropython
+from roar_sim.emulators import micropython
 
 TITLE = "MicroPython board programs (flash and heap; target heap < 64 KB)"
 PROBE = Path(__file__).resolve().parents[1] / "tests" / "micropython" / "heap_probe.py"

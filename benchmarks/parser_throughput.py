@@ -8,8 +8,8 @@ import time
 from pathlib import Path
 
 from roar.protocol import StreamDecoder, encode
-from roar_sim import micropython
-from roar_sim.firmware_core import Parser
+from roar_sim.emulators import micropython
+from roar_sim.core.library import Parser
 from roar_wire import control
 
 TITLE = "parser throughput (messages/s)"

@@ -3,8 +3,8 @@ car; the Junior over HTTP), the best flying lap of a 3-lap race through the firm
 the lap time of the track's speed profile at that robot's measured limits. Target: <= 1.15 with
 zero wall contacts."""
 
-from roar_sim.race import ROBOTS, race
-from roar_sim.track import BUILTIN, get
+from roar_sim.runs.race import ROBOTS, race
+from roar_sim.world.track import BUILTIN, get
 
 TITLE = "autopilot lap time / physical-limit lap time (target <= 1.15, no wall contacts)"
 LAPS = 3

@@ -8,9 +8,9 @@ decide the ratio."""
 import time
 
 from roar.protocol import encode
-from roar_sim.harness import PHYSICS_US, SimCar
-from roar_sim.plant import Plant
-from roar_sim.track import oval
+from roar_sim.robots.esc import PHYSICS_US, SimCar
+from roar_sim.plants.racecar import Plant
+from roar_sim.world.track import oval
 
 TITLE = "simulation speed (simulated s per wall s)"
 SIM_SECONDS = 10.0

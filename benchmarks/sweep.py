@@ -12,7 +12,7 @@ WORKERS = 2
 
 
 def run() -> None:
-    from roar_sim.sweep import DEFAULT_K_DD_S, DEFAULT_MARGINS, Table, grid, parse_values, start_ray, sweep
+    from roar_sim.runs.sweep import DEFAULT_K_DD_S, DEFAULT_MARGINS, Table, grid, parse_values, start_ray, sweep
 
     runs = grid(["figure-eight"], parse_values(DEFAULT_K_DD_S, "k-dd", 0, 9), parse_values(DEFAULT_MARGINS, "margin", 0, 9))
     with tempfile.TemporaryDirectory() as tmp:

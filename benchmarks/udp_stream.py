@@ -12,7 +12,7 @@ import asyncio
 import time
 
 from roar.stream import Reassembler, StreamReceiver, whole
-from roar_sim.impair import ImpairedRelay, Impairment
+from roar_sim.links.impair import ImpairedRelay, Impairment
 from roar_wire import stream as wire
 
 TITLE = "UDP camera stream (ROAR's chunked format)"
@@ -25,9 +25,9 @@ COMPARE_FRAMES = 3000
 def recorded_frames(width: int = 640, height: int = 240 * 2, count: int = 8) -> list[bytes]:
     """Camera payloads of the simulated car driving (JPEG + intrinsics), as its phone sends them."""
     from roar.protocol import encode
-    from roar_sim.harness import SimCar, SimConfig
-    from roar_sim.stream_sender import CAMERA_FOV_DEG, payloads
-    from roar_sim.track import get
+    from roar_sim.robots.esc import SimCar, SimConfig
+    from roar_sim.links.phone_udp import CAMERA_FOV_DEG, payloads
+    from roar_sim.world.track import get
 
     sim = SimCar(get("oval"), SimConfig())
     sim.write(encode(1500, 1500))
@@ -74,8 +74,8 @@ async def transport(frames: list[bytes]) -> tuple[float, float, float]:
 
 async def end_to_end(width: int, height: int) -> tuple[float, float, float]:
     """(frames/s delivered, frames/s rendered, ms per render) from the simulated phone."""
-    from roar_sim.harness import SimCar, SimConfig
-    from roar_sim.stream_sender import Phone, StreamConfig
+    from roar_sim.robots.esc import SimCar, SimConfig
+    from roar_sim.links.phone_udp import Phone, StreamConfig
 
     sim = SimCar(None, SimConfig())
     phone = await Phone(sim, StreamConfig(width=width, height=height, rate_hz=60.0, depth=False,
@@ -99,9 +99,9 @@ def renderers(width: int = 640, height: int = 480, frames: int = 5) -> dict[str,
 
     import numpy as np
 
-    from roar_sim.plant import Plant
-    from roar_sim.quiet_pybullet import pb, silenced
-    from roar_sim.track import get
+    from roar_sim.plants.racecar import Plant
+    from roar_sim.world.bullet import pb, silenced
+    from roar_sim.world.track import get
 
     out = {}
     with silenced((1, 2)):  # the EGL plugin prints its GL vendor from C

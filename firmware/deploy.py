@@ -79,7 +79,7 @@ def tool(name: str) -> str:
 
 def deploy_micropython(board: str, port: str | None) -> str:
     sys.path.insert(0, str(ROOT / "hil_sim"))
-    from roar_sim import micropython
+    from roar_sim.emulators import micropython
 
     if board not in micropython.BOARD_NAMES:
         raise DeployError(f"BOARD must be one of {', '.join(micropython.BOARD_NAMES)}, got {board!r}")

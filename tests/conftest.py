@@ -19,8 +19,8 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 def pty_car():
     """A simulated car (open floor, real time) served on a pty from a background thread; yields
     the PtyCar (its .path is the serial port, its .sim the SimCar)."""
-    from roar_sim.harness import SimCar, SimConfig
-    from roar_sim.serial_port import PtyCar
+    from roar_sim.robots.esc import SimCar, SimConfig
+    from roar_sim.links.pty import PtyCar
 
     car = PtyCar(SimCar(None, SimConfig(realtime=True))).start()
     yield car

@@ -14,12 +14,12 @@ from roar.autopilot.lane_agent import (FRONT_M, LANE_OFFSET_M, LANE_SHIFT_M_S, S
                                        LanePlanner, LaneState, Seen)
 from roar.vision.lanes import Lanes, Line  # noqa: E402
 from roar.vision.occupancy import Occupancy  # noqa: E402
-from roar_sim import tfmini  # noqa: E402
-from roar_sim.car_limits import SIMULATED_CAR  # noqa: E402
-from roar_sim.obstacles import BOX_HALF_M, add_box, box_course, place_boxes  # noqa: E402
-from roar_sim.plant import Plant  # noqa: E402
-from roar_sim.quiet_pybullet import pb  # noqa: E402
-from roar_sim.track import get  # noqa: E402
+from roar_sim.sensors import tfmini  # noqa: E402
+from roar_sim.robots.car_limits import SIMULATED_CAR  # noqa: E402
+from roar_sim.world.obstacles import BOX_HALF_M, add_box, box_course, place_boxes  # noqa: E402
+from roar_sim.plants.racecar import Plant  # noqa: E402
+from roar_sim.world.bullet import pb  # noqa: E402
+from roar_sim.world.track import get  # noqa: E402
 
 PERIOD_S = 0.02
 
@@ -167,7 +167,7 @@ def test_a_lap_of_the_course_passes_three_boxes_without_touching_one():
     """The IARRC rule on the obstacle course: three boxes, alternately in the right and the left
     lane; the car keeps right, changes lanes for each, and touches neither a box nor a wall. At
     each box it is in the other lane."""
-    from roar_sim.race import race
+    from roar_sim.runs.race import race
 
     track = get("course")
     spots = box_course(track, 3)

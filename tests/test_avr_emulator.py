@@ -10,7 +10,7 @@ import pytest
 from conftest import wait_for
 from roar.protocol import encode, spec
 
-avr_sim = pytest.importorskip("roar_sim.avr_sim")
+avr_sim = pytest.importorskip("roar_sim.emulators.simavr")
 if avr_sim.available():
     pytest.skip(avr_sim.available(), allow_module_level=True)
 
@@ -201,10 +201,10 @@ def test_a_hung_loop_resets_the_board_which_boots_at_neutral_and_latched():
     pulse on the ESC; the watchdog resets the chip within timing.loop_watchdog_us, and the board
     prints its boot line again and sends neutral pulses, latched, while the host still asks
     for 1777."""
-    from roar_sim import avr_build
+    from roar_sim.toolchains import avr
 
-    hang = avr_build.HANG_THROTTLE_US
-    with avr_sim.AvrCar(avr_build.build(variant="hang")) as nano:
+    hang = avr.HANG_THROTTLE_US
+    with avr_sim.AvrCar(avr.build(variant="hang")) as nano:
         nano.run(0.05)
         stream(nano, N, N, 0.1)
         stream(nano, hang, N, 1.5)
@@ -224,10 +224,10 @@ def test_a_hung_loop_resets_the_board_which_boots_at_neutral_and_latched():
 
 def test_the_normal_build_does_not_reset_when_it_outputs_that_throttle(nano):
     """The hang is the test build's alone: the real firmware drives 1777 us and keeps running."""
-    from roar_sim import avr_build
+    from roar_sim.toolchains import avr
 
     stream(nano, N, N, 0.1)
     start = nano.time_s
-    stream(nano, avr_build.HANG_THROTTLE_US, N, 0.6)
+    stream(nano, avr.HANG_THROTTLE_US, N, 0.6)
     assert [text for _, text in nano.lines()].count("READY 1") == 1
-    assert_holds(widths(nano, "D5", start + 3 * FRAME_S), avr_build.HANG_THROTTLE_US)
+    assert_holds(widths(nano, "D5", start + 3 * FRAME_S), avr.HANG_THROTTLE_US)

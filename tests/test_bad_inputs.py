@@ -39,7 +39,7 @@ def test_version(capsys):
 @pytest.mark.parametrize("name, text, kind", [("cal.toml", "a = " + "[" * 100_000, "TOML"),
                                                 ("track.json", "[" * 100_000, "JSON")])
 def test_deeply_nested_files_fail_in_one_line(tmp_path, name, text, kind):
-    from roar_sim.track import Track, TrackError
+    from roar_sim.world.track import Track, TrackError
 
     path = tmp_path / name
     path.write_text(text)

@@ -12,8 +12,8 @@ from roar import TransportError, Vehicle
 from roar.aio import run_sync
 from roar.protocol import encode, spec
 from roar.transports.ble import scan
-from roar_sim.ble_car import BleCar
-from roar_sim.virtual_ble import BumbleClient, BumbleScanner, VirtualRadio
+from roar_sim.links.ble_car import BleCar
+from roar_sim.links.ble_radio import BumbleClient, BumbleScanner, VirtualRadio
 
 BACKENDS = dict(scanner_backend=BumbleScanner, client_backend=BumbleClient)
 

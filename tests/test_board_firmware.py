@@ -78,8 +78,8 @@ def test_board_folders_are_thin_glue_with_pins_in_one_place(folder):
     assert lines < limit, f"{folder}: {lines} lines of glue; move logic into firmware/core"
 
 
-avr_build = pytest.importorskip("roar_sim.avr_build")
-arm_build = pytest.importorskip("roar_sim.arm_build")
+avr_build = pytest.importorskip("roar_sim.toolchains.avr")
+arm_build = pytest.importorskip("roar_sim.toolchains.arm")
 
 
 def test_the_nano_firmware_builds_offline_and_fits():
@@ -104,20 +104,20 @@ def test_the_anyfc_f7_controller_links_offline_with_its_vector_table_first():
 
 
 def test_sizes_are_measured_and_printed_for_every_target(capsys):
-    from roar_sim import firmware_sizes
+    from roar_sim.toolchains import sizes
 
     missing = avr_build.available() or (None if shutil.which("arm-none-eabi-g++") else
                                         "apt-get install gcc-arm-none-eabi libnewlib-arm-none-eabi")
     if missing:
         pytest.skip(f"the size report needs both cross toolchains: {missing}")
-    rows = firmware_sizes.rows()
+    rows = sizes.rows()
     assert [(chip, what) for chip, what, *_ in rows] == [
         ("ATmega328P (Nano)", "core, unlinked objects"), ("nRF52840 (Nano 33 BLE)", "core, unlinked objects"),
         ("STM32F745 (AnyFC F7)", "core, unlinked objects"), ("ATmega328P (Nano)", "whole firmware"),
         ("STM32F745 (AnyFC F7)", "IARRC controller (SysTick build)")]
     for chip, what, flash, ram, note in rows:
         assert note == "" and flash > 2000 and ram is not None, (chip, what, note)
-    firmware_sizes.run()
+    sizes.run()
     out = capsys.readouterr().out
     assert "skipped" not in out and out.count(" B ") == 2 * len(rows)
 

@@ -4,7 +4,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from roar.protocol import spec
-from roar_sim.firmware_core import BrakeFsm, BrakePhase
+from roar_sim.core.library import BrakeFsm, BrakePhase
 
 N, TAP, STEP = spec.CONTROL_NEUTRAL_US, spec.TIMING_BRAKE_TAP_US, spec.TIMING_BRAKE_STEP_US
 FRAME = spec.TIMING_SERVO_FRAME_US

@@ -7,8 +7,8 @@ import subprocess
 
 import pytest
 
-from roar_sim import core_build
-from roar_sim.firmware_core import HEADER, ffi, lib
+from roar_sim.toolchains import native
+from roar_sim.core.library import HEADER, ffi, lib
 
 
 def structs() -> list[str]:
@@ -39,7 +39,7 @@ def test_every_field_has_the_offset_and_size_the_c_compiler_gives_it(tmp_path):
     program.write_text("#include <stddef.h>\n#include <stdio.h>\n#include \"c_api.h\"\n"
                        "int main(void) {\n" + "\n".join(lines) + "\n  return 0;\n}\n")
     exe = tmp_path / "layout"
-    core_build.run_build([cc, "-std=c11", "-Wall", "-Werror", "-I", str(HEADER.parent), str(program), "-o",
+    native.run_build([cc, "-std=c11", "-Wall", "-Werror", "-I", str(HEADER.parent), str(program), "-o",
                           str(exe)], "layout program build failed")
     measured = {}
     for line in subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout.splitlines():

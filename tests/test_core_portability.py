@@ -6,10 +6,10 @@ import shutil
 
 import pytest
 
-from roar_sim import core_build
+from roar_sim.toolchains import native
 
-PORTABLE = core_build.core_sources()
-HEADERS = sorted((core_build.CORE / "include").rglob("*.h"))
+PORTABLE = native.core_sources()
+HEADERS = sorted((native.CORE / "include").rglob("*.h"))
 FORBIDDEN = [
     (r"#include\s*[<\"](Arduino|FreeRTOS|task|Wire|Servo|esp_)", "board or RTOS include"),
     (r"#include\s*<(c?std[a-z]*|new|vector|string|array|algorithm|memory|functional)>", "C++ standard library header"),
@@ -27,10 +27,10 @@ def test_no_board_rtos_heap_or_std_dependencies(path):
         assert m is None, f"{path.name}: {what}: {m.group(0)!r}"
 
 
-@pytest.mark.parametrize("target", sorted(core_build.CROSS_TARGETS))
+@pytest.mark.parametrize("target", sorted(native.CROSS_TARGETS))
 def test_core_cross_compiles(target):
-    cxx, _, packages = core_build.CROSS_TARGETS[target]
+    cxx, _, packages = native.CROSS_TARGETS[target]
     if not shutil.which(cxx):
         pytest.skip(f"{cxx} not installed: apt-get install {packages}")
-    objects = core_build.cross_compile(target)
+    objects = native.cross_compile(target)
     assert len(objects) == len(PORTABLE) and all(o.stat().st_size > 0 for o in objects)

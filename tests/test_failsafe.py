@@ -5,7 +5,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from roar.protocol import spec
-from roar_sim.firmware_core import Watchdog, WatchdogEvent
+from roar_sim.core.library import Watchdog, WatchdogEvent
 
 TIMEOUT = spec.TIMING_FAILSAFE_TIMEOUT_US
 

@@ -9,9 +9,9 @@ import pytest
 pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
 
 from roar.protocol import encode  # noqa: E402
-from roar_sim.fleet import Fleet  # noqa: E402
-from roar_sim.harness import SimCar  # noqa: E402
-from roar_sim.track import get  # noqa: E402
+from roar_sim.runs.fleet import Fleet  # noqa: E402
+from roar_sim.robots.esc import SimCar  # noqa: E402
+from roar_sim.world.track import get  # noqa: E402
 
 PERIOD_S = 0.02
 

@@ -3,7 +3,7 @@ from a simulated transmitter, setpoints from a host and the battery, on the core
 across the 32-bit wrap); the quadrature decoder, the speed estimate and the PID's anti-windup."""
 
 from roar.protocol import encode, encode_setpoint, spec
-from roar_sim.firmware_core import Iarrc
+from roar_sim.core.library import Iarrc
 from roar_wire import sbus
 
 FRAME_US = 7_000  # [us] between SBUS frames

@@ -12,12 +12,13 @@ import pytest
 from roar.protocol import spec
 from roar.protocol.control import encode, encode_setpoint
 from roar.telemetry import parse_telemetry
-from roar_sim import arm_build, stm32_sim
+from roar_sim.emulators import qemu
+from roar_sim.toolchains import arm
 
-if stm32_sim.available():
-    pytest.skip(stm32_sim.available(), allow_module_level=True)
+if qemu.available():
+    pytest.skip(qemu.available(), allow_module_level=True)
 
-from roar_sim.iarrc_sim import SBUS_PERIOD_US, Transmitter  # noqa: E402
+from roar_sim.robots.iarrc import SBUS_PERIOD_US, Transmitter  # noqa: E402
 
 HOST_PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6
 
@@ -63,8 +64,8 @@ class Bench:
 
 @pytest.fixture(scope="module")
 def bench(tmp_path_factory):
-    elf = arm_build.build_iarrc_emulated()
-    with stm32_sim.EmulatedIarrc(elf, tmp_path_factory.mktemp("qemu")) as board:
+    elf = arm.build_iarrc_emulated()
+    with qemu.EmulatedIarrc(elf, tmp_path_factory.mktemp("qemu")) as board:
         b = Bench(board)
         yield b
         b.stop()

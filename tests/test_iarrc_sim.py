@@ -14,8 +14,8 @@ from roar.protocol.control import encode_setpoint
 
 pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
 
-from roar_sim.iarrc_sim import IarrcCar, IarrcSimConfig  # noqa: E402
-from roar_sim.step_response import (OVERSHOOT_TARGET, RISE_TARGET_S, STEADY_ERROR_TARGET,  # noqa: E402
+from roar_sim.robots.iarrc import IarrcCar, IarrcSimConfig  # noqa: E402
+from roar_sim.runs.step_response import (OVERSHOOT_TARGET, RISE_TARGET_S, STEADY_ERROR_TARGET,  # noqa: E402
                                     measure)
 
 NEUTRAL = spec.CONTROL_NEUTRAL_US

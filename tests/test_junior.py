@@ -17,10 +17,10 @@ from conftest import ROOT, wait_for
 from roar import Vehicle
 from roar.junior import original_mix, query_for, smooth_mix
 from roar.protocol import spec
-from roar_sim.firmware_core import SidePins
-from roar_sim.junior_plant import ULTRASONIC_POS_M, motor_torque
-from roar_sim.junior_sim import JuniorConfig, JuniorSim
-from roar_sim.quiet_pybullet import pb
+from roar_sim.core.library import SidePins
+from roar_sim.plants.junior import ULTRASONIC_POS_M, motor_torque
+from roar_sim.robots.junior import JuniorConfig, JuniorSim
+from roar_sim.world.bullet import pb
 
 IDLE_WAIT_S = 0.7  # [s] longer than the camera keeps capturing after its last request
 
@@ -165,8 +165,8 @@ def test_nothing_within_4_m_reads_0_no_echo(sim):
 
 @pytest.fixture(scope="module")
 def junior():
-    from roar_sim.junior_server import InBackground
-    from roar_sim.track import oval
+    from roar_sim.links.junior_http import InBackground
+    from roar_sim.world.track import oval
 
     with InBackground(oval(), port=0) as server:
         yield server
@@ -355,7 +355,7 @@ def test_frames_are_delivered_whole_or_not_at_all():
 def test_a_vehicle_reconnects_when_the_junior_comes_back():
     """The robot reboots (its server goes away and returns on the same port): the Vehicle's
     held command reaches the new one without the script doing anything."""
-    from roar_sim.junior_server import InBackground
+    from roar_sim.links.junior_http import InBackground
 
     with InBackground(render_workers=0) as first:
         port = int(first.urls.control_url.rsplit(":", 1)[1])
@@ -403,7 +403,7 @@ def test_roar_sim_junior_serves_both_ports_and_prints_them():
 
 def test_the_autopilot_laps_the_oval_with_the_junior_over_http(tmp_path, capsys, monkeypatch):
     from roar.transports.http_junior import HttpTransport
-    from roar_sim import race
+    from roar_sim.runs import race
 
     requests = []
     real_get = HttpTransport._get
@@ -422,7 +422,7 @@ def test_the_autopilot_laps_the_oval_with_the_junior_over_http(tmp_path, capsys,
 
 
 def test_the_junior_refuses_the_heading_pid(capsys):
-    from roar_sim import race
+    from roar_sim.runs import race
 
     with pytest.raises(SystemExit):
         race.main(["--junior", "--steering", "pid"])
@@ -430,7 +430,7 @@ def test_the_junior_refuses_the_heading_pid(capsys):
 
 
 def test_the_limits_table_matches_the_simulated_junior():
-    from roar_sim import junior_limits
+    from roar_sim.robots import junior_limits
 
     measured = junior_limits.measure()
     for name, table in vars(junior_limits.JUNIOR_LIMITS).items():
@@ -438,7 +438,7 @@ def test_the_limits_table_matches_the_simulated_junior():
 
 
 def test_a_dead_camera_renderer_gives_503_not_a_hang():
-    from roar_sim.junior_server import InBackground
+    from roar_sim.links.junior_http import InBackground
 
     with InBackground(render_workers=1) as junior:
         status, _, _ = http_get(junior.urls.camera_url, spec.JUNIOR_ROUTE_CAMERA_LOW, timeout=30)

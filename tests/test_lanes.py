@@ -12,11 +12,11 @@ pytest.importorskip("pybullet", reason="pip install pybullet (make setup install
 from roar.autopilot.agent import Observation  # noqa: E402
 from roar.vision.geometry import BirdsEye  # noqa: E402
 from roar.vision.lanes import LaneDetector, debug_view  # noqa: E402
-from roar_sim.obstacles import add_box  # noqa: E402
-from roar_sim.plant import Plant, camera_model  # noqa: E402
-from roar_sim.quiet_pybullet import pb  # noqa: E402
-from roar_sim.race import LANE_CAMERA, SimIO, race  # noqa: E402
-from roar_sim.track import get  # noqa: E402
+from roar_sim.world.obstacles import add_box  # noqa: E402
+from roar_sim.plants.racecar import Plant, camera_model  # noqa: E402
+from roar_sim.world.bullet import pb  # noqa: E402
+from roar_sim.runs.race import LANE_CAMERA, SimIO, race  # noqa: E402
+from roar_sim.world.track import get  # noqa: E402
 
 W, H = LANE_CAMERA
 
@@ -80,7 +80,7 @@ def test_nothing_on_the_road_means_no_lanes(oval):
 
 
 def test_the_lane_driver_never_reads_the_pose():
-    from roar_sim.harness import SimCar, SimConfig
+    from roar_sim.robots.esc import SimCar, SimConfig
 
     track = get("oval")
     with SimCar(track, SimConfig()) as sim:
@@ -128,8 +128,8 @@ def test_a_box_ahead_lands_in_its_cells_and_the_floor_stays_free(oval):
 
 def test_the_lane_driver_stops_for_a_box_in_its_lane():
     from roar.autopilot.agent import Command, Runner
-    from roar_sim.harness import SimCar, SimConfig
-    from roar_sim.race import PERIOD_S
+    from roar_sim.robots.esc import SimCar, SimConfig
+    from roar_sim.runs.race import PERIOD_S
 
     track = get("oval")
     with SimCar(track, SimConfig()) as sim:

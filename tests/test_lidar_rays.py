@@ -11,11 +11,11 @@ import pytest
 pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
 
 from roar.protocol import encode  # noqa: E402
-from roar_sim.harness import SimCar  # noqa: E402
-from roar_sim.obstacles import add_box  # noqa: E402
-from roar_sim.plant import LIDAR_LINK, LIDAR_MIN_RANGE_M  # noqa: E402
-from roar_sim.quiet_pybullet import pb  # noqa: E402
-from roar_sim.track import get  # noqa: E402
+from roar_sim.robots.esc import SimCar  # noqa: E402
+from roar_sim.world.obstacles import add_box  # noqa: E402
+from roar_sim.plants.racecar import LIDAR_LINK, LIDAR_MIN_RANGE_M  # noqa: E402
+from roar_sim.world.bullet import pb  # noqa: E402
+from roar_sim.world.track import get  # noqa: E402
 
 BEAMS, RANGE_M = 181, 10.0
 

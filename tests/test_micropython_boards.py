@@ -9,7 +9,7 @@ import struct
 import pytest
 
 from conftest import ROOT
-from roar_sim import micropython
+from roar_sim.emulators import micropython
 
 if micropython.available():
     pytest.skip(micropython.available(), allow_module_level=True)
@@ -104,7 +104,7 @@ def junior_scenario(seed: int, seconds: float = 20.0) -> dict:
 def cpp_junior(scenario: dict) -> dict:
     """The C++ core's Junior (JuniorBoard and its HTTP reader) on the same events: its replies
     and its pins after every loop tick, as changes."""
-    from roar_sim.firmware_core import HttpReader, JuniorBoard
+    from roar_sim.core.library import HttpReader, JuniorBoard
 
     loop0 = scenario["start_us"] + BOOT_GRACE_US
     board = JuniorBoard(loop_us=1000, start_us=loop0)
@@ -233,7 +233,7 @@ def car_scenario(seed: int, seconds: float = 20.0) -> dict:
 def cpp_car(scenario: dict) -> dict:
     """The C++ core's board loop (CarBoard) on the same bytes (taken by the loop at the next
     tick, as the MicroPython car takes its BLE writes) and frames every 20 ms from the start."""
-    from roar_sim.firmware_core import Board
+    from roar_sim.core.library import Board
 
     start = scenario["start_us"]
     board = Board(start_us=start)

@@ -5,7 +5,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from roar.protocol import spec
-from roar_sim.firmware_core import L298nDriver, RcOverride, calibration_valid, map_pulse
+from roar_sim.core.library import L298nDriver, RcOverride, calibration_valid, map_pulse
 
 # --- output mapping ---------------------------------------------------------------------------
 

@@ -33,7 +33,7 @@ def test_the_message_is_the_same_on_micropython(tmp_path):
     import json
     import random
 
-    from roar_sim import micropython
+    from roar_sim.emulators import micropython
 
     if micropython.available():
         pytest.skip(micropython.available())
@@ -80,9 +80,9 @@ def test_cars_hear_each_other_over_multicast_and_not_themselves():
 
 
 pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
-from roar_sim.netns import NetnsUnavailable, veth_pair  # noqa: E402
-from roar_sim.platoon import platoon  # noqa: E402
-from roar_sim.track import get  # noqa: E402
+from roar_sim.links.netns import NetnsUnavailable, veth_pair  # noqa: E402
+from roar_sim.runs.platoon import platoon  # noqa: E402
+from roar_sim.world.track import get  # noqa: E402
 
 
 @pytest.fixture(params=["loopback", "netns"])

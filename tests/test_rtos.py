@@ -8,8 +8,8 @@ from dataclasses import dataclass
 
 import pytest
 
-from roar_sim.firmware_core import IarrcBoard, TaskSpec, iarrc_tasks
-from roar_sim.rtos import Scheduler
+from roar_sim.core.library import IarrcBoard, TaskSpec, iarrc_tasks
+from roar_sim.clock.rtos import Scheduler
 
 TASKS = iarrc_tasks()
 NAMES = [t.name for t in TASKS]

@@ -9,7 +9,7 @@ import sys
 import pytest
 
 from conftest import ROOT
-from roar_sim import core_build
+from roar_sim.toolchains import native
 
 CORE_TESTS = ["test_vectors.py", "test_parser_properties.py", "test_brake_fsm.py", "test_failsafe.py", "test_timed_states.py",
               "test_outputs.py", "test_car.py"]
@@ -17,14 +17,14 @@ CORE_TESTS = ["test_vectors.py", "test_parser_properties.py", "test_brake_fsm.py
 
 @pytest.mark.parametrize("variant", ["release", "sanitize", "thread"])
 def test_native_core_test_program(variant):
-    exe = core_build.build("native_test", variant)
+    exe = native.build("native_test", variant)
     proc = subprocess.run([str(exe)], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert proc.stdout.strip().splitlines()[-1].endswith(" passed, 0 failed")
 
 
 def asan_runtime() -> str:
-    path = subprocess.run([core_build.compiler(), "-print-file-name=libasan.so"], capture_output=True,
+    path = subprocess.run([native.compiler(), "-print-file-name=libasan.so"], capture_output=True,
                           text=True).stdout.strip()
     if not os.path.isabs(path) or not os.path.exists(path):
         pytest.skip("AddressSanitizer runtime not found: apt-get install g++ (libasan)")
@@ -33,7 +33,7 @@ def asan_runtime() -> str:
 
 @pytest.mark.sanitizer
 def test_property_tests_against_sanitized_core():
-    lib = core_build.build("library", "sanitize")
+    lib = native.build("library", "sanitize")
     env = dict(os.environ, ROAR_CORE_LIB=str(lib), LD_PRELOAD=asan_runtime(),
                ASAN_OPTIONS="detect_leaks=0:abort_on_error=1", UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1")
     proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-m", "not sanitizer",
@@ -46,6 +46,6 @@ def test_property_tests_against_sanitized_core():
 
 def test_sanitized_library_really_is_instrumented():
     """Guards the test above against silently loading the plain build."""
-    lib = core_build.build("library", "sanitize")
+    lib = native.build("library", "sanitize")
     symbols = subprocess.run(["nm", "-D", str(lib)], capture_output=True, text=True).stdout
     assert "__asan_" in symbols and "__ubsan_" in symbols

@@ -3,8 +3,8 @@
 import pytest
 
 from roar.protocol import spec
-from roar_sim import scripted_drive
-from roar_sim.firmware_core import BrakePhase, ControlSource
+from roar_sim.runs import scripted_drive
+from roar_sim.core.library import BrakePhase, ControlSource
 
 
 def segment_samples(trace, label):

@@ -11,8 +11,8 @@ import pytest
 
 from conftest import ROOT, wait_for
 from roar import TransportError, Vehicle
-from roar_sim.harness import SimCar, SimConfig
-from roar_sim.serial_port import PtyCar
+from roar_sim.robots.esc import SimCar, SimConfig
+from roar_sim.links.pty import PtyCar
 
 
 def outputs(pty_car):

@@ -7,10 +7,10 @@ import sys
 import pytest
 
 DRIVE_IN_WINDOW = """
-from roar_sim.quiet_pybullet import pb
+from roar_sim.world.bullet import pb
 from roar.protocol import encode
-from roar_sim.harness import SimCar, SimConfig
-from roar_sim.track import oval
+from roar_sim.robots.esc import SimCar, SimConfig
+from roar_sim.world.track import oval
 with SimCar(oval(), SimConfig(gui=True)) as sim:
     assert pb.getConnectionInfo(sim.plant.client)["connectionMethod"] == pb.GUI
     x0 = sim.state().x

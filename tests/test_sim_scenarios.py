@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 
 from roar.protocol import encode, spec
-from roar_sim import floor
-from roar_sim.actuators import EscMode, HobbyEsc, SteeringServo
-from roar_sim.firmware_core import CarConfig, ControlSource
-from roar_sim.harness import SimCar, SimConfig
-from roar_sim.plant import ackermann_angles
-from roar_sim.track import oval
+from roar_sim.world import floor
+from roar_sim.plants.esc_servo import EscMode, HobbyEsc, SteeringServo
+from roar_sim.core.library import CarConfig, ControlSource
+from roar_sim.robots.esc import SimCar, SimConfig
+from roar_sim.plants.racecar import ackermann_angles
+from roar_sim.world.track import oval
 
 N = spec.CONTROL_NEUTRAL_US
 SEND = spec.TIMING_HOST_SEND_PERIOD_US / 1e6

@@ -10,8 +10,8 @@ import tty
 
 from conftest import ROOT
 from roar.protocol import encode
-from roar_sim.harness import SimCar
-from roar_sim.serial_port import PtyCar
+from roar_sim.robots.esc import SimCar
+from roar_sim.links.pty import PtyCar
 
 
 def open_port(path):
@@ -49,7 +49,7 @@ def test_pty_drives_the_car_and_answers_like_the_firmware():
 
 def test_serial_mode_as_a_separate_process():
     """The CLI prints the pty path; a separate process (this test) speaks to it in real time."""
-    proc = subprocess.Popen([sys.executable, "-m", "roar_sim.serial_port", "--seconds", "3"], cwd=ROOT,
+    proc = subprocess.Popen([sys.executable, "-m", "roar_sim.links.pty", "--seconds", "3"], cwd=ROOT,
                             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     try:
         first = proc.stdout.readline()

@@ -10,11 +10,11 @@ pytest.importorskip("cv2", reason="pip install opencv-python-headless (make setu
 pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
 
 from roar.vision.start_lights import StartLightDetector  # noqa: E402
-from roar_sim.camera_noise import NOISE, SHAKE_RAD, ShakyCamera  # noqa: E402
-from roar_sim.plant import Plant  # noqa: E402
-from roar_sim.race import LANE_CAMERA, PERIOD_S, race  # noqa: E402
-from roar_sim.start_lights import StartLights, green_moment  # noqa: E402
-from roar_sim.track import get  # noqa: E402
+from roar_sim.sensors.camera_noise import NOISE, SHAKE_RAD, ShakyCamera  # noqa: E402
+from roar_sim.plants.racecar import Plant  # noqa: E402
+from roar_sim.runs.race import LANE_CAMERA, PERIOD_S, race  # noqa: E402
+from roar_sim.world.start_lights import StartLights, green_moment  # noqa: E402
+from roar_sim.world.track import get  # noqa: E402
 
 W, H = LANE_CAMERA
 STEPS_PER_FRAME = round(PERIOD_S / 0.005)  # physics steps between the driver's frames (50 Hz)

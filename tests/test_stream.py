@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from conftest import ROOT
 from roar.protocol import spec
 from roar.stream import Reassembler, StreamReceiver, whole
-from roar_sim.impair import ImpairedRelay, Impairment
+from roar_sim.links.impair import ImpairedRelay, Impairment
 from roar_wire import stream as wire
 
 CHUNK = wire.CHUNK_BYTES
@@ -202,8 +202,8 @@ pytest.importorskip("pybullet", reason="pip install pybullet (make setup install
 
 
 async def phone_session(config_kwargs, seconds, control=None, ack=True):
-    from roar_sim.harness import SimCar, SimConfig
-    from roar_sim.stream_sender import Phone, StreamConfig
+    from roar_sim.robots.esc import SimCar, SimConfig
+    from roar_sim.links.phone_udp import Phone, StreamConfig
 
     sim = SimCar(None, SimConfig())
     ports = {"rgb": 0, "depth": 0, "state": 0, "control": 0}

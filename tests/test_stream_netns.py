@@ -10,7 +10,7 @@ import pytest
 
 from conftest import ROOT
 from roar.stream import StreamReceiver
-from roar_sim.netns import NetnsUnavailable, veth_pair
+from roar_sim.links.netns import NetnsUnavailable, veth_pair
 
 SENDER = r'''
 import socket, sys

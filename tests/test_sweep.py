@@ -12,7 +12,7 @@ import sys
 
 import pytest
 
-from roar_sim.sweep import SweepError, Run, grid, parse_values
+from roar_sim.runs.sweep import SweepError, Run, grid, parse_values
 
 pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
 pytest.importorskip("ray", reason="pip install ray (make setup installs it; roar-platform[sweep])")
@@ -79,7 +79,7 @@ def test_ray_table_equals_serial_table_and_resumes(tmp_path):
 FLAKY_RUNS = """
 import json, os, sys
 from pathlib import Path
-from roar_sim.sweep import Table, grid, sweep
+from roar_sim.runs.sweep import Table, grid, sweep
 
 TABLE, MODE, CALLS = sys.argv[1:4]  # module globals: pickled with fn (a worker has its own argv)
 
@@ -136,7 +136,7 @@ def test_a_failed_row_is_run_again(tmp_path):
 
 
 def test_the_cli_lists_failed_runs_and_exits_2(tmp_path, monkeypatch, capsys):
-    from roar_sim import sweep
+    from roar_sim.runs import sweep
 
     def race_run(run):
         if run.k_dd_s == 0.8:

@@ -10,7 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from roar.protocol import spec
-from roar_sim.firmware_core import (Board, BrakeFsm, ControlSource, Junior, L298nDriver, RcOverride, Watchdog,
+from roar_sim.core.library import (Board, BrakeFsm, ControlSource, Junior, L298nDriver, RcOverride, Watchdog,
                                     WatchdogEvent)
 
 WRAP = 2**32  # [us] the period of a board's 32-bit microsecond counter

@@ -5,8 +5,8 @@ import json
 import numpy as np
 import pytest
 
-from roar_sim import race
-from roar_sim.track import BUILTIN, Track, TrackError, get, oval
+from roar_sim.runs import race
+from roar_sim.world.track import BUILTIN, Track, TrackError, get, oval
 
 
 @pytest.mark.parametrize("name", sorted(BUILTIN))
@@ -181,7 +181,7 @@ def test_width_must_be_a_number_in_a_file(tmp_path, width):
 
 def test_a_track_far_from_the_origin_has_ground_under_it():
     from roar.protocol import encode
-    from roar_sim.harness import SimCar
+    from roar_sim.robots.esc import SimCar
 
     with SimCar(Track("far", circle(5, cx=100), 1.5)) as sim:
         for _ in range(100):
@@ -197,7 +197,7 @@ def test_a_100_m_track_runs_in_well_under_a_gigabyte(tmp_path):
     import sys
 
     script = ("import resource, sys, numpy as np\n"
-              "from roar_sim.track import Track\nfrom roar_sim.harness import SimCar\n"
+              "from roar_sim.world.track import Track\nfrom roar_sim.robots.esc import SimCar\n"
               "t = np.linspace(0, 2 * np.pi, 300, endpoint=False)\n"
               "with SimCar(Track('big', np.stack([49 * np.cos(t), 49 * np.sin(t)], 1), 1.5)) as sim:\n"
               "    sim.run(0.2)\n"

@@ -6,10 +6,10 @@ import pytest
 
 from conftest import ROOT
 from roar.protocol import ParseResult, StreamDecoder
-from roar_sim import firmware_core
+from roar_sim.core import library
 
 CASES = json.loads((ROOT / "protocol" / "vectors" / "control_messages.json").read_text())["cases"]
-PARSERS = {"python": StreamDecoder, "cpp": firmware_core.Parser}
+PARSERS = {"python": StreamDecoder, "cpp": library.Parser}
 
 
 def expected(case):

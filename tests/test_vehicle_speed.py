@@ -61,8 +61,8 @@ def test_speed_is_refused_in_one_line_on_a_throttle_car_and_for_bad_values():
 
 
 def test_over_a_serial_port_the_car_rearms_on_zero_speed_and_holds_speed():
-    from roar_sim.iarrc_sim import IarrcCar, IarrcSimConfig
-    from roar_sim.serial_port import PtyCar
+    from roar_sim.robots.iarrc import IarrcCar, IarrcSimConfig
+    from roar_sim.links.pty import PtyCar
 
     sim = IarrcCar(config=IarrcSimConfig(realtime=True))
     sim.run(0.1)  # the receiver locks with the switch at off; then autonomous, before any host talks:

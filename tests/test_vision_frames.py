@@ -13,10 +13,10 @@ pytest.importorskip("pybullet", reason="pip install pybullet (make setup install
 from roar.cli.main import main  # noqa: E402
 from roar.vision.geometry import BirdsEye, cv2  # noqa: E402
 from roar.vision.lanes import LaneDetector  # noqa: E402
-from roar_sim.obstacles import add_box  # noqa: E402
-from roar_sim.plant import Plant, camera_model  # noqa: E402
-from roar_sim.race import LANE_CAMERA  # noqa: E402
-from roar_sim.track import get  # noqa: E402
+from roar_sim.world.obstacles import add_box  # noqa: E402
+from roar_sim.plants.racecar import Plant, camera_model  # noqa: E402
+from roar_sim.runs.race import LANE_CAMERA  # noqa: E402
+from roar_sim.world.track import get  # noqa: E402
 
 W, H = LANE_CAMERA
 
@@ -74,7 +74,7 @@ def test_bad_folders_and_frames_fail_in_one_line(tmp_path, capsys):
 
 
 def test_a_race_records_the_frames_its_driver_saw_for_roar_vision(tmp_path, capsys):
-    from roar_sim.race import PERIOD_S, race
+    from roar_sim.runs.race import PERIOD_S, race
 
     result = race(get("oval"), laps=1, lateral="lane", timeout_s=0.5, record=tmp_path / "rec")
     frames = sorted((tmp_path / "rec").glob("*.png"))

@@ -3,7 +3,7 @@
 # library finder from compiling every port in it; this script compiles just the kernel files the
 # controller uses, the Cortex-M7 r0p1 port (the STM32F745's core revision) and no heap (all of
 # the controller's RTOS objects are static), against firmware/stm32_freertos/FreeRTOSConfig.h.
-# The same files link offline in roar_sim.arm_build.build_freertos (FREERTOS_SOURCES there).
+# The same files link offline in roar_sim.toolchains.arm.build_freertos (FREERTOS_SOURCES there).
 import os
 import sys
 

@@ -38,11 +38,11 @@ from gymnasium import spaces
 from roar.calibration import Calibration
 from roar.protocol import spec
 from roar.junior import query_for, smooth_mix
-from roar_sim.harness import SimCar, SimConfig
-from roar_sim.junior_plant import ULTRASONIC_MAX_M
-from roar_sim.junior_sim import JuniorConfig, JuniorSim
-from roar_sim.quiet_pybullet import pb
-from roar_sim.track import MAX_DISTANCE_M, MAX_EXTENT_M, Track, get
+from roar_sim.robots.esc import SimCar, SimConfig
+from roar_sim.plants.junior import ULTRASONIC_MAX_M
+from roar_sim.robots.junior import JuniorConfig, JuniorSim
+from roar_sim.world.bullet import pb
+from roar_sim.world.track import MAX_DISTANCE_M, MAX_EXTENT_M, Track, get
 
 PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6  # [s] one action
 ROBOTS = ("car", "junior")

@@ -21,7 +21,7 @@ from roar.errors import RoarError
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
 DEPTH_SUFFIX = "_depth.npy"
-DEFAULT_FOV_DEG = 70.0  # [deg] the simulated car's camera (roar_sim.plant)
+DEFAULT_FOV_DEG = 70.0  # [deg] the simulated car's camera (roar_sim.plants.racecar)
 DEFAULT_HEIGHT_M = 0.09  # [m]
 DEFAULT_AHEAD_M = 0.39  # [m]
 DEFAULT_PITCH_DEG = math.degrees(math.atan(0.25))  # [deg] down from level

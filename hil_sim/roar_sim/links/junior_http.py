@@ -1,0 +1,277 @@
+"""The simulated ROAR Junior on HTTP, as the robot serves it:
+
+    control  http://HOST:PORT/?forward=True&left_spd=0.5&right_spd=0.5   (the robot's port 81)
+    camera   http://HOST:PORT-1/cam-lo.jpg  /cam-hi.jpg  /cam.bmp  /cam.jpg  /cam.mjpeg   (port 80)
+
+The control port runs the firmware's own HTTP reader and responses (roar_sim.robots.junior), so
+its replies are the robot's byte for byte; each connection is its own task, so a client that
+opens connections and sends nothing holds up no one. The camera frames come from
+roar_sim.links.junior_camera: renderer processes beside the simulation, capturing while asked for.
+
+    python -m roar_sim.links.junior_http [--http 127.0.0.1:8081] [--track oval] [--seconds 0]
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import sys
+import threading
+from dataclasses import dataclass
+
+from roar.protocol import spec
+from roar.transports.http_junior import host_port
+from roar_sim.links.junior_camera import RENDER_WORKERS, Camera, CameraError
+from roar_sim.robots.junior import JuniorConfig, JuniorSim
+from roar_sim.world.track import Track
+
+CHUNK_S = 0.002  # [s] simulated time per step of the real-time loop
+MAX_REQUEST_BYTES = 4096  # [bytes] a camera request's line and headers
+CAMERA_TIMEOUT_S = 5.0  # [s] a frame not rendered by then gets 503
+SIZES = {"low": (spec.JUNIOR_CAMERA_LOW_WIDTH, spec.JUNIOR_CAMERA_LOW_HEIGHT),
+         "high": (spec.JUNIOR_CAMERA_HIGH_WIDTH, spec.JUNIOR_CAMERA_HIGH_HEIGHT)}
+ROUTES = {spec.JUNIOR_ROUTE_CAMERA_LOW: ("low", "JPEG"), spec.JUNIOR_ROUTE_CAMERA_HIGH: ("high", "JPEG"),
+          spec.JUNIOR_ROUTE_CAMERA_BMP: ("low", "BMP")}
+CAMERA_OFF = b"camera off: no renderer is running\n"
+CONTENT_TYPES = {"JPEG": "image/jpeg", "BMP": "image/bmp"}
+MJPEG_BOUNDARY = "frame"
+
+
+@dataclass
+class Endpoints:
+    control_url: str  # http://HOST:PORT
+    camera_url: str  # http://HOST:PORT
+
+    @property
+    def vehicle_url(self) -> str:
+        """The URL a Vehicle takes: the control URL, naming the camera port unless it is the
+        control port minus one (the robot's 81/80 layout, which http:// assumes)."""
+        control, camera = (int(u.rsplit(":", 1)[1]) for u in (self.control_url, self.camera_url))
+        return self.control_url if camera == control - 1 else f"{self.control_url}?camera={camera}"
+
+
+class JuniorServer:
+    """The simulated Junior with its two HTTP ports, in real time on its own thread; or with
+    lockstep=True, time moves only when its owner calls sim.run() (paced to the wall clock if
+    realtime): a request has been applied when its reply is sent, so a client that waits for
+    each reply stays in step, as `roar race --junior` does."""
+
+    def __init__(self, track: Track | None = None, host: str = "127.0.0.1", port: int = 8081,
+                 camera_port: int | None = None, gui: bool = False, render_workers: int = RENDER_WORKERS,
+                 lockstep: bool = False, realtime: bool = True) -> None:
+        self.host, self.port, self.lockstep = host, port, lockstep
+        self.camera_port = port - 1 if camera_port is None and port else (camera_port or 0)
+        self.sim = JuniorSim(track, JuniorConfig(realtime=realtime or not lockstep, gui=gui))
+        self.camera = Camera(track, lambda: self.sim.pose, render_workers)
+        self._served: dict[str, int] = {}  # route -> the latest frame it served
+        self._running = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._servers: list[asyncio.AbstractServer] = []
+        self._tasks: set[asyncio.Task] = set()
+
+    # --- the simulation ------------------------------------------------------------------------
+
+    def _simulate(self) -> None:
+        while self._running.is_set():
+            self.sim.run(CHUNK_S)
+
+    # --- control port: the firmware's own HTTP ---------------------------------------------------
+
+    async def _control(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        connection = self.sim.connect()
+        try:
+            while connection.open:
+                data = await reader.read(4096)
+                if not data:
+                    break
+                for reply in connection.feed(data):
+                    writer.write(reply)
+                await writer.drain()
+        except (ConnectionError, OSError):
+            pass
+        finally:
+            writer.close()
+
+    # --- camera port -------------------------------------------------------------------------
+
+    async def _camera(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        try:
+            head = await reader.readuntil(b"\r\n\r\n")
+        except (asyncio.IncompleteReadError, asyncio.LimitOverrunError, ConnectionError):
+            writer.close()
+            return
+        parts = head.split(b"\r\n", 1)[0].split()
+        path = parts[1].decode("ascii", "replace").split("?")[0] if len(parts) == 3 else ""
+        try:
+            if (path in ROUTES or path == spec.JUNIOR_ROUTE_CAMERA_STREAM) and not self.camera.workers:
+                writer.write(_response("503 Service Unavailable", "text/plain", CAMERA_OFF))
+            elif path in ROUTES:
+                size, fmt = ROUTES[path]
+                seq, image = await asyncio.wait_for(self.camera.frame(SIZES[size], fmt, self._served.get(path, 0)),
+                                                    CAMERA_TIMEOUT_S)
+                self._served[path] = max(seq, self._served.get(path, 0))
+                writer.write(_response("200 OK", CONTENT_TYPES[fmt], image))
+            elif path == spec.JUNIOR_ROUTE_CAMERA_REDIRECT:
+                writer.write(_response("302 Found", "text/plain", b"", [f"Location: {spec.JUNIOR_ROUTE_CAMERA_HIGH}"]))
+            elif path == spec.JUNIOR_ROUTE_CAMERA_STREAM:
+                await self._stream(writer)
+            else:
+                writer.write(_response("404 Not Found", "text/plain", b"no such route\n"))
+            await writer.drain()
+        except asyncio.TimeoutError:
+            writer.write(_response("503 Service Unavailable", "text/plain", b"camera timed out\n"))
+        except CameraError as e:
+            writer.write(_response("503 Service Unavailable", "text/plain", f"{e}\n".encode()))
+        except (ConnectionError, OSError):
+            pass
+        finally:
+            writer.close()
+
+    async def _stream(self, writer: asyncio.StreamWriter) -> None:
+        writer.write(b"HTTP/1.1 200 OK\r\nContent-Type: multipart/x-mixed-replace; boundary=" +
+                     MJPEG_BOUNDARY.encode() + b"\r\nConnection: close\r\n\r\n")
+        seq = 0
+        while self._running.is_set():
+            seq, image = await asyncio.wait_for(self.camera.frame(SIZES["high"], "JPEG", seq), CAMERA_TIMEOUT_S)
+            writer.write(f"--{MJPEG_BOUNDARY}\r\nContent-Type: image/jpeg\r\nContent-Length: {len(image)}\r\n\r\n"
+                         .encode() + image + b"\r\n")
+            await writer.drain()
+
+    # --- running -----------------------------------------------------------------------------
+
+    async def start(self) -> Endpoints:
+        self._running.set()
+        if not self.lockstep:
+            self._thread = threading.Thread(target=self._simulate, name="junior-sim", daemon=True)
+            self._thread.start()
+        control = await asyncio.start_server(self._tracked(self._control), self.host, self.port)
+        camera = await asyncio.start_server(self._tracked(self._camera), self.host, self.camera_port,
+                                            limit=MAX_REQUEST_BYTES)
+        self._servers = [control, camera]
+        port = control.sockets[0].getsockname()[1]
+        camera_port = camera.sockets[0].getsockname()[1]
+        return Endpoints(f"http://{self.host}:{port}", f"http://{self.host}:{camera_port}")
+
+    def _tracked(self, handler):
+        """handler, its task remembered while it runs, so that stop() can end open connections."""
+        async def run(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+            task = asyncio.current_task()
+            self._tasks.add(task)
+            try:
+                await handler(reader, writer)
+            except asyncio.CancelledError:
+                pass  # stop() ended the connection (the handler has closed it)
+            finally:
+                self._tasks.discard(task)
+        return run
+
+    async def stop(self) -> None:
+        for server in self._servers:
+            server.close()
+        for task in list(self._tasks):
+            task.cancel()
+        await asyncio.gather(*self._tasks, return_exceptions=True)
+        await self.camera.stop()
+        for server in self._servers:
+            await server.wait_closed()
+        self._running.clear()
+        if self._thread is not None:
+            self._thread.join()
+        self.camera.close()
+        self.sim.close()
+
+
+def _response(status: str, content_type: str, body: bytes, extra: list[str] | None = None) -> bytes:
+    headers = [f"HTTP/1.1 {status}", f"Content-Type: {content_type}", f"Content-Length: {len(body)}",
+               "Connection: close", *(extra or [])]
+    return ("\r\n".join(headers) + "\r\n\r\n").encode("ascii") + body
+
+
+def parse_address(text: str) -> tuple[str, int]:
+    address = host_port(text)
+    if address is None:
+        raise ValueError(f"--http takes HOST:PORT, e.g. 127.0.0.1:8081, got {text!r}")
+    return address
+
+
+async def serve(track: Track | None, host: str, port: int, seconds: float, gui: bool,
+                camera_port: int | None = None, on_ready=print) -> None:
+    server = JuniorServer(track, host, port, camera_port, gui)
+    try:
+        urls = await server.start()
+        others = ", ".join(r for r in (*ROUTES, spec.JUNIOR_ROUTE_CAMERA_STREAM) if r != spec.JUNIOR_ROUTE_CAMERA_LOW)
+        on_ready(f"simulated Junior: control {urls.control_url}/?forward=True&left_spd=0.5&right_spd=0.5\n"
+                 f"                  camera  {urls.camera_url}{spec.JUNIOR_ROUTE_CAMERA_LOW} (also {others})\n"
+                 f"drive it: python examples/circle.py '{urls.vehicle_url}'   (Ctrl-C stops)")
+        if seconds > 0:
+            await asyncio.sleep(seconds)
+        else:
+            await asyncio.Event().wait()
+    finally:
+        await server.stop()
+
+
+def main(argv: list[str] | None = None) -> int:
+    from roar_sim.core.library import CoreLoadError
+    from roar_sim.world.track import TrackError, get
+    from roar_sim.world.scene import SimError
+
+    parser = argparse.ArgumentParser(prog="roar sim --junior", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--http", default="127.0.0.1:8081", metavar="HOST:PORT",
+                        help="where to serve the control route (default 127.0.0.1:8081; port 0 picks free ports); "
+                             "the camera is on the port below it")
+    parser.add_argument("--track", default="", help="oval, figure-eight, course or a track .json file (default: open floor)")
+    parser.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: Ctrl-C)")
+    parser.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
+    args = parser.parse_args(argv)
+    try:
+        host, port = parse_address(args.http)
+        track = get(args.track) if args.track else None
+        asyncio.run(serve(track, host, port, args.seconds, args.gui, camera_port=0 if port == 0 else None,
+                          on_ready=lambda text: print(text, flush=True)))
+    except KeyboardInterrupt:
+        return 130
+    except (ValueError, TrackError, CoreLoadError, SimError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    except OSError as e:
+        print(f"error: cannot serve on {args.http}: {e.strerror or e}", file=sys.stderr)
+        return 1
+    return 0
+
+
+class InBackground:
+    """A JuniorServer on its own asyncio loop in a background thread, for tests, benchmarks and
+    programs that drive it from the same process:
+
+        with InBackground(track, port=0) as junior:     # port 0: free ports
+            Vehicle(junior.urls.control_url) ...
+            junior.server.sim.state()
+    """
+
+    def __init__(self, track: Track | None = None, host: str = "127.0.0.1", port: int = 0,
+                 camera_port: int | None = None, render_workers: int = RENDER_WORKERS, **options) -> None:
+        """camera_port: default free when port is 0, else port - 1; options: JuniorServer's (gui,
+        lockstep, realtime)."""
+        if camera_port is None and port == 0:
+            camera_port = 0
+        self.server = JuniorServer(track, host, port, camera_port, render_workers=render_workers, **options)
+        self._loop = asyncio.new_event_loop()
+        self._thread = threading.Thread(target=self._loop.run_forever, name="junior-http", daemon=True)
+        self.urls: Endpoints | None = None
+
+    def __enter__(self) -> InBackground:
+        self._thread.start()
+        self.urls = asyncio.run_coroutine_threadsafe(self.server.start(), self._loop).result(timeout=30)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        asyncio.run_coroutine_threadsafe(self.server.stop(), self._loop).result(timeout=30)
+        self._loop.call_soon_threadsafe(self._loop.stop)
+        self._thread.join(timeout=10)
+        self._loop.close()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

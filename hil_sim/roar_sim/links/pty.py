@@ -1,0 +1,129 @@
+"""The simulated car as a serial port: a pseudo-terminal whose other end is the firmware logic.
+
+    python -m roar_sim.links.pty [--track oval] [--seconds 0 (= until Ctrl-C)] [--car iarrc]
+
+prints a path such as /dev/pts/5. Anything that speaks the control message over that port (a
+pyserial script, a terminal program) drives the simulated car in real time, and reads the
+lines the firmware prints (READY, ERR <reason>, FAILSAFE, ARMED), as with a real car on USB.
+With --car iarrc it is the IARRC car: setpoints in, telemetry lines out, its transmitter's mode
+switch flipped to autonomous when the first setpoint arrives.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import termios
+import threading
+import tty
+
+from roar_sim.core.library import CoreLoadError
+from roar_sim.robots.esc import SimCar, SimConfig, SimError
+from roar_sim.world.track import TrackError, get
+
+CHUNK_S = 0.002  # [s] simulated (and, in real time, wall) time between reads of the port
+MAX_UNSENT_BYTES = 4096  # [bytes] reply bytes held for a slow reader; whole lines beyond are dropped
+
+
+class PtyCar:
+    """A SimCar behind a pty. Call pump() repeatedly (or serve()) to move bytes and time."""
+
+    def __init__(self, sim: SimCar) -> None:
+        self.sim = sim
+        self.master, self._slave = os.openpty()
+        tty.setraw(self._slave, termios.TCSANOW)  # bytes pass unchanged: no echo, no line editing
+        os.set_blocking(self.master, False)
+        self.path = os.ttyname(self._slave)
+        self._serving = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._unsent = b""  # the rest of a line the pty did not take whole
+
+    def pump(self, seconds: float = CHUNK_S) -> None:
+        try:
+            data = os.read(self.master, 4096)
+        except (BlockingIOError, InterruptedError):
+            data = b""
+        if data:
+            self.sim.write(data)
+        self.sim.run(seconds)
+        for line in self.sim.read():  # like the firmware: whole lines, dropped when there is no room
+            data = (line + "\n").encode("ascii")
+            if len(self._unsent) + len(data) <= MAX_UNSENT_BYTES:
+                self._unsent += data
+        if self._unsent:
+            try:
+                self._unsent = self._unsent[os.write(self.master, self._unsent):]
+            except BlockingIOError:
+                pass  # nobody reads now: keep it for the next pump, never block
+
+    def serve(self, seconds: float = 0.0) -> None:
+        """Run until `seconds` of simulated time have passed (0 = forever)."""
+        end = self.sim.time_s + seconds
+        while seconds <= 0 or self.sim.time_s < end:
+            self.pump()
+
+    def start(self) -> PtyCar:
+        """Serve from a background thread until close() (give the SimCar realtime=True)."""
+        self._serving.set()
+        self._thread = threading.Thread(target=self._serve_while_started, name="pty-car", daemon=True)
+        self._thread.start()
+        return self
+
+    def _serve_while_started(self) -> None:
+        while self._serving.is_set():
+            self.pump()
+
+    def close(self) -> None:
+        """Unplug: stop serving and close both ends of the pty (the host sees the port vanish)."""
+        self._serving.clear()
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
+        for fd in (self.master, self._slave):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+        self.sim.close()
+
+    def __enter__(self) -> PtyCar:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--track", default="oval", help="oval, figure-eight, course or a track .json file (default: oval)")
+    parser.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: run until Ctrl-C)")
+    parser.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
+    parser.add_argument("--car", choices=("esc", "iarrc"), default="esc",
+                        help="esc: the ROAR car (throttle, steering); iarrc: the IARRC car (speed setpoints)")
+    args = parser.parse_args(argv)
+    try:
+        if args.car == "iarrc":
+            from roar_sim.robots.iarrc import IarrcCar, IarrcSimConfig
+
+            sim = IarrcCar(get(args.track), IarrcSimConfig(realtime=True, gui=args.gui, operator=True))
+        else:
+            sim = SimCar(get(args.track), SimConfig(realtime=True, gui=args.gui))
+        car = PtyCar(sim)
+    except (TrackError, CoreLoadError, SimError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    with car:
+        print(f"simulated car on {car.path} (115200 baud, any setting works); Ctrl-C to stop", flush=True)
+        status = 0
+        try:
+            car.serve(args.seconds)
+        except KeyboardInterrupt:
+            status = 130  # stopped by Ctrl-C, as the shell reports it
+        s = car.sim.state()
+        print(f"stopped after {car.sim.time_s:.1f} s: car at x={s.x:.2f} m, y={s.y:.2f} m, speed {s.speed:.2f} m/s")
+    return status
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,181 @@
+"""sim:// -- the simulated car in this process: the firmware logic (host build) driving the
+PyBullet car in real time, fed with the same bytes a real car receives. A plug-in of the roar
+package: registered through the "roar.transports" entry point (pyproject.toml), installed with
+roar-platform[sim].
+
+    sim://                        an open floor, no walls
+    sim://oval   sim://figure-eight   a built-in track
+    sim:///home/me/track.json     a track file (hil_sim/README.md)
+
+Options: speedup=2 (simulated seconds per wall second, up to 4), gui=1 (PyBullet window),
+trace=drive.csv (t, x, y, yaw, speed every 20 ms), plot=drive.png (the driven path),
+car=iarrc (the IARRC car: speed setpoints, telemetry; its transmitter's mode switch goes to
+autonomous when the first setpoint arrives).
+"""
+
+from __future__ import annotations
+
+import collections
+import concurrent.futures
+import queue
+import threading
+from pathlib import Path
+
+from roar.telemetry import VehicleState
+from roar.transports.base import LinkLost, Transport, TransportError, pop_option
+from roar.user_files import unwritable
+from roar_sim.world.plotting import png_problem
+
+
+def missing_simulator(error: ImportError) -> str:
+    return f"the simulator needs {error.name or 'its dependencies'}: pip install 'roar-platform[sim]'"
+
+
+CARS = ("esc", "iarrc")  # the ROAR ESC car (default), the IARRC car
+MAX_SPEEDUP = 4.0  # the host sends at 50 Hz wall time: at 4x the car still hears from it every 80 ms
+CHUNK_S = 0.002  # [s] simulated time per pump step
+TRACE_PERIOD_S = 0.02  # [s]
+
+
+class SimTransport(Transport):
+    scheme = "sim"
+    min_period_s = 0.002
+    replies = True
+
+    def __init__(self, track: str = "", speedup: float = 1.0, gui: bool = False,
+                 trace: Path | None = None, plot: Path | None = None, car: str = "esc") -> None:
+        self.track_name, self.speedup, self.gui, self.car = track, speedup, gui, car
+        self.trace_path, self.plot_path = trace, plot
+        self.sim = None  # roar_sim.robots.esc.SimCar once open
+        self.trace: list[tuple[float, float, float, float, float]] = []  # (t, x, y, yaw, speed)
+        self._inbox: collections.deque[bytes] = collections.deque()
+        self._outbox: collections.deque[str] = collections.deque()
+        self._running = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._error: BaseException | None = None
+        self._state: VehicleState | None = None  # snapshot after each pump step
+        self._requests: queue.SimpleQueue = queue.SimpleQueue()  # (fn(sim), Future) run by the pump
+
+    @classmethod
+    def from_url(cls, target: str, options: dict[str, str]) -> SimTransport:
+        speedup = pop_option(options, "speedup", float, 1.0)
+        if not 0.1 <= speedup <= MAX_SPEEDUP:
+            raise TransportError(f"speedup must be 0.1..{MAX_SPEEDUP:g}, got {speedup:g}")
+        trace = pop_option(options, "trace", Path, None)
+        plot = pop_option(options, "plot", Path, None)
+        for name, path, check in (("trace", trace, unwritable), ("plot", plot, png_problem)):
+            problem = path is not None and check(path)
+            if problem:  # checked now, not when the drive is over
+                raise TransportError(f"{name} {problem}")
+        car = pop_option(options, "car", str, "esc")
+        if car not in CARS:
+            raise TransportError(f"car must be one of {', '.join(CARS)}, got {car!r}")
+        return cls(target.strip("/") if not target.endswith(".json") else target, speedup,
+                   pop_option(options, "gui", bool, False), trace, plot, car)
+
+    def open(self) -> None:
+        try:
+            from roar_sim.core.library import CoreLoadError
+            from roar_sim.robots.esc import SimCar, SimConfig, SimError
+            from roar_sim.robots.iarrc import IarrcCar, IarrcSimConfig
+            from roar_sim.world.track import TrackError, get
+        except ImportError as e:
+            raise TransportError(missing_simulator(e)) from None
+        try:
+            track = get(self.track_name) if self.track_name else None
+            if self.car == "iarrc":
+                self.sim = IarrcCar(track, IarrcSimConfig(gui=self.gui, realtime=True, speedup=self.speedup,
+                                                          operator=True))
+            else:
+                self.sim = SimCar(track, SimConfig(realtime=True, speedup=self.speedup, gui=self.gui))
+        except (TrackError, CoreLoadError, SimError) as e:
+            raise TransportError(str(e)) from None
+        self._running.set()
+        self._thread = threading.Thread(target=self._pump, name="roar-sim", daemon=True)
+        self._thread.start()
+
+    def _pump(self) -> None:
+        sim = self.sim
+        next_trace = 0.0
+        try:
+            while self._running.is_set():
+                while self._inbox:
+                    sim.write(self._inbox.popleft())
+                sim.run(CHUNK_S)
+                self._outbox.extend(sim.read())
+                s = sim.state()
+                self._state = VehicleState(sim.time_s, s.x, s.y, s.yaw, s.speed, s.yaw_rate, s.encoder_counts,
+                                           float(sim.throttle_out_us))
+                if sim.time_s >= next_trace:
+                    self.trace.append((sim.time_s, s.x, s.y, s.yaw, s.speed))
+                    next_trace += TRACE_PERIOD_S
+                while not self._requests.empty():  # sensors asked for by the user's thread
+                    fn, future = self._requests.get()
+                    try:
+                        future.set_result(fn(sim))
+                    except Exception as e:  # the asker gets it; the simulator runs on
+                        future.set_exception(e)
+        except BaseException as e:  # surfaced to the sender on its next write
+            self._error = e
+            self._running.clear()
+        while not self._requests.empty():
+            self._requests.get()[1].set_result(None)
+
+    def state(self) -> VehicleState | None:
+        return self._state
+
+    def _ask(self, fn):
+        """Run fn(sim) on the pump thread (PyBullet is not shared between threads); None if stopped."""
+        if not self._running.is_set():
+            return None
+        future: concurrent.futures.Future = concurrent.futures.Future()
+        self._requests.put((fn, future))
+        try:
+            return future.result(timeout=5.0)
+        except concurrent.futures.TimeoutError:
+            return None
+
+    def lidar(self):
+        return self._ask(lambda sim: sim.plant.lidar())
+
+    def camera(self, width: int = 160, height: int = 120):
+        return self._ask(lambda sim: sim.plant.camera(width, height))
+
+    def write(self, data: bytes) -> None:
+        if not self._running.is_set():
+            raise LinkLost(f"simulator stopped: {self._error}" if self._error else "simulator is not running")
+        self._inbox.append(bytes(data))
+
+    def read_lines(self) -> list[str]:
+        lines = []
+        while self._outbox:
+            lines.append(self._outbox.popleft())
+        return lines
+
+    def close(self) -> None:
+        self._running.clear()
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
+        if self.sim is not None:
+            sim, self.sim = self.sim, None
+            try:
+                self._save_with(sim)
+            finally:
+                sim.close()
+
+    def _save_with(self, sim) -> None:
+        """Write the trace and the plot; a one-line TransportError if either cannot be written."""
+        if self.trace_path is not None:
+            try:
+                with open(self.trace_path, "w", encoding="ascii") as f:
+                    f.write("t_s,x_m,y_m,yaw_rad,speed_m_s\n")
+                    f.writelines(",".join(f"{v:.4f}" for v in row) + "\n" for row in self.trace)
+            except OSError as e:
+                raise TransportError(f"cannot write trace {self.trace_path}: {e.strerror or e}") from None
+        if self.plot_path is not None and self.trace:
+            from roar_sim.world import plotting
+
+            problem = plotting.write(lambda: plotting.path_figure(sim.track, self.trace), self.plot_path)
+            if problem:
+                raise TransportError(f"plot: {problem}")

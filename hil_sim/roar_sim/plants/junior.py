@@ -1,0 +1,213 @@
+"""The ROAR Junior as a physical robot in the simulator's world: an ESP32-CAM two-wheel chassis
+(two driven wheels at the back, a skid ball at the front), each wheel driven by a TT gear motor
+through one side of an L298N, an HC-SR04 ultrasonic ranger and the camera on the front.
+
+The L298N side takes the pins the firmware writes (IN1, IN2, EN duty) and gives the motor its
+current, averaged over the 30 kHz PWM period (far faster than the wheel), so the motor sees the
+duty's share of the supply:
+
+    IN1 != IN2, EN duty d:   i = (±d V - ke w) / R      (driven)
+    IN1 == IN2, EN duty d:   i = -d ke w / R            (both ends tied: the bridge brakes it)
+    EN duty 0:               i = 0                      (coast)
+
+and the wheel gets torque kt i, less the gearbox's friction. The constants give a TT motor's
+torque-speed line (no-load 19.6 rad/s and stall 0.073 N m at the 5.6 V the L298N leaves of a 7.4 V
+pack, less the gearbox's friction), so the Junior tops out at about 0.55 m/s.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from roar_sim.core.library import SidePins
+from roar_sim.world.bullet import pb
+from roar_sim.world.track import Track
+from roar_sim.world.scene import World
+
+# Chassis, as an ESP32-CAM 2WD kit is built
+CHASSIS_HALF_M = (0.10, 0.065, 0.02)  # [m] half length, width, height of the chassis box
+CHASSIS_KG = 0.38  # [kg] with the battery pack
+WHEEL_RADIUS_M = 0.0325  # [m]
+WHEEL_WIDTH_M = 0.027  # [m]
+WHEEL_KG = 0.03  # [kg]
+WHEEL_TRACK_M = 0.15  # [m] between the wheels' centres
+WHEEL_X_M = -0.03  # [m] axle behind the chassis centre
+SKID_RADIUS_M = 0.0125  # [m] the ball under the front
+SKID_X_M = 0.075  # [m]
+ULTRASONIC_POS_M = (0.10, 0.0, 0.045)  # [m] in the chassis frame (from the axle-height origin)
+CAMERA_POS_M = (0.06, 0.0, 0.075)  # [m]
+CAMERA_PITCH_RAD = math.radians(12)  # looking slightly down
+CAMERA_FOV_DEG = 62.0  # OV2640 with the stock lens (vertical field of view used by PyBullet)
+
+# Motor and bridge
+SUPPLY_V = 7.4  # [V] 2S lithium pack
+BRIDGE_DROP_V = 1.8  # [V] an L298N loses about this much
+DRIVE_V = SUPPLY_V - BRIDGE_DROP_V  # [V] across the motor at full duty
+MOTOR_KE = 0.286  # [V s/rad] at the wheel (after the 1:48 gearbox): 6 V -> 21 rad/s no-load
+MOTOR_KT = MOTOR_KE  # [N m/A]
+MOTOR_R_OHM = 22.0  # [ohm] equivalent, gearbox losses included: 6 V stalls at 0.078 N m
+GEARBOX_FRICTION_NM = 0.01  # [N m] at the wheel: an unpowered TT motor stops its wheel in a few tenths
+FULL_SCALE = 1000  # [permille] duty meaning 100 %
+
+# HC-SR04
+ULTRASONIC_MIN_M, ULTRASONIC_MAX_M = 0.02, 4.0  # [m]
+ULTRASONIC_CONE_DEG = 15.0  # full angle
+ULTRASONIC_RAYS = 5  # per side of the cone, horizontally and vertically (3.75° apart)
+
+LEFT, RIGHT = 0, 1  # wheel joint indices
+SPIN_LIMIT_RAD_S = 1000.0  # [rad/s] a velocity target no wheel reaches: the force limit is the torque
+
+
+@dataclass(frozen=True)
+class JuniorState:
+    x: float  # [m]
+    y: float  # [m]
+    yaw: float  # [rad]
+    speed: float  # [m/s] along the heading
+    yaw_rate: float  # [rad/s]
+    left_wheel_rad_s: float  # [rad/s] positive rolling forward
+    right_wheel_rad_s: float  # [rad/s]
+
+
+def _cone_rays() -> list[tuple[float, float, float]]:
+    """The ultrasonic's rays [m] to its maximum range, in the chassis frame (yaw 0)."""
+    half = math.radians(ULTRASONIC_CONE_DEG / 2)
+    angles = np.linspace(-half, half, ULTRASONIC_RAYS)
+    az, el = (a.ravel() for a in np.meshgrid(angles, angles))
+    rays = np.stack([np.cos(az) * np.cos(el), np.sin(az) * np.cos(el), np.sin(el)], axis=1) * ULTRASONIC_MAX_M
+    return [tuple(ray) for ray in rays.tolist()]
+
+
+_ULTRASONIC_CONE = _cone_rays()
+
+
+def motor_torque(pins: SidePins, omega: float) -> float:
+    """[N m] on the wheel from one L298N side and its motor, at wheel speed omega [rad/s]."""
+    duty = pins.duty / FULL_SCALE
+    if duty <= 0:
+        return 0.0  # EN low: coast
+    if pins.in1 == pins.in2:
+        return -MOTOR_KT * duty * MOTOR_KE * omega / MOTOR_R_OHM  # terminals tied: brake
+    volts = duty * (DRIVE_V if pins.in1 else -DRIVE_V)
+    return MOTOR_KT * (volts - MOTOR_KE * omega) / MOTOR_R_OHM
+
+
+class JuniorPlant:
+    """The Junior in a World with an optional track."""
+
+    def __init__(self, track: Track | None, dt_s: float = 0.005, gui: bool = False,
+                 pose: tuple[float, float, float] | None = None) -> None:
+        self.dt_s = dt_s
+        self.world = World(track, dt_s, gui)
+        self.client = self.world.client
+        x, y, yaw = pose or self.world.start_pose()
+        self.robot = self._build(x, y, yaw)
+        self.time_s = 0.0
+
+    def _build(self, x: float, y: float, yaw: float) -> int:
+        c = self.client
+        chassis = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=CHASSIS_HALF_M,
+                                          collisionFramePosition=[0, 0, CHASSIS_HALF_M[2]], physicsClientId=c)
+        chassis_v = pb.createVisualShape(pb.GEOM_BOX, halfExtents=CHASSIS_HALF_M, rgbaColor=[0.9, 0.55, 0.1, 1],
+                                         visualFramePosition=[0, 0, CHASSIS_HALF_M[2]], physicsClientId=c)
+        axis_y = pb.getQuaternionFromEuler([math.pi / 2, 0, 0])  # a cylinder's axis (z) along y
+        wheel = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=WHEEL_RADIUS_M, height=WHEEL_WIDTH_M,
+                                        physicsClientId=c)
+        wheel_v = pb.createVisualShape(pb.GEOM_CYLINDER, radius=WHEEL_RADIUS_M, length=WHEEL_WIDTH_M,
+                                       rgbaColor=[0.1, 0.1, 0.1, 1], physicsClientId=c)
+        skid = pb.createCollisionShape(pb.GEOM_SPHERE, radius=SKID_RADIUS_M, physicsClientId=c)
+        skid_v = pb.createVisualShape(pb.GEOM_SPHERE, radius=SKID_RADIUS_M, rgbaColor=[0.7, 0.7, 0.7, 1],
+                                      physicsClientId=c)
+        half_track = WHEEL_TRACK_M / 2
+        body = pb.createMultiBody(
+            CHASSIS_KG, chassis, chassis_v, [x, y, WHEEL_RADIUS_M], pb.getQuaternionFromEuler([0, 0, yaw]),
+            linkMasses=[WHEEL_KG, WHEEL_KG, 0.005],
+            linkCollisionShapeIndices=[wheel, wheel, skid],
+            linkVisualShapeIndices=[wheel_v, wheel_v, skid_v],
+            linkPositions=[[WHEEL_X_M, half_track, 0], [WHEEL_X_M, -half_track, 0],
+                           [SKID_X_M, 0, SKID_RADIUS_M - WHEEL_RADIUS_M]],
+            linkOrientations=[axis_y, axis_y, [0, 0, 0, 1]],
+            linkInertialFramePositions=[[0, 0, 0]] * 3,
+            linkInertialFrameOrientations=[[0, 0, 0, 1]] * 3,
+            linkParentIndices=[0, 0, 0],
+            linkJointTypes=[pb.JOINT_REVOLUTE, pb.JOINT_REVOLUTE, pb.JOINT_FIXED],
+            linkJointAxis=[[0, 0, -1], [0, 0, -1], [0, 0, 1]],  # -z of the turned cylinder: forward roll positive
+            physicsClientId=c)
+        pb.changeDynamics(body, 2, lateralFriction=0.0, spinningFriction=0.0, rollingFriction=0.0,
+                          physicsClientId=c)  # the skid ball slides
+        for w in (LEFT, RIGHT):
+            pb.changeDynamics(body, w, lateralFriction=1.0, physicsClientId=c)
+            pb.setJointMotorControl2(body, w, pb.VELOCITY_CONTROL, targetVelocity=0, force=GEARBOX_FRICTION_NM,
+                                     physicsClientId=c)
+        return body
+
+    def apply(self, left: SidePins, right: SidePins) -> None:
+        """The L298N inputs for the next physics step."""
+        c = self.client
+        for joint, pins in ((LEFT, left), (RIGHT, right)):
+            omega = pb.getJointState(self.robot, joint, physicsClientId=c)[1]
+            torque = motor_torque(pins, omega)
+            moving = abs(omega) > 1e-3
+            net = torque - (math.copysign(GEARBOX_FRICTION_NM, omega) if moving else 0.0)
+            if not moving and abs(torque) <= GEARBOX_FRICTION_NM:  # not enough to break away: held
+                pb.setJointMotorControl2(self.robot, joint, pb.VELOCITY_CONTROL, targetVelocity=0,
+                                         force=GEARBOX_FRICTION_NM, physicsClientId=c)
+            else:
+                pb.setJointMotorControl2(self.robot, joint, pb.VELOCITY_CONTROL,
+                                         targetVelocity=math.copysign(SPIN_LIMIT_RAD_S, net), force=abs(net),
+                                         physicsClientId=c)
+
+    def step(self) -> None:
+        self.world.step()
+        self.time_s += self.dt_s
+
+    def state(self) -> JuniorState:
+        left, right = (pb.getJointState(self.robot, j, physicsClientId=self.client)[1] for j in (LEFT, RIGHT))
+        return JuniorState(*self.world.planar_motion(self.robot), left, right)
+
+    def pose(self) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
+        """(position, orientation quaternion) of the chassis."""
+        return pb.getBasePositionAndOrientation(self.robot, physicsClientId=self.client)
+
+    def place(self, position, orientation) -> None:
+        """Put the chassis there (a renderer mirroring another world's robot does this)."""
+        pb.resetBasePositionAndOrientation(self.robot, position, orientation, physicsClientId=self.client)
+
+    def _mount(self, offset) -> tuple[list[float], float]:
+        """World position of a point on the chassis, and the chassis' yaw."""
+        pos, orn = pb.getBasePositionAndOrientation(self.robot, physicsClientId=self.client)
+        yaw = pb.getEulerFromQuaternion(orn)[2]
+        dx, dy, dz = offset
+        return [pos[0] + dx * math.cos(yaw) - dy * math.sin(yaw), pos[1] + dx * math.sin(yaw) + dy * math.cos(yaw),
+                pos[2] + dz], yaw
+
+    def ultrasonic_cm(self) -> int:
+        """What the HC-SR04 reports: the nearest echo in its cone in whole cm, 2..400; 0 when
+        nothing is within range (no echo), as the firmware reads it. Only obstacles echo (walls,
+        other bodies), not the floor."""
+        origin, yaw = self._mount(ULTRASONIC_POS_M)
+        c, s = math.cos(yaw), math.sin(yaw)
+        ox, oy, oz = origin
+        ends = [(ox + x * c - y * s, oy + x * s + y * c, oz + z) for x, y, z in _ULTRASONIC_CONE]
+        start = [origin] * len(ends)
+        hits = pb.rayTestBatch(start, ends, physicsClientId=self.client)
+        # The floor, met at a grazing angle, reflects the sound away rather than back.
+        ignored = {-1, self.robot, self.world.ground, self.world.floor}
+        ranges = [h[2] * ULTRASONIC_MAX_M for h in hits if h[0] not in ignored]
+        if not ranges:
+            return 0
+        return int(round(max(ULTRASONIC_MIN_M, min(ranges)) * 100))
+
+    def camera(self, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+        """(RGB uint8 HxWx3, depth float32 HxW [m]) from the ESP32-CAM on the front."""
+        position, yaw = self._mount(CAMERA_POS_M)
+        return self.world.render(position, yaw, CAMERA_PITCH_RAD, width, height, CAMERA_FOV_DEG)
+
+    def wall_contacts(self) -> int:
+        return self.world.contacts(self.robot)
+
+    def close(self) -> None:
+        self.world.close()

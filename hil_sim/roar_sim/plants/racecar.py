@@ -1,0 +1,167 @@
+"""The physical car: PyBullet's 1/10-scale racecar (pybullet_data/racecar/racecar.urdf) in the
+world of roar_sim.world.scene. Rear-wheel drive through a motor with a speed and torque limit,
+Ackermann steering on the two hinges, and the sensors a real car would have.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from roar_sim.world.bullet import pb
+from roar_sim.world.track import Track
+from roar_sim.world.scene import SimError, World  # noqa: F401 (SimError: raised by World, caught by callers)
+
+WHEELBASE_M = 0.325  # [m] hinge axis to rear axle (racecar.urdf)
+TRACK_WIDTH_M = 0.2  # [m] between the steering hinges (racecar.urdf)
+WHEEL_RADIUS_M = 0.05  # [m]
+REAR_WHEELS = (2, 3)  # joint indices in racecar.urdf
+FRONT_WHEELS = (5, 7)
+LEFT_HINGE, RIGHT_HINGE = 4, 6
+LIDAR_LINK = 8  # hokuyo_joint
+CAMERA_LINK = 9  # zed_camera_joint
+LIDAR_MIN_RANGE_M = 0.06  # [m] a Hokuyo UST-10LX's minimum range; beams start this far out
+
+
+@dataclass(frozen=True)
+class Motor:
+    """The drive motor and the tyres, as the floor feels them."""
+
+    max_speed_rad_s: float = 60.0  # [rad/s] wheel speed at full throttle (3 m/s)
+    max_torque_nm: float = 1.5  # [N m] per rear wheel
+    tyre_friction: float = 0.5  # the wheels' friction coefficient (times the floor's 1.0); racecar.urdf's
+
+
+ROAR_MOTOR = Motor()  # the ROAR car's brushed motor
+BRAKE_MAX_TORQUE_NM = 2.0  # [N m] per rear wheel at full brake
+ROLLING_DRAG_NM = 0.02  # [N m] coasting resistance per wheel
+ENCODER_COUNTS_PER_REV = 1024  # [counts]
+CAMERA_FOV_DEG = 70.0  # [deg] vertical
+CAMERA_PITCH_RAD = math.atan(0.25)  # [rad] down from level
+CAMERA_X_M, CAMERA_Z_M = 0.39, 0.09  # [m] the ZED link ahead of the base and above the floor (racecar.urdf)
+
+
+def camera_model(width: int, height: int):
+    """The simulated car's camera as roar.vision sees a camera (intrinsics and mounting)."""
+    from roar.vision.geometry import CameraModel
+
+    return CameraModel.from_fov(width, height, CAMERA_FOV_DEG, CAMERA_X_M, CAMERA_Z_M, CAMERA_PITCH_RAD)
+
+
+@dataclass(frozen=True)
+class CarState:
+    x: float  # [m]
+    y: float  # [m]
+    yaw: float  # [rad] anticlockwise from +x
+    speed: float  # [m/s] along the car's heading, negative when reversing
+    yaw_rate: float  # [rad/s] (IMU gyro z)
+    encoder_counts: int  # rear-left wheel encoder, signed
+
+
+def ackermann_angles(steer_rad: float) -> tuple[float, float]:
+    """(left, right) hinge angles for a virtual centre angle: the inner wheel turns more, so both
+    wheel axes meet on the rear axle line."""
+    if abs(steer_rad) < 1e-6:
+        return 0.0, 0.0
+    radius = WHEELBASE_M / math.tan(steer_rad)  # signed: positive = turning left
+    left = math.atan(WHEELBASE_M / (radius - TRACK_WIDTH_M / 2))
+    right = math.atan(WHEELBASE_M / (radius + TRACK_WIDTH_M / 2))
+    return left, right
+
+
+class Plant:
+    """The racecar in a World (DIRECT, or GUI when gui=True) with an optional track; or, given
+    `world`, one more car in that world (which then steps it: see step() and tick()), at `pose`."""
+
+    def __init__(self, track: Track | None, dt_s: float = 0.005, gui: bool = False,
+                 motor: Motor = ROAR_MOTOR, world: World | None = None,
+                 pose: tuple[float, float, float] | None = None) -> None:
+        self.dt_s = dt_s
+        self.motor = motor
+        self._owns_world = world is None
+        self.world = World(track, dt_s, gui) if world is None else world
+        self.client = c = self.world.client
+        x, y, yaw = pose if pose is not None else self.world.start_pose()
+        self.car = pb.loadURDF("racecar/racecar.urdf", [x, y, 0.05], pb.getQuaternionFromEuler([0, 0, yaw]),
+                               physicsClientId=c)
+        for w in REAR_WHEELS + FRONT_WHEELS:
+            pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL, targetVelocity=0, force=0, physicsClientId=c)
+            pb.changeDynamics(self.car, w, lateralFriction=motor.tyre_friction, physicsClientId=c)
+        self.walls = self.world.walls
+        self.time_s = 0.0
+        self.props: list = []  # things in the world that change with time: update(time_s) each step
+
+    def close(self) -> None:
+        if self._owns_world:
+            self.world.close()
+
+    def camera(self, width: int = 160, height: int = 120, fov_deg: float = CAMERA_FOV_DEG,
+               far_m: float = 10.0, shake_rad: tuple[float, float] = (0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+        """(RGB uint8 HxWx3, depth float32 HxW in metres) from the ZED camera link, looking ahead
+        and slightly down; shake_rad turns it by (yaw, pitch) more, as a shaking mount would."""
+        pos, orn = pb.getLinkState(self.car, CAMERA_LINK, physicsClientId=self.client)[:2]
+        yaw = pb.getEulerFromQuaternion(orn)[2] + shake_rad[0]
+        return self.world.render(pos, yaw, CAMERA_PITCH_RAD + shake_rad[1], width, height, fov_deg, far_m)
+
+    def apply(self, drive: float, brake: float, steer_rad: float) -> None:
+        """drive -1..1 of the motor limit, brake 0..1, steer_rad the virtual centre angle."""
+        c = self.client
+        for w in REAR_WHEELS:
+            if brake > 0:
+                pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL, targetVelocity=0,
+                                         force=BRAKE_MAX_TORQUE_NM * brake, physicsClientId=c)
+            elif drive != 0:
+                # The motor drives the wheel towards its speed for this throttle but never holds it
+                # back: a wheel already turning faster in that direction coasts (no drag brake).
+                target = drive * self.motor.max_speed_rad_s
+                spin = pb.getJointState(self.car, w, physicsClientId=c)[1]
+                coasting = spin * target > 0 and abs(spin) > abs(target)
+                torque = ROLLING_DRAG_NM if coasting else self.motor.max_torque_nm * abs(drive) + ROLLING_DRAG_NM
+                pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL, targetVelocity=target, force=torque,
+                                         physicsClientId=c)
+            else:
+                pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL, targetVelocity=0, force=ROLLING_DRAG_NM,
+                                         physicsClientId=c)
+        left, right = ackermann_angles(steer_rad)
+        for hinge, angle in ((LEFT_HINGE, left), (RIGHT_HINGE, right)):
+            pb.setJointMotorControl2(self.car, hinge, pb.POSITION_CONTROL, targetPosition=angle, force=10,
+                                     physicsClientId=c)
+
+    def step(self) -> None:
+        self.world.step()
+        self.tick()
+
+    def tick(self) -> None:
+        """Time moves on after a physics step of the world (in a shared world, whoever steps it)."""
+        self.time_s += self.dt_s
+        for prop in self.props:
+            prop.update(self.time_s)
+
+    def state(self) -> CarState:
+        counts = int(self.wheel_angle() / (2 * math.pi) * ENCODER_COUNTS_PER_REV)
+        return CarState(*self.world.planar_motion(self.car), counts)
+
+    def wheel_angle(self) -> float:
+        """[rad] the rear-left wheel's angle since the start (where the encoder sits)."""
+        return pb.getJointState(self.car, REAR_WHEELS[0], physicsClientId=self.client)[0]
+
+    def wall_contacts(self) -> int:
+        """How many wall bodies the car touches right now."""
+        return self.world.contacts(self.car)
+
+    def lidar(self, beams: int = 1080, fov_rad: float = math.radians(270), range_m: float = 10.0) -> np.ndarray:
+        """2D scan from the Hokuyo link: distances [m] from right to left; range_m where nothing is hit."""
+        c = self.client
+        pos, orn = pb.getLinkState(self.car, LIDAR_LINK, physicsClientId=c)[:2]
+        yaw = pb.getEulerFromQuaternion(orn)[2]
+        angles = yaw + np.linspace(-fov_rad / 2, fov_rad / 2, beams)
+        directions = np.stack([np.cos(angles), np.sin(angles), np.zeros(beams)], axis=1)
+        # Beams start at the housing's edge: from the link's centre, inside its own collision box,
+        # Bullet now and then reports a hit at distance 0 (the lidar seeing itself).
+        start = np.asarray(pos) + LIDAR_MIN_RANGE_M * directions
+        end = np.asarray(pos) + range_m * directions
+        hits = self.world.ray_test(start.tolist(), end.tolist())
+        reach = range_m - LIDAR_MIN_RANGE_M
+        return np.array([LIDAR_MIN_RANGE_M + h[2] * reach if h[0] >= 0 else range_m for h in hits])

@@ -1,0 +1,59 @@
+"""Several cars in one world: each with its own firmware core (board loop at 1 kHz on its own
+clock), ESC, servo and serial link; one PyBullet world, stepped once for all of them at 200 Hz,
+so they collide, and each one's lidar and camera see the others.
+
+    with Fleet(get("oval"), count=2, gap_m=1.5) as fleet:
+        leader, follower = fleet.cars            # SimCar each: write(), read(), state(), plant
+        leader.write(encode(1600, 1500))
+        fleet.run(2.0)
+        fleet.touching(0, 1)                     # are the two cars in contact now?
+"""
+
+from __future__ import annotations
+
+from roar_sim.robots.esc import LOOP_US, PHYSICS_US, SimCar, SimConfig, loops_until
+from roar_sim.clock.lockstep import Lockstep
+from roar_sim.world.bullet import pb
+from roar_sim.world.track import Track
+from roar_sim.world.scene import World
+
+MAX_CARS = 8
+
+
+class Fleet(Lockstep):
+    """count cars on `track`, the first at its start and each next gap_m [m] behind the one
+    before, along the centre line."""
+
+    def __init__(self, track: Track, count: int = 2, gap_m: float = 1.5, config: SimConfig | None = None) -> None:
+        if not 1 <= count <= MAX_CARS:
+            raise ValueError(f"a fleet is 1..{MAX_CARS} cars, got {count}")
+        if not 0.6 <= gap_m <= track.length_m / count:
+            raise ValueError(f"gap_m must be 0.6 m (a car's length) .. {track.length_m / count:.1f} m on this "
+                             f"track, got {gap_m}")
+        self.config = config or SimConfig()
+        self.world = World(track, PHYSICS_US / 1e6, self.config.gui)
+        self.cars = [SimCar(track, SimConfig(realtime=False), world=self.world, pose=track.pose_at(-i * gap_m))
+                     for i in range(count)]
+        self.plant = self.cars[0].plant  # state() and the camera of the first car, as a SimCar's
+        self.t_us = 0
+
+    def _advance(self, end_us: int) -> None:
+        t = self.t_us
+        loops = loops_until(t, end_us)
+        for car in self.cars:
+            car.firmware(loops)
+        self.t_us = t + loops * LOOP_US
+        if t % PHYSICS_US == 0:
+            for car in self.cars:
+                car.actuate()
+            self.world.step()
+            for car in self.cars:
+                car.plant.tick()
+
+    def touching(self, a: int, b: int) -> bool:
+        """Whether cars a and b are in contact now."""
+        return bool(pb.getContactPoints(bodyA=self.cars[a].plant.car, bodyB=self.cars[b].plant.car,
+                                        physicsClientId=self.world.client))
+
+    def close(self) -> None:
+        self.world.close()

@@ -1,0 +1,435 @@
+"""Parameter sweeps: race the simulated car for every point of a grid of autopilot parameters x
+tracks, each race a Ray task -- a local Ray on this machine by default, a Ray cluster with
+--address -- and keep the results in a CSV table and a plot.
+
+    roar sweep [--track figure-eight] [--k-dd 0.2,0.4,0.6,0.8] [--margin 0.85:1:4] [--laps 2]
+               [--junior] [--out out/sweep] [--address HOST:PORT | auto] [--workers N] [--serial]
+
+A list is `a,b,c`; `lo:hi:n` is n values from lo to hi. Each run is one race (`roar race
+--track T --k-dd K --margin M --laps L`); the simulation is in lockstep, so a run's result does
+not depend on where or beside what it ran: the table from Ray equals the table from --serial.
+
+Results go to OUT/results.csv (a row per run, in grid order) and OUT/sweep.png (per track, the
+best lap over the physical-limit lap for each K_dd and margin). Rows are written as runs finish:
+run the same command again after an interruption or a failure and only the runs not yet in the
+table (and the failed ones) run. A run that fails -- an exception, a worker process that dies --
+becomes a row with status `failed` and the reason; the other runs go on.
+
+A cluster: `ray start --head` on one machine, `ray start --address HEAD:6379` on the others,
+each with roar-platform[sweep] installed; here RAY_AUTH_MODE=token and the cluster's token (Ray's
+token authentication, on by default), then --address HEAD:6379.
+
+Exit status: 0 when every run finished (a race with fewer laps than asked is a result, status
+`incomplete`); 1 for bad input or a Ray that cannot start; 2 when some runs failed; 130 on Ctrl-C
+(the finished runs are kept).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import logging
+import math
+import os
+import socket
+import sys
+from collections.abc import Callable, Iterable, Sequence
+from contextlib import closing
+from dataclasses import dataclass
+from pathlib import Path
+
+from roar.errors import RoarError
+from roar_sim.world import plotting
+
+COLUMNS = ("track", "robot", "k_dd_s", "margin", "laps", "status", "laps_done", "best_lap_s", "limit_lap_s",
+           "best_ratio", "wall_contacts", "max_cross_track_m", "error")
+DEFAULT_K_DD_S = "0.2,0.4,0.6,0.8"  # [s] pure pursuit's look-ahead per m/s
+DEFAULT_MARGINS = "0.85,0.9,0.95,1.0"  # fractions of the car's limits
+DEFAULT_TRACKS = "figure-eight"
+MAX_RUNS = 10_000  # a grid larger than this is a typo
+CONNECT_TIMEOUT_S = 5.0  # [s] for a Ray cluster's address to answer
+
+
+class SweepError(RoarError):
+    """Bad input for a sweep or a Ray that cannot start: one line for the user."""
+
+
+@dataclass(frozen=True)
+class Run:
+    """One point of the grid: a race of `laps` laps of `track` by `robot` at `margin` of its
+    limits, steering by pure pursuit with look-ahead k_dd_s [s] per m/s."""
+
+    track: str
+    k_dd_s: float
+    margin: float
+    laps: int = 2
+    robot: str = "car"
+
+    @property
+    def key(self) -> tuple:
+        return self.track, self.robot, self.k_dd_s, self.margin, self.laps
+
+
+def grid(tracks: Sequence[str], k_dd_s: Sequence[float], margins: Sequence[float], laps: int = 2,
+         robot: str = "car") -> list[Run]:
+    """Every combination, tracks outermost, then K_dd, then margin."""
+    return [Run(t, k, m, laps, robot) for t in tracks for k in k_dd_s for m in margins]
+
+
+def parse_values(text: str, name: str, low: float, high: float) -> list[float]:
+    """`a,b,c` or `lo:hi:n` (n evenly spaced values, both ends included), each within
+    [low, high], rounded to 6 decimals; SweepError with a one-line reason otherwise."""
+    try:
+        if ":" in text:
+            lo, hi, n = text.split(":")
+            count = int(n)
+            if not 1 <= count <= 100:
+                raise SweepError(f"--{name} {text}: the count after the second ':' must be 1..100")
+            a, b = float(lo), float(hi)
+            values = [a] if count == 1 else [a + (b - a) * i / (count - 1) for i in range(count)]
+        else:
+            values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise SweepError(f"--{name} {text!r}: give numbers as a,b,c or lo:hi:n") from None
+    values = [round(v, 6) for v in values]
+    if not values:
+        raise SweepError(f"--{name}: no values")
+    bad = [v for v in values if not (math.isfinite(v) and low <= v <= high)]
+    if bad:
+        raise SweepError(f"--{name} {bad[0]:g} is outside {low:g}..{high:g}")
+    return list(dict.fromkeys(values))  # each once, in the order given
+
+
+def race_run(run: Run) -> dict:
+    """Race one grid point in this process; the result row (without `error`)."""
+    from roar_sim.runs.race import race
+    from roar_sim.world.track import get
+
+    track = get(run.track)
+    result = race(track, run.laps, margin=run.margin, robot=run.robot, k_dd_s=run.k_dd_s)
+    done = len(result.lap_times_s)
+    return {**_run_columns(run), "status": "ok" if done >= run.laps else "incomplete", "laps_done": done,
+            "best_lap_s": min(result.lap_times_s) if done else "", "limit_lap_s": result.limit_lap_s,
+            "best_ratio": result.best_ratio if done else "", "wall_contacts": result.wall_contacts,
+            "max_cross_track_m": result.max_cross_track_m, "error": ""}
+
+
+def attempt(fn: Callable[[Run], dict], run: Run) -> dict:
+    """fn(run), or a `failed` row saying why in one line: the same in a Ray worker and here."""
+    try:
+        return fn(run)
+    except Exception as e:  # noqa: BLE001 -- any failure of one run is reported, the sweep goes on
+        return failed_row(run, f"{type(e).__name__}: {str(e).strip().splitlines()[0] if str(e).strip() else ''}")
+
+
+def failed_row(run: Run, why: str) -> dict:
+    return {**_run_columns(run), "status": "failed", "laps_done": 0, "best_lap_s": "", "limit_lap_s": "",
+            "best_ratio": "", "wall_contacts": "", "max_cross_track_m": "", "error": why.replace("\n", " ")}
+
+
+def _run_columns(run: Run) -> dict:
+    return {"track": run.track, "robot": run.robot, "k_dd_s": run.k_dd_s, "margin": run.margin, "laps": run.laps}
+
+
+class Table:
+    """The results CSV: rows by run key, appended as runs finish (so an interruption keeps
+    them), rewritten in grid order at the end."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.rows: dict[tuple, dict] = {}
+        if path.exists():
+            self._load()
+
+    def _load(self) -> None:
+        try:
+            with self.path.open(newline="") as f:
+                reader = csv.DictReader(f)
+                if tuple(reader.fieldnames or ()) != COLUMNS:
+                    raise SweepError(f"{self.path} is not a sweep results table (its columns differ): "
+                                     f"move it away or give another --out")
+                for row in reader:
+                    self.rows[_key(row)] = row
+        except (OSError, UnicodeDecodeError, csv.Error, ValueError) as e:
+            raise SweepError(f"{self.path}: cannot read it as a results table ({e})") from None
+
+    def finished(self, run: Run) -> bool:
+        row = self.rows.get(run.key)
+        return row is not None and row["status"] != "failed"
+
+    def add(self, row: dict) -> None:
+        self.rows[_key(row)] = row
+        new = not self.path.exists() or self.path.stat().st_size == 0
+        with self.path.open("a", newline="") as f:
+            writer = csv.DictWriter(f, COLUMNS)
+            if new:
+                writer.writeheader()
+            writer.writerow(row)
+
+    def rewrite(self, runs: Sequence[Run]) -> None:
+        """The rows of `runs` in their order, then any other rows kept from earlier sweeps."""
+        keys = [r.key for r in runs if r.key in self.rows]
+        rest = [k for k in self.rows if k not in set(keys)]
+        tmp = self.path.with_suffix(".csv.tmp")
+        with tmp.open("w", newline="") as f:
+            writer = csv.DictWriter(f, COLUMNS)
+            writer.writeheader()
+            writer.writerows(self.rows[k] for k in keys + rest)
+        os.replace(tmp, self.path)
+
+    def of(self, runs: Iterable[Run]) -> list[dict]:
+        return [self.rows[r.key] for r in runs if r.key in self.rows]
+
+
+def _key(row: dict) -> tuple:
+    return row["track"], row["robot"], float(row["k_dd_s"]), float(row["margin"]), int(row["laps"])
+
+
+def sweep(runs: Sequence[Run], table: Table, fn: Callable[[Run], dict] | None = None, serial: bool = False,
+          address: str | None = None, workers: int | None = None, progress: bool = False) -> list[dict]:
+    """Run each of `runs` not yet finished in `table` -- as Ray tasks (a local Ray with `workers`
+    CPUs, or the cluster at `address`; a Ray session already open in this process is used as it
+    is), or one after another here with serial -- adding each row as it comes; returns the rows
+    of `runs`, in their order. fn(run) -> row (default race_run) must be picklable for Ray."""
+    fn = fn or race_run
+    todo = [r for r in runs if not table.finished(r)]
+    bar = _bar(len(runs), len(runs) - len(todo)) if progress else None
+    try:
+        if todo:
+            with closing(_serial(todo, fn) if serial else _on_ray(todo, fn, address, workers)) as rows:
+                for row in rows:  # as each run finishes
+                    table.add(_strings(row))
+                    if bar:
+                        bar.update(1)
+    finally:
+        if bar:
+            bar.close()
+        if table.rows:
+            table.rewrite(runs)
+    return table.of(runs)
+
+
+def _strings(row: dict) -> dict:
+    """The row as the CSV holds it (repr for floats: they read back exactly)."""
+    return {c: repr(v) if isinstance(v, float) else str(v) for c, v in ((c, row.get(c, "")) for c in COLUMNS)}
+
+
+def _serial(todo: Sequence[Run], fn: Callable[[Run], dict]):
+    for run in todo:
+        yield attempt(fn, run)
+
+
+def _on_ray(todo: Sequence[Run], fn: Callable[[Run], dict], address: str | None, workers: int | None):
+    ray = _import_ray()
+    ours = not ray.is_initialized()  # else: the caller's Ray session, left running
+    if ours:
+        start_ray(address, workers)
+    try:
+        task = ray.remote(num_cpus=1, max_retries=0)(attempt)
+        pending = {task.remote(fn, run): run for run in todo}
+        while pending:
+            ready, _ = ray.wait(list(pending), num_returns=1)
+            for ref in ready:
+                run = pending.pop(ref)
+                try:
+                    yield ray.get(ref)
+                except ray.exceptions.RayError as e:  # the worker died: no row from it
+                    yield failed_row(run, f"{type(e).__name__}: the Ray worker running it died")
+    finally:
+        if ours:
+            ray.shutdown()
+
+
+def start_ray(address: str | None, workers: int | None):
+    """Ray, connected: a new local Ray with `workers` CPUs (default: all), or the cluster at
+    `address` ("auto": the one started on this machine with `ray start`). SweepError if not."""
+    ray = _import_ray()
+    if address not in (None, "auto"):
+        _reachable(address)
+    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")  # nothing leaves the machine unasked
+    try:
+        if address is None:
+            ray.init(num_cpus=workers or os.cpu_count(), include_dashboard=False, log_to_driver=False,
+                     logging_level=logging.ERROR)
+        else:
+            ray.init(address=address, log_to_driver=False, logging_level=logging.ERROR)
+    except (ConnectionError, RuntimeError, ValueError) as e:
+        where = f"connect to the Ray cluster at {address}" if address else "start a local Ray"
+        hint = (" (a cluster with token authentication, `ray start`'s default, needs RAY_AUTH_MODE=token here "
+                "and its token in ~/.ray/auth_token or RAY_AUTH_TOKEN)"
+                if address and "RAY_AUTH_MODE" not in os.environ else "")
+        raise SweepError(f"cannot {where}: {str(e).strip().splitlines()[0]}{hint}") from None
+    return ray
+
+
+def _reachable(address: str) -> None:
+    """SweepError at once if nothing listens at HOST:PORT (Ray itself would retry for minutes)."""
+    host, _, port = address.removeprefix("ray://").rpartition(":")
+    if not host or not port.isdigit():
+        raise SweepError(f"--address {address}: give HOST:PORT (or ray://HOST:PORT, or auto)")
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=CONNECT_TIMEOUT_S).close()
+    except OSError as e:
+        raise SweepError(f"cannot reach the Ray cluster at {address}: {e.strerror or e}") from None
+
+
+def _import_ray():
+    try:
+        import ray
+    except ImportError:
+        raise SweepError("roar sweep runs on Ray: pip install 'roar-platform[sweep]' (or use --serial)") from None
+    return ray
+
+
+def _bar(total: int, done: int):
+    from tqdm import tqdm
+
+    return tqdm(total=total, initial=done, desc="sweep", unit="run", file=sys.stderr, mininterval=0.5)
+
+
+def best(rows: Iterable[dict], track: str) -> dict | None:
+    """The row of `track` with the lowest best-lap ratio among runs that drove every lap
+    without touching a wall; None if there is none."""
+    clean = [r for r in rows if r["track"] == track and r["status"] == "ok" and r["wall_contacts"] == "0"]
+    return min(clean, key=lambda r: float(r["best_ratio"]), default=None)
+
+
+def report(rows: Sequence[dict], tracks: Sequence[str]) -> str:
+    lines = []
+    failed = [r for r in rows if r["status"] == "failed"]
+    incomplete = sum(r["status"] == "incomplete" for r in rows)
+    lines.append(f"{_count(len(rows), 'run')}: {len(rows) - len(failed) - incomplete} drove every lap, {incomplete} "
+                 f"incomplete, {len(failed)} failed")
+    for track in tracks:
+        b = best(rows, track)
+        if b is None:
+            lines.append(f"{track}: no run drove every lap without touching a wall")
+        else:
+            lines.append(f"{track}: best K_dd {float(b['k_dd_s']):g} s, margin {float(b['margin']):g}: best lap "
+                         f"{float(b['best_lap_s']):.2f} s = {float(b['best_ratio']):.3f} x the physical limit "
+                         f"({float(b['limit_lap_s']):.2f} s)")
+    for r in failed:
+        lines.append(f"failed: {r['track']} K_dd {float(r['k_dd_s']):g} margin {float(r['margin']):g}: {r['error']}")
+    return "\n".join(lines)
+
+
+def _count(n: int, thing: str) -> str:
+    return f"{n} {thing}{'s' if n != 1 else ''}"
+
+
+def plot(rows: Sequence[dict], tracks: Sequence[str]):
+    """A heat map per track: best lap / physical-limit lap over K_dd x margin; runs that touched
+    a wall, did not finish or failed are marked in their cells."""
+    import numpy as np
+
+    fig, axes = plotting.subplots(ncols=len(tracks), figsize=(5.5 * len(tracks) + 1, 4.8), squeeze=False)
+    for ax, track in zip(axes[0], tracks):
+        mine = [r for r in rows if r["track"] == track]
+        ks = sorted({float(r["k_dd_s"]) for r in mine})
+        ms = sorted({float(r["margin"]) for r in mine})
+        ratio = np.full((len(ms), len(ks)), np.nan)
+        marks = {}
+        for r in mine:
+            i, j = ms.index(float(r["margin"])), ks.index(float(r["k_dd_s"]))
+            clean = r["status"] == "ok" and r["wall_contacts"] == "0"
+            if clean:
+                ratio[i, j] = float(r["best_ratio"])
+            marks[i, j] = (f"{float(r['best_ratio']):.3f}" if clean else "failed" if r["status"] == "failed" else
+                           f"wall\n{float(r['best_ratio']):.3f}" if r["status"] == "ok" else "laps\nshort")
+        image = ax.imshow(np.ma.masked_invalid(ratio), origin="lower", cmap="viridis_r", aspect="auto")
+        for (i, j), mark in marks.items():  # light text on the dark (slow) end of the colour map
+            dark = np.isfinite(ratio[i, j]) and image.norm(ratio[i, j]) > 0.6
+            ax.text(j, i, mark, ha="center", va="center", fontsize=8,
+                    color="firebrick" if not np.isfinite(ratio[i, j]) else "white" if dark else "black")
+        fig.colorbar(image, ax=ax, label="best lap / physical-limit lap")
+        ax.set_xticks(range(len(ks)), [f"{k:g}" for k in ks])
+        ax.set_yticks(range(len(ms)), [f"{m:g}" for m in ms])
+        ax.set_xlabel("pure pursuit K_dd [s]")
+        ax.set_ylabel("speed margin (fraction of the limits)")
+        b = best(rows, track)
+        ax.set_title(f"{track}: best {float(b['best_ratio']):.3f} x (K_dd {float(b['k_dd_s']):g}, margin "
+                     f"{float(b['margin']):g})" if b else f"{track}: no clean run", fontsize=10)
+    return fig
+
+
+def main(argv: list[str] | None = None) -> int:
+    from roar_sim.runs.race import K_DD_RANGE_S, MARGIN_RANGE
+
+    parser = argparse.ArgumentParser(prog="roar sweep", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--track", default=DEFAULT_TRACKS,
+                        help=f"tracks, comma-separated: oval, figure-eight, course or .json files (default: "
+                             f"{DEFAULT_TRACKS})")
+    parser.add_argument("--k-dd", default=DEFAULT_K_DD_S, metavar="LIST",
+                        help=f"pure pursuit's look-ahead per m/s [s] (default: {DEFAULT_K_DD_S})")
+    parser.add_argument("--margin", default=DEFAULT_MARGINS, metavar="LIST",
+                        help=f"fractions of the robot's limits to drive at (default: {DEFAULT_MARGINS})")
+    parser.add_argument("--laps", type=int, default=2, help="laps per race; the best counts (default: 2)")
+    parser.add_argument("--junior", action="store_true", help="race the ROAR Junior (over HTTP) instead of the ESC car")
+    parser.add_argument("--out", type=Path, default=Path("out/sweep"), metavar="DIR",
+                        help="results.csv and sweep.png go here (default: out/sweep); an existing results.csv "
+                             "is resumed")
+    parser.add_argument("--address", metavar="HOST:PORT",
+                        help="run on this Ray cluster ('auto': the one `ray start` began on this machine); "
+                             "default: a local Ray for this sweep alone")
+    parser.add_argument("--workers", type=int, metavar="N",
+                        help="CPUs of the local Ray (default: all of this machine's)")
+    parser.add_argument("--serial", action="store_true", help="run here, one race after another, without Ray")
+    args = parser.parse_args(argv)
+    if not 1 <= args.laps <= 20:
+        parser.error("--laps must be 1..20")
+    if args.workers is not None and not 1 <= args.workers <= 1024:
+        parser.error("--workers must be 1..1024")
+    if args.workers is not None and (args.address or args.serial):
+        parser.error("--workers sizes the local Ray: not with --address or --serial")
+    if args.address and args.serial:
+        parser.error("--serial runs without Ray: not with --address")
+    try:
+        runs, tracks = _runs(args, K_DD_RANGE_S, MARGIN_RANGE)
+        if args.address not in (None, "auto"):
+            _reachable(args.address)
+        args.out.mkdir(parents=True, exist_ok=True)
+        table = Table(args.out / "results.csv")
+        before = sum(table.finished(r) for r in runs)
+        print(f"{_count(len(runs), 'run')} ({_count(len(tracks), 'track')} x {_count(len(runs) // len(tracks), 'parameter point')}); "
+              f"{before} already in {table.path}, {len(runs) - before} to run "
+              f"{'here' if args.serial else 'on Ray at ' + args.address if args.address else 'on a local Ray'}",
+              file=sys.stderr)
+        rows = sweep(runs, table, serial=args.serial, address=args.address, workers=args.workers, progress=True)
+    except SweepError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    except OSError as e:
+        print(f"error: {args.out}: {e.strerror or e}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"interrupted: the finished runs are in {args.out / 'results.csv'}; the same command resumes",
+              file=sys.stderr)
+        return 130
+    print(report(rows, tracks))
+    print(f"table: {table.path}")
+    if not plotting.save(lambda: plot(rows, tracks), args.out / "sweep.png"):
+        return 1
+    return 2 if any(r["status"] == "failed" for r in rows) else 0
+
+
+def _runs(args, k_range: tuple[float, float], m_range: tuple[float, float]) -> tuple[list[Run], list[str]]:
+    from roar_sim.world.track import TrackError, get
+
+    tracks = list(dict.fromkeys(t.strip() for t in args.track.split(",") if t.strip()))
+    if not tracks:
+        raise SweepError("--track: no tracks")
+    for t in tracks:
+        try:
+            get(t)
+        except TrackError as e:
+            raise SweepError(str(e)) from None
+    runs = grid(tracks, parse_values(args.k_dd, "k-dd", *k_range), parse_values(args.margin, "margin", *m_range),
+                args.laps, "junior" if args.junior else "car")
+    if len(runs) > MAX_RUNS:
+        raise SweepError(f"the grid has {len(runs)} runs; more than {MAX_RUNS} is surely a typo")
+    return runs, tracks
+
+
+if __name__ == "__main__":
+    sys.exit(main())

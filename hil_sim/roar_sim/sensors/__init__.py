@@ -1,0 +1,1 @@
+"""What the robots sense: lidar rays, the TFmini, the HC-SR04's cone, cameras and their noise."""

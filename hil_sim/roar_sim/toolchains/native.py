@@ -1,0 +1,147 @@
+"""Host build of the firmware core (firmware/core): a shared library for ctypes and the native
+C++ test program, each in a plain and a sanitized (-fsanitize=address,undefined) variant.
+
+Builds are incremental (rebuilt when any core source or header is newer) and atomic (written
+to a temporary name, then renamed), so parallel test processes can share them.
+
+    python -m roar_sim.toolchains.native [--variant release|sanitize] [--force]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from roar.errors import RoarError
+
+ROOT = Path(__file__).resolve().parents[3]
+CORE = ROOT / "firmware" / "core"
+HOST_BOARD = ROOT / "firmware" / "host"  # the C ABI and the memory-backed HALs: host build only
+BUILD = ROOT / "build" / "host"
+
+WARNINGS = ["-Wall", "-Wextra", "-Wpedantic", "-Werror"]
+VARIANTS = {
+    "release": ["-O2"],
+    "sanitize": ["-O1", "-g", "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer"],
+    "thread": ["-O1", "-g", "-fsanitize=thread"],  # the native test's two-thread queue test, raced
+}
+TARGETS = {
+    "library": ("libroarcore.so", ["-shared", "-fPIC"], []),
+    "native_test": ("test_core", ["-pthread"], [CORE / "test" / "test_core.cpp"]),
+}
+
+
+# Microcontroller targets: the core must compile for them unchanged. avr-gcc 5.4 (Debian) knows
+# C++17 only as gnu++1z, which is why the core sticks to C++14 features and <stdint.h>.
+CROSS_TARGETS = {
+    "atmega328p": ("avr-g++", ["-std=gnu++1z", "-mmcu=atmega328p", "-DF_CPU=16000000L"], "gcc-avr avr-libc"),
+    "cortex-m4f": ("arm-none-eabi-g++", ["-std=c++17", "-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16",
+                                         "-mfloat-abi=hard"], "gcc-arm-none-eabi libnewlib-arm-none-eabi"),
+    "cortex-m7": ("arm-none-eabi-g++", ["-std=c++17", "-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-sp-d16",
+                                        "-mfloat-abi=hard"], "gcc-arm-none-eabi libnewlib-arm-none-eabi"),
+}
+# Every microcontroller build: small code, unused sections dropped, no exceptions/RTTI, no warnings.
+EMBEDDED_FLAGS = ["-Os", "-ffunction-sections", "-fdata-sections", "-fno-exceptions", "-fno-rtti",
+                  "-Wall", "-Wextra", "-Werror"]
+
+
+class CoreBuildError(RoarError):
+    """The host build failed; str() is one line naming the first compiler error."""
+
+
+def run_build(cmd: list[str], failure: str) -> None:
+    """Run a compiler or linker; on failure raise CoreBuildError("<failure>: <first error line>")."""
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        first = next((ln for ln in proc.stderr.splitlines() if "error" in ln), proc.stderr.strip()[:300])
+        raise CoreBuildError(f"{failure}: {first}")
+
+
+def core_sources() -> list[Path]:
+    return sorted((CORE / "src").glob("*.cpp"))
+
+
+def host_sources() -> list[Path]:
+    return sorted(HOST_BOARD.glob("*.cpp"))
+
+
+def _inputs(extra: list[Path]) -> list[Path]:
+    return (core_sources() + host_sources() + sorted((CORE / "include").rglob("*.h")) + sorted(HOST_BOARD.glob("*.h"))
+            + sorted((CORE / "test").glob("*.h")) + extra)
+
+
+def output_path(target: str = "library", variant: str = "release") -> Path:
+    return BUILD / variant / TARGETS[target][0]
+
+
+def compiler() -> str:
+    cxx = os.environ.get("CXX") or shutil.which("c++") or shutil.which("g++")
+    if not cxx:
+        raise CoreBuildError("no C++ compiler found: install g++ (apt-get install g++) or set CXX")
+    return cxx
+
+
+def build(target: str = "library", variant: str = "release", force: bool = False) -> Path:
+    """Build (if stale) and return the path of the target."""
+    if not CORE.is_dir():
+        raise CoreBuildError(f"the simulator builds the firmware core from the repository's firmware/core, which is "
+                             f"not at {CORE}: install from a checkout (pip install -e '<checkout>[sim]')")
+    if target not in TARGETS or variant not in VARIANTS:
+        raise CoreBuildError(f"unknown build {target}/{variant}: targets {sorted(TARGETS)}, variants {sorted(VARIANTS)}")
+    name, link_flags, extra = TARGETS[target]
+    out = output_path(target, variant)
+    inputs = _inputs(extra)
+    if not force and out.exists() and out.stat().st_mtime >= max(p.stat().st_mtime for p in inputs):
+        return out
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=name + ".", dir=out.parent)
+    os.close(fd)
+    cmd = [compiler(), "-std=c++17", *WARNINGS, *VARIANTS[variant], *link_flags, "-I", str(CORE / "include"),
+           "-I", str(HOST_BOARD), "-I", str(CORE / "test"), *map(str, core_sources() + host_sources() + extra), "-o", tmp]
+    try:
+        run_build(cmd, f"host build of firmware/core failed ({variant})")
+    except CoreBuildError:
+        os.unlink(tmp)
+        raise
+    os.chmod(tmp, 0o755)
+    os.replace(tmp, out)
+    return out
+
+
+def cross_compile(target: str) -> list[Path]:
+    """Compile the portable core sources for a microcontroller; returns the object files."""
+    cxx, flags, packages = CROSS_TARGETS[target]
+    if not shutil.which(cxx):
+        raise CoreBuildError(f"{cxx} not found: apt-get install {packages}")
+    out_dir = ROOT / "build" / "cross" / target
+    out_dir.mkdir(parents=True, exist_ok=True)
+    objects = []
+    for src in core_sources():
+        obj = out_dir / (src.stem + ".o")
+        run_build([cxx, *flags, *EMBEDDED_FLAGS, "-I", str(CORE / "include"), "-c", str(src), "-o", str(obj)],
+                  f"{target} build of firmware/core failed")
+        objects.append(obj)
+    return objects
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="Build the firmware core for the host.")
+    parser.add_argument("--variant", choices=sorted(VARIANTS), default="release")
+    parser.add_argument("--target", choices=sorted(TARGETS), default="library")
+    parser.add_argument("--force", action="store_true", help="rebuild even when up to date")
+    args = parser.parse_args(argv)
+    try:
+        print(build(args.target, args.variant, args.force).relative_to(ROOT))
+    except CoreBuildError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,63 @@
+"""Boxes on the track: obstacles a car must stop for or drive round. Each is a cube resting on
+the floor, placed by its distance along the centre line and its offset to the left of it.
+
+    boxes = place_boxes(plant.world, track, [(7.2, -0.25), (9.9, 0.25)])
+    touching(plant, boxes)                  # how many of them the car touches now
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from roar_sim.world.bullet import pb
+from roar_sim.world.track import Track
+
+BOX_HALF_M = 0.1  # [m] half a box's side
+BOX_RGBA = (0.85, 0.35, 0.1, 1.0)  # traffic-cone orange
+
+
+def add_box(world, x: float, y: float, half_m: float = BOX_HALF_M, yaw: float = 0.0) -> int:
+    """A static cube standing on the floor at (x, y) [m]."""
+    c = world.client
+    shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[half_m] * 3, physicsClientId=c)
+    visual = pb.createVisualShape(pb.GEOM_BOX, halfExtents=[half_m] * 3, rgbaColor=list(BOX_RGBA), physicsClientId=c)
+    return pb.createMultiBody(0, shape, visual, [x, y, half_m], pb.getQuaternionFromEuler([0, 0, yaw]),
+                              physicsClientId=c)
+
+
+def place_boxes(world, track: Track, spots: Sequence[tuple[float, float]]) -> list[int]:
+    """A box at each (distance along the centre line [m], offset to its left [m])."""
+    bodies = []
+    for s_m, offset_m in spots:
+        x, y, yaw = track.pose_at(s_m, offset_m)
+        bodies.append(add_box(world, x, y, yaw=yaw))
+    return bodies
+
+
+def touching(plant, boxes: Sequence[int]) -> int:
+    """How many of `boxes` the car touches right now."""
+    return sum(bool(pb.getContactPoints(plant.car, box, physicsClientId=plant.client)) for box in boxes)
+
+
+LANE_OFFSET_M = 0.25  # [m] a box in the middle of a lane: a quarter of the road's width from its centre
+STRAIGHT_BEFORE_M, STRAIGHT_AFTER_M = 1.0, 0.2  # [m] of straight road a box needs before and after it
+MIN_GAP_M = 3.5  # [m] between boxes: room to pass one and change lanes before the next
+FIRST_M = 3.0  # [m] from the start: the first box is not on the grid
+
+
+def box_course(track: Track, count: int) -> list[tuple[float, float]]:
+    """Up to `count` spots on straight road for an avoidance course: at least MIN_GAP_M apart,
+    alternately in the right and the left lane, the first in the right (where a car keeps)."""
+    pts = track.centerline
+    heading = np.unwrap(np.arctan2(*(np.roll(pts, -1, axis=0) - pts).T[::-1]))
+    spots: list[tuple[float, float]] = []
+    s = FIRST_M
+    while len(spots) < count and s < track.length_m - STRAIGHT_AFTER_M:
+        window = np.linspace(s - STRAIGHT_BEFORE_M, s + STRAIGHT_AFTER_M, 14) % track.length_m
+        turns = heading[np.searchsorted(track.arc_start, window, side="right") - 1]
+        if np.ptp(turns) < 0.02 and (not spots or s - spots[-1][0] >= MIN_GAP_M):
+            spots.append((s, LANE_OFFSET_M if len(spots) % 2 else -LANE_OFFSET_M))
+        s += 0.1
+    return spots

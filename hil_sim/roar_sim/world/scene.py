@@ -1,0 +1,219 @@
+"""The world every simulated robot drives in: a PyBullet client, an endless ground, the track's
+walls (one static mesh) and its painted floor, the GUI framing, and the camera and contact
+queries both robots use."""
+
+from __future__ import annotations
+
+import ctypes
+import math
+import os
+import threading
+
+import numpy as np
+import pybullet_data
+
+from roar.errors import RoarError
+from roar_sim.world.floor import add_floor
+from roar_sim.world.bullet import pb
+from roar_sim.world.track import Track, per_shape
+
+WALL_HEIGHT_M, WALL_THICKNESS_M = 0.3, 0.05  # [m] higher than the lidar (0.17 m)
+GROUND_HALF_M = 25.0  # [m] asphalt shown beyond the track (or around the origin without one)
+SOLVER_ITERATIONS = 10  # contact solver iterations per step (PyBullet default 50): a car on a plane settles in few
+
+
+class SimError(RoarError):
+    """The simulator cannot start as asked; str() is one line."""
+
+
+def display_problem() -> str | None:
+    """Why PyBullet's window cannot open here (one line), or None. PyBullet itself would end the
+    whole Python process without a word."""
+    display = os.environ.get("DISPLAY")
+    if not display:
+        return "--gui needs a display: DISPLAY is not set (run without --gui, or under xvfb-run)"
+    try:
+        x11 = ctypes.CDLL("libX11.so.6")
+    except OSError:
+        return "--gui needs X11, and libX11 is not installed"
+    x11.XOpenDisplay.restype, x11.XOpenDisplay.argtypes = ctypes.c_void_p, [ctypes.c_char_p]
+    x11.XCloseDisplay.argtypes = [ctypes.c_void_p]
+    connection = x11.XOpenDisplay(None)
+    if not connection:
+        return f"--gui needs a display: cannot open DISPLAY={display}"
+    x11.XCloseDisplay(connection)
+    return None
+
+
+class World:
+    """A PyBullet client (DIRECT, or GUI when gui=True) with gravity, the ground and, with a
+    track, its walls and painted floor. Robots add their own bodies to `client`."""
+
+    def __init__(self, track: Track | None, dt_s: float, gui: bool = False) -> None:
+        problem = display_problem() if gui else None
+        if problem:
+            raise SimError(problem)
+        self.track, self.dt_s = track, dt_s
+        self._rays: tuple[int, int, threading.Lock] | None = None  # ray_test's walls-only client
+        self.client = pb.connect(pb.GUI if gui else pb.DIRECT)
+        c = self.client
+        pb.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=c)
+        pb.setGravity(0, 0, -9.81, physicsClientId=c)
+        pb.setTimeStep(dt_s, physicsClientId=c)
+        pb.setPhysicsEngineParameter(numSolverIterations=SOLVER_ITERATIONS, physicsClientId=c)
+        # Nearest-first for the camera's software renderer: a pixel already covered by a wall or the
+        # floor is rejected by its depth test before it is shaded again for what lies beneath.
+        self.walls = self._build_walls(track) if track else []
+        self.floor = add_floor(track, c) if track else None
+        self.ground = self._add_ground(track)
+        if gui:
+            self._frame_gui(track)
+
+    def start_pose(self) -> tuple[float, float, float]:
+        return self.track.start_pose if self.track else (0.0, 0.0, 0.0)
+
+    def _add_ground(self, track: Track | None) -> int:
+        """An endless flat ground (a collision plane, so no track can reach its edge) shown as dark
+        asphalt (plain, so walls stand out for the camera) under the track and a margin around it."""
+        c = self.client
+        centre, half = np.zeros(2), GROUND_HALF_M
+        if track is not None:
+            lo, hi = track.centerline.min(axis=0), track.centerline.max(axis=0)
+            centre, half = (lo + hi) / 2, float(max(hi - lo)) / 2 + track.width_m + GROUND_HALF_M
+        shape = pb.createCollisionShape(pb.GEOM_PLANE, planeNormal=[0, 0, 1], physicsClientId=c)
+        # one quad, not a box: the camera's software renderer pays for every screen-sized triangle
+        corners = [[-half, -half, 0.0], [half, -half, 0.0], [half, half, 0.0], [-half, half, 0.0]]
+        visual = pb.createVisualShape(pb.GEOM_MESH, vertices=corners, indices=[0, 1, 2, 0, 2, 3],
+                                      normals=[[0, 0, 1]] * 4, rgbaColor=[0.25, 0.25, 0.27, 1], physicsClientId=c)
+        body = pb.createMultiBody(0, shape, visual, [float(centre[0]), float(centre[1]), 0], physicsClientId=c)
+        pb.changeDynamics(body, -1, lateralFriction=1.0, physicsClientId=c)  # as PyBullet's plane.urdf
+        return body
+
+    def _frame_gui(self, track: Track | None) -> None:
+        """Hide the debug panels and look down on the whole track."""
+        c = self.client
+        pb.configureDebugVisualizer(pb.COV_ENABLE_GUI, 0, physicsClientId=c)
+        centre, size = (0.0, 0.0), 2.0
+        if track is not None:
+            lo, hi = track.centerline.min(axis=0), track.centerline.max(axis=0)
+            centre, size = tuple((lo + hi) / 2), float(max(hi - lo)) + track.width_m
+        pb.resetDebugVisualizerCamera(size, 0, -60, [centre[0], centre[1], 0], physicsClientId=c)
+
+    def _build_walls(self, track: Track) -> list[int]:
+        """One static triangle mesh of wall boxes along both edges (one body keeps the physics
+        fast)."""
+        return [_mesh_body(self.client, *wall_mesh(track), visual=True)]
+
+    def ray_test(self, starts: list, ends: list) -> list:
+        """pb.rayTestBatch for a sensor on a robot in this world. While the world holds nothing but
+        its walls, ground, floor and that robot, the rays go to a second client that holds only the
+        walls: the same mesh, so the same answers, without the robot's own wheels and boxes near
+        the rays' starts, which cost Bullet up to 2 ms a 72-beam scan (most of a lidar's time)."""
+        c = self.client
+        if not self.walls or pb.getNumBodies(physicsClientId=c) != len(self._own_bodies()) + 1:
+            return pb.rayTestBatch(starts, ends, physicsClientId=c)
+        if self._rays is None:
+            self._rays = _walls_only(self.track)
+        client, walls, lock = self._rays
+        with lock:
+            hits = pb.rayTestBatch(starts, ends, physicsClientId=client)
+        return [(self.walls[0], *h[1:]) if h[0] == walls else h for h in hits]
+
+    def _own_bodies(self) -> list[int]:
+        return [*self.walls, *([self.floor] if self.floor is not None else []), self.ground]
+
+    # TinyRenderer: PyBullet's CPU renderer. Its EGL plugin (pb.ER_BULLET_HARDWARE_OPENGL once
+    # loaded) draws this world blank with Mesa's software OpenGL (make bench measures both).
+    renderer = pb.ER_TINY_RENDERER
+
+    def planar_motion(self, body: int) -> tuple[float, float, float, float, float]:
+        """(x [m], y [m], yaw [rad], speed along the heading [m/s], yaw rate [rad/s]) of a body
+        on the floor."""
+        c = self.client
+        (x, y, _), orn = pb.getBasePositionAndOrientation(body, physicsClientId=c)
+        (vx, vy, _), (_, _, wz) = pb.getBaseVelocity(body, physicsClientId=c)
+        yaw = pb.getEulerFromQuaternion(orn)[2]
+        return x, y, yaw, vx * math.cos(yaw) + vy * math.sin(yaw), wz
+
+    def contacts(self, body: int) -> int:
+        """How many wall bodies `body` touches right now."""
+        touching = {pt[2] for pt in pb.getContactPoints(bodyA=body, physicsClientId=self.client)}
+        return len(touching & set(self.walls))
+
+    def render(self, position, yaw: float, pitch: float, width: int, height: int, fov_deg: float,
+               far_m: float = 10.0, near_m: float = 0.05) -> tuple[np.ndarray, np.ndarray]:
+        """(RGB uint8 HxWx3, depth float32 HxW [m]) from a camera at `position` looking along `yaw`,
+        tilted down by `pitch` [rad]."""
+        forward = np.array([math.cos(yaw), math.sin(yaw), -math.tan(pitch)])
+        view = pb.computeViewMatrix(list(position), (np.array(position) + forward).tolist(), [0, 0, 1])
+        proj = pb.computeProjectionMatrixFOV(fov_deg, width / height, near_m, far_m)
+        _, _, rgba, depth_buf, _ = pb.getCameraImage(width, height, view, proj, renderer=self.renderer,
+                                                     physicsClientId=self.client)
+        rgb = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3]
+        d = np.asarray(depth_buf, dtype=np.float32).reshape(height, width)
+        return rgb, far_m * near_m / (far_m - (far_m - near_m) * d)
+
+    def step(self) -> None:
+        pb.stepSimulation(physicsClientId=self.client)
+
+    def close(self) -> None:
+        if pb.isConnected(self.client):
+            pb.disconnect(self.client)
+
+
+def _walls_only(track: Track) -> tuple[int, int, threading.Lock]:
+    """(client, wall body, its lock): a client holding only the track's walls, shared by every
+    world of that track in this process (the walls never move)."""
+    def make() -> tuple[int, int, threading.Lock]:
+        client = pb.connect(pb.DIRECT)
+        return client, _mesh_body(client, *wall_mesh(track), visual=False), threading.Lock()
+
+    return per_shape("walls-only ray client", track, make)
+
+
+def wall_mesh(track: Track) -> tuple[list[list[float]], list[int]]:
+    """(vertices, indices) of the wall boxes along both edges, computed once per track shape. A
+    segment that would lie inside another part of the track (the crossing of a figure-eight) is
+    left out."""
+    return per_shape("wall mesh", track, lambda: _build_wall_mesh(track))
+
+
+def _build_wall_mesh(track: Track) -> tuple[list[list[float]], list[int]]:
+    cl = track.centerline
+    n = len(cl)
+    vertices: list[list[float]] = []
+    indices: list[int] = []
+    for edge in track.edges():
+        for i in range(n):
+            a, b = edge[i], edge[(i + 1) % n]
+            mid = (a + b) / 2
+            d = np.linalg.norm(cl - mid, axis=1)
+            far = np.abs((np.arange(n) - i + n // 2) % n - n // 2) > 10
+            if np.any(d[far] < track.width_m / 2 - 0.02):
+                continue
+            _add_box(vertices, indices, a, b)
+    return vertices, indices
+
+
+def _mesh_body(client: int, vertices: list, indices: list, visual: bool) -> int:
+    """A static body of the triangle mesh (drawn in light grey when visual)."""
+    shape = pb.createCollisionShape(pb.GEOM_MESH, vertices=vertices, indices=indices,
+                                    flags=pb.GEOM_FORCE_CONCAVE_TRIMESH, physicsClientId=client)
+    look = pb.createVisualShape(pb.GEOM_MESH, vertices=vertices, indices=indices, rgbaColor=[0.8, 0.8, 0.8, 1],
+                                physicsClientId=client) if visual else -1
+    return pb.createMultiBody(0, shape, look, [0, 0, 0], physicsClientId=client)
+
+
+def _add_box(vertices: list, indices: list, a: np.ndarray, b: np.ndarray) -> None:
+    """Append a wall box from a to b (WALL_THICKNESS_M thick, WALL_HEIGHT_M high) as 12 triangles."""
+    direction = (b - a) / max(1e-9, float(np.linalg.norm(b - a)))
+    a, b = a - direction * WALL_THICKNESS_M / 2, b + direction * WALL_THICKNESS_M / 2
+    normal = np.array([-direction[1], direction[0]]) * WALL_THICKNESS_M / 2
+    base = len(vertices)
+    for z in (0.0, WALL_HEIGHT_M):
+        for p in (a - normal, b - normal, b + normal, a + normal):
+            vertices.append([float(p[0]), float(p[1]), z])
+    faces = [(0, 2, 1), (0, 3, 2), (4, 5, 6), (4, 6, 7), (0, 1, 5), (0, 5, 4),
+             (1, 2, 6), (1, 6, 5), (2, 3, 7), (2, 7, 6), (3, 0, 4), (3, 4, 7)]
+    for f in faces:
+        indices.extend(base + k for k in f)

@@ -1,0 +1,70 @@
+"""A start light beside the track, as at IARRC: a post outside the road's right edge, a little
+ahead of the start, with a red lamp above a green one. Red is lit from the start; at a moment
+drawn from a seed it goes dark and green lights. Visual only: nothing to collide with, and the
+lidar does not see it (the camera and depth do).
+
+    lights = StartLights(plant.world, track, green_at_s=2.7)
+    plant.props.append(lights)            # the plant switches it as simulated time passes
+"""
+
+from __future__ import annotations
+
+import math
+import random
+
+from roar_sim.world.bullet import pb
+from roar_sim.world.track import Track
+
+AHEAD_M = 2.0  # [m] from the start along the track
+BEYOND_EDGE_M = 0.2  # [m] outside the road's right edge
+LAMP_M = 0.12  # [m] a lamp's square face
+RED_Z_M, GREEN_Z_M = 0.66, 0.50  # [m] lamp centres above the floor
+GREEN_AFTER_S = (1.0, 4.0)  # [s] the range the green moment is drawn from
+
+RED_ON, RED_OFF = (1.0, 0.05, 0.05, 1.0), (0.22, 0.06, 0.06, 1.0)
+GREEN_ON, GREEN_OFF = (0.1, 1.0, 0.15, 1.0), (0.05, 0.18, 0.06, 1.0)
+HOUSING = (0.05, 0.05, 0.05, 1.0)
+
+
+def green_moment(seed: int, span_s: tuple[float, float] = GREEN_AFTER_S) -> float:
+    """[s] when the light turns green in the run with this seed."""
+    return random.Random(seed).uniform(*span_s)
+
+
+class StartLights:
+    """Red until green_at_s [s] of simulated time, then green."""
+
+    def __init__(self, world, track: Track, green_at_s: float) -> None:
+        self.client, self.green_at_s = world.client, green_at_s
+        x, y, yaw = track.pose_at(AHEAD_M, -(track.width_m / 2 + BEYOND_EDGE_M))
+        orn = pb.getQuaternionFromEuler([0, 0, yaw])
+        # the housing and lamps face back along the track, towards the car at the start
+        face = (-math.cos(yaw), -math.sin(yaw))
+        self.housing = self._box(x, y, (RED_Z_M + GREEN_Z_M) / 2, (0.03, 0.1, 0.17), HOUSING, orn)
+        self.post = self._box(x, y, (GREEN_Z_M - 0.1) / 2, (0.02, 0.02, (GREEN_Z_M - 0.1) / 2), HOUSING, orn)
+        lamp = (0.01, LAMP_M / 2, LAMP_M / 2)
+        lx, ly = x + 0.035 * face[0], y + 0.035 * face[1]
+        self.red = self._box(lx, ly, RED_Z_M, lamp, RED_ON, orn)
+        self.green = self._box(lx, ly, GREEN_Z_M, lamp, GREEN_OFF, orn)
+        self.is_green = False
+
+    def _box(self, x: float, y: float, z: float, half: tuple, rgba: tuple, orn) -> int:
+        visual = pb.createVisualShape(pb.GEOM_BOX, halfExtents=list(half), rgbaColor=list(rgba),
+                                      physicsClientId=self.client)
+        return pb.createMultiBody(0, -1, visual, [x, y, z], orn, physicsClientId=self.client)
+
+    def show(self, green: bool) -> None:
+        """Green (red dark), or red (green dark), now."""
+        self.is_green = green
+        pb.changeVisualShape(self.red, -1, rgbaColor=list(RED_OFF if green else RED_ON), physicsClientId=self.client)
+        pb.changeVisualShape(self.green, -1, rgbaColor=list(GREEN_ON if green else GREEN_OFF),
+                             physicsClientId=self.client)
+
+    def reset(self, green_at_s: float) -> None:
+        """Red again, green at green_at_s [s] of simulated time."""
+        self.green_at_s = green_at_s
+        self.show(False)
+
+    def update(self, time_s: float) -> None:
+        if not self.is_green and time_s >= self.green_at_s:
+            self.show(True)
