@@ -8,7 +8,7 @@ import time
 from roar_sim.emulators import qemu
 
 from roar_sim.toolchains import arm
-from roar_sim.core.library import iarrc_tasks
+from roar_sim.core.iarrc import iarrc_tasks
 from roar_sim.clock.rtos import Scheduler
 from roar_sim.runs.step_response import measure
 

@@ -8,7 +8,7 @@ import time
 
 from benchmarks.sim_speed import compare
 from roar.junior import query_for
-from roar_sim.core.library import SidePins
+from roar_sim.core.junior import SidePins
 from roar_sim.plants.junior import JuniorPlant
 from roar_sim.robots.junior import PHYSICS_US, JuniorSim
 from roar_sim.world.track import oval

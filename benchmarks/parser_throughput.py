@@ -9,7 +9,7 @@ from pathlib import Path
 
 from roar.protocol import StreamDecoder, encode
 from roar_sim.emulators import micropython
-from roar_sim.core.library import Parser
+from roar_sim.core.car import ControlParser
 from roar_wire import control
 
 TITLE = "parser throughput (messages/s)"
@@ -51,7 +51,7 @@ def on_micropython() -> float | None:
 def measure() -> dict[str, float]:
     big, small = 500_000, 20_000
     cpp_data, py_data = stream(big), stream(small)
-    cpp = best_rate(lambda: Parser().count(cpp_data), big)
+    cpp = best_rate(lambda: ControlParser().count(cpp_data), big)
     py = best_rate(lambda: len(StreamDecoder().feed(py_data)), small, repeats=3)
     wire = best_rate(lambda: portable(py_data), small, repeats=3)
     return {"cpp": cpp, "python": py, "portable": wire, "micropython": on_micropython()}

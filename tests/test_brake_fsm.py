@@ -4,7 +4,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from roar.protocol import spec
-from roar_sim.core.library import BrakeFsm, BrakePhase
+from roar_sim.core.car import BrakeFsm
+from roar_sim.core.library import BrakePhase
 
 N, TAP, STEP = spec.CONTROL_NEUTRAL_US, spec.TIMING_BRAKE_TAP_US, spec.TIMING_BRAKE_STEP_US
 FRAME = spec.TIMING_SERVO_FRAME_US

@@ -119,7 +119,8 @@ def test_every_accepted_calibration_arms_the_car_and_drives_it_both_ways(cal):
     """Against the firmware core: the neutral this calibration sends arms a car that booted
     latched, and its +1/-1 throttle and steering then come out of the car as sent (reverse
     after the brake sequence)."""
-    from roar_sim.core.library import Car, ControlSource
+    from roar_sim.core.car import Car
+    from roar_sim.core.library import ControlSource
 
     car = Car()
     car.boot()

@@ -4,7 +4,8 @@ Nano, the ESP32 and the simulator run it."""
 import pytest
 
 from roar.protocol import spec
-from roar_sim.core.library import Car, CarConfig, ChannelCalibration, ControlSource
+from roar_sim.core.car import Car, CarConfig, ChannelCalibration
+from roar_sim.core.library import ControlSource
 
 N = spec.CONTROL_NEUTRAL_US
 TIMEOUT = spec.TIMING_FAILSAFE_TIMEOUT_US
@@ -112,7 +113,8 @@ def test_invalid_calibration_is_refused():
 
 def test_python_car_config_defaults_mirror_the_core():
     """The binding's CarConfig restates the core's defaults; they must not drift apart."""
-    from roar_sim.core.library import default_config_from_core, ffi
+    from roar_sim.core.car import default_config_from_core
+    from roar_sim.core.library import ffi
 
     core, py = default_config_from_core(), CarConfig().to_c()
     names = [name for name, _ in ffi.typeof("roar_car_config_t").fields if name != "reserved"]

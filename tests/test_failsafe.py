@@ -5,13 +5,14 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from roar.protocol import spec
-from roar_sim.core.library import Watchdog, WatchdogEvent
+from roar_sim.core.car import CommandWatchdog
+from roar_sim.core.library import WatchdogEvent
 
 TIMEOUT = spec.TIMING_FAILSAFE_TIMEOUT_US
 
 
 def test_boots_latched_and_neutral_arms():
-    wd = Watchdog()
+    wd = CommandWatchdog()
     assert wd.latched
     assert wd.accept(1700, 1500, 0) == (False, WatchdogEvent.NONE)
     assert wd.accept(1500, 1800, 10) == (True, WatchdogEvent.ARMED)
@@ -19,7 +20,7 @@ def test_boots_latched_and_neutral_arms():
 
 
 def test_trips_one_microsecond_after_the_timeout():
-    wd = Watchdog()
+    wd = CommandWatchdog()
     wd.accept(1500, 1500, 1_000)
     assert wd.poll(1_000 + TIMEOUT) == WatchdogEvent.NONE
     assert wd.poll(1_000 + TIMEOUT + 1) == WatchdogEvent.TRIPPED
@@ -28,7 +29,7 @@ def test_trips_one_microsecond_after_the_timeout():
 
 
 def test_latched_until_neutral():
-    wd = Watchdog()
+    wd = CommandWatchdog()
     wd.accept(1500, 1500, 0)
     wd.poll(TIMEOUT + 1)
     assert wd.accept(1800, 1500, TIMEOUT + 10)[0] is False
@@ -39,7 +40,7 @@ def test_latched_until_neutral():
 
 def test_a_late_command_still_counts_the_silence():
     """Even if the loop never polled during the silence, the command that ends it finds the car tripped."""
-    wd = Watchdog()
+    wd = CommandWatchdog()
     wd.accept(1500, 1500, 0)
     wd.accept(1700, 1500, 1)
     ok, ev = wd.accept(1700, 1500, TIMEOUT + 2)
@@ -52,7 +53,7 @@ def test_fires_on_every_silence_longer_than_the_timeout_and_never_earlier(gaps, 
     """Commands (all neutral, so the car re-arms each time) arrive after random gaps; the loop
     polls every `poll_every` us in between. The watchdog trips in exactly the gaps longer than
     the timeout, at the first poll after last + timeout, never before."""
-    wd = Watchdog()
+    wd = CommandWatchdog()
     t = t0
     assert wd.accept(1500, 1500, t)[0]
     for gap in gaps:

@@ -3,7 +3,7 @@ from a simulated transmitter, setpoints from a host and the battery, on the core
 across the 32-bit wrap); the quadrature decoder, the speed estimate and the PID's anti-windup."""
 
 from roar.protocol import encode, encode_setpoint, spec
-from roar_sim.core.library import Iarrc
+from roar_sim.core.iarrc import IarrcController
 from roar_wire import sbus
 
 FRAME_US = 7_000  # [us] between SBUS frames
@@ -17,7 +17,7 @@ class World:
     """A controller with a transmitter and a host around it, on a 1 ms control loop."""
 
     def __init__(self, start_us: int = 1_000_000) -> None:
-        self.c = Iarrc()
+        self.c = IarrcController()
         self.t = start_us
         self.tx = {"throttle": NEUTRAL, "steering": NEUTRAL, "mode": OFF, "stop": RUN}
         self.tx_on = True  # the transmitter's frames reach the receiver

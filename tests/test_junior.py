@@ -17,7 +17,7 @@ from conftest import ROOT, wait_for
 from roar import Vehicle
 from roar.junior import original_mix, query_for, smooth_mix
 from roar.protocol import spec
-from roar_sim.core.library import SidePins
+from roar_sim.core.junior import SidePins
 from roar_sim.plants.junior import ULTRASONIC_POS_M, motor_torque
 from roar_sim.robots.junior import JuniorConfig, JuniorSim
 from roar_sim.world.bullet import pb

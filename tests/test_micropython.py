@@ -57,7 +57,7 @@ def wire_cases(seed: int = 7, n: int = 600) -> dict:
 
 
 def test_micropython_and_cpython_answer_alike_and_the_junior_rules_match_the_core(tmp_path):
-    from roar_sim.core import library
+    from roar_sim.core.junior import JuniorControl
     from roar_wire import control, junior
 
     cases = wire_cases()
@@ -78,7 +78,7 @@ def test_micropython_and_cpython_answer_alike_and_the_junior_rules_match_the_cor
     codes = {junior.UNKNOWN_NAME: "unknown parameter", junior.BAD_FLAG: "bad flag", junior.BAD_SPEED: "bad speed"}
     refused = 0
     for query, (actions, reason) in zip(cases["queries"], got["queries"]):
-        applied, error = library.Junior().apply_query(query, 0)
+        applied, error = JuniorControl().apply_query(query, 0)
         if reason is None:
             assert (applied, error) == (len(actions), None), query
         else:

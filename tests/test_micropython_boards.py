@@ -104,7 +104,8 @@ def junior_scenario(seed: int, seconds: float = 20.0) -> dict:
 def cpp_junior(scenario: dict) -> dict:
     """The C++ core's Junior (JuniorBoard and its HTTP reader) on the same events: its replies
     and its pins after every loop tick, as changes."""
-    from roar_sim.core.library import HttpReader, JuniorBoard
+    from roar_sim.core.junior import HttpRequestReader, JuniorBoard
+    from roar_sim.core.library import HttpRead
 
     loop0 = scenario["start_us"] + BOOT_GRACE_US
     board = JuniorBoard(loop_us=1000, start_us=loop0)
@@ -128,12 +129,12 @@ def cpp_junior(scenario: dict) -> dict:
         if action == "close":
             closed.add(conn)
         elif conn not in closed:
-            reader = readers.setdefault(conn, HttpReader())
+            reader = readers.setdefault(conn, HttpRequestReader())
             data = text.encode()
             while data:
                 used, state = reader.feed(data)
                 data = data[used:]
-                if state == HttpReader.INCOMPLETE:
+                if state == HttpRead.INCOMPLETE:
                     break
                 board.hal.now_us = at % (1 << 32)  # the request arrives between two ticks
                 reply, keep = board.respond(reader)
@@ -233,10 +234,10 @@ def car_scenario(seed: int, seconds: float = 20.0) -> dict:
 def cpp_car(scenario: dict) -> dict:
     """The C++ core's board loop (CarBoard) on the same bytes (taken by the loop at the next
     tick, as the MicroPython car takes its BLE writes) and frames every 20 ms from the start."""
-    from roar_sim.core.library import Board
+    from roar_sim.core.car import CarBoard
 
     start = scenario["start_us"]
-    board = Board(start_us=start)
+    board = CarBoard(start_us=start)
     board.begin()
     tick, changes, replies, last = start, [], [], None
 

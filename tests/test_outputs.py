@@ -5,9 +5,11 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from roar.protocol import spec
-from roar_sim.core.library import L298nDriver, RcOverride, calibration_valid, map_pulse
+from roar_sim.core.car import RcOverride, calibration_valid, map_pulse
 
 # --- output mapping ---------------------------------------------------------------------------
+from roar_sim.core.junior import L298nDriver
+from roar_sim.core.library import RcChannel
 
 
 def test_trim_moves_the_pulse():
@@ -45,8 +47,8 @@ PERIOD = 20_000  # [us] a 50 Hz receiver
 def feed_rc(rc, throttle, steering, t0, n):
     t = t0
     for _ in range(n):
-        rc.pulse(RcOverride.THROTTLE, throttle, t)
-        rc.pulse(RcOverride.STEERING, steering, t + 1000)
+        rc.pulse(RcChannel.THROTTLE, throttle, t)
+        rc.pulse(RcChannel.STEERING, steering, t + 1000)
         t += PERIOD
     return t
 
@@ -62,7 +64,7 @@ def test_needs_lock_pulses_on_both_channels():
 def test_one_channel_is_not_enough():
     rc = RcOverride()
     for i in range(10):
-        rc.pulse(RcOverride.THROTTLE, 1600, i * PERIOD)
+        rc.pulse(RcChannel.THROTTLE, 1600, i * PERIOD)
     assert not rc.active(10 * PERIOD)
 
 
@@ -78,7 +80,7 @@ def test_invalid_pulse_breaks_the_lock_and_values_are_clamped():
     rc = RcOverride()
     t = feed_rc(rc, 2050, 950, 0, 5)
     assert rc.active(t) and rc.command() == (2000, 1000)
-    rc.pulse(RcOverride.THROTTLE, 800, t)  # receiver failsafe value
+    rc.pulse(RcChannel.THROTTLE, 800, t)  # receiver failsafe value
     assert not rc.active(t)
 
 

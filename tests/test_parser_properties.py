@@ -6,7 +6,7 @@ from hypothesis import strategies as st
 
 from roar.protocol import ParseResult, StreamDecoder, encode
 from roar.protocol import spec
-from roar_sim.core import library
+from roar_sim.core import car
 
 # Streams made of protocol-ish pieces find the interesting states far more often than
 # uniform random bytes; raw binary is mixed in too.
@@ -39,14 +39,14 @@ def feed_all(parser, chunks):
 def test_cpp_and_python_agree(data, cuts_py, cuts_cpp):
     """Same events, at the same offsets, however each side's input is split into reads."""
     py = feed_all(StreamDecoder(), chunked(data, cuts_py))
-    cpp = feed_all(library.Parser(), chunked(data, cuts_cpp))
+    cpp = feed_all(car.ControlParser(), chunked(data, cuts_cpp))
     assert cpp == py
 
 
 @given(st.binary(max_size=512))
 def test_arbitrary_bytes_agree_and_stay_in_range(data):
     py = StreamDecoder().feed(data)
-    cpp = library.Parser().feed(data)
+    cpp = car.ControlParser().feed(data)
     assert cpp == py
     for ev in py:
         assert ev.result != ParseResult.NONE
@@ -73,6 +73,6 @@ def test_valid_message_after_any_garbage_and_a_line_end_is_accepted(garbage, t, 
 
 @given(streams)
 def test_at_most_one_event_per_byte_and_offsets_increase(data):
-    events = library.Parser().feed(data)
+    events = car.ControlParser().feed(data)
     ats = [e.at for e in events]
     assert ats == sorted(set(ats))

@@ -55,7 +55,7 @@ def test_the_telemetry_words_the_core_prints_are_the_spec_s():
     """The IARRC board's TEL line spells its mode and failsafe with the generated words (with no
     transmitter it stays disarmed)."""
     from roar.protocol.spec import IarrcFailsafe, IarrcMode
-    from roar_sim.core.library import IarrcBoard
+    from roar_sim.core.iarrc import IarrcBoard
 
     board = IarrcBoard()
     board.begin()

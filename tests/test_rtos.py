@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import pytest
 
-from roar_sim.core.library import IarrcBoard, TaskSpec, iarrc_tasks
+from roar_sim.core.iarrc import IarrcBoard, TaskSpec, iarrc_tasks
 from roar_sim.clock.rtos import Scheduler
 
 TASKS = iarrc_tasks()

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from conftest import ROOT
 from roar.protocol import spec
-from roar_sim.core import library
+from roar_sim.core import iarrc
 from roar_wire import sbus
 
 CASES = json.loads((ROOT / "protocol" / "vectors" / "sbus_frames.json").read_text())["cases"]
@@ -29,11 +29,11 @@ def reference_bytes(channels, flags, end):
 def test_golden_frames_bit_for_bit_in_both_decoders(case):
     data = bytes.fromhex(case["hex"])
     assert data == reference_bytes(case["channels"], case["flags"], case["end"])
-    for encode, decode in ((library.sbus_encode, library.sbus_decode), (sbus.encode, sbus.decode_frame)):
+    for encode, decode in ((iarrc.sbus_encode, iarrc.sbus_decode), (sbus.encode, sbus.decode_frame)):
         assert encode(case["channels"], case["flags"], case["end"]) == data
         assert decode(data) == (case["channels"], case["flags"], case["end"])
     assert sbus.is_failsafe(case["channels"], case["flags"]) == case["failsafe"]
-    for decoder in (library.SbusDecoder(), sbus.Decoder()):
+    for decoder in (iarrc.SbusDecoder(), sbus.Decoder()):
         results = [decoder.feed(b, i * BYTE_US) for i, b in enumerate(data)]
         assert results[-1] == (sbus.FAILSAFE if case["failsafe"] else sbus.FRAME) and not any(results[:-1])
 
@@ -46,13 +46,13 @@ ends = st.sampled_from(sbus.END_BYTES)
 @given(channels, flags, ends)
 def test_round_trip_and_the_two_encoders_agree(ch, fl, end):
     data = sbus.encode(ch, fl, end)
-    assert data == library.sbus_encode(ch, fl, end) == reference_bytes(ch, fl, end)
-    assert sbus.decode_frame(data) == library.sbus_decode(data) == (ch, fl, end)
+    assert data == iarrc.sbus_encode(ch, fl, end) == reference_bytes(ch, fl, end)
+    assert sbus.decode_frame(data) == iarrc.sbus_decode(data) == (ch, fl, end)
 
 
 @given(st.binary(min_size=25, max_size=25))
 def test_any_25_bytes_decode_alike(data):
-    assert sbus.decode_frame(data) == library.sbus_decode(data)
+    assert sbus.decode_frame(data) == iarrc.sbus_decode(data)
 
 
 def good_frame(rng_channels=None):
@@ -74,7 +74,7 @@ def test_random_streams_give_the_same_results_in_both_decoders(stream):
     """Frames, failsafe frames, frames cut short, junk and wrong end bytes, with or without the
     pause between frames: the C++ and portable decoders return the same result for every byte
     and end with the same frame, counters and lock."""
-    cpp, py = library.SbusDecoder(), sbus.Decoder()
+    cpp, py = iarrc.SbusDecoder(), sbus.Decoder()
     t = 0
     for (kind, a, b, c), pause in stream:
         if kind == "junk":
@@ -93,11 +93,11 @@ def test_random_streams_give_the_same_results_in_both_decoders(stream):
                       "failsafe_frames": py.failsafe_frames, "dropped": py.dropped, "last_good_us": py.last_good_us}
 
 
-@pytest.mark.parametrize("make", [library.SbusDecoder, sbus.Decoder], ids=["cpp", "python"])
+@pytest.mark.parametrize("make", [iarrc.SbusDecoder, sbus.Decoder], ids=["cpp", "python"])
 def test_lock_resync_frame_lost_and_failsafe(make):
     d = make()
     feed = lambda data, t: [d.feed(b, t + i * BYTE_US) for i, b in enumerate(data)]  # noqa: E731
-    locked = (lambda: d.status()["locked"]) if make is library.SbusDecoder else (lambda: d.locked)
+    locked = (lambda: d.status()["locked"]) if make is iarrc.SbusDecoder else (lambda: d.locked)
     # starting mid-frame with no pause to go by: resynchronised by the next frames' start bytes
     frame = sbus.encode([1500 - 875 + 100] * 16)  # no 0x0F inside
     assert frame.count(spec.SBUS_START_BYTE) == 1

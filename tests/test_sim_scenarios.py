@@ -9,7 +9,8 @@ import pytest
 from roar.protocol import encode, spec
 from roar_sim.world import floor
 from roar_sim.plants.esc_servo import EscMode, HobbyEsc, SteeringServo
-from roar_sim.core.library import CarConfig, ControlSource
+from roar_sim.core.car import CarConfig
+from roar_sim.core.library import ControlSource
 from roar_sim.robots.esc import SimCar, SimConfig
 from roar_sim.plants.racecar import ackermann_angles
 from roar_sim.world.track import oval

@@ -39,7 +39,7 @@ def test_the_sbus_decoder_runs_on_the_emulated_cortex_m4():
 def test_the_declared_task_costs_cover_each_task_body_on_a_cortex_m4():
     """The task table's costs (what the scheduler tests prove deadlines with) hold: each body at
     its worst input, counted in instructions, at one cycle each at 16 MHz plus a quarter."""
-    from roar_sim.core.library import iarrc_tasks
+    from roar_sim.core.iarrc import iarrc_tasks
 
     result = qemu.run(arm.build_task_bench())
     assert result.returncode == 0, result.lines

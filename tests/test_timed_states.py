@@ -10,8 +10,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from roar.protocol import spec
-from roar_sim.core.library import (Board, BrakeFsm, ControlSource, Junior, L298nDriver, RcOverride, Watchdog,
-                                    WatchdogEvent)
+from roar_sim.core.car import BrakeFsm, CarBoard, CommandWatchdog, RcOverride
+from roar_sim.core.junior import JuniorControl, L298nDriver
+from roar_sim.core.library import ControlSource, RcChannel, WatchdogEvent
 
 WRAP = 2**32  # [us] the period of a board's 32-bit microsecond counter
 N = spec.CONTROL_NEUTRAL_US
@@ -38,7 +39,7 @@ def looks(timeout: int):
 @given(phases, looks(spec.TIMING_FAILSAFE_TIMEOUT_US))
 def test_the_failsafe_trips_once_and_stays_latched(phase, offsets):
     t0 = at(phase)
-    wd = Watchdog()
+    wd = CommandWatchdog()
     assert wd.accept(N, N, t0) == (True, WatchdogEvent.ARMED)
     timeout = spec.TIMING_FAILSAFE_TIMEOUT_US
     tripped = []
@@ -55,8 +56,8 @@ def test_rc_presence_ends_with_its_pulses_and_never_returns(phase, offsets):
     t_last = at(phase) + spec.RC_LOCK_PULSES * FRAME
     rc = RcOverride()
     for i in reversed(range(spec.RC_LOCK_PULSES)):
-        rc.pulse(RcOverride.THROTTLE, 1900, t_last - i * FRAME)
-        rc.pulse(RcOverride.STEERING, 1500, t_last - i * FRAME)
+        rc.pulse(RcChannel.THROTTLE, 1900, t_last - i * FRAME)
+        rc.pulse(RcChannel.STEERING, 1500, t_last - i * FRAME)
     assert rc.active(t_last)
     for dt in offsets:
         assert rc.active(t_last + dt) is (dt <= spec.RC_SIGNAL_TIMEOUT_US), dt
@@ -65,7 +66,7 @@ def test_rc_presence_ends_with_its_pulses_and_never_returns(phase, offsets):
 @given(phases, looks(spec.JUNIOR_FAILSAFE_TIMEOUT_US))
 def test_the_junior_stops_once_requests_stop_and_stays_stopped(phase, offsets):
     t0 = at(phase)
-    junior = Junior()
+    junior = JuniorControl()
     assert junior.apply_query("forward=True&left_spd=0.5&right_spd=0.5", t0) == (3, None)
     for dt in offsets:
         expected = (500, 500) if dt <= spec.JUNIOR_FAILSAFE_TIMEOUT_US else (0, 0)
@@ -111,7 +112,7 @@ def test_rc_does_not_come_back_after_the_clock_wraps_in_the_real_board_loop():
     """The reproduction from the safety review, on CarBoard with the board's 32-bit counter: RC
     locked at 1900/1500, then silence; the car fails safe; 2^32 us later it must still be in
     failsafe at every loop iteration, not back on the stale RC command."""
-    board = Board(loop_us=1_000, start_us=WRAP - 3_000_000)  # the counter wraps 3 s after boot
+    board = CarBoard(loop_us=1_000, start_us=WRAP - 3_000_000)  # the counter wraps 3 s after boot
     board.begin()
     board.serial_in(b"(1500,1500)")
     board.rc((1900, 1500))

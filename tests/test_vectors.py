@@ -6,10 +6,10 @@ import pytest
 
 from conftest import ROOT
 from roar.protocol import ParseResult, StreamDecoder
-from roar_sim.core import library
+from roar_sim.core import car
 
 CASES = json.loads((ROOT / "protocol" / "vectors" / "control_messages.json").read_text())["cases"]
-PARSERS = {"python": StreamDecoder, "cpp": library.Parser}
+PARSERS = {"python": StreamDecoder, "cpp": car.ControlParser}
 
 
 def expected(case):

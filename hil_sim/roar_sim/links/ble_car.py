@@ -19,7 +19,7 @@ from bumble.core import UUID, AdvertisingData
 from bumble.gatt import Characteristic, CharacteristicValue, Service
 
 from roar.protocol import spec
-from roar_sim.core.library import Board, CarConfig, CarOutputs
+from roar_sim.core.car import CarBoard, CarConfig, CarOutputs
 from roar_sim.links.ble_radio import VirtualRadio
 
 TICK_S = 0.002  # [s] firmware loop period on the wall clock
@@ -35,7 +35,7 @@ class BleCar:
                  address: str = "F0:00:00:00:00:01", config: CarConfig | None = None) -> None:
         self.radio, self.name, self.address = radio, name, address
         # The board's clock is set from the wall clock before each loop iteration (loop_us 0).
-        self.board = Board(config or CarConfig(), loop_us=0, frame_us=FRAME_US)
+        self.board = CarBoard(config or CarConfig(), loop_us=0, frame_us=FRAME_US)
         self.writes: list[bytes] = []  # every control write, in arrival order
         self.replies: list[str] = []  # lines the firmware printed (it would print them on serial)
         self.history: list[tuple[float, int, int]] = []  # (t [s], throttle_us, steering_us) at each change

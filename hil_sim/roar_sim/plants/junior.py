@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from roar_sim.core.library import SidePins
+from roar_sim.core.junior import SidePins
 from roar_sim.world.bullet import pb
 from roar_sim.world.track import Track
 from roar_sim.world.scene import World

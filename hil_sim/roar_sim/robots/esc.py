@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 from roar.protocol import spec
 from roar_sim.plants.esc_servo import EscMode, HobbyEsc, SteeringServo
-from roar_sim.core.library import Board, CarConfig, CarOutputs
+from roar_sim.core.car import CarBoard, CarConfig, CarOutputs
 from roar_sim.clock.lockstep import Lockstep
 from roar_sim.plants.racecar import CarState, Plant, SimError  # noqa: F401 (SimError: for callers)
 from roar_sim.world.track import Track
@@ -45,7 +45,7 @@ class SimCar(Lockstep):
         """world (and pose): one car more in a world another steps (roar_sim.runs.fleet)."""
         self.config = config or SimConfig()
         self.track = track
-        self.board = Board(self.config.firmware, loop_us=LOOP_US, frame_us=FRAME_US)
+        self.board = CarBoard(self.config.firmware, loop_us=LOOP_US, frame_us=FRAME_US)
         self.esc, self.servo = self.config.esc, self.config.servo
         self.plant = Plant(track, dt_s=PHYSICS_US / 1e6, gui=self.config.gui, world=world, pose=pose)
         self.t_us = 0

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 from roar.protocol import spec
 from roar_sim.plants.esc_servo import HobbyEsc, SteeringServo
-from roar_sim.core.library import IarrcBoard, iarrc_tasks
+from roar_sim.core.iarrc import IarrcBoard, iarrc_tasks
 from roar_sim.clock.lockstep import Lockstep
 from roar_sim.plants.racecar import CarState, Motor, Plant
 from roar_sim.clock.rtos import Scheduler

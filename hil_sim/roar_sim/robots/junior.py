@@ -18,7 +18,8 @@ import threading
 import time
 from dataclasses import dataclass
 
-from roar_sim.core.library import HttpReader, JuniorBoard, SidePins
+from roar_sim.core.junior import HttpRequestReader, JuniorBoard, SidePins
+from roar_sim.core.library import HttpRead
 from roar_sim.plants.junior import JuniorPlant, JuniorState
 from roar_sim.clock.lockstep import Lockstep
 from roar_sim.world.track import Track
@@ -40,7 +41,7 @@ class Connection:
     """One HTTP connection to the simulated Junior, as the robot's server keeps it."""
 
     def __init__(self, sim: JuniorSim) -> None:
-        self.sim, self.reader, self.open = sim, HttpReader(), True
+        self.sim, self.reader, self.open = sim, HttpRequestReader(), True
 
     def feed(self, data: bytes) -> list[bytes]:
         """Bytes from the client -> the responses to every request they completed. After a
@@ -50,7 +51,7 @@ class Connection:
         while data and self.open:
             used, state = self.reader.feed(data)
             data = data[used:]
-            if state == HttpReader.INCOMPLETE:
+            if state == HttpRead.INCOMPLETE:
                 break
             reply, keep_open = self.sim.respond(self.reader)
             replies.append(reply)
@@ -80,7 +81,7 @@ class JuniorSim(Lockstep):
     def connect(self) -> Connection:
         return Connection(self)
 
-    def respond(self, reader: HttpReader) -> tuple[bytes, bool]:
+    def respond(self, reader: HttpRequestReader) -> tuple[bytes, bool]:
         with self._lock:
             return self.board.respond(reader)
 

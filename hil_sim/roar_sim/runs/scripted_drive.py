@@ -17,7 +17,8 @@ from pathlib import Path
 
 from roar.protocol import ControlError, decode, encode, spec
 from roar_sim.world import plotting
-from roar_sim.core.library import Board, CarOutputs, CoreLoadError
+from roar_sim.core.car import CarBoard, CarOutputs
+from roar_sim.core.library import CoreLoadError
 
 LOOP_US = 1_000  # [us] main-loop period
 FRAME_US = spec.TIMING_SERVO_FRAME_US  # [us] output frame period
@@ -71,7 +72,7 @@ class Trace:
 
 
 def run(script: list[Segment] = SCRIPT) -> Trace:
-    board = Board(loop_us=LOOP_US, frame_us=FRAME_US)
+    board = CarBoard(loop_us=LOOP_US, frame_us=FRAME_US)
     board.begin()
     trace = Trace([], [], [], [])
     samples, replies, marks = trace.samples, trace.replies, trace.marks
