@@ -7,7 +7,7 @@ from benchmarks import (avr_emulator, fleet, gym_env, host_latency, iarrc_contro
                         sweep, udp_stream)
 from roar_sim.toolchains import sizes
 
-BENCHMARKS = [parser_throughput, sim_speed, host_latency, avr_emulator, firmware_sizes, race_ratio, junior_sim_speed,
+BENCHMARKS = [parser_throughput, sim_speed, host_latency, avr_emulator, sizes, race_ratio, junior_sim_speed,
               junior_control_latency, junior_camera_rate, micropython_boards, sbus_decode, iarrc_controller,
               udp_stream, lanes, gym_env, fleet, sweep]
 

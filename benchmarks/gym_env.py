@@ -20,14 +20,14 @@ def run() -> None:
         return
     from roar.calibration import Calibration
     from roar_sim.gym_env import LIDAR_BEAMS, LIDAR_EVERY, LIDAR_RANGE_M, PERIOD_S
-    from roar_sim.robots.esc import SimCar
+    from roar_sim.robots.esc import EscCar
     from roar_sim.world.track import get
 
     message = Calibration().message(0.2, 0.0)
 
     def bare(lidar: bool) -> float:
         """The harness stepping as the environment does, with the same lidar scans or none."""
-        with SimCar(get("oval")) as sim:
+        with EscCar(get("oval")) as sim:
             sim.write(Calibration().message(0.0, 0.0))  # armed, as the environment's reset does
             sim.run(PERIOD_S)
             start = time.perf_counter()

@@ -1,7 +1,7 @@
 """The simulated Junior's control latency: a client sends the control route at 50 requests/s
 over one kept-alive loopback connection, as the http:// transport does, alternating two wheel
 duties; the latency of a request is from just before it is sent to when the firmware's L298N
-outputs in the simulator (JuniorSim's pins, which the motor model reads) first carry its duty.
+outputs in the simulator (the Junior robot's pins, which the motor model reads) first carry its duty.
 Target: p99 <= 5 ms."""
 
 import http.client

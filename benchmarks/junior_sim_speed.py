@@ -10,7 +10,8 @@ from benchmarks.sim_speed import compare
 from roar.junior import query_for
 from roar_sim.core.junior import SidePins
 from roar_sim.plants.junior import JuniorPlant
-from roar_sim.robots.junior import PHYSICS_US, JuniorSim
+from roar_sim.clock.lockstep import PHYSICS_US
+from roar_sim.robots.junior import Junior
 from roar_sim.world.track import oval
 
 TITLE = "Junior simulation speed (simulated s per wall s)"
@@ -32,7 +33,7 @@ def bare() -> float:
 
 
 def harness() -> float:
-    with JuniorSim(oval()) as sim:
+    with Junior(oval()) as sim:
         connection = sim.connect()
         request = f"GET /?{query_for(0.5, 0.5)} HTTP/1.1\r\nHost: junior\r\n\r\n".encode()
         start = time.perf_counter()

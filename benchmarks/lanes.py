@@ -17,12 +17,13 @@ def run() -> None:
     except ImportError as e:
         print(f"  skipped: {e}")
         return
-    from roar_sim.plants.racecar import Plant, camera_model
+    from roar.vision.geometry import SIMULATED_CAR_CAMERA
+    from roar_sim.plants.racecar import Racecar
     from roar_sim.runs.race import LANE_CAMERA, race
     from roar_sim.world.track import get
 
     w, h = LANE_CAMERA
-    plant = Plant(get("oval"))
+    plant = Racecar(get("oval"))
     frames = []
     for _ in range(FRAMES):
         plant.apply(0.3, 0.0, 0.0)
@@ -30,7 +31,7 @@ def run() -> None:
             plant.step()
         frames.append(plant.camera(w, h)[0])
     plant.close()
-    detector = LaneDetector(BirdsEye(camera_model(w, h)))
+    detector = LaneDetector(BirdsEye(SIMULATED_CAR_CAMERA.model(w, h)))
     times = []
     for rgb in frames:
         start = time.perf_counter()
@@ -48,10 +49,10 @@ def run() -> None:
     print(f"  start-light detection, {w}x{h}: {(time.perf_counter() - start) / len(frames) * 1000:.2f} ms per frame")
     from roar.vision.occupancy import occupancy
 
-    plant = Plant(get("oval"))
+    plant = Racecar(get("oval"))
     depths = [plant.camera(256, 192)[1] for _ in range(5)]
     plant.close()
-    depth_camera = camera_model(256, 192)
+    depth_camera = SIMULATED_CAR_CAMERA.model(256, 192)
     start = time.perf_counter()
     for _ in range(4):
         for depth in depths:

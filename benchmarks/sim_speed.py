@@ -8,8 +8,9 @@ decide the ratio."""
 import time
 
 from roar.protocol import encode
-from roar_sim.robots.esc import PHYSICS_US, SimCar
-from roar_sim.plants.racecar import Plant
+from roar_sim.clock.lockstep import PHYSICS_US
+from roar_sim.robots.esc import EscCar
+from roar_sim.plants.racecar import Racecar
 from roar_sim.world.track import oval
 
 TITLE = "simulation speed (simulated s per wall s)"
@@ -19,7 +20,7 @@ TARGET_SPEED, TARGET_RATIO = 30.0, 0.5
 
 
 def bare() -> float:
-    plant = Plant(oval(), dt_s=PHYSICS_US / 1e6)
+    plant = Racecar(oval(), dt_s=PHYSICS_US / 1e6)
     try:
         start = time.perf_counter()
         for _ in range(int(SIM_SECONDS / plant.dt_s)):
@@ -31,7 +32,7 @@ def bare() -> float:
 
 
 def harness() -> float:
-    with SimCar(oval()) as sim:
+    with EscCar(oval()) as sim:
         sim.write(encode(1500, 1500))
         sim.run(0.02)
         message = encode(1650, 1550)

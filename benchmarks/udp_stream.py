@@ -25,17 +25,17 @@ COMPARE_FRAMES = 3000
 def recorded_frames(width: int = 640, height: int = 240 * 2, count: int = 8) -> list[bytes]:
     """Camera payloads of the simulated car driving (JPEG + intrinsics), as its phone sends them."""
     from roar.protocol import encode
-    from roar_sim.robots.esc import SimCar, SimConfig
-    from roar_sim.links.phone_udp import CAMERA_FOV_DEG, payloads
+    from roar_sim.robots.esc import EscCar
+    from roar_sim.links.phone_udp import payloads
     from roar_sim.world.track import get
 
-    sim = SimCar(get("oval"), SimConfig())
+    sim = EscCar(get("oval"))
     sim.write(encode(1500, 1500))
     frames = []
     for _ in range(count):
         sim.write(encode(1650, 1450))
         sim.run(0.25)
-        rgb, _ = sim.plant.camera(width, height, fov_deg=CAMERA_FOV_DEG)
+        rgb, _ = sim.plant.camera(width, height)
         frames.append(payloads(rgb, None, {}, quality=50)["rgb"])
     sim.close()
     return frames
@@ -74,10 +74,10 @@ async def transport(frames: list[bytes]) -> tuple[float, float, float]:
 
 async def end_to_end(width: int, height: int) -> tuple[float, float, float]:
     """(frames/s delivered, frames/s rendered, ms per render) from the simulated phone."""
-    from roar_sim.robots.esc import SimCar, SimConfig
+    from roar_sim.robots.esc import EscCar
     from roar_sim.links.phone_udp import Phone, StreamConfig
 
-    sim = SimCar(None, SimConfig())
+    sim = EscCar()
     phone = await Phone(sim, StreamConfig(width=width, height=height, rate_hz=60.0, depth=False,
                                           ports={"rgb": 0, "depth": 0, "state": 0, "control": 0})).start()
     rx = await StreamReceiver("rgb", port=0, sender=phone.bound("rgb"), ack=True, queue_frames=10_000).start()
@@ -99,14 +99,14 @@ def renderers(width: int = 640, height: int = 480, frames: int = 5) -> dict[str,
 
     import numpy as np
 
-    from roar_sim.plants.racecar import Plant
+    from roar_sim.plants.racecar import Racecar
     from roar_sim.world.bullet import pb, silenced
     from roar_sim.world.track import get
 
     out = {}
     with silenced((1, 2)):  # the EGL plugin prints its GL vendor from C
         for name, renderer in (("TinyRenderer", pb.ER_TINY_RENDERER), ("EGL", pb.ER_BULLET_HARDWARE_OPENGL)):
-            plant = Plant(get("oval"))
+            plant = Racecar(get("oval"))
             world = plant.world
             if renderer == pb.ER_BULLET_HARDWARE_OPENGL:
                 egl = pkgutil.get_loader("eglRenderer")

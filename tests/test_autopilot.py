@@ -250,15 +250,6 @@ def test_runner_sends_neutral_when_the_agent_fails():
     assert car.sent == [Command(0.0, 0.0)]
 
 
-# --- the simulated car's limits -------------------------------------------------------------------
-
-def test_the_limits_table_matches_the_simulated_car():
-    car_limits = pytest.importorskip("roar_sim.robots.car_limits")
-    measured = car_limits.measure()
-    for name, table in vars(car_limits.SIMULATED_LIMITS).items():
-        assert getattr(measured, name) == pytest.approx(table, rel=0.05), name
-
-
 def test_heading_pid_steers_towards_the_goal_and_clamps():
     from roar.autopilot import HeadingController
 

@@ -15,9 +15,9 @@ from roar.autopilot.lane_agent import (FRONT_M, LANE_OFFSET_M, LANE_SHIFT_M_S, S
 from roar.vision.lanes import Lanes, Line  # noqa: E402
 from roar.vision.occupancy import Occupancy  # noqa: E402
 from roar_sim.sensors import tfmini  # noqa: E402
-from roar_sim.robots.car_limits import SIMULATED_CAR  # noqa: E402
+from roar_sim.robots.esc import MODEL  # noqa: E402
 from roar_sim.world.obstacles import BOX_HALF_M, add_box, box_course, place_boxes  # noqa: E402
-from roar_sim.plants.racecar import Plant  # noqa: E402
+from roar_sim.plants.racecar import Racecar  # noqa: E402
 from roar_sim.world.bullet import pb  # noqa: E402
 from roar_sim.world.track import get  # noqa: E402
 
@@ -26,7 +26,7 @@ PERIOD_S = 0.02
 
 @pytest.fixture(scope="module")
 def plant():
-    p = Plant(get("oval"))
+    p = Racecar(get("oval"))
     for _ in range(40):
         p.step()
     yield p
@@ -61,7 +61,7 @@ def test_nothing_in_range_or_too_close_reads_none(plant):
         assert tfmini.Tfmini(plant).read() is None
     finally:
         pb.removeBody(box, physicsClientId=plant.client)
-    far = Plant(None)  # no track, no walls: nothing within 12 m
+    far = Racecar(None)  # no track, no walls: nothing within 12 m
     try:
         far.step()
         assert tfmini.Tfmini(far).read() is None
@@ -74,7 +74,7 @@ def test_boxes_stand_in_the_lanes_of_the_course():
     spots = box_course(track, 3)
     assert [o for _, o in spots] == [-LANE_OFFSET_M, LANE_OFFSET_M, -LANE_OFFSET_M]
     assert all(b - a >= 3.5 for (a, _), (b, _) in zip(spots, spots[1:]))
-    p = Plant(track)
+    p = Racecar(track)
     try:
         for body, (s_m, offset) in zip(place_boxes(p.world, track, spots), spots):
             (x, y, z), _ = pb.getBasePositionAndOrientation(body, physicsClientId=p.client)
@@ -91,7 +91,7 @@ def straight_road(y_centre: float = 0.0) -> Lanes:
 
 
 def planner() -> LanePlanner:
-    return LanePlanner(SIMULATED_CAR, PERIOD_S, keep_lane=True)
+    return LanePlanner(MODEL, PERIOD_S, keep_lane=True)
 
 
 def test_the_driver_keeps_to_the_right_lane():
@@ -153,7 +153,7 @@ def test_what_is_not_ahead_in_its_lane_does_not_switch(laser_m, y_centre):
 
 
 def test_without_a_laser_the_driver_keeps_to_the_centre():
-    plan = LanePlanner(SIMULATED_CAR, PERIOD_S).step(Seen(straight_road(), 1.0, laser_m=1.0))
+    plan = LanePlanner(MODEL, PERIOD_S).step(Seen(straight_road(), 1.0, laser_m=1.0))
     assert plan.goal[1] == pytest.approx(0.0)
 
 

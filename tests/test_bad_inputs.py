@@ -73,7 +73,7 @@ def test_gui_without_a_display_is_one_line_and_the_program_lives_on(monkeypatch)
     assert "needs a display" in str(e.value) and "\n" not in str(e.value)
     err = subprocess.run([sys.executable, "-m", "roar.cli", "race", "--gui"], capture_output=True, text=True,
                          cwd=ROOT, env={k: v for k, v in os.environ.items() if k != "DISPLAY"}, timeout=60)
-    assert err.returncode == 1 and err.stderr.strip().splitlines()[-1].startswith("error: --gui needs a display")
+    assert err.returncode == 1 and err.stderr.strip().splitlines()[-1].startswith("roar race: error: --gui needs a display")
 
 
 def test_sim_serial_exits_130_on_ctrl_c():

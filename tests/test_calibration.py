@@ -7,7 +7,6 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from roar.calibration import Calibration, CalibrationError, ChannelCalibration, check_unit, default_path
-from roar.protocol import encode, spec
 
 
 @st.composite

@@ -96,7 +96,7 @@ def test_sim_serial_prints_a_pty_path():
     proc = subprocess.run([sys.executable, "-m", "roar.cli", "sim", "--serial", "--seconds", "0.3"], cwd=ROOT,
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
-    assert "simulated car on /dev/pts/" in proc.stdout
+    assert "simulated ESC car on /dev/pts/" in proc.stdout
 
 
 def test_sim_without_serial_drives_laps(capsys, tmp_path):

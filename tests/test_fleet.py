@@ -10,7 +10,7 @@ pytest.importorskip("pybullet", reason="pip install pybullet (make setup install
 
 from roar.protocol import encode  # noqa: E402
 from roar_sim.runs.fleet import Fleet  # noqa: E402
-from roar_sim.robots.esc import SimCar  # noqa: E402
+from roar_sim.robots.esc import EscCar  # noqa: E402
 from roar_sim.world.track import get  # noqa: E402
 
 PERIOD_S = 0.02
@@ -53,7 +53,7 @@ def test_the_lidar_of_one_sees_the_other():
     with Fleet(track, count=2, gap_m=1.5) as fleet:
         fleet.run(0.2)
         behind = fleet.cars[1].plant.lidar(beams=271)[135]  # straight ahead
-    with SimCar(track) as alone:
+    with EscCar(track) as alone:
         alone.run(0.2)
         open_road = alone.plant.lidar(beams=271)[135]
     assert behind < 1.5 < open_road
@@ -62,7 +62,7 @@ def test_the_lidar_of_one_sees_the_other():
 def test_one_car_in_a_fleet_moves_exactly_as_a_car_alone():
     track = get("oval")
     pulses = [(1500, 1500)] * 5 + [(1600, 1400)] * 60
-    with Fleet(track, count=1) as fleet, SimCar(track) as alone:
+    with Fleet(track, count=1) as fleet, EscCar(track) as alone:
         for throttle, steering in pulses:
             for sim in (fleet.cars[0], alone):
                 sim.write(encode(throttle, steering))

@@ -14,7 +14,7 @@ from roar.protocol.control import encode_setpoint
 
 pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
 
-from roar_sim.robots.iarrc import IarrcCar, IarrcSimConfig  # noqa: E402
+from roar_sim.robots.iarrc import IarrcCar  # noqa: E402
 from roar_sim.runs.step_response import (OVERSHOOT_TARGET, RISE_TARGET_S, STEADY_ERROR_TARGET,  # noqa: E402
                                     measure)
 
@@ -30,8 +30,8 @@ def drive(car, speed_mm_s, seconds, steering_us=NEUTRAL):
     return car.status()
 
 
-def autonomous(config=None):
-    car = IarrcCar(config=config)
+def autonomous(**options):
+    car = IarrcCar(operator=False, **options)
     car.run(0.1)  # the receiver locks with the mode switch at off
     car.transmitter.mode = "autonomous"
     assert drive(car, 0, 0.2)["mode"] == "autonomous"
@@ -66,7 +66,7 @@ def test_the_step_response_command_plots_and_reports(tmp_path):
 
 
 def test_manual_mode_drives_by_the_sticks_and_the_stop_switch_stops():
-    car = IarrcCar()
+    car = IarrcCar(operator=False)
     car.run(0.1)
     car.transmitter.mode = "manual"
     car.transmitter.throttle_us, car.transmitter.steering_us = 1700, 1800
@@ -142,7 +142,7 @@ def test_a_low_battery_warns_and_a_flat_one_cuts_the_motor():
 
 def test_speed_control_is_unchanged_across_the_boards_32_bit_clock_wrap():
     # The board's counter starts 0.6 s before it wraps: the step and the hold straddle the wrap.
-    car = autonomous(IarrcSimConfig(clock_offset_us=2**32 - 600_000))
+    car = autonomous(clock_offset_us=2**32 - 600_000)
     speeds = []
     for _ in range(100):
         st = drive(car, 1500, HOST_S)

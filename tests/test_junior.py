@@ -18,8 +18,9 @@ from roar import Vehicle
 from roar.junior import original_mix, query_for, smooth_mix
 from roar.protocol import spec
 from roar_sim.core.junior import SidePins
-from roar_sim.plants.junior import ULTRASONIC_POS_M, motor_torque
-from roar_sim.robots.junior import JuniorConfig, JuniorSim
+from roar_sim.plants.junior import ULTRASONIC_POS_M
+from roar_sim.plants.l298n_motors import motor_torque
+from roar_sim.robots.junior import Junior
 from roar_sim.world.bullet import pb
 
 IDLE_WAIT_S = 0.7  # [s] longer than the camera keeps capturing after its last request
@@ -30,7 +31,7 @@ TIMEOUT_S = spec.JUNIOR_FAILSAFE_TIMEOUT_US / 1e6
 
 @pytest.fixture
 def sim():
-    with JuniorSim() as s:
+    with Junior() as s:
         s.run(0.2)  # settle on its wheels
         yield s
 
@@ -145,7 +146,7 @@ def test_a_reversal_shows_the_dead_time_on_the_pins(sim):
 
 @pytest.mark.parametrize("distance_m", [0.15, 0.6, 1.5, 3.0])
 def test_the_ultrasonic_reads_a_placed_wall_within_2_cm(distance_m):
-    with JuniorSim(config=JuniorConfig(pose=(0.0, 0.0, 0.0))) as sim:
+    with Junior(pose=(0.0, 0.0, 0.0)) as sim:
         c = sim.plant.client
         wall = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[0.05, 1.0, 0.3], physicsClientId=c)
         sensor_x = ULTRASONIC_POS_M[0]
@@ -377,7 +378,7 @@ def test_roar_sim_junior_serves_both_ports_and_prints_them():
     import subprocess
     import sys
 
-    proc = subprocess.Popen([sys.executable, "-m", "roar.cli", "sim", "--junior", "--http", "127.0.0.1:0"],
+    proc = subprocess.Popen([sys.executable, "-m", "roar.cli", "sim", "--robot", "junior", "--http", "127.0.0.1:0"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         banner = "".join(proc.stdout.readline() for _ in range(3))
@@ -401,16 +402,16 @@ def test_roar_sim_junior_serves_both_ports_and_prints_them():
 
 # --- the autopilot drives it ------------------------------------------------------------------------
 
-def test_the_autopilot_laps_the_oval_with_the_junior_over_http(tmp_path, capsys, monkeypatch):
-    from roar.transports.http_junior import HttpTransport
+def test_the_autopilot_laps_the_oval_with_the_junior_by_its_http_requests(tmp_path, capsys, monkeypatch):
+    from roar_sim.robots import junior
     from roar_sim.runs import race
 
     requests = []
-    real_get = HttpTransport._get
-    monkeypatch.setattr(HttpTransport, "_get", lambda self, query, error: (requests.append(query),
-                                                                           real_get(self, query, error))[1])
+    real_request = junior.request
+    monkeypatch.setattr(junior, "request", lambda query, keep_alive=True: (requests.append(query),
+                                                                          real_request(query, keep_alive))[1])
     png = tmp_path / "junior.png"
-    assert race.main(["--junior", "--laps", "1", "--plot", str(png)]) == 0
+    assert race.main(["--robot", "junior", "--laps", "1", "--plot", str(png)]) == 0
     out = capsys.readouterr().out
     assert "ROAR Junior" in out and "lap 1:" in out and "wall contacts: 0" in out
     ratio = float(re.search(r"lap 1: .*?([\d.]+) x the limit", out).group(1))
@@ -425,16 +426,8 @@ def test_the_junior_refuses_the_heading_pid(capsys):
     from roar_sim.runs import race
 
     with pytest.raises(SystemExit):
-        race.main(["--junior", "--steering", "pid"])
+        race.main(["--robot", "junior", "--steering", "pid"])
     assert "pure pursuit only" in capsys.readouterr().err
-
-
-def test_the_limits_table_matches_the_simulated_junior():
-    from roar_sim.robots import junior_limits
-
-    measured = junior_limits.measure()
-    for name, table in vars(junior_limits.JUNIOR_LIMITS).items():
-        assert getattr(measured, name) == pytest.approx(table, rel=0.05), name
 
 
 def test_a_dead_camera_renderer_gives_503_not_a_hang():

@@ -13,9 +13,10 @@ from roar.autopilot.agent import Observation  # noqa: E402
 from roar.vision.geometry import BirdsEye  # noqa: E402
 from roar.vision.lanes import LaneDetector, debug_view  # noqa: E402
 from roar_sim.world.obstacles import add_box  # noqa: E402
-from roar_sim.plants.racecar import Plant, camera_model  # noqa: E402
+from roar.vision.geometry import SIMULATED_CAR_CAMERA
+from roar_sim.plants.racecar import Racecar  # noqa: E402
 from roar_sim.world.bullet import pb  # noqa: E402
-from roar_sim.runs.race import LANE_CAMERA, SimIO, race  # noqa: E402
+from roar_sim.runs.race import LANE_CAMERA, LaneCourse, race  # noqa: E402
 from roar_sim.world.track import get  # noqa: E402
 
 W, H = LANE_CAMERA
@@ -23,7 +24,7 @@ W, H = LANE_CAMERA
 
 @pytest.fixture(scope="module")
 def oval():
-    plant = Plant(get("oval"))
+    plant = Racecar(get("oval"))
     yield plant
     plant.close()
 
@@ -50,7 +51,7 @@ def frame_at(plant, offset_m, heading_rad, back_m=1.5):
                                                   (-0.3, -0.1)])
 def test_the_lane_offset_and_heading_match_the_ground_truth(oval, offset_m, heading_rad):
     rgb, cte, true_heading = frame_at(oval, offset_m, heading_rad)
-    lanes = LaneDetector(BirdsEye(camera_model(W, H))).detect(rgb)
+    lanes = LaneDetector(BirdsEye(SIMULATED_CAR_CAMERA.model(W, H))).detect(rgb)
     assert lanes.source == "yellow" and lanes.left is not None and lanes.right is not None
     assert abs(lanes.offset_m - cte) <= 0.05
     assert abs(lanes.heading_rad - true_heading) <= math.radians(3)
@@ -65,9 +66,9 @@ def test_recorded_frames_give_the_same_lanes_and_a_debug_view(oval, tmp_path):
     rgb, cte, _ = frame_at(oval, 0.12, 0.0)
     Image.fromarray(rgb).save(tmp_path / "frame.png")
     np.save(tmp_path / "frame.npy", rgb)
-    live = LaneDetector(BirdsEye(camera_model(W, H))).detect(rgb)
+    live = LaneDetector(BirdsEye(SIMULATED_CAR_CAMERA.model(W, H))).detect(rgb)
     for recorded in (np.asarray(Image.open(tmp_path / "frame.png")), np.load(tmp_path / "frame.npy")):
-        detector = LaneDetector(BirdsEye(camera_model(W, H)))
+        detector = LaneDetector(BirdsEye(SIMULATED_CAR_CAMERA.model(W, H)))
         assert detector.detect(recorded).offset_m == pytest.approx(live.offset_m, abs=1e-9)
     debug_view(detector, rgb).savefig(tmp_path / "debug.png")
     assert (tmp_path / "debug.png").stat().st_size > 20_000
@@ -75,20 +76,20 @@ def test_recorded_frames_give_the_same_lanes_and_a_debug_view(oval, tmp_path):
 
 def test_nothing_on_the_road_means_no_lanes(oval):
     rgb = np.full((H, W, 3), 64, np.uint8)  # bare asphalt
-    lanes = LaneDetector(BirdsEye(camera_model(W, H))).detect(rgb)
+    lanes = LaneDetector(BirdsEye(SIMULATED_CAR_CAMERA.model(W, H))).detect(rgb)
     assert lanes.centre is None and lanes.source == "none" and lanes.offset_m is None
 
 
 def test_the_lane_driver_never_reads_the_pose():
-    from roar_sim.robots.esc import SimCar, SimConfig
+    from roar_sim.robots.esc import EscCar
 
     track = get("oval")
-    with SimCar(track, SimConfig()) as sim:
-        io = SimIO(sim)
-        a, b = io.agent(track.centerline, 0.9, "lane"), io.agent(track.centerline, 0.9, "lane")
+    with EscCar(track) as sim:
+        course = LaneCourse(sim)
+        a, b = course.agent(0.9), course.agent(0.9)
         a.setup()
         b.setup()
-        obs = io.observe()
+        obs = sim.observe()
         blind = Observation(obs.t_s, math.nan, math.nan, math.nan, obs.speed, math.nan)
         assert a.step(obs) == b.step(blind)
 
@@ -113,7 +114,7 @@ def test_a_box_ahead_lands_in_its_cells_and_the_floor_stays_free(oval):
     box = add_box(oval.world, s.x + 1.5, s.y + 0.2)  # its near face 1.4 m ahead, 0.1..0.3 m left
     try:
         _, depth = oval.camera(256, 192)
-        grid = occupancy(depth, camera_model(256, 192))
+        grid = occupancy(depth, SIMULATED_CAR_CAMERA.model(256, 192))
     finally:
         pb.removeBody(box, physicsClientId=oval.client)
     assert abs(grid.plane[2]) > 0.99 and abs(grid.plane[3]) < 0.02  # the floor found level, at z = 0
@@ -123,22 +124,20 @@ def test_a_box_ahead_lands_in_its_cells_and_the_floor_stays_free(oval):
     for x, y in in_road:  # within one cell of the box's near face and its sides
         assert 1.4 - 0.1 <= x <= 1.6 + 0.1 and 0.1 - 0.1 <= y <= 0.3 + 0.1, (x, y)
     assert grid.nearest_ahead(0.25) == pytest.approx(1.45, abs=0.1)
-    assert occupancy(oval.camera(256, 192)[1], camera_model(256, 192)).nearest_ahead(0.25) is None  # box gone
+    assert occupancy(oval.camera(256, 192)[1], SIMULATED_CAR_CAMERA.model(256, 192)).nearest_ahead(0.25) is None  # box gone
 
 
 def test_the_lane_driver_stops_for_a_box_in_its_lane():
-    from roar.autopilot.agent import Command, Runner
-    from roar_sim.robots.esc import SimCar, SimConfig
+    from roar.autopilot.agent import Runner
+    from roar_sim.robots.esc import EscCar
     from roar_sim.runs.race import PERIOD_S
 
     track = get("oval")
-    with SimCar(track, SimConfig()) as sim:
-        io = SimIO(sim)
+    with EscCar(track) as sim:
         x0, y0, _ = sim.plant.world.start_pose()
         box = add_box(sim.plant.world, x0 + 2.4, y0)
-        io.send(Command(0.0, 0.0))
-        io.wait(PERIOD_S)
-        Runner(io, io.agent(track.centerline, 0.9, "lane"), PERIOD_S).run(until=lambda obs: obs.t_s > 5.0)
+        sim.arm()
+        Runner(sim, LaneCourse(sim).agent(0.9), PERIOD_S).run(until=lambda obs: obs.t_s > 5.0)
         s = sim.state()
         touching = pb.getContactPoints(sim.plant.car, box, physicsClientId=sim.plant.client)
     assert not touching and abs(s.speed) < 0.05

@@ -11,9 +11,10 @@ import pytest
 pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
 
 from roar.protocol import encode  # noqa: E402
-from roar_sim.robots.esc import SimCar  # noqa: E402
+from roar_sim.robots.esc import EscCar  # noqa: E402
 from roar_sim.world.obstacles import add_box  # noqa: E402
-from roar_sim.plants.racecar import LIDAR_LINK, LIDAR_MIN_RANGE_M  # noqa: E402
+from roar_sim.plants.racecar import LIDAR_LINK  # noqa: E402
+from roar_sim.sensors.lidar import MIN_RANGE_M  # noqa: E402
 from roar_sim.world.bullet import pb  # noqa: E402
 from roar_sim.world.track import get  # noqa: E402
 
@@ -21,22 +22,22 @@ BEAMS, RANGE_M = 181, 10.0
 
 
 def world_scan(plant) -> tuple[np.ndarray, np.ndarray]:
-    """The same scan as Plant.lidar, cast in the car's own world; and which beams hit the car
+    """The same scan as Racecar.lidar, cast in the car's own world; and which beams hit the car
     itself there (Bullet now and then reports the car's own shapes at distance 0)."""
     c = plant.client
     pos, orn = pb.getLinkState(plant.car, LIDAR_LINK, physicsClientId=c)[:2]
     angles = pb.getEulerFromQuaternion(orn)[2] + np.linspace(-math.radians(135), math.radians(135), BEAMS)
     directions = np.stack([np.cos(angles), np.sin(angles), np.zeros(BEAMS)], axis=1)
-    hits = pb.rayTestBatch((np.asarray(pos) + LIDAR_MIN_RANGE_M * directions).tolist(),
+    hits = pb.rayTestBatch((np.asarray(pos) + MIN_RANGE_M * directions).tolist(),
                            (np.asarray(pos) + RANGE_M * directions).tolist(), physicsClientId=c)
-    reach = RANGE_M - LIDAR_MIN_RANGE_M
-    return (np.array([LIDAR_MIN_RANGE_M + h[2] * reach if h[0] >= 0 else RANGE_M for h in hits]),
+    reach = RANGE_M - MIN_RANGE_M
+    return (np.array([MIN_RANGE_M + h[2] * reach if h[0] >= 0 else RANGE_M for h in hits]),
             np.array([h[0] == plant.car for h in hits]))
 
 
 @pytest.mark.parametrize("name", ["oval", "figure-eight", "course"])
 def test_the_walls_only_client_answers_as_the_world_does(name):
-    with SimCar(get(name)) as sim:
+    with EscCar(get(name)) as sim:
         sim.write(encode(1500, 1500))
         sim.run(0.1)
         for _ in range(12):  # along the track, turning: the walls at every angle
@@ -47,13 +48,13 @@ def test_the_walls_only_client_answers_as_the_world_does(name):
             assert sim.plant.world._rays is not None  # the walls-only client answered
             there, itself = world_scan(sim.plant)
             assert np.allclose(scan[~itself], there[~itself], rtol=0, atol=1e-6)
-            assert itself.sum() <= 2 and scan.min() > LIDAR_MIN_RANGE_M + 0.05  # never the car itself
+            assert itself.sum() <= 2 and scan.min() > MIN_RANGE_M + 0.05  # never the car itself
             assert scan.min() < RANGE_M  # walls in sight
 
 
 def test_a_box_in_the_world_is_seen():
     track = get("oval")
-    with SimCar(track) as sim:
+    with EscCar(track) as sim:
         sim.run(0.1)
         ahead = sim.plant.lidar(beams=BEAMS, range_m=RANGE_M)[BEAMS // 2]
         x, y, yaw = track.start_pose

@@ -1,7 +1,6 @@
 """The serial transport against a real pty whose other end is the firmware logic driving the
 simulated car (real time)."""
 
-import os
 import signal
 import subprocess
 import sys
@@ -11,7 +10,7 @@ import pytest
 
 from conftest import ROOT, wait_for
 from roar import TransportError, Vehicle
-from roar_sim.robots.esc import SimCar, SimConfig
+from roar_sim.robots.esc import EscCar
 from roar_sim.links.pty import PtyCar
 
 
@@ -37,7 +36,7 @@ def test_error_replies_are_surfaced(pty_car):
 
 
 def test_unplugging_gives_a_clear_error_and_replugging_reconnects(tmp_path):
-    first = PtyCar(SimCar(None, SimConfig(realtime=True))).start()
+    first = PtyCar(EscCar(realtime=True)).start()
     port = tmp_path / "ttyROAR"  # a stable name, as udev gives /dev/serial/by-id/...
     port.symlink_to(first.path)
     with Vehicle(f"serial://{port}") as car:
@@ -49,7 +48,7 @@ def test_unplugging_gives_a_clear_error_and_replugging_reconnects(tmp_path):
         assert message.startswith(f"serial port {port} disconnected") or message.startswith(
             f"cannot open serial port {port}"), message
         assert "\n" not in message
-        second = PtyCar(SimCar(None, SimConfig(realtime=True))).start()
+        second = PtyCar(EscCar(realtime=True)).start()
         try:
             port.unlink()
             port.symlink_to(second.path)  # plugged in again
@@ -95,7 +94,7 @@ def test_when_the_host_program_stops_the_car_stops(pty_car, how):
 
 
 def test_a_closed_pty_cannot_be_opened():
-    car = PtyCar(SimCar(None, SimConfig(realtime=True))).start()
+    car = PtyCar(EscCar(realtime=True)).start()
     path = car.path
     car.close()
     with pytest.raises(TransportError, match=f"cannot open serial port {path}: "):

@@ -1,17 +1,15 @@
 """The PyBullet window (--gui) opens and the car drives in it, on a virtual screen (Xvfb)."""
 
-import shutil
+import os
 import subprocess
 import sys
-
-import pytest
 
 DRIVE_IN_WINDOW = """
 from roar_sim.world.bullet import pb
 from roar.protocol import encode
-from roar_sim.robots.esc import SimCar, SimConfig
+from roar_sim.robots.esc import EscCar
 from roar_sim.world.track import oval
-with SimCar(oval(), SimConfig(gui=True)) as sim:
+with EscCar(oval(), gui=True) as sim:
     assert pb.getConnectionInfo(sim.plant.client)["connectionMethod"] == pb.GUI
     x0 = sim.state().x
     for i in range(70):  # neutral first: the firmware boots with its failsafe latched
@@ -21,12 +19,9 @@ with SimCar(oval(), SimConfig(gui=True)) as sim:
 """
 
 
-def test_the_car_drives_in_the_pybullet_window():
-    xvfb_run = shutil.which("xvfb-run")
-    if xvfb_run is None:
-        pytest.skip("xvfb-run not installed: apt-get install xvfb xauth")
-    result = subprocess.run([xvfb_run, "-a", sys.executable, "-c", DRIVE_IN_WINDOW],
-                            capture_output=True, text=True, timeout=120)
+def test_the_car_drives_in_the_pybullet_window(virtual_display):
+    result = subprocess.run([sys.executable, "-c", DRIVE_IN_WINDOW], capture_output=True, text=True, timeout=120,
+                            env={**os.environ, "DISPLAY": virtual_display})
     moved = [line for line in result.stdout.splitlines() if line.startswith("MOVED")]
     assert result.returncode == 0 and moved, result.stderr[-2000:]
     assert float(moved[0].split()[1]) > 0.2  # [m] forward along the straight

@@ -11,7 +11,7 @@ from roar_sim.world import floor
 from roar_sim.plants.esc_servo import EscMode, HobbyEsc, SteeringServo
 from roar_sim.core.car import CarConfig
 from roar_sim.core.library import ControlSource
-from roar_sim.robots.esc import SimCar, SimConfig
+from roar_sim.robots.esc import EscCar
 from roar_sim.plants.racecar import ackermann_angles
 from roar_sim.world.track import oval
 
@@ -25,8 +25,8 @@ def send_for(sim, message, seconds):
         sim.run(SEND)
 
 
-def armed(config=None):
-    sim = SimCar(config=config)
+def armed(**options):
+    sim = EscCar(**options)
     send_for(sim, encode(N, N), 0.2)
     return sim
 
@@ -35,7 +35,7 @@ def armed(config=None):
 def test_forward_then_reverse_needs_the_brake_fsm(fsm):
     """(1) With the FSM the car ends up moving backwards; without it the forward/brake/reverse
     ESC only brakes, and the car stops but never reverses."""
-    with armed(SimConfig(firmware=CarConfig(brake_fsm_enabled=fsm))) as sim:
+    with armed(firmware=CarConfig(brake_fsm_enabled=fsm)) as sim:
         send_for(sim, encode(1700, N), 1.5)
         assert sim.state().speed > 0.8
         min_speed = math.inf
@@ -129,14 +129,14 @@ def test_servo_rate_limit_trim_and_end_points():
 
 def test_lockstep_is_deterministic():
     def trace():
-        with armed(SimConfig()) as sim:
+        with armed() as sim:
             send_for(sim, encode(1700, 1650), 1.0)
             return sim.state()
     assert trace() == trace()
 
 
 def test_walls_are_built_and_detected():
-    with SimCar(oval()) as sim:
+    with EscCar(oval()) as sim:
         assert len(sim.plant.walls) == 1  # one static mesh
         assert sim.plant.wall_contacts() == 0
         scan = sim.plant.lidar(beams=90)
@@ -144,7 +144,7 @@ def test_walls_are_built_and_detected():
 
 
 def test_driving_into_a_wall_is_detected():
-    with SimCar(oval()) as sim:
+    with EscCar(oval()) as sim:
         send_for(sim, encode(N, N), 0.2)
         contacts = 0
         for _ in range(150):  # full left lock: the inner wall is 0.6 m away
@@ -154,7 +154,7 @@ def test_driving_into_a_wall_is_detected():
 
 
 def test_camera_sees_the_walls_and_depth_is_metric():
-    with SimCar(oval()) as sim:
+    with EscCar(oval()) as sim:
         sim.run(0.05)
         rgb, depth = sim.plant.camera(width=80, height=60)
         assert rgb.shape == (60, 80, 3) and depth.shape == (60, 80)
@@ -170,7 +170,7 @@ def _colour_pixels(rgb, colour, tolerance=30):
 
 
 def test_camera_sees_the_lane_lines():
-    with SimCar(oval()) as sim:
+    with EscCar(oval()) as sim:
         sim.run(0.05)
         rgb, _ = sim.plant.camera(width=160, height=120)
     lower = rgb[40:]  # the road below the horizon (row 36)
@@ -182,7 +182,7 @@ def test_camera_sees_the_lane_lines():
 
 
 def test_no_track_no_lane_lines():
-    with SimCar() as sim:
+    with EscCar() as sim:
         sim.run(0.05)
         rgb, _ = sim.plant.camera(width=80, height=60)
     assert not _colour_pixels(rgb, floor.CENTRE_LINE_RGB).any()

@@ -10,7 +10,7 @@ import tty
 
 from conftest import ROOT
 from roar.protocol import encode
-from roar_sim.robots.esc import SimCar
+from roar_sim.robots.esc import EscCar
 from roar_sim.links.pty import PtyCar
 
 
@@ -28,7 +28,7 @@ def read_lines(fd):
 
 
 def test_pty_drives_the_car_and_answers_like_the_firmware():
-    with PtyCar(SimCar()) as car:
+    with PtyCar(EscCar()) as car:
         fd = open_port(car.path)
         try:
             lines = []

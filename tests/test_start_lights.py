@@ -11,7 +11,7 @@ pytest.importorskip("pybullet", reason="pip install pybullet (make setup install
 
 from roar.vision.start_lights import StartLightDetector  # noqa: E402
 from roar_sim.sensors.camera_noise import NOISE, SHAKE_RAD, ShakyCamera  # noqa: E402
-from roar_sim.plants.racecar import Plant  # noqa: E402
+from roar_sim.plants.racecar import Racecar  # noqa: E402
 from roar_sim.runs.race import LANE_CAMERA, PERIOD_S, race  # noqa: E402
 from roar_sim.world.start_lights import StartLights, green_moment  # noqa: E402
 from roar_sim.world.track import get  # noqa: E402
@@ -23,7 +23,7 @@ STEPS_PER_FRAME = round(PERIOD_S / 0.005)  # physics steps between the driver's 
 @pytest.fixture(scope="module")
 def start():
     track = get("oval")
-    plant = Plant(track)
+    plant = Racecar(track)
     lights = StartLights(plant.world, track, green_at_s=math.inf)
     plant.props.append(lights)
     yield plant, lights

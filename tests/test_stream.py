@@ -202,10 +202,10 @@ pytest.importorskip("pybullet", reason="pip install pybullet (make setup install
 
 
 async def phone_session(config_kwargs, seconds, control=None, ack=True):
-    from roar_sim.robots.esc import SimCar, SimConfig
+    from roar_sim.robots.esc import EscCar
     from roar_sim.links.phone_udp import Phone, StreamConfig
 
-    sim = SimCar(None, SimConfig())
+    sim = EscCar()
     ports = {"rgb": 0, "depth": 0, "state": 0, "control": 0}
     phone = await Phone(sim, StreamConfig(ports=ports, **config_kwargs)).start()
     serving = asyncio.create_task(phone.serve(seconds + 0.3))

@@ -39,7 +39,7 @@ def test_grid_and_values():
     runs = grid(["oval", "figure-eight"], [0.2, 0.4], [0.9], laps=1)
     assert [(r.track, r.k_dd_s) for r in runs] == [("oval", 0.2), ("oval", 0.4), ("figure-eight", 0.2),
                                                    ("figure-eight", 0.4)]
-    assert runs[0] == Run("oval", 0.2, 0.9, 1, "car")
+    assert runs[0] == Run("oval", 0.2, 0.9, 1, "esc")
     for text, why in [("3", "outside 0.05..2"), ("a,b", "give numbers"), ("0.1:0.2:0", "must be 1..100"),
                       ("nan", "outside"), (",", "no values")]:
         with pytest.raises(SweepError, match=why):
@@ -177,17 +177,18 @@ def test_a_ray_cluster_at_an_address(tmp_path):
         assert cluster.returncode == 0, cluster.stderr
         assert f"on Ray at 127.0.0.1:{port}" in cluster.stderr
         serial = roar("sweep", *grid_args, "--serial", "--out", str(tmp_path / "s"))
+        assert serial.returncode == 0, serial.stderr
         assert (tmp_path / "c" / "results.csv").read_bytes() == (tmp_path / "s" / "results.csv").read_bytes()
     finally:
         subprocess.run([ray, "stop", "--force"], capture_output=True, timeout=120, env=env)
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--k-dd", "5"], "error: --k-dd 5 is outside 0.05..2"),
-    (["--margin", "a,b"], "error: --margin 'a,b': give numbers"),
-    (["--track", "nowhere"], "error: "),
-    (["--address", "127.0.0.1:1"], "error: cannot reach the Ray cluster at 127.0.0.1:1"),
-    (["--address", "nohost"], "error: --address nohost: give HOST:PORT"),
+    (["--k-dd", "5"], "roar sweep: error: --k-dd 5 is outside 0.05..2"),
+    (["--margin", "a,b"], "roar sweep: error: --margin 'a,b': give numbers"),
+    (["--track", "nowhere"], "roar sweep: error: "),
+    (["--address", "127.0.0.1:1"], "roar sweep: error: cannot reach the Ray cluster at 127.0.0.1:1"),
+    (["--address", "nohost"], "roar sweep: error: --address nohost: give HOST:PORT"),
 ])
 def test_bad_input_is_one_line(tmp_path, args, message):
     done = roar("sweep", "--out", str(tmp_path), *args, timeout=60)

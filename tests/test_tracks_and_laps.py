@@ -5,6 +5,7 @@ import json
 import numpy as np
 import pytest
 
+from roar.cli.errors import run_command
 from roar_sim.runs import race
 from roar_sim.world.track import BUILTIN, Track, TrackError, get, oval
 
@@ -130,9 +131,9 @@ def test_race_cli_rejects_bad_arguments(args, fragment, capsys):
 
 @pytest.mark.parametrize("args", [["--track", "nowhere.json"], ["--waypoints", "/nonexistent.txt"]])
 def test_race_cli_bad_files_are_one_line(args, capsys):
-    assert race.main(args) == 1
+    assert run_command("roar race", race.main, args) == 1
     err = capsys.readouterr().err.strip()
-    assert err.startswith("error:") and "\n" not in err
+    assert err.startswith("roar race: error:") and "\n" not in err
 
 
 # --- tracks a car cannot drive are refused in one line; big and far tracks run ---------------------
@@ -181,9 +182,9 @@ def test_width_must_be_a_number_in_a_file(tmp_path, width):
 
 def test_a_track_far_from_the_origin_has_ground_under_it():
     from roar.protocol import encode
-    from roar_sim.robots.esc import SimCar
+    from roar_sim.robots.esc import EscCar
 
-    with SimCar(Track("far", circle(5, cx=100), 1.5)) as sim:
+    with EscCar(Track("far", circle(5, cx=100), 1.5)) as sim:
         for _ in range(100):
             sim.write(encode(1700 if sim.time_s > 0.1 else 1500, 1500))
             sim.run(0.02)
@@ -197,9 +198,9 @@ def test_a_100_m_track_runs_in_well_under_a_gigabyte(tmp_path):
     import sys
 
     script = ("import resource, sys, numpy as np\n"
-              "from roar_sim.world.track import Track\nfrom roar_sim.robots.esc import SimCar\n"
+              "from roar_sim.world.track import Track\nfrom roar_sim.robots.esc import EscCar\n"
               "t = np.linspace(0, 2 * np.pi, 300, endpoint=False)\n"
-              "with SimCar(Track('big', np.stack([49 * np.cos(t), 49 * np.sin(t)], 1), 1.5)) as sim:\n"
+              "with EscCar(Track('big', np.stack([49 * np.cos(t), 49 * np.sin(t)], 1), 1.5)) as sim:\n"
               "    sim.run(0.2)\n"
               "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n")
     proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
@@ -219,7 +220,7 @@ def test_race_refuses_a_line_it_cannot_follow_in_one_line(tmp_path, capsys, make
 
     path = tmp_path / "line.txt"
     save_waypoints(path, make(get("oval").centerline))
-    assert race.main(["--laps", "1", "--waypoints", str(path)]) == 1
+    assert run_command("roar race", race.main, ["--laps", "1", "--waypoints", str(path)]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and fragment in err[0]
 
@@ -227,7 +228,7 @@ def test_race_refuses_a_line_it_cannot_follow_in_one_line(tmp_path, capsys, make
 def test_three_identical_waypoints_are_refused_instead_of_hanging(tmp_path, capsys):
     path = tmp_path / "line.txt"
     path.write_text("0,-1.5,0\n0,-1.5,0\n0,-1.5,0\n")
-    assert race.main(["--waypoints", str(path)]) == 1
+    assert run_command("roar race", race.main, ["--waypoints", str(path)]) == 1
     assert "at least 3 distinct waypoints" in capsys.readouterr().err
 
 

@@ -1,6 +1,6 @@
 """Vehicle on a car with a speed controller (the IARRC car, READY 2): drive(speed=...) in m/s,
 refused in one line on a throttle car and for bad values, and the car's telemetry (battery,
-distance, mode) through state() -- in-process (sim://?car=iarrc) and over a real pty."""
+distance, mode) through state() -- in-process (sim://?robot=iarrc) and over a real pty."""
 
 import math
 import subprocess
@@ -30,7 +30,7 @@ def test_a_telemetry_line_parses_into_state_fields():
 
 
 def test_the_simulated_iarrc_car_drives_by_speed_and_reports_telemetry():
-    with Vehicle("sim://?car=iarrc&speedup=2") as car:
+    with Vehicle("sim://?robot=iarrc&speedup=2") as car:
         car.drive(speed=1.5, steering=0.0)
         assert car.protocol_version == spec.META_SPEED_VERSION
         assert wait_for(lambda: abs((car.state().speed_m_s or 0) - 1.5) < 0.1, timeout_s=5)
@@ -61,10 +61,10 @@ def test_speed_is_refused_in_one_line_on_a_throttle_car_and_for_bad_values():
 
 
 def test_over_a_serial_port_the_car_rearms_on_zero_speed_and_holds_speed():
-    from roar_sim.robots.iarrc import IarrcCar, IarrcSimConfig
+    from roar_sim.robots.iarrc import IarrcCar
     from roar_sim.links.pty import PtyCar
 
-    sim = IarrcCar(config=IarrcSimConfig(realtime=True))
+    sim = IarrcCar(realtime=True, operator=False)
     sim.run(0.1)  # the receiver locks with the switch at off; then autonomous, before any host talks:
     sim.transmitter.mode = "autonomous"  # the car fails safe (host silent) and waits for zero speed
     pty = PtyCar(sim).start()
@@ -83,11 +83,11 @@ def test_over_a_serial_port_the_car_rearms_on_zero_speed_and_holds_speed():
 
 
 def test_roar_sim_serves_the_iarrc_car_on_a_pty_and_roar_send_drives_it_by_speed():
-    sim = subprocess.Popen([sys.executable, "-m", "roar.cli", "sim", "--serial", "--car", "iarrc", "--seconds", "20"],
+    sim = subprocess.Popen([sys.executable, "-m", "roar.cli", "sim", "--serial", "--robot", "iarrc", "--seconds", "20"],
                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         first = sim.stdout.readline()
-        assert "simulated car on /dev/pts/" in first, sim.stderr.read()
+        assert "simulated IARRC car on /dev/pts/" in first, sim.stderr.read()
         path = first.split(" on ")[1].split()[0]
         send = subprocess.run([sys.executable, "-m", "roar.cli", "send", f"serial://{path}", "--speed", "1.2",
                                "--for", "3"], cwd=ROOT, capture_output=True, text=True, timeout=60)
@@ -98,6 +98,9 @@ def test_roar_sim_serves_the_iarrc_car_on_a_pty_and_roar_send_drives_it_by_speed
     finally:
         sim.kill()
         sim.communicate()
-    bad = subprocess.run([sys.executable, "-m", "roar.cli", "sim", "--car", "iarrc"], cwd=ROOT,
-                         capture_output=True, text=True, timeout=60)
-    assert bad.returncode == 2 and "--car picks the car behind --serial" in bad.stderr
+    for argv, message in ((["--car", "iarrc"], "--car is --robot now"),
+                          (["--robot", "junior", "--serial"], "the ROAR Junior has no serial port")):
+        bad = subprocess.run([sys.executable, "-m", "roar.cli", "sim", *argv], cwd=ROOT, capture_output=True, text=True,
+                             timeout=60)
+        lines = bad.stderr.strip().splitlines()
+        assert bad.returncode == 1 and len(lines) == 1 and lines[0].startswith(f"roar sim: error: {message}"), bad.stderr

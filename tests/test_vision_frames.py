@@ -14,7 +14,8 @@ from roar.cli.main import main  # noqa: E402
 from roar.vision.geometry import BirdsEye, cv2  # noqa: E402
 from roar.vision.lanes import LaneDetector  # noqa: E402
 from roar_sim.world.obstacles import add_box  # noqa: E402
-from roar_sim.plants.racecar import Plant, camera_model  # noqa: E402
+from roar.vision.geometry import SIMULATED_CAR_CAMERA
+from roar_sim.plants.racecar import Racecar  # noqa: E402
 from roar_sim.runs.race import LANE_CAMERA  # noqa: E402
 from roar_sim.world.track import get  # noqa: E402
 
@@ -26,10 +27,10 @@ def recorded(tmp_path_factory):
     """Three frames of the car on the oval's straight with a box 1.6 m ahead, as PNG + depth NPY,
     and the lanes a live detector saw in them."""
     folder = tmp_path_factory.mktemp("frames")
-    plant = Plant(get("oval"))
+    plant = Racecar(get("oval"))
     x, y, _ = plant.world.start_pose()
     add_box(plant.world, x + 1.7, y)  # its near face 1.6 m ahead of the car's reference point
-    live = LaneDetector(BirdsEye(camera_model(W, H)))
+    live = LaneDetector(BirdsEye(SIMULATED_CAR_CAMERA.model(W, H)))
     seen = []
     for i in range(3):
         for _ in range(10):

@@ -2,22 +2,25 @@
 
     env = gymnasium.make("roar_sim.gym_env:roar/Race-v0", track="figure-eight")
     env = gymnasium.make("roar_sim.gym_env:roar/Race-v0", robot="junior")   # the ROAR Junior
+    env = gymnasium.make("roar_sim.gym_env:roar/Race-v0", robot="iarrc")    # the IARRC car, by speed
 
 (the module prefix makes Gymnasium import this module, which registers roar/Race-v0; Gymnasium
 1.x has no plug-in entry points, so `import roar_sim.gym_env` then `gymnasium.make("roar/Race-v0")`
 is the other way).
 
-Each action travels the way a user's script drives the car: throttle and steering -> the control
-message's bytes (roar.protocol, through the library's calibration) -> the firmware core's board
-loop at 1 kHz -> the emulated ESC and servo -> the PyBullet car; 50 actions a second. With
-robot="junior", the ROAR Junior as the http:// transport drives it: throttle and steering ->
-wheel duties (smooth mixing) -> the GET request's bytes -> the Junior's firmware (its HTTP reader,
-JuniorControl, the L298N pins) -> the two motors; its reply, the ultrasonic distance, is observed.
+Each action travels the way a user's script drives the robot (roar_sim.robots), 50 actions a
+second. The ESC car (robot="esc", the default): throttle and steering -> the control message's
+bytes (roar.protocol, through the library's calibration) -> the firmware core's board loop at
+1 kHz -> the emulated ESC and servo -> the PyBullet car. The IARRC car: the throttle asks for a
+speed (a fraction of 5 m/s) -> a setpoint message -> its tasks and speed PID. The ROAR Junior:
+throttle and steering -> wheel duties (smooth mixing) -> the GET request's bytes -> its firmware
+(its HTTP reader, JuniorControl, the L298N pins) -> the two motors; its reply, the ultrasonic
+distance, is observed.
 
     observation  {"state": [x, y, cos yaw, sin yaw, speed, yaw rate, cross-track, heading error],
                   "lidar": ranges [m] over 270 deg, right to left (a scan every 2nd action;
-                           lidar_beams=0 leaves it out, the fastest; the car only),
-                  "ultrasonic": [m] the Junior's reply (4 m when no echo; the Junior only),
+                           lidar_beams=0 leaves it out, the fastest; robots with a lidar),
+                  "ultrasonic": [m] the Junior's reply (4 m when no echo; robots with one),
                   "camera": RGB and "depth": metres, when camera=(width, height) is asked for}
     reward       metres of progress along the centre line, minus contact_penalty a step at a wall
     terminated   touching a wall (crash_ends=True), or off the track
@@ -35,17 +38,11 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from roar.calibration import Calibration
-from roar.protocol import spec
-from roar.junior import query_for, smooth_mix
-from roar_sim.robots.esc import SimCar, SimConfig
-from roar_sim.plants.junior import ULTRASONIC_MAX_M
-from roar_sim.robots.junior import JuniorConfig, JuniorSim
-from roar_sim.world.bullet import pb
+from roar_sim import robots
+from roar_sim.clock.lockstep import CONTROL_PERIOD_S as PERIOD_S  # [s] one action
+from roar_sim.robots import Robot
 from roar_sim.world.track import MAX_DISTANCE_M, MAX_EXTENT_M, Track, get
 
-PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6  # [s] one action
-ROBOTS = ("car", "junior")
 LIDAR_BEAMS = 72  # over 270 deg
 LIDAR_EVERY = 2  # actions per scan: 25 scans/s (a Hokuyo UST-10LX turns at 40 Hz); held in between
 LIDAR_RANGE_M = 10.0  # [m]
@@ -63,14 +60,13 @@ class RaceEnv(gym.Env):
 
     def __init__(self, track: str | Track = "oval", camera: tuple[int, int] | None = None, max_seconds: float = 60.0,
                  contact_penalty: float = 1.0, crash_ends: bool = True, lidar_beams: int | None = None,
-                 render_mode: str | None = None, robot: str = "car") -> None:
+                 render_mode: str | None = None, robot: str = "esc") -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
-        if robot not in ROBOTS:
-            raise ValueError(f"robot must be one of {', '.join(ROBOTS)}, got {robot!r}")
-        lidar_beams = (LIDAR_BEAMS if robot == "car" else 0) if lidar_beams is None else lidar_beams
-        if robot == "junior" and lidar_beams:
-            raise ValueError("the Junior has no lidar (its ultrasonic range is observed): leave lidar_beams out")
+        self.kind = robots.get(robot)
+        lidar_beams = (LIDAR_BEAMS if self.kind.has_lidar else 0) if lidar_beams is None else lidar_beams
+        if lidar_beams and not self.kind.has_lidar:
+            raise ValueError(f"the {self.kind.title} has no lidar: leave lidar_beams out")
         if not 0 <= lidar_beams <= 1080:
             raise ValueError(f"lidar_beams must be 0 (no lidar) .. 1080, got {lidar_beams!r}")
         self.track = track if isinstance(track, Track) else get(track)
@@ -84,14 +80,15 @@ class RaceEnv(gym.Env):
         observation = {"state": spaces.Box(-self._state_high, self._state_high, (8,), np.float32)}
         if lidar_beams:
             observation["lidar"] = spaces.Box(0.0, LIDAR_RANGE_M, (lidar_beams,), np.float32)
-        if robot == "junior":
-            observation["ultrasonic"] = spaces.Box(0.0, ULTRASONIC_MAX_M, (1,), np.float32)
+        self.ultrasonic_max_m = self.kind.ultrasonic_max_m
+        if self.ultrasonic_max_m is not None:
+            observation["ultrasonic"] = spaces.Box(0.0, self.ultrasonic_max_m, (1,), np.float32)
         if camera is not None:
             w, h = camera
             observation["camera"] = spaces.Box(0, 255, (h, w, 3), np.uint8)
             observation["depth"] = spaces.Box(0.0, FAR_M, (h, w), np.float32)
         self.observation_space = spaces.Dict(observation)
-        self.body: _Car | _Junior | None = None
+        self.sim: Robot | None = None  # the robot, from reset() until close()
         self._hint: int | None = None
         self._s = self._cte = 0.0  # [m] along the centre line, and across it
         self._scan: np.ndarray | None = None  # the latest lidar scan
@@ -106,9 +103,8 @@ class RaceEnv(gym.Env):
         offset = float(self.np_random.uniform(-START_OFFSET_M, START_OFFSET_M))
         yaw += float(self.np_random.uniform(-START_HEADING_RAD, START_HEADING_RAD))
         pose = (x - offset * math.sin(yaw), y + offset * math.cos(yaw), yaw)
-        self.body = (_Car if self.robot == "car" else _Junior)(self.track, pose, self.render_mode == "human")
-        self.body.send(0.0, 0.0)  # the ESC car boots latched until it hears neutral
-        self.sim.run(PERIOD_S)
+        self.sim = self.kind(self.track, pose, gui=self.render_mode == "human")
+        self.sim.arm()  # the ESC car boots latched until it hears neutral
         state = self.sim.state()
         self._hint, self._s, self._cte = self.track.project((state.x, state.y))
         self._scan, self._steps = None, 0
@@ -121,16 +117,15 @@ class RaceEnv(gym.Env):
         if len(values) != 2 or not all(map(math.isfinite, values)):
             raise ValueError(f"an action is (throttle, steering), two finite numbers in -1..1; got {action!r}")
         throttle, steering = (min(1.0, max(-1.0, v)) for v in values)
-        self.body.send(throttle, steering)
+        self.sim.drive(throttle, steering)
         self.sim.run(PERIOD_S)
-        length = self.track.length_m
         state = self.sim.state()  # one reading for the reward and the observation
         # centre-line segments searched each side of the last one: what the car can cross in a step
         window = math.ceil((abs(state.speed) + SLIDE_M_S) * PERIOD_S / self._shortest_m) + 1
         self._hint, s_now, self._cte = self.track.project((state.x, state.y), self._hint, window)
-        progress = (s_now - self._s + length / 2) % length - length / 2
+        progress = self.track.arc_delta(self._s, s_now)
         self._s, cte = s_now, self._cte
-        touching = self.sim.plant.wall_contacts() > 0
+        touching = self.sim.touching_wall()
         reward = progress - (self.contact_penalty if touching else 0.0)
         off_track = abs(cte) > self.track.width_m / 2
         terminated = off_track or (touching and self.crash_ends)
@@ -147,14 +142,9 @@ class RaceEnv(gym.Env):
         return rgb
 
     def close(self) -> None:
-        if self.body is not None:
-            self.body.sim.close()
-            self.body = None
-
-    @property
-    def sim(self) -> SimCar | JuniorSim | None:
-        """The simulated robot (None before reset() and after close())."""
-        return None if self.body is None else self.body.sim
+        if self.sim is not None:
+            self.sim.close()
+            self.sim = None
 
     # --- helpers -----------------------------------------------------------------------------
 
@@ -171,8 +161,8 @@ class RaceEnv(gym.Env):
                 scan = plant.lidar(beams=self.lidar_beams, range_m=LIDAR_RANGE_M).astype(np.float32)
                 self._scan = np.clip(scan, 0.0, LIDAR_RANGE_M)
             observation["lidar"] = self._scan.copy()
-        if self.robot == "junior":
-            observation["ultrasonic"] = np.array([self.body.range_m], np.float32)
+        if self.ultrasonic_max_m is not None:
+            observation["ultrasonic"] = np.array([min(self.sim.range_m, self.ultrasonic_max_m)], np.float32)
         self._steps += 1
         if self.camera_size is not None:
             rgb, depth = plant.camera(*self.camera_size)
@@ -186,47 +176,7 @@ class RaceEnv(gym.Env):
         return pts[i], pts[(i + 1) % len(pts)]
 
     def _info(self, touching: bool = False) -> dict:
-        return {"time_s": self.sim.t_us / 1e6, "progress_m": self._s, "wall_contact": touching, **self.body.info()}
-
-
-class _Car:
-    """The ESC car: an action is a control message on its serial link."""
-
-    def __init__(self, track: Track, pose: tuple[float, float, float], gui: bool) -> None:
-        self.sim = SimCar(track, SimConfig(gui=gui))
-        self.calibration = Calibration()
-        x, y, yaw = pose
-        plant = self.sim.plant
-        pb.resetBasePositionAndOrientation(plant.car, [x, y, 0.05], pb.getQuaternionFromEuler([0, 0, yaw]),
-                                           physicsClientId=plant.client)
-
-    def send(self, throttle: float, steering: float) -> None:
-        self.sim.write(self.calibration.message(throttle, steering))
-
-    def info(self) -> dict:
-        return {"throttle_us": self.sim.throttle_out_us}
-
-
-class _Junior:
-    """The ROAR Junior: an action is the GET request the http:// transport would send (smooth
-    mixing), fed to the firmware's HTTP reader on one kept-open connection; its reply is the
-    ultrasonic distance."""
-
-    def __init__(self, track: Track, pose: tuple[float, float, float], gui: bool) -> None:
-        self.sim = JuniorSim(track, JuniorConfig(gui=gui, pose=pose))
-        self.connection = self.sim.connect()
-        self.range_m = ULTRASONIC_MAX_M
-
-    def send(self, throttle: float, steering: float) -> None:
-        request = f"GET /?{query_for(*smooth_mix(throttle, steering))} HTTP/1.1\r\nHost: junior\r\n" \
-                  f"Accept-Encoding: identity\r\n\r\n"
-        reply = self.connection.feed(request.encode())[0]
-        cm = float(reply.partition(b"\r\n\r\n")[2] or 0)
-        self.range_m = min(ULTRASONIC_MAX_M, cm / 100) if cm > 0 else ULTRASONIC_MAX_M
-
-    def info(self) -> dict:
-        left, right = self.sim.pins
-        return {"duty_permille": (left.duty, right.duty)}
+        return {"time_s": self.sim.t_us / 1e6, "progress_m": self._s, "wall_contact": touching, **self.sim.info()}
 
 
 if "roar/Race-v0" not in gym.registry:

@@ -9,9 +9,9 @@ what it does.
     # leaving the block sends neutral, also on exceptions and Ctrl-C
 
 A car with a speed controller (it says READY 2, or sends telemetry lines: the IARRC car,
-"sim://?car=iarrc") is driven by speed instead, and reports its battery, distance and mode:
+"sim://?robot=iarrc") is driven by speed instead, and reports its battery, distance and mode:
 
-    with Vehicle("sim://?car=iarrc") as car:
+    with Vehicle("sim://?robot=iarrc") as car:
         car.drive(speed=2.0, steering=0.1)  # [m/s], steering in [-1, 1]
         print(car.state().battery_v, car.state().distance_m, car.state().mode)
 

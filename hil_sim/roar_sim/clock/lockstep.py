@@ -1,11 +1,23 @@
-"""What the simulators (the ESC car's SimCar, the JuniorSim) share: time moves only in run(),
-one physics period at a time, optionally kept to the wall clock (times a speed-up)."""
+"""Simulated time as every robot keeps it: the firmware loop at 1 kHz on the board's clock, physics
+at 200 Hz, a host's command every 20 ms; time moves only in run(), one physics period at a time,
+or kept to the wall clock (realtime, times a speed-up)."""
 
 from __future__ import annotations
 
 import time
 
+from roar.protocol import spec
+
+LOOP_US = 1_000  # [us] the firmware's main-loop period
+PHYSICS_US = 5_000  # [us] one PyBullet step
+CONTROL_PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6  # [s] a host's command period (50 Hz)
 SLACK_S = 0.002  # [s] ahead by less than this, carry on without sleeping
+
+
+def loops_until(t_us: int, end_us: int) -> int:
+    """Firmware-loop iterations from t_us to the next physics step or end_us, whichever is first."""
+    period_end = (t_us // PHYSICS_US + 1) * PHYSICS_US
+    return max(1, (min(period_end, end_us) - t_us) // LOOP_US)
 
 
 class Pacer:
@@ -26,11 +38,12 @@ class Pacer:
 
 class Lockstep:
     """A plant (with state() and close()) and a firmware whose time moves only in run().
-    Subclasses set plant, config (realtime, speedup) and t_us, and implement _advance(end_us):
-    the firmware and physics up to the next physics step or end_us, moving t_us."""
+    Subclasses set plant, realtime, speedup and t_us, and implement _advance(end_us): the
+    firmware and physics up to the next physics step or end_us, moving t_us."""
 
     plant: object
-    config: object
+    realtime: bool = False  # run() keeps pace with the wall clock
+    speedup: float = 1.0  # simulated seconds per wall second when realtime
     t_us: int  # [us] simulated time
     _pacer: Pacer | None = None
 
@@ -41,8 +54,8 @@ class Lockstep:
         end = self.t_us + int(round(seconds * 1e6))
         while self.t_us < end:
             self._advance(end)
-            if self.config.realtime:
-                self._pacer = self._pacer or Pacer(self.config.speedup)
+            if self.realtime:
+                self._pacer = self._pacer or Pacer(self.speedup)
                 self._pacer.keep_pace(self.t_us / 1e6)
 
     @property

@@ -8,7 +8,7 @@ its replies are the robot's byte for byte; each connection is its own task, so a
 opens connections and sends nothing holds up no one. The camera frames come from
 roar_sim.links.junior_camera: renderer processes beside the simulation, capturing while asked for.
 
-    python -m roar_sim.links.junior_http [--http 127.0.0.1:8081] [--track oval] [--seconds 0]
+    roar sim --robot junior --http [127.0.0.1:8081] [--track oval] [--seconds 0]
 """
 
 from __future__ import annotations
@@ -19,10 +19,11 @@ import sys
 import threading
 from dataclasses import dataclass
 
+from roar.cli.errors import ExitStatus, UserError, run_command
 from roar.protocol import spec
 from roar.transports.http_junior import host_port
 from roar_sim.links.junior_camera import RENDER_WORKERS, Camera, CameraError
-from roar_sim.robots.junior import JuniorConfig, JuniorSim
+from roar_sim.robots.junior import Junior
 from roar_sim.world.track import Track
 
 CHUNK_S = 0.002  # [s] simulated time per step of the real-time loop
@@ -51,17 +52,13 @@ class Endpoints:
 
 
 class JuniorServer:
-    """The simulated Junior with its two HTTP ports, in real time on its own thread; or with
-    lockstep=True, time moves only when its owner calls sim.run() (paced to the wall clock if
-    realtime): a request has been applied when its reply is sent, so a client that waits for
-    each reply stays in step, as `roar race --junior` does."""
+    """The simulated Junior with its two HTTP ports, in real time on its own thread."""
 
     def __init__(self, track: Track | None = None, host: str = "127.0.0.1", port: int = 8081,
-                 camera_port: int | None = None, gui: bool = False, render_workers: int = RENDER_WORKERS,
-                 lockstep: bool = False, realtime: bool = True) -> None:
-        self.host, self.port, self.lockstep = host, port, lockstep
+                 camera_port: int | None = None, gui: bool = False, render_workers: int = RENDER_WORKERS) -> None:
+        self.host, self.port = host, port
         self.camera_port = port - 1 if camera_port is None and port else (camera_port or 0)
-        self.sim = JuniorSim(track, JuniorConfig(realtime=realtime or not lockstep, gui=gui))
+        self.sim = Junior(track, realtime=True, gui=gui)
         self.camera = Camera(track, lambda: self.sim.pose, render_workers)
         self._served: dict[str, int] = {}  # route -> the latest frame it served
         self._running = threading.Event()
@@ -141,9 +138,8 @@ class JuniorServer:
 
     async def start(self) -> Endpoints:
         self._running.set()
-        if not self.lockstep:
-            self._thread = threading.Thread(target=self._simulate, name="junior-sim", daemon=True)
-            self._thread.start()
+        self._thread = threading.Thread(target=self._simulate, name="junior-sim", daemon=True)
+        self._thread.start()
         control = await asyncio.start_server(self._tracked(self._control), self.host, self.port)
         camera = await asyncio.start_server(self._tracked(self._camera), self.host, self.camera_port,
                                             limit=MAX_REQUEST_BYTES)
@@ -190,7 +186,7 @@ def _response(status: str, content_type: str, body: bytes, extra: list[str] | No
 def parse_address(text: str) -> tuple[str, int]:
     address = host_port(text)
     if address is None:
-        raise ValueError(f"--http takes HOST:PORT, e.g. 127.0.0.1:8081, got {text!r}")
+        raise UserError(f"--http takes HOST:PORT, e.g. 127.0.0.1:8081, got {text!r}")
     return address
 
 
@@ -212,11 +208,9 @@ async def serve(track: Track | None, host: str, port: int, seconds: float, gui: 
 
 
 def main(argv: list[str] | None = None) -> int:
-    from roar_sim.core.library import CoreLoadError
-    from roar_sim.world.track import TrackError, get
-    from roar_sim.world.scene import SimError
+    from roar_sim.world.track import get
 
-    parser = argparse.ArgumentParser(prog="roar sim --junior", description=__doc__,
+    parser = argparse.ArgumentParser(prog="roar sim --robot junior --http", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--http", default="127.0.0.1:8081", metavar="HOST:PORT",
                         help="where to serve the control route (default 127.0.0.1:8081; port 0 picks free ports); "
@@ -225,20 +219,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: Ctrl-C)")
     parser.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
     args = parser.parse_args(argv)
+    host, port = parse_address(args.http)
+    track = get(args.track) if args.track else None
     try:
-        host, port = parse_address(args.http)
-        track = get(args.track) if args.track else None
         asyncio.run(serve(track, host, port, args.seconds, args.gui, camera_port=0 if port == 0 else None,
                           on_ready=lambda text: print(text, flush=True)))
-    except KeyboardInterrupt:
-        return 130
-    except (ValueError, TrackError, CoreLoadError, SimError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 1
     except OSError as e:
-        print(f"error: cannot serve on {args.http}: {e.strerror or e}", file=sys.stderr)
-        return 1
-    return 0
+        raise UserError(f"cannot serve on {args.http}: {e.strerror or e}") from None
+    return ExitStatus.OK
 
 
 class InBackground:
@@ -252,8 +240,7 @@ class InBackground:
 
     def __init__(self, track: Track | None = None, host: str = "127.0.0.1", port: int = 0,
                  camera_port: int | None = None, render_workers: int = RENDER_WORKERS, **options) -> None:
-        """camera_port: default free when port is 0, else port - 1; options: JuniorServer's (gui,
-        lockstep, realtime)."""
+        """camera_port: default free when port is 0, else port - 1; options: JuniorServer's (gui)."""
         if camera_port is None and port == 0:
             camera_port = 0
         self.server = JuniorServer(track, host, port, camera_port, render_workers=render_workers, **options)
@@ -274,4 +261,4 @@ class InBackground:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_command("roar sim --robot junior --http", main))

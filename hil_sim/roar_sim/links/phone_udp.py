@@ -23,7 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from roar.protocol import encode, spec
-from roar_sim.plants.racecar import CAMERA_FOV_DEG, camera_model
+from roar.cli.errors import ExitStatus, UserError, run_command
+from roar.vision.geometry import SIMULATED_CAR_CAMERA
 from roar_wire import stream as wire
 
 PORTS = {"rgb": spec.UDP_PORT_RGB, "depth": spec.UDP_PORT_DEPTH, "state": spec.UDP_PORT_VEHICLE_STATE}
@@ -56,7 +57,7 @@ def jpeg(rgb: np.ndarray, quality: int) -> bytes:
 def payloads(rgb: np.ndarray, depth: np.ndarray | None, state: dict, quality: int) -> dict[str, bytes]:
     """The three streams' payloads of one rendered frame."""
     h, w = rgb.shape[:2]
-    cam = camera_model(w, h)
+    cam = SIMULATED_CAR_CAMERA.model(w, h)
     k = cam.fx, cam.fy, cam.cx, cam.cy
     out = {"rgb": wire.with_intrinsics(*k, jpeg(rgb, quality)), "state": wire.state_line(state)}
     if depth is not None:
@@ -86,7 +87,7 @@ class _Port(asyncio.DatagramProtocol):
 
 
 class Phone:
-    """The streams of one simulated car (a SimCar), run by serve() in the caller's event loop."""
+    """The streams of one simulated ESC car (roar_sim.robots.esc), run by serve() in the caller's event loop."""
 
     def __init__(self, sim, config: StreamConfig | None = None) -> None:
         self.sim, self.config = sim, config or StreamConfig()
@@ -145,7 +146,7 @@ class Phone:
         """Render one frame, cut its payloads into datagrams, push them when pushing."""
         start = time.perf_counter()
         s = self.sim.state()
-        rgb, depth = self.sim.plant.camera(self.config.width, self.config.height, fov_deg=CAMERA_FOV_DEG)
+        rgb, depth = self.sim.plant.camera(self.config.width, self.config.height)
         state = {"x": s.x, "y": s.y, "yaw": math.degrees(s.yaw), "vx": s.speed * math.cos(s.yaw),
                  "vy": s.speed * math.sin(s.yaw), "gz": s.yaw_rate, "hall_effect_sensor_velocity": s.speed,
                  "recv_time": self.sim.time_s}
@@ -214,6 +215,7 @@ def parse_ports(text: str) -> dict[str, int]:
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="roar sim --stream", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--robot", default="esc", choices=["esc"], help="the car whose phone it is: the ESC car")
     p.add_argument("--track", default="oval", help="oval, figure-eight, course or a track .json file (default oval)")
     p.add_argument("--size", type=parse_size, default=(320, 240), help="camera size WxH (default 320x240)")
     p.add_argument("--rate", type=float, default=20.0, help="frames per second (default 20)")
@@ -226,14 +228,10 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     if not 0.5 <= args.rate <= 60:
         p.error(f"--rate must be 0.5..60 frames/s, got {args.rate:g}")
-    from roar_sim.robots.esc import SimCar, SimConfig
-    from roar_sim.world.track import TrackError, get
+    from roar_sim.robots.esc import EscCar
+    from roar_sim.world.track import get
 
-    try:
-        sim = SimCar(get(args.track), SimConfig())
-    except TrackError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 1
+    sim = EscCar(get(args.track))
     config = StreamConfig(width=args.size[0], height=args.size[1], rate_hz=args.rate, push_to=args.push,
                           host=args.host, ports=args.ports)
     phone = Phone(sim, config)
@@ -242,7 +240,7 @@ def main(argv: list[str] | None = None) -> int:
         try:
             await phone.start()
         except OSError as e:
-            raise SystemExit(f"error: cannot bind the stream ports on {config.host}: {e.strerror or e}") from None
+            raise UserError(f"cannot bind the stream ports on {config.host}: {e.strerror or e}") from None
         print(f"streaming the simulated car: camera {args.size[0]}x{args.size[1]} at {args.rate:g}/s; "
               + ", ".join(f"{k} {h}:{port}" for k, (h, port) in ((k, phone.bound(k)) for k in phone.ports))
               + ("" if args.push else " (send 'ack' to a stream's port for its latest frame)"), flush=True)
@@ -254,12 +252,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         asyncio.run(run())
     except KeyboardInterrupt:
-        return 130
+        return ExitStatus.INTERRUPTED
     finally:
         sim.close()
     print(f"rendered {phone.frames_rendered} frames, {phone.render_s / max(1, phone.frames_rendered) * 1000:.1f} ms each")
-    return 0
+    return ExitStatus.OK
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_command("roar sim --stream", main))

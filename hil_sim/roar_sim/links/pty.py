@@ -1,12 +1,13 @@
-"""The simulated car as a serial port: a pseudo-terminal whose other end is the firmware logic.
+"""A simulated car as a serial port: a pseudo-terminal whose other end is the firmware logic.
 
-    python -m roar_sim.links.pty [--track oval] [--seconds 0 (= until Ctrl-C)] [--car iarrc]
+    roar sim --serial [--robot esc|iarrc] [--track oval] [--seconds 0 (= until Ctrl-C)]
 
 prints a path such as /dev/pts/5. Anything that speaks the control message over that port (a
 pyserial script, a terminal program) drives the simulated car in real time, and reads the
 lines the firmware prints (READY, ERR <reason>, FAILSAFE, ARMED), as with a real car on USB.
-With --car iarrc it is the IARRC car: setpoints in, telemetry lines out, its transmitter's mode
-switch flipped to autonomous when the first setpoint arrives.
+With --robot iarrc it is the IARRC car: setpoints in, telemetry lines out, its transmitter's
+mode switch flipped to autonomous when the first setpoint arrives. (The ROAR Junior has no
+serial port: `roar sim --robot junior --http` serves it.)
 """
 
 from __future__ import annotations
@@ -18,18 +19,19 @@ import termios
 import threading
 import tty
 
-from roar_sim.core.library import CoreLoadError
-from roar_sim.robots.esc import SimCar, SimConfig, SimError
-from roar_sim.world.track import TrackError, get
+from roar.cli.errors import ExitStatus, UserError, run_command
+from roar_sim import robots
+from roar_sim.robots import Robot
+from roar_sim.world.track import get
 
 CHUNK_S = 0.002  # [s] simulated (and, in real time, wall) time between reads of the port
 MAX_UNSENT_BYTES = 4096  # [bytes] reply bytes held for a slow reader; whole lines beyond are dropped
 
 
 class PtyCar:
-    """A SimCar behind a pty. Call pump() repeatedly (or serve()) to move bytes and time."""
+    """A robot behind a pty. Call pump() repeatedly (or serve()) to move bytes and time."""
 
-    def __init__(self, sim: SimCar) -> None:
+    def __init__(self, sim: Robot) -> None:
         self.sim = sim
         self.master, self._slave = os.openpty()
         tty.setraw(self._slave, termios.TCSANOW)  # bytes pass unchanged: no echo, no line editing
@@ -64,7 +66,7 @@ class PtyCar:
             self.pump()
 
     def start(self) -> PtyCar:
-        """Serve from a background thread until close() (give the SimCar realtime=True)."""
+        """Serve from a background thread until close() (give the robot realtime=True)."""
         self._serving.set()
         self._thread = threading.Thread(target=self._serve_while_started, name="pty-car", daemon=True)
         self._thread.start()
@@ -94,36 +96,34 @@ class PtyCar:
         self.close()
 
 
+def serial_robots() -> list[str]:
+    return [name for name in robots.names() if "serial" in robots.get(name).links]
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(prog="roar sim --serial", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--robot", default="esc", metavar="NAME",
+                        help="esc: the ESC car (throttle, steering; default); iarrc: the IARRC car (speed setpoints)")
     parser.add_argument("--track", default="oval", help="oval, figure-eight, course or a track .json file (default: oval)")
     parser.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: run until Ctrl-C)")
     parser.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
-    parser.add_argument("--car", choices=("esc", "iarrc"), default="esc",
-                        help="esc: the ROAR car (throttle, steering); iarrc: the IARRC car (speed setpoints)")
     args = parser.parse_args(argv)
-    try:
-        if args.car == "iarrc":
-            from roar_sim.robots.iarrc import IarrcCar, IarrcSimConfig
-
-            sim = IarrcCar(get(args.track), IarrcSimConfig(realtime=True, gui=args.gui, operator=True))
-        else:
-            sim = SimCar(get(args.track), SimConfig(realtime=True, gui=args.gui))
-        car = PtyCar(sim)
-    except (TrackError, CoreLoadError, SimError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 1
-    with car:
-        print(f"simulated car on {car.path} (115200 baud, any setting works); Ctrl-C to stop", flush=True)
-        status = 0
+    kind = robots.get(args.robot)
+    if "serial" not in kind.links:
+        raise UserError(f"the {kind.title} has no serial port (robots with one: {', '.join(serial_robots())})"
+                        + ("; serve it over HTTP with roar sim --robot junior --http" if "http" in kind.links else ""))
+    with PtyCar(kind(get(args.track), realtime=True, gui=args.gui)) as car:
+        print(f"simulated {kind.title} on {car.path} (115200 baud, any setting works); Ctrl-C to stop", flush=True)
+        status = ExitStatus.OK
         try:
             car.serve(args.seconds)
         except KeyboardInterrupt:
-            status = 130  # stopped by Ctrl-C, as the shell reports it
+            status = ExitStatus.INTERRUPTED
         s = car.sim.state()
         print(f"stopped after {car.sim.time_s:.1f} s: car at x={s.x:.2f} m, y={s.y:.2f} m, speed {s.speed:.2f} m/s")
     return status
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_command("roar sim --serial", main))

@@ -7,10 +7,12 @@ roar-platform[sim].
     sim://oval   sim://figure-eight   a built-in track
     sim:///home/me/track.json     a track file (hil_sim/README.md)
 
-Options: speedup=2 (simulated seconds per wall second, up to 4), gui=1 (PyBullet window),
-trace=drive.csv (t, x, y, yaw, speed every 20 ms), plot=drive.png (the driven path),
-car=iarrc (the IARRC car: speed setpoints, telemetry; its transmitter's mode switch goes to
-autonomous when the first setpoint arrives).
+Options: robot=esc|iarrc|junior (roar_sim.robots; default esc): the IARRC car takes speed
+setpoints and sends telemetry, its transmitter's mode switch going to autonomous when the first
+setpoint arrives; the ROAR Junior takes each control message as the http:// transport sends it
+(one GET, smooth mixing) and reports its ultrasonic range. speedup=2 (simulated seconds per wall
+second, up to 4), gui=1 (PyBullet window), trace=drive.csv (t, x, y, yaw, speed every 20 ms),
+plot=drive.png (the driven path).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import queue
 import threading
 from pathlib import Path
 
+from roar.errors import RoarError
 from roar.telemetry import VehicleState
 from roar.transports.base import LinkLost, Transport, TransportError, pop_option
 from roar.user_files import unwritable
@@ -31,7 +34,6 @@ def missing_simulator(error: ImportError) -> str:
     return f"the simulator needs {error.name or 'its dependencies'}: pip install 'roar-platform[sim]'"
 
 
-CARS = ("esc", "iarrc")  # the ROAR ESC car (default), the IARRC car
 MAX_SPEEDUP = 4.0  # the host sends at 50 Hz wall time: at 4x the car still hears from it every 80 ms
 CHUNK_S = 0.002  # [s] simulated time per pump step
 TRACE_PERIOD_S = 0.02  # [s]
@@ -40,13 +42,15 @@ TRACE_PERIOD_S = 0.02  # [s]
 class SimTransport(Transport):
     scheme = "sim"
     min_period_s = 0.002
-    replies = True
 
     def __init__(self, track: str = "", speedup: float = 1.0, gui: bool = False,
-                 trace: Path | None = None, plot: Path | None = None, car: str = "esc") -> None:
-        self.track_name, self.speedup, self.gui, self.car = track, speedup, gui, car
+                 trace: Path | None = None, plot: Path | None = None, robot: str = "esc") -> None:
+        from roar_sim import robots
+
+        self.track_name, self.speedup, self.gui, self.robot = track, speedup, gui, robot
         self.trace_path, self.plot_path = trace, plot
-        self.sim = None  # roar_sim.robots.esc.SimCar once open
+        self.replies = robots.get(robot).replies  # the ESC and IARRC cars answer with lines, the Junior not
+        self.sim = None  # the roar_sim.robots.Robot once open
         self.trace: list[tuple[float, float, float, float, float]] = []  # (t, x, y, yaw, speed)
         self._inbox: collections.deque[bytes] = collections.deque()
         self._outbox: collections.deque[str] = collections.deque()
@@ -67,28 +71,30 @@ class SimTransport(Transport):
             problem = path is not None and check(path)
             if problem:  # checked now, not when the drive is over
                 raise TransportError(f"{name} {problem}")
-        car = pop_option(options, "car", str, "esc")
-        if car not in CARS:
-            raise TransportError(f"car must be one of {', '.join(CARS)}, got {car!r}")
+        if "car" in options:
+            raise TransportError("option car= is robot= now: e.g. sim://?robot=iarrc")
+        robot = pop_option(options, "robot", str, "esc")
+        try:
+            from roar_sim import robots
+
+            robots.get(robot)
+        except ImportError as e:
+            raise TransportError(missing_simulator(e)) from None
+        except robots.UnknownRobot as e:
+            raise TransportError(str(e)) from None
         return cls(target.strip("/") if not target.endswith(".json") else target, speedup,
-                   pop_option(options, "gui", bool, False), trace, plot, car)
+                   pop_option(options, "gui", bool, False), trace, plot, robot)
 
     def open(self) -> None:
         try:
-            from roar_sim.core.library import CoreLoadError
-            from roar_sim.robots.esc import SimCar, SimConfig, SimError
-            from roar_sim.robots.iarrc import IarrcCar, IarrcSimConfig
-            from roar_sim.world.track import TrackError, get
+            from roar_sim import robots
+            from roar_sim.world.track import get
         except ImportError as e:
             raise TransportError(missing_simulator(e)) from None
         try:
             track = get(self.track_name) if self.track_name else None
-            if self.car == "iarrc":
-                self.sim = IarrcCar(track, IarrcSimConfig(gui=self.gui, realtime=True, speedup=self.speedup,
-                                                          operator=True))
-            else:
-                self.sim = SimCar(track, SimConfig(realtime=True, speedup=self.speedup, gui=self.gui))
-        except (TrackError, CoreLoadError, SimError) as e:
+            self.sim = robots.get(self.robot)(track, realtime=True, speedup=self.speedup, gui=self.gui)
+        except RoarError as e:
             raise TransportError(str(e)) from None
         self._running.set()
         self._thread = threading.Thread(target=self._pump, name="roar-sim", daemon=True)
@@ -103,11 +109,9 @@ class SimTransport(Transport):
                     sim.write(self._inbox.popleft())
                 sim.run(CHUNK_S)
                 self._outbox.extend(sim.read())
-                s = sim.state()
-                self._state = VehicleState(sim.time_s, s.x, s.y, s.yaw, s.speed, s.yaw_rate, s.encoder_counts,
-                                           float(sim.throttle_out_us))
+                s = self._state = sim.vehicle_state()
                 if sim.time_s >= next_trace:
-                    self.trace.append((sim.time_s, s.x, s.y, s.yaw, s.speed))
+                    self.trace.append((sim.time_s, s.x_m, s.y_m, s.yaw_rad, s.speed_m_s))
                     next_trace += TRACE_PERIOD_S
                 while not self._requests.empty():  # sensors asked for by the user's thread
                     fn, future = self._requests.get()
@@ -136,7 +140,7 @@ class SimTransport(Transport):
             return None
 
     def lidar(self):
-        return self._ask(lambda sim: sim.plant.lidar())
+        return self._ask(lambda sim: sim.plant.lidar()) if self.sim is not None and self.sim.has_lidar else None
 
     def camera(self, width: int = 160, height: int = 120):
         return self._ask(lambda sim: sim.plant.camera(width, height))

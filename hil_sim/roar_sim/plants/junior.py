@@ -1,18 +1,7 @@
 """The ROAR Junior as a physical robot in the simulator's world: an ESP32-CAM two-wheel chassis
 (two driven wheels at the back, a skid ball at the front), each wheel driven by a TT gear motor
-through one side of an L298N, an HC-SR04 ultrasonic ranger and the camera on the front.
-
-The L298N side takes the pins the firmware writes (IN1, IN2, EN duty) and gives the motor its
-current, averaged over the 30 kHz PWM period (far faster than the wheel), so the motor sees the
-duty's share of the supply:
-
-    IN1 != IN2, EN duty d:   i = (±d V - ke w) / R      (driven)
-    IN1 == IN2, EN duty d:   i = -d ke w / R            (both ends tied: the bridge brakes it)
-    EN duty 0:               i = 0                      (coast)
-
-and the wheel gets torque kt i, less the gearbox's friction. The constants give a TT motor's
-torque-speed line (no-load 19.6 rad/s and stall 0.073 N m at the 5.6 V the L298N leaves of a 7.4 V
-pack, less the gearbox's friction), so the Junior tops out at about 0.55 m/s.
+through one side of an L298N (roar_sim.plants.l298n_motors: it tops out at about 0.55 m/s), an
+HC-SR04 ultrasonic ranger and the camera on the front.
 """
 
 from __future__ import annotations
@@ -23,9 +12,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from roar_sim.core.junior import SidePins
+from roar_sim.plants.l298n_motors import GEARBOX_FRICTION_NM, motor_torque
+from roar_sim.sensors import ultrasonic
 from roar_sim.world.bullet import pb
-from roar_sim.world.track import Track
 from roar_sim.world.scene import World
+from roar_sim.world.track import Track
 
 # Chassis, as an ESP32-CAM 2WD kit is built
 CHASSIS_HALF_M = (0.10, 0.065, 0.02)  # [m] half length, width, height of the chassis box
@@ -42,21 +33,6 @@ CAMERA_POS_M = (0.06, 0.0, 0.075)  # [m]
 CAMERA_PITCH_RAD = math.radians(12)  # looking slightly down
 CAMERA_FOV_DEG = 62.0  # OV2640 with the stock lens (vertical field of view used by PyBullet)
 
-# Motor and bridge
-SUPPLY_V = 7.4  # [V] 2S lithium pack
-BRIDGE_DROP_V = 1.8  # [V] an L298N loses about this much
-DRIVE_V = SUPPLY_V - BRIDGE_DROP_V  # [V] across the motor at full duty
-MOTOR_KE = 0.286  # [V s/rad] at the wheel (after the 1:48 gearbox): 6 V -> 21 rad/s no-load
-MOTOR_KT = MOTOR_KE  # [N m/A]
-MOTOR_R_OHM = 22.0  # [ohm] equivalent, gearbox losses included: 6 V stalls at 0.078 N m
-GEARBOX_FRICTION_NM = 0.01  # [N m] at the wheel: an unpowered TT motor stops its wheel in a few tenths
-FULL_SCALE = 1000  # [permille] duty meaning 100 %
-
-# HC-SR04
-ULTRASONIC_MIN_M, ULTRASONIC_MAX_M = 0.02, 4.0  # [m]
-ULTRASONIC_CONE_DEG = 15.0  # full angle
-ULTRASONIC_RAYS = 5  # per side of the cone, horizontally and vertically (3.75° apart)
-
 LEFT, RIGHT = 0, 1  # wheel joint indices
 SPIN_LIMIT_RAD_S = 1000.0  # [rad/s] a velocity target no wheel reaches: the force limit is the torque
 
@@ -70,29 +46,6 @@ class JuniorState:
     yaw_rate: float  # [rad/s]
     left_wheel_rad_s: float  # [rad/s] positive rolling forward
     right_wheel_rad_s: float  # [rad/s]
-
-
-def _cone_rays() -> list[tuple[float, float, float]]:
-    """The ultrasonic's rays [m] to its maximum range, in the chassis frame (yaw 0)."""
-    half = math.radians(ULTRASONIC_CONE_DEG / 2)
-    angles = np.linspace(-half, half, ULTRASONIC_RAYS)
-    az, el = (a.ravel() for a in np.meshgrid(angles, angles))
-    rays = np.stack([np.cos(az) * np.cos(el), np.sin(az) * np.cos(el), np.sin(el)], axis=1) * ULTRASONIC_MAX_M
-    return [tuple(ray) for ray in rays.tolist()]
-
-
-_ULTRASONIC_CONE = _cone_rays()
-
-
-def motor_torque(pins: SidePins, omega: float) -> float:
-    """[N m] on the wheel from one L298N side and its motor, at wheel speed omega [rad/s]."""
-    duty = pins.duty / FULL_SCALE
-    if duty <= 0:
-        return 0.0  # EN low: coast
-    if pins.in1 == pins.in2:
-        return -MOTOR_KT * duty * MOTOR_KE * omega / MOTOR_R_OHM  # terminals tied: brake
-    volts = duty * (DRIVE_V if pins.in1 else -DRIVE_V)
-    return MOTOR_KT * (volts - MOTOR_KE * omega) / MOTOR_R_OHM
 
 
 class JuniorPlant:
@@ -185,21 +138,9 @@ class JuniorPlant:
                 pos[2] + dz], yaw
 
     def ultrasonic_cm(self) -> int:
-        """What the HC-SR04 reports: the nearest echo in its cone in whole cm, 2..400; 0 when
-        nothing is within range (no echo), as the firmware reads it. Only obstacles echo (walls,
-        other bodies), not the floor."""
+        """What the HC-SR04 on the front reports, as the firmware reads it: whole cm, 0 for no echo."""
         origin, yaw = self._mount(ULTRASONIC_POS_M)
-        c, s = math.cos(yaw), math.sin(yaw)
-        ox, oy, oz = origin
-        ends = [(ox + x * c - y * s, oy + x * s + y * c, oz + z) for x, y, z in _ULTRASONIC_CONE]
-        start = [origin] * len(ends)
-        hits = pb.rayTestBatch(start, ends, physicsClientId=self.client)
-        # The floor, met at a grazing angle, reflects the sound away rather than back.
-        ignored = {-1, self.robot, self.world.ground, self.world.floor}
-        ranges = [h[2] * ULTRASONIC_MAX_M for h in hits if h[0] not in ignored]
-        if not ranges:
-            return 0
-        return int(round(max(ULTRASONIC_MIN_M, min(ranges)) * 100))
+        return ultrasonic.reading_cm(self.world, origin, yaw, {self.robot, self.world.ground, self.world.floor})
 
     def camera(self, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
         """(RGB uint8 HxWx3, depth float32 HxW [m]) from the ESP32-CAM on the front."""

@@ -1,6 +1,7 @@
 """The physical car: PyBullet's 1/10-scale racecar (pybullet_data/racecar/racecar.urdf) in the
 world of roar_sim.world.scene. Rear-wheel drive through a motor with a speed and torque limit,
-Ackermann steering on the two hinges, and the sensors a real car would have.
+Ackermann steering on the two hinges, and the sensors a real car would have: a wheel encoder, a
+gyro, a lidar on the Hokuyo link and the camera on the ZED link (roar.vision's preset of it).
 """
 
 from __future__ import annotations
@@ -10,9 +11,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from roar.vision.geometry import SIMULATED_CAR_CAMERA as CAMERA
+from roar_sim.sensors import lidar
 from roar_sim.world.bullet import pb
+from roar_sim.world.scene import World
 from roar_sim.world.track import Track
-from roar_sim.world.scene import SimError, World  # noqa: F401 (SimError: raised by World, caught by callers)
 
 WHEELBASE_M = 0.325  # [m] hinge axis to rear axle (racecar.urdf)
 TRACK_WIDTH_M = 0.2  # [m] between the steering hinges (racecar.urdf)
@@ -22,7 +25,6 @@ FRONT_WHEELS = (5, 7)
 LEFT_HINGE, RIGHT_HINGE = 4, 6
 LIDAR_LINK = 8  # hokuyo_joint
 CAMERA_LINK = 9  # zed_camera_joint
-LIDAR_MIN_RANGE_M = 0.06  # [m] a Hokuyo UST-10LX's minimum range; beams start this far out
 
 
 @dataclass(frozen=True)
@@ -38,16 +40,6 @@ ROAR_MOTOR = Motor()  # the ROAR car's brushed motor
 BRAKE_MAX_TORQUE_NM = 2.0  # [N m] per rear wheel at full brake
 ROLLING_DRAG_NM = 0.02  # [N m] coasting resistance per wheel
 ENCODER_COUNTS_PER_REV = 1024  # [counts]
-CAMERA_FOV_DEG = 70.0  # [deg] vertical
-CAMERA_PITCH_RAD = math.atan(0.25)  # [rad] down from level
-CAMERA_X_M, CAMERA_Z_M = 0.39, 0.09  # [m] the ZED link ahead of the base and above the floor (racecar.urdf)
-
-
-def camera_model(width: int, height: int):
-    """The simulated car's camera as roar.vision sees a camera (intrinsics and mounting)."""
-    from roar.vision.geometry import CameraModel
-
-    return CameraModel.from_fov(width, height, CAMERA_FOV_DEG, CAMERA_X_M, CAMERA_Z_M, CAMERA_PITCH_RAD)
 
 
 @dataclass(frozen=True)
@@ -71,7 +63,7 @@ def ackermann_angles(steer_rad: float) -> tuple[float, float]:
     return left, right
 
 
-class Plant:
+class Racecar:
     """The racecar in a World (DIRECT, or GUI when gui=True) with an optional track; or, given
     `world`, one more car in that world (which then steps it: see step() and tick()), at `pose`."""
 
@@ -97,13 +89,13 @@ class Plant:
         if self._owns_world:
             self.world.close()
 
-    def camera(self, width: int = 160, height: int = 120, fov_deg: float = CAMERA_FOV_DEG,
-               far_m: float = 10.0, shake_rad: tuple[float, float] = (0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    def camera(self, width: int = 160, height: int = 120, far_m: float = 10.0,
+               shake_rad: tuple[float, float] = (0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
         """(RGB uint8 HxWx3, depth float32 HxW in metres) from the ZED camera link, looking ahead
         and slightly down; shake_rad turns it by (yaw, pitch) more, as a shaking mount would."""
         pos, orn = pb.getLinkState(self.car, CAMERA_LINK, physicsClientId=self.client)[:2]
         yaw = pb.getEulerFromQuaternion(orn)[2] + shake_rad[0]
-        return self.world.render(pos, yaw, CAMERA_PITCH_RAD + shake_rad[1], width, height, fov_deg, far_m)
+        return self.world.render(pos, yaw, CAMERA.pitch_rad + shake_rad[1], width, height, CAMERA.fov_deg, far_m)
 
     def apply(self, drive: float, brake: float, steer_rad: float) -> None:
         """drive -1..1 of the motor limit, brake 0..1, steer_rad the virtual centre angle."""
@@ -151,17 +143,7 @@ class Plant:
         """How many wall bodies the car touches right now."""
         return self.world.contacts(self.car)
 
-    def lidar(self, beams: int = 1080, fov_rad: float = math.radians(270), range_m: float = 10.0) -> np.ndarray:
-        """2D scan from the Hokuyo link: distances [m] from right to left; range_m where nothing is hit."""
-        c = self.client
-        pos, orn = pb.getLinkState(self.car, LIDAR_LINK, physicsClientId=c)[:2]
-        yaw = pb.getEulerFromQuaternion(orn)[2]
-        angles = yaw + np.linspace(-fov_rad / 2, fov_rad / 2, beams)
-        directions = np.stack([np.cos(angles), np.sin(angles), np.zeros(beams)], axis=1)
-        # Beams start at the housing's edge: from the link's centre, inside its own collision box,
-        # Bullet now and then reports a hit at distance 0 (the lidar seeing itself).
-        start = np.asarray(pos) + LIDAR_MIN_RANGE_M * directions
-        end = np.asarray(pos) + range_m * directions
-        hits = self.world.ray_test(start.tolist(), end.tolist())
-        reach = range_m - LIDAR_MIN_RANGE_M
-        return np.array([LIDAR_MIN_RANGE_M + h[2] * reach if h[0] >= 0 else range_m for h in hits])
+    def lidar(self, beams: int = lidar.BEAMS, fov_rad: float = lidar.FOV_RAD, range_m: float = lidar.RANGE_M) -> np.ndarray:
+        """A scan from the Hokuyo link: distances [m] from right to left; range_m where nothing is hit."""
+        pos, orn = pb.getLinkState(self.car, LIDAR_LINK, physicsClientId=self.client)[:2]
+        return lidar.scan(self.world, pos, pb.getEulerFromQuaternion(orn)[2], beams, fov_rad, range_m)

@@ -1,1 +1,160 @@
-"""The simulated robots."""
+"""The simulated robots, one module each, and their registry: every run, the Gym environment,
+sim:// and the pty find a robot here by its name, the name the CLI options (--robot), the URL
+query (sim://?robot=) and the Gym keyword (robot=) use.
+
+    from roar_sim import robots
+    robots.names()                            # ('esc', 'iarrc', 'junior')
+    with robots.get("junior")(track) as bot:  # a Robot: the firmware and its plant, in lockstep
+        bot.arm()
+        bot.drive(0.5, 0.0)                   # as a host sends it: here one GET of its control route
+        bot.run(1.0)
+
+A robot module defines one Robot subclass and names it ROBOT; adding a robot is one new module
+here. What each gives: its rig (its firmware core's board loop driving its plant), how a
+throttle/steering command reaches its firmware (drive(), and the bytes of its host link in
+write()), its measured limits, and its default agent.
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+from collections.abc import Callable
+from typing import ClassVar
+
+import numpy as np
+
+from roar.autopilot import Agent, CarLimits, Command, Observation
+from roar.errors import RoarError
+from roar.telemetry import VehicleState
+from roar_sim.clock.lockstep import CONTROL_PERIOD_S, Lockstep
+from roar_sim.world.track import Track
+
+Pose = tuple[float, float, float]  # x [m], y [m], yaw [rad]
+
+
+class UnknownRobot(RoarError, ValueError):
+    """A robot name the registry does not know; str() names the ones it does."""
+
+
+def names() -> tuple[str, ...]:
+    """Every robot's name, from the modules of this package."""
+    return tuple(sorted(m.name for m in pkgutil.iter_modules(__path__)))
+
+
+def get(name: str) -> type[Robot]:
+    """The Robot class called `name` (UnknownRobot, one line, if there is none)."""
+    if name not in names():
+        raise UnknownRobot(f"unknown robot {name!r}: use one of {', '.join(names())}")
+    return importlib.import_module(f"{__name__}.{name}").ROBOT
+
+
+class ReplyLines:
+    """The bytes a firmware writes to its host, as the whole lines among them (a line's start
+    waits for its end)."""
+
+    def __init__(self) -> None:
+        self._partial = b""
+        self._lines: list[str] = []
+
+    def add(self, data: bytes) -> None:
+        if data:
+            *done, self._partial = (self._partial + bytes(data)).split(b"\n")
+            self._lines += [line.decode("ascii", "replace") for line in done]
+
+    def take(self) -> list[str]:
+        """The whole lines added since the last take(), without their line ends."""
+        lines, self._lines = self._lines, []
+        return lines
+
+
+class Robot(Lockstep):
+    """One simulated robot: its firmware core's board loop and its plant in lockstep, in a world
+    with an optional track, at `pose` (default: the track's start) -- and, through drive(),
+    observe() and wait(), the car a roar.autopilot Runner drives."""
+
+    name: ClassVar[str]  # as --robot, sim://?robot= and robot= spell it
+    title: ClassVar[str]  # as reports name it
+    limits: ClassVar[CarLimits]  # measured by measure_limits(); the suite re-measures them
+    links: ClassVar[tuple[str, ...]] = ()  # how programs reach it beside sim://: "serial", "http", "stream"
+    laterals: ClassVar[tuple[str, ...]] = ("pursuit",)  # the steering its agent() offers
+    lane_driving: ClassVar[bool] = False  # it can drive by its camera alone (roar race --driver lane)
+    replies: ClassVar[bool] = False  # it answers its host with lines (READY, ERR, TEL, ...)
+    has_lidar: ClassVar[bool] = False
+    ultrasonic_max_m: ClassVar[float | None] = None  # [m] its ultrasonic ranger's reach, if it has one
+    track: Track | None
+
+    def __init__(self, track: Track | None, realtime: bool = False, speedup: float = 1.0) -> None:
+        self.track, self.realtime, self.speedup = track, realtime, speedup
+        self.t_us = 0
+
+    # --- how a command reaches the firmware ------------------------------------------------------
+
+    def drive(self, throttle: float, steering: float) -> None:
+        """One command in [-1, 1] each (steering +1 full right), as a host sends it."""
+        raise NotImplementedError
+
+    def write(self, data: bytes) -> None:
+        """Bytes a host sends on the robot's link, arriving now."""
+        raise NotImplementedError
+
+    def read(self) -> list[str]:
+        """Lines the robot wrote to its host since the last read."""
+        return []
+
+    def arm(self) -> None:
+        """Neutral for one control period: a car that boots latched arms on it."""
+        self.drive(0.0, 0.0)
+        self.run(CONTROL_PERIOD_S)
+
+    # --- what drives it ----------------------------------------------------------------------
+
+    def agent(self, line: np.ndarray, margin: float = 0.9, lateral: str = "pursuit",
+              k_dd_s: float | None = None) -> Agent:
+        """The default driver round a closed line at `margin` of the limits; k_dd_s: pure
+        pursuit's look-ahead per m/s [s] (None: the robot's default)."""
+        raise NotImplementedError
+
+    def observe(self) -> Observation:
+        s = self.state()
+        return Observation(self.time_s, s.x, s.y, s.yaw, abs(s.speed), s.yaw_rate)
+
+    def send(self, command: Command) -> None:
+        self.drive(command.throttle, command.steering)
+
+    def wait(self, seconds: float) -> None:
+        self.run(seconds)
+
+    # --- what it tells -----------------------------------------------------------------------
+
+    def vehicle_state(self) -> VehicleState:
+        """What a roar.Vehicle reads back from it over sim://."""
+        s = self.state()
+        return VehicleState(self.time_s, s.x, s.y, s.yaw, s.speed, s.yaw_rate)
+
+    def info(self) -> dict:
+        """What its firmware outputs now, for the Gym environment's info."""
+        return {}
+
+    def braking(self) -> bool:
+        """Its motor is braking or reversing now (the ESC's brake sequence)."""
+        return False
+
+    def touching_wall(self) -> bool:
+        return self.plant.wall_contacts() > 0
+
+    # --- its limits --------------------------------------------------------------------------
+
+    @classmethod
+    def measure_limits(cls) -> CarLimits:
+        """Drive fresh robots on an open floor and read their limits from the logs."""
+        raise NotImplementedError
+
+    def log_driving(self, send: Callable[[], None], seconds: float) -> list[tuple[float, object]]:
+        """send() and run one control period, for `seconds`: [(time [s], state)] after each."""
+        log = []
+        for _ in range(round(seconds / CONTROL_PERIOD_S)):
+            send()
+            self.run(CONTROL_PERIOD_S)
+            log.append((self.time_s, self.state()))
+        return log

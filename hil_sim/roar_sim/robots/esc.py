@@ -1,70 +1,81 @@
-"""Software-in-the-loop harness: the board loop every car runs (CarBoard::poll of the C++ core,
-host build) drives the emulated ESC and servo, which drive the PyBullet car. Host code talks to
-it with the same bytes it would send a real car.
-
-Lockstep: simulated time advances only in run(); with realtime=True run() also sleeps so that
-simulated time keeps pace with the wall clock (or `speedup` times faster).
+"""The ESC car: the board loop every ESC car runs (CarBoard::poll of the firmware core, host
+build) drives an emulated hobby ESC and steering servo, which drive PyBullet's 1/10 racecar.
+Commands reach it as they reach a real one, as control messages on its serial port.
 
     firmware loop   1 kHz   CarBoard::poll on the board's 32-bit microsecond counter
     output frames   50 Hz   each frame carries the pulses written before it starts; the ESC
                             and the servo take them at the frame start
     physics         200 Hz  PyBullet steps
+
+    with EscCar(get("oval")) as car:          # lockstep: time moves only in run()
+        car.write(b"(1500,1500)")             # bytes on its serial port
+        car.run(0.1)
+        car.read()                            # ['READY 1', 'ARMED']
+
+    python -m roar_sim.runs.limits esc        # re-measure its limits
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
-from roar.protocol import spec
-from roar_sim.plants.esc_servo import EscMode, HobbyEsc, SteeringServo
+from roar.autopilot import Agent, CarLimits, CarModel, race_agent
+from roar.autopilot.limits import HOLDS_LINE, circle, straight_line
+from roar.autopilot.pure_pursuit import PurePursuit
+from roar.calibration import Calibration
+from roar.protocol import encode, spec
+from roar.telemetry import VehicleState
+from roar_sim.clock.lockstep import CONTROL_PERIOD_S, LOOP_US, PHYSICS_US, loops_until
 from roar_sim.core.car import CarBoard, CarConfig, CarOutputs
-from roar_sim.clock.lockstep import Lockstep
-from roar_sim.plants.racecar import CarState, Plant, SimError  # noqa: F401 (SimError: for callers)
+from roar_sim.plants.esc_servo import EscMode, HobbyEsc, SteeringServo
+from roar_sim.plants.racecar import WHEELBASE_M, CarState, Racecar
+from roar_sim.robots import Pose, ReplyLines, Robot
+from roar_sim.world.scene import World
 from roar_sim.world.track import Track
 
-LOOP_US = 1_000  # [us] firmware main-loop period
-PHYSICS_US = 5_000  # [us] physics step
 FRAME_US = spec.TIMING_SERVO_FRAME_US  # [us]
+LIMITS = CarLimits(max_speed_m_s=2.93, max_accel_m_s2=1.78, max_brake_m_s2=3.35, max_lateral_m_s2=3.38)
+MODEL = CarModel(wheelbase_m=WHEELBASE_M, max_steer_rad=SteeringServo().max_angle_rad, limits=LIMITS)
+N = spec.CONTROL_NEUTRAL_US
 
 
-@dataclass
-class SimConfig:
-    firmware: CarConfig = field(default_factory=CarConfig)
-    esc: HobbyEsc = field(default_factory=HobbyEsc)
-    servo: SteeringServo = field(default_factory=SteeringServo)
-    realtime: bool = False
-    speedup: float = 1.0  # simulated seconds per wall second when realtime
-    gui: bool = False
+class EscCar(Robot):
+    """write() control bytes, run() time, read() the car's reply lines."""
 
+    name = "esc"
+    title = "ESC car"
+    limits = LIMITS
+    links = ("serial", "stream")
+    laterals = ("pursuit", "pid")
+    lane_driving = True
+    replies = True
+    has_lidar = True
 
-class SimCar(Lockstep):
-    """A simulated car: write() control bytes, run() time, read() the car's reply lines."""
-
-    def __init__(self, track: Track | None = None, config: SimConfig | None = None, world=None,
-                 pose: tuple[float, float, float] | None = None) -> None:
-        """world (and pose): one car more in a world another steps (roar_sim.runs.fleet)."""
-        self.config = config or SimConfig()
-        self.track = track
-        self.board = CarBoard(self.config.firmware, loop_us=LOOP_US, frame_us=FRAME_US)
-        self.esc, self.servo = self.config.esc, self.config.servo
-        self.plant = Plant(track, dt_s=PHYSICS_US / 1e6, gui=self.config.gui, world=world, pose=pose)
-        self.t_us = 0
+    def __init__(self, track: Track | None = None, pose: Pose | None = None, realtime: bool = False,
+                 speedup: float = 1.0, gui: bool = False, firmware: CarConfig | None = None,
+                 esc: HobbyEsc | None = None, servo: SteeringServo | None = None, world: World | None = None) -> None:
+        """firmware: the core's configuration; world: one car more in a world that another steps
+        (roar_sim.runs.fleet), which then calls firmware(), actuate() and plant.tick()."""
+        super().__init__(track, realtime, speedup)
+        self.firmware_config = firmware or CarConfig()
+        self.board = CarBoard(self.firmware_config, loop_us=LOOP_US, frame_us=FRAME_US)
+        self.esc, self.servo = esc or HobbyEsc(), servo or SteeringServo()
+        self.plant = Racecar(track, dt_s=PHYSICS_US / 1e6, gui=gui, world=world, pose=pose)
+        self.calibration = Calibration()
         self._frames = self.board.frames
-        self._replies: list[str] = []
-        self._partial = b""
+        self._replies = ReplyLines()
         self._esc_out = self.esc.pulse(self.board.wire[0])
         self.board.begin()
 
     # --- what the host sees ------------------------------------------------------------------
+
+    def drive(self, throttle: float, steering: float) -> None:
+        self.write(self.calibration.message(throttle, steering))
 
     def write(self, data: bytes) -> None:
         """Bytes arriving on the car's serial port now."""
         self.board.serial_in(data)
 
     def read(self) -> list[str]:
-        """Reply lines the car printed since the last read."""
-        lines, self._replies = self._replies, []
-        return lines
+        return self._replies.take()
 
     def rc_transmitter(self, pulses: tuple[int, int] | None) -> None:
         """(throttle, steering) pulses from an RC receiver from now on at 50 Hz; None = switched off."""
@@ -82,6 +93,25 @@ class SimCar(Lockstep):
     def throttle_out_us(self) -> int:
         """[us] the throttle pulse on the wire now."""
         return self.board.wire[0]
+
+    def vehicle_state(self) -> VehicleState:
+        s = self.state()
+        return VehicleState(self.time_s, s.x, s.y, s.yaw, s.speed, s.yaw_rate, s.encoder_counts,
+                            float(self.throttle_out_us))
+
+    def info(self) -> dict:
+        return {"throttle_us": self.throttle_out_us}
+
+    @property
+    def esc_mode(self) -> EscMode:
+        return self.esc.mode
+
+    def braking(self) -> bool:
+        return self.esc.mode in (EscMode.BRAKE, EscMode.REVERSE)
+
+    def agent(self, line, margin: float = 0.9, lateral: str = "pursuit", k_dd_s: float | None = None) -> Agent:
+        pursuit = None if k_dd_s is None else PurePursuit(MODEL.wheelbase_m, k_dd_s=k_dd_s)
+        return race_agent(line, MODEL, CONTROL_PERIOD_S, margin=margin, lateral=lateral, pursuit=pursuit)
 
     # --- time --------------------------------------------------------------------------------
 
@@ -103,22 +133,39 @@ class SimCar(Lockstep):
             throttle_us, steering_us = self.board.wire
             self._esc_out = self.esc.pulse(throttle_us)
             self.servo.pulse(steering_us)
-        out = self.board.serial_out()
-        if out:
-            *lines, self._partial = (self._partial + out).split(b"\n")
-            self._replies += [line.decode("ascii", "replace") for line in lines]
+        self._replies.add(self.board.serial_out())
 
     def actuate(self) -> None:
         """The ESC's and servo's outputs onto the car, for the physics step to come."""
         esc = self._esc_out
         self.plant.apply(esc.drive, esc.brake, self.servo.advance(PHYSICS_US / 1e6))
 
-    @property
-    def esc_mode(self) -> EscMode:
-        return self.esc.mode
+    # --- its limits --------------------------------------------------------------------------
+
+    @classmethod
+    def measure_limits(cls) -> CarLimits:
+        """Top speed and acceleration at full throttle, braking by reversing the motor (the ESC
+        has no brake of its own beyond the first tap), and the steady lateral acceleration it
+        holds on circles at fixed steering, faster and faster until the tyres slide."""
+        def hold(car: EscCar, throttle_us: int, steering_us: int, seconds: float) -> list:
+            return car.log_driving(lambda: car.write(encode(throttle_us, steering_us)), seconds)
+
+        with cls() as car:
+            hold(car, N, N, 0.2)
+            run = hold(car, spec.CONTROL_MAX_US, N, 4.0)
+            top, accel, brake = straight_line(run, hold(car, spec.CONTROL_MIN_US, N, 2.0))
+        lateral = 0.0
+        for steer_us in (1650, 1700, 1750, 1800):
+            base_radius = None
+            for throttle_us in range(1700, 2001, 50):
+                with cls() as car:
+                    hold(car, N, N, 0.2)
+                    radius, accel_lateral = circle(hold(car, throttle_us, steer_us, 5.0)[-100:])  # the last 2 s
+                base_radius = base_radius or radius  # the slowest run: no slip
+                if radius > HOLDS_LINE * base_radius:
+                    break  # the circle has widened: the tyres slide (understeer)
+                lateral = max(lateral, accel_lateral)
+        return CarLimits(round(top, 2), round(accel, 2), round(brake, 2), round(lateral, 2))
 
 
-def loops_until(t_us: int, end_us: int) -> int:
-    """Board-loop iterations from t_us to the next physics step or end_us, whichever is first."""
-    period_end = (t_us // PHYSICS_US + 1) * PHYSICS_US
-    return max(1, (min(period_end, end_us) - t_us) // LOOP_US)
+ROBOT = EscCar

@@ -1,30 +1,39 @@
-"""The IARRC car in the simulator: the core's IARRC tasks on the host scheduler (FreeRTOS's rules,
-the board's task table and declared costs), SBUS frames from a simulated transmitter, setpoints
-from the host on the serial port, a 10,240-count wheel encoder, and the PyBullet car with a
-stronger motor than the ROAR car's (the IARRC car reaches 2 m/s in 0.7 s).
+"""The IARRC car: the core's IARRC tasks on the host scheduler (FreeRTOS's rules, the board's
+task table and declared costs), SBUS frames from a simulated transmitter, setpoints from the
+host on the serial port, a 10,240-count wheel encoder, and the PyBullet car with a stronger
+motor and grippier tyres than the ESC car's (it reaches 2 m/s in 0.7 s). It drives by speed:
+a command's throttle t asks it for t x FULL_SCALE_M_S as a setpoint, which its own PID holds.
 
-    car = IarrcCar()
-    car.transmitter.mode = "autonomous"       # the RC switches, sticks, or on = False
-    car.host(b"[2000,1500]")                  # 2 m/s, straight
+    car = IarrcCar()                          # the operator flips the mode switch to autonomous
+    car.host(b"[2000,1500]")                  # when the first setpoint arrives: 2 m/s, straight
     car.run(1.0)
     car.status()["speed_mm_s"], car.state()
+    IarrcCar(operator=False).transmitter.mode = "manual"   # or the switches and sticks are yours
+
+    python -m roar_sim.runs.limits iarrc      # re-measure its limits
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
-from roar.protocol import spec
-from roar_sim.plants.esc_servo import HobbyEsc, SteeringServo
-from roar_sim.core.iarrc import IarrcBoard, iarrc_tasks
-from roar_sim.clock.lockstep import Lockstep
-from roar_sim.plants.racecar import CarState, Motor, Plant
+from roar.autopilot import Agent, CarLimits, CarModel, SpeedSetpoint, race_agent
+from roar.autopilot.limits import HOLDS_LINE, circle, straight_line
+from roar.autopilot.pure_pursuit import PurePursuit
+from roar.calibration import Calibration
+from roar.protocol import encode_setpoint, spec
+from roar.telemetry import VehicleState
+from roar_sim.clock.lockstep import CONTROL_PERIOD_S, PHYSICS_US
 from roar_sim.clock.rtos import Scheduler
+from roar_sim.core.iarrc import IarrcBoard, iarrc_tasks
+from roar_sim.core.library import IarrcTask
+from roar_sim.plants.esc_servo import EscMode, HobbyEsc, SteeringServo
+from roar_sim.plants.racecar import WHEELBASE_M, CarState, Motor, Racecar
+from roar_sim.robots import Pose, ReplyLines, Robot
 from roar_sim.world.track import Track
 from roar_wire import sbus
 
-PHYSICS_US = 5_000  # [us] physics step
 FRAME_US = spec.TIMING_SERVO_FRAME_US  # [us] ESC/servo frame
 SBUS_PERIOD_US = 14_000  # [us] a FrSky receiver's frame period (normal speed)
 SBUS_BYTE_US = 120  # [us] one byte at 100 kbaud, 8E2 (12 bits)
@@ -62,45 +71,46 @@ class Transmitter:
         return sbus.encode(channels)
 
 
-@dataclass
-class IarrcSimConfig:
-    motor: Motor = IARRC_MOTOR
-    esc: HobbyEsc = field(default_factory=HobbyEsc)
-    servo: SteeringServo = field(default_factory=SteeringServo)
-    battery_v: float = 12.0  # [V] 3S LiPo
-    task_cost: object = None  # (task index, job number) -> [us]; None: the declared costs
-    clock_offset_us: int = 0  # [us] the board's counter at simulated time 0 (to test its 2^32 wrap)
-    # The person at the transmitter: after the receiver has locked with the mode switch at off,
-    # flip it to autonomous as soon as the computer sends its first setpoint (sim://?car=iarrc,
-    # roar sim --serial --car iarrc). False: the switches are the caller's (car.transmitter).
-    operator: bool = False
-    realtime: bool = False
-    speedup: float = 1.0
-    gui: bool = False
+FULL_SCALE_M_S = spec.SETPOINT_MAX_SPEED_MM_S / 1000  # [m/s] the setpoint a command's throttle of 1 asks for
+LIMITS = CarLimits(max_speed_m_s=4.51, max_accel_m_s2=2.65, max_brake_m_s2=3.16, max_lateral_m_s2=8.03)
+MODEL = CarModel(wheelbase_m=WHEELBASE_M, max_steer_rad=SteeringServo().max_angle_rad, limits=LIMITS)
 
 
-class IarrcCar(Lockstep):
-    def __init__(self, track: Track | None = None, config: IarrcSimConfig | None = None) -> None:
-        self.config = config or IarrcSimConfig()
-        self.track = track
-        self.plant = Plant(track, dt_s=PHYSICS_US / 1e6, gui=self.config.gui, motor=self.config.motor)
+class IarrcCar(Robot):
+    """host() setpoints (or write() any bytes on its host port), run() time, read() its lines."""
+
+    name = "iarrc"
+    title = "IARRC car"
+    limits = LIMITS
+    links = ("serial",)
+    laterals = ("pursuit", "pid")
+    replies = True
+    has_lidar = True
+
+    def __init__(self, track: Track | None = None, pose: Pose | None = None, realtime: bool = False,
+                 speedup: float = 1.0, gui: bool = False, motor: Motor = IARRC_MOTOR, esc: HobbyEsc | None = None,
+                 servo: SteeringServo | None = None, battery_v: float = 12.0, task_cost=None,
+                 clock_offset_us: int = 0, operator: bool = True) -> None:
+        """battery_v: [V] its 3S pack; task_cost: (task, job number) -> [us] (default: the declared
+        costs); clock_offset_us: [us] the board's counter at simulated time 0 (to test its 2^32
+        wrap); operator: the person at the transmitter, who, after the receiver has locked with
+        the mode switch at off, flips it to autonomous as soon as the host sends its first
+        setpoint (False: the switches are the caller's, in `transmitter`)."""
+        super().__init__(track, realtime, speedup)
+        self.plant = Racecar(track, dt_s=PHYSICS_US / 1e6, gui=gui, motor=motor, pose=pose)
         self.board = IarrcBoard(counts_per_m=COUNTS_PER_M)
         self.tasks = iarrc_tasks()
-        names = [t.name for t in self.tasks]
-        self._control, self._gyro, self._battery = (names.index(n) for n in ("control", "gyro", "battery"))
-        self.scheduler = Scheduler(self.tasks, self._body, cost=self.config.task_cost,
-                                   overran=self.board.overran, keep_starts=False)
-        self.esc, self.servo = self.config.esc, self.config.servo
+        self.scheduler = Scheduler(self.tasks, self._body, cost=task_cost, overran=self.board.overran,
+                                   keep_starts=False)
+        self.esc, self.servo = esc or HobbyEsc(), servo or SteeringServo()
         self._esc_out = self.esc.pulse(spec.CONTROL_NEUTRAL_US)
         self.transmitter = Transmitter()
-        self.battery_v = self.config.battery_v
-        self.t_us = 0
+        self.battery_v, self.clock_offset_us, self.operator = battery_v, clock_offset_us, operator
+        self.calibration = Calibration()
         self._next_sbus_us = 0
-        self._host_lines: list[str] = []
-        self._link_lines: list[str] = []
-        self._partial = {"host": b"", "link": b""}
+        self._host_lines, self._link_lines = ReplyLines(), ReplyLines()
         self.board.begin()
-        if self.config.operator:
+        if operator:
             self.run(OPERATOR_LOCK_S)
 
     # --- what the host and the user see ------------------------------------------------------
@@ -108,10 +118,15 @@ class IarrcCar(Lockstep):
     def host(self, data: bytes) -> None:
         """Bytes from the vision computer's serial port, arriving now."""
         self.board.host(data)
-        if self.config.operator and self.transmitter.mode == "off" and spec.SETPOINT_START_CHAR.encode() in data:
+        if self.operator and self.transmitter.mode == "off" and spec.SETPOINT_START_CHAR.encode() in data:
             self.transmitter.mode = "autonomous"
 
-    write = host  # the serial port, as SimCar names it
+    write = host  # its serial port, as every robot names it
+
+    def drive(self, throttle: float, steering: float) -> None:
+        """A setpoint of throttle x FULL_SCALE_M_S, as a vision computer sends it."""
+        speed_mm_s = round(throttle * FULL_SCALE_M_S * 1000)
+        self.host(encode_setpoint(speed_mm_s, self.calibration.steering.to_us(steering)))
 
     @property
     def throttle_out_us(self) -> int:
@@ -125,13 +140,11 @@ class IarrcCar(Lockstep):
     def read(self) -> list[str]:
         """Lines the car wrote to the vision computer since the last read."""
         self._collect()
-        lines, self._host_lines = self._host_lines, []
-        return lines
+        return self._host_lines.take()
 
     def read_link(self) -> list[str]:
         self._collect()
-        lines, self._link_lines = self._link_lines, []
-        return lines
+        return self._link_lines.take()
 
     def status(self) -> dict:
         return self.board.status()
@@ -139,25 +152,40 @@ class IarrcCar(Lockstep):
     def state(self) -> CarState:
         return self.plant.state()
 
+    def vehicle_state(self) -> VehicleState:
+        s = self.state()
+        return VehicleState(self.time_s, s.x, s.y, s.yaw, s.speed, s.yaw_rate, s.encoder_counts,
+                            float(self.throttle_out_us))
+
+    def info(self) -> dict:
+        return {"throttle_us": self.throttle_out_us, "setpoint_mm_s": self.status()["setpoint_mm_s"]}
+
+    def braking(self) -> bool:
+        return self.esc.mode in (EscMode.BRAKE, EscMode.REVERSE)
+
+    def agent(self, line, margin: float = 0.9, lateral: str = "pursuit", k_dd_s: float | None = None) -> Agent:
+        """Pure pursuit (or the heading PID) and the speed profile's speed as the setpoint: the
+        car's own PID holds it, braking through the brake sequence."""
+        pursuit = None if k_dd_s is None else PurePursuit(MODEL.wheelbase_m, k_dd_s=k_dd_s)
+        return race_agent(line, MODEL, CONTROL_PERIOD_S, margin=margin, lateral=lateral, pursuit=pursuit,
+                          speed=SpeedSetpoint(FULL_SCALE_M_S))
+
     def _collect(self) -> None:
-        for name, out, lines in (("host", self.board.host_out, self._host_lines),
-                                 ("link", self.board.link_out, self._link_lines)):
-            if out:
-                *done, self._partial[name] = (self._partial[name] + bytes(out)).split(b"\n")
-                out.clear()
-                lines += [line.decode("ascii", "replace") for line in done]
+        for out, lines in ((self.board.host_out, self._host_lines), (self.board.link_out, self._link_lines)):
+            lines.add(bytes(out))
+            out.clear()
 
     # --- time --------------------------------------------------------------------------------
 
-    def _body(self, task: int, now_us: int) -> None:
+    def _body(self, task: IarrcTask, now_us: int) -> None:
         b = self.board
-        if task == self._control:
+        if task == IarrcTask.CONTROL:
             b.encoder_count = int(self.plant.wheel_angle() / (2 * math.pi) * ENCODER_COUNTS_PER_REV)
-        elif task == self._gyro:
+        elif task == IarrcTask.GYRO:
             b.set_inputs(gyro_z_raw=round(math.degrees(self.plant.state().yaw_rate) * GYRO_COUNTS_PER_DEG_S))
-        elif task == self._battery:
+        elif task == IarrcTask.BATTERY:
             b.set_inputs(battery_adc=round(self.battery_v * 1e6 / BATTERY_UV_PER_COUNT))
-        b.run(task, now_us + self.config.clock_offset_us)
+        b.run(task, now_us + self.clock_offset_us)
 
     def _advance(self, end_us: int) -> None:
         t = self.t_us
@@ -165,7 +193,7 @@ class IarrcCar(Lockstep):
         while self._next_sbus_us < step_end:  # the receiver's frames that start in this step
             frame = self.transmitter.frame()
             if frame is not None:
-                self.board.sbus(frame, self._next_sbus_us + self.config.clock_offset_us, SBUS_BYTE_US)
+                self.board.sbus(frame, self._next_sbus_us + self.clock_offset_us, SBUS_BYTE_US)
             self._next_sbus_us += SBUS_PERIOD_US
         self.scheduler.run_until(step_end)
         self.t_us = step_end
@@ -177,3 +205,34 @@ class IarrcCar(Lockstep):
             esc = self._esc_out
             self.plant.apply(esc.drive, esc.brake, self.servo.advance(PHYSICS_US / 1e6))
             self.plant.step()
+
+    # --- its limits --------------------------------------------------------------------------
+
+    @classmethod
+    def measure_limits(cls) -> CarLimits:
+        """Top speed and acceleration at the fastest setpoint, braking when the setpoint drops to
+        zero (its PID brakes through the brake sequence), and the steady lateral acceleration on
+        circles at fixed steering, faster and faster until the tyres slide."""
+        def hold(car: IarrcCar, speed_mm_s: int, steering_us: int, seconds: float) -> list:
+            return car.log_driving(lambda: car.host(encode_setpoint(speed_mm_s, steering_us)), seconds)
+
+        n, fastest = spec.CONTROL_NEUTRAL_US, spec.SETPOINT_MAX_SPEED_MM_S
+        with cls() as car:
+            hold(car, 0, n, 0.3)
+            run = hold(car, fastest, n, 4.0)
+            top, accel, brake = straight_line(run, hold(car, 0, n, 3.0))
+        lateral = 0.0
+        for steer_us in (1650, 1700, 1750, 1800):
+            base_radius = None
+            for speed_mm_s in range(1000, fastest + 1, 500):
+                with cls() as car:
+                    hold(car, 0, n, 0.3)
+                    radius, accel_lateral = circle(hold(car, speed_mm_s, steer_us, 5.0)[-100:])  # the last 2 s
+                base_radius = base_radius or radius  # the slowest run: no slip
+                if radius > HOLDS_LINE * base_radius:
+                    break  # the circle has widened: the tyres slide (understeer)
+                lateral = max(lateral, accel_lateral)
+        return CarLimits(round(top, 2), round(accel, 2), round(brake, 2), round(lateral, 2))
+
+
+ROBOT = IarrcCar

@@ -1,47 +1,62 @@
-"""The simulated ROAR Junior: the Junior's own loop (JuniorBoard of the C++ core: its HTTP
-request reader and responses, JuniorControl, the L298N driver with its dead time, the failsafe)
-drives the PyBullet robot of roar_sim.plants.junior. Requests are bytes, as on the robot: each
-Connection feeds them to the firmware's reader and returns the firmware's response bytes.
+"""The ROAR Junior: its own loop (JuniorBoard of the firmware core: its HTTP request reader and
+responses, JuniorControl, the L298N driver with its dead time, the failsafe) drives the PyBullet
+robot of roar_sim.plants.junior. Commands reach it as the http:// transport sends them: throttle
+and steering mixed into wheel duties (roar.junior), one GET of its control route each, read by
+the firmware's own HTTP reader on a kept-open connection; the reply is the ultrasonic distance.
 
     firmware loop   1 kHz   JuniorBoard::poll on the board's 32-bit microsecond counter
     ultrasonic      every 60 ms, as the firmware pings
     physics         200 Hz  the pins at each step set the motors' currents
 
 Lockstep by default (time moves only in run()); with realtime=True run() keeps pace with the
-wall clock. Connections may be used from other threads while run() goes on: board access is
-serialised by one lock.
+wall clock. Connections may be used from other threads while run() goes on (`roar sim --robot
+junior --http` serves each on its own): board access is serialised by one lock.
+
+    python -m roar_sim.runs.limits junior     # re-measure its limits
 """
 
 from __future__ import annotations
 
+import math
 import threading
 import time
-from dataclasses import dataclass
 
+from roar.autopilot import Agent, CarLimits, DiffDriveModel, diff_drive_agent
+from roar.autopilot.limits import HOLDS_LINE, circle, straight_line
+from roar.junior import MIXES, query_for
+from roar.telemetry import VehicleState
+from roar.transports.base import unit_command
+from roar_sim.clock.lockstep import LOOP_US, PHYSICS_US, loops_until
 from roar_sim.core.junior import HttpRequestReader, JuniorBoard, SidePins
 from roar_sim.core.library import HttpRead
-from roar_sim.plants.junior import JuniorPlant, JuniorState
-from roar_sim.clock.lockstep import Lockstep
+from roar_sim.plants.junior import WHEEL_TRACK_M, JuniorPlant, JuniorState
+from roar_sim.robots import Pose, Robot
+from roar_sim.sensors.ultrasonic import MAX_RANGE_M
 from roar_sim.world.track import Track
 
-LOOP_US = 1_000  # [us] firmware loop period
-PHYSICS_US = 5_000  # [us]
 PING_US = 60_000  # [us] between ultrasonic readings (the firmware's ping period)
+LIMITS = CarLimits(max_speed_m_s=0.55, max_accel_m_s2=3.11, max_brake_m_s2=1.36, max_lateral_m_s2=0.89)
+MODEL = DiffDriveModel(track_width_m=WHEEL_TRACK_M, limits=LIMITS)
+MIXING = "smooth"  # the autopilot's diff-drive controller sends what smooth mixing turns into its wheel speeds
 
 
-@dataclass
-class JuniorConfig:
-    realtime: bool = False
-    speedup: float = 1.0  # simulated seconds per wall second when realtime
-    gui: bool = False
-    pose: tuple[float, float, float] | None = None  # (x, y, yaw); default: the track's start
+def request(query: str, keep_alive: bool = True) -> bytes:
+    """The bytes of a GET of the control route with `query`, as an HTTP/1.1 client sends them."""
+    close = "" if keep_alive else "Connection: close\r\n"
+    return f"GET /?{query} HTTP/1.1\r\nHost: junior\r\n{close}\r\n".encode()
+
+
+def reply_parts(reply: bytes) -> tuple[int, str]:
+    """(status, body) of one of the firmware's responses."""
+    head, _, body = reply.partition(b"\r\n\r\n")
+    return int(head.split()[1]), body.decode("ascii", "replace")
 
 
 class Connection:
     """One HTTP connection to the simulated Junior, as the robot's server keeps it."""
 
-    def __init__(self, sim: JuniorSim) -> None:
-        self.sim, self.reader, self.open = sim, HttpRequestReader(), True
+    def __init__(self, junior: Junior) -> None:
+        self.junior, self.reader, self.open = junior, HttpRequestReader(), True
 
     def feed(self, data: bytes) -> list[bytes]:
         """Bytes from the client -> the responses to every request they completed. After a
@@ -53,7 +68,7 @@ class Connection:
             data = data[used:]
             if state == HttpRead.INCOMPLETE:
                 break
-            reply, keep_open = self.sim.respond(self.reader)
+            reply, keep_open = self.junior.respond(self.reader)
             replies.append(reply)
             if keep_open:
                 self.reader.reset()
@@ -62,19 +77,28 @@ class Connection:
         return replies
 
 
-class JuniorSim(Lockstep):
-    def __init__(self, track: Track | None = None, config: JuniorConfig | None = None) -> None:
-        self.config = config or JuniorConfig()
-        self.track = track
+class Junior(Robot):
+    name = "junior"
+    title = "ROAR Junior"
+    limits = LIMITS
+    links = ("http",)
+    ultrasonic_max_m = MAX_RANGE_M
+
+    def __init__(self, track: Track | None = None, pose: Pose | None = None, realtime: bool = False,
+                 speedup: float = 1.0, gui: bool = False, mixing: str = MIXING) -> None:
+        """mixing: how drive() turns throttle and steering into wheel duties (roar.junior.MIXES)."""
+        super().__init__(track, realtime, speedup)
         self.board = JuniorBoard(loop_us=LOOP_US)
-        self.plant = JuniorPlant(track, PHYSICS_US / 1e6, self.config.gui, self.config.pose)
-        self.t_us = 0
+        self.plant = JuniorPlant(track, PHYSICS_US / 1e6, gui, pose)
+        self.mix = MIXES[mixing]
         # When a list: (simulated t [us], wall clock [s], left, right) each time the firmware's
         # outputs change, as seen after each run of loop iterations (at most one physics period)
         self.pin_log: list[tuple[int, float, SidePins, SidePins]] | None = None
         self._lock = threading.Lock()
         self._next_ping_us = 0
         self.pose = self.plant.pose()  # (position, quaternion) after the latest physics step, for other threads
+        self._host: Connection | None = None  # drive()'s kept-open connection
+        self.range_m = math.inf  # [m] the distance in the latest reply to drive(); inf: no echo
 
     # --- what a client sees ----------------------------------------------------------------------
 
@@ -86,17 +110,39 @@ class JuniorSim(Lockstep):
             return self.board.respond(reader)
 
     def get(self, query: str) -> tuple[int, str]:
-        """One request (a fresh connection, as the original client opens): (status, body)."""
-        reply = self.connect().feed(f"GET /?{query} HTTP/1.1\r\nConnection: close\r\n\r\n".encode())[0]
-        head, _, body = reply.partition(b"\r\n\r\n")
-        return int(head.split()[1]), body.decode()
+        """One request on a fresh connection, as the original client makes each: (status, body)."""
+        return reply_parts(self.connect().feed(request(query, keep_alive=False))[0])
+
+    def drive(self, throttle: float, steering: float) -> None:
+        if self._host is None or not self._host.open:
+            self._host = self.connect()
+        status, body = reply_parts(self._host.feed(request(query_for(*self.mix(throttle, steering))))[0])
+        cm = float(body) if status == 200 else 0.0
+        self.range_m = cm / 100 if cm > 0 else math.inf
+
+    def write(self, data: bytes) -> None:
+        """A control message on the link, as the http:// transport takes it: one GET."""
+        self.drive(*unit_command(data, "sim"))
 
     def state(self) -> JuniorState:
         return self.plant.state()
 
+    def vehicle_state(self) -> VehicleState:
+        s = self.state()
+        return VehicleState(self.time_s, s.x, s.y, s.yaw, s.speed, s.yaw_rate, range_m=self.range_m)
+
+    def info(self) -> dict:
+        left, right = self.pins
+        return {"duty_permille": (left.duty, right.duty)}
+
     @property
     def pins(self) -> tuple[SidePins, SidePins]:
         return self.board.pins
+
+    def agent(self, line, margin: float = 0.9, lateral: str = "pursuit", k_dd_s: float | None = None) -> Agent:
+        if lateral not in self.laterals:
+            raise ValueError("the Junior steers by pure pursuit only (its wheels set the curvature)")
+        return diff_drive_agent(line, MODEL, margin, **({} if k_dd_s is None else {"k_dd_s": k_dd_s}))
 
     # --- time --------------------------------------------------------------------------------
 
@@ -104,7 +150,7 @@ class JuniorSim(Lockstep):
         """The firmware up to the next physics step or end_us; a physics period's step follows the
         loop iterations that start it, with the pins they left."""
         t = self.t_us
-        loops = max(1, (min((t // PHYSICS_US + 1) * PHYSICS_US, end_us) - t) // LOOP_US)
+        loops = loops_until(t, end_us)
         if t >= self._next_ping_us:
             self.board.distance_cm = self.plant.ultrasonic_cm()
             self._next_ping_us += PING_US
@@ -119,3 +165,32 @@ class JuniorSim(Lockstep):
             self.plant.apply(left, right)
             self.plant.step()
             self.pose = self.plant.pose()
+
+    # --- its limits --------------------------------------------------------------------------
+
+    @classmethod
+    def measure_limits(cls) -> CarLimits:
+        """Top speed and acceleration at full duty, how fast it slows when the duty drops to 0 (it
+        coasts: the L298N's EN low, the gearbox's friction), and the steady lateral acceleration on
+        a circle: it reaches its tightest circle (one wheel near stop) before its wheels slide, so
+        that figure is what it can do, not where grip ends."""
+        def hold(junior: Junior, left: float, right: float, seconds: float) -> list:
+            return junior.log_driving(lambda: junior.get(query_for(left, right)), seconds)
+
+        with cls() as junior:
+            hold(junior, 0, 0, 0.2)
+            run = hold(junior, 1, 1, 2.0)
+            top, accel, brake = straight_line(run, hold(junior, 0, 0, 1.5))
+        lateral = 0.0
+        for inner in (0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2):  # tighter and tighter circles at full outer duty
+            with cls() as junior:
+                hold(junior, 0, 0, 0.2)
+                radius, accel_lateral = circle(hold(junior, 1.0, inner, 3.0)[-50:])  # the last second
+            expected = (WHEEL_TRACK_M / 2) * (1 + inner) / (1 - inner)  # no slip: the wheels' speed ratio
+            if radius > HOLDS_LINE * expected:
+                break  # wider than the wheels ask for: they slide
+            lateral = max(lateral, accel_lateral)
+        return CarLimits(round(top, 2), round(accel, 2), round(brake, 2), round(lateral, 2))
+
+
+ROBOT = Junior

@@ -1,9 +1,9 @@
-"""Several cars in one world: each with its own firmware core (board loop at 1 kHz on its own
+"""Several ESC cars in one world: each with its own firmware core (board loop at 1 kHz on its own
 clock), ESC, servo and serial link; one PyBullet world, stepped once for all of them at 200 Hz,
 so they collide, and each one's lidar and camera see the others.
 
     with Fleet(get("oval"), count=2, gap_m=1.5) as fleet:
-        leader, follower = fleet.cars            # SimCar each: write(), read(), state(), plant
+        leader, follower = fleet.cars            # EscCar each: write(), read(), state(), plant
         leader.write(encode(1600, 1500))
         fleet.run(2.0)
         fleet.touching(0, 1)                     # are the two cars in contact now?
@@ -11,11 +11,11 @@ so they collide, and each one's lidar and camera see the others.
 
 from __future__ import annotations
 
-from roar_sim.robots.esc import LOOP_US, PHYSICS_US, SimCar, SimConfig, loops_until
-from roar_sim.clock.lockstep import Lockstep
+from roar_sim.clock.lockstep import LOOP_US, PHYSICS_US, Lockstep, loops_until
+from roar_sim.robots.esc import EscCar
 from roar_sim.world.bullet import pb
-from roar_sim.world.track import Track
 from roar_sim.world.scene import World
+from roar_sim.world.track import Track
 
 MAX_CARS = 8
 
@@ -24,17 +24,15 @@ class Fleet(Lockstep):
     """count cars on `track`, the first at its start and each next gap_m [m] behind the one
     before, along the centre line."""
 
-    def __init__(self, track: Track, count: int = 2, gap_m: float = 1.5, config: SimConfig | None = None) -> None:
+    def __init__(self, track: Track, count: int = 2, gap_m: float = 1.5, gui: bool = False) -> None:
         if not 1 <= count <= MAX_CARS:
             raise ValueError(f"a fleet is 1..{MAX_CARS} cars, got {count}")
         if not 0.6 <= gap_m <= track.length_m / count:
             raise ValueError(f"gap_m must be 0.6 m (a car's length) .. {track.length_m / count:.1f} m on this "
                              f"track, got {gap_m}")
-        self.config = config or SimConfig()
-        self.world = World(track, PHYSICS_US / 1e6, self.config.gui)
-        self.cars = [SimCar(track, SimConfig(realtime=False), world=self.world, pose=track.pose_at(-i * gap_m))
-                     for i in range(count)]
-        self.plant = self.cars[0].plant  # state() and the camera of the first car, as a SimCar's
+        self.world = World(track, PHYSICS_US / 1e6, gui)
+        self.cars = [EscCar(track, pose=track.pose_at(-i * gap_m), world=self.world) for i in range(count)]
+        self.plant = self.cars[0].plant  # state() and the camera of the first car, as an EscCar's
         self.t_us = 0
 
     def _advance(self, end_us: int) -> None:

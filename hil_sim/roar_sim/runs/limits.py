@@ -1,45 +1,53 @@
-"""How a simulated robot's limits are read from logs of driving it: the pieces car_limits and
-junior_limits share. A log is [(t [s], state)], the state having speed and yaw_rate."""
+"""`roar limits`: measure a simulated robot's physical limits (top speed, acceleration, braking,
+lateral grip) by driving it through its firmware, and print them beside the table the autopilot
+plans with (each robot module's LIMITS; the suite re-measures them and fails when the robot's
+model changes without its table following).
+
+    roar limits [esc iarrc junior]      (default: every robot)
+
+Exit status: 0 when every measurement is within 5 % (or 0.02) of its table, 2 otherwise.
+"""
 
 from __future__ import annotations
 
-import statistics
-from typing import Callable
+import argparse
+import math
+import sys
 
-from roar.protocol import spec
+from roar.autopilot import CarLimits
+from roar.cli.errors import ExitStatus, run_command
+from roar_sim import robots
 
-PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6  # [s] one command per period, as a host sends them
-HOLDS_LINE = 1.12  # a circle within 12 % of the radius the robot should hold counts as grip
-
-
-def drive(sim, send: Callable[[], None], seconds: float) -> list[tuple[float, object]]:
-    """send() and run one period, for `seconds`; the log of (time, state) after each period."""
-    log = []
-    for _ in range(round(seconds / PERIOD_S)):
-        send()
-        sim.run(PERIOD_S)
-        log.append((sim.time_s, sim.state()))
-    return log
+REL_TOLERANCE, ABS_TOLERANCE = 0.05, 0.02  # how far a measurement may be from its table entry
 
 
-def straight_line(run: list, stop: list) -> tuple[float, float, float]:
-    """(top speed [m/s], acceleration [m/s^2], deceleration [m/s^2]) from a full-power run and
-    the stop after it, each rate over the 10 %..90 % band of the top speed."""
-    top = max(s.speed for _, s in run)
-    t10 = next(t for t, s in run if s.speed >= 0.1 * top)
-    t90 = next(t for t, s in run if s.speed >= 0.9 * top)
-    f90 = next(t for t, s in stop if s.speed <= 0.9 * top)
-    f10 = next(t for t, s in stop if s.speed <= 0.1 * top)
-    return top, 0.8 * top / (t90 - t10), 0.8 * top / (f10 - f90)
+def agrees(measured: CarLimits, table: CarLimits) -> bool:
+    return all(math.isclose(getattr(measured, k), getattr(table, k), rel_tol=REL_TOLERANCE, abs_tol=ABS_TOLERANCE)
+               for k in vars(table))
 
 
-def circle(log: list) -> tuple[float, float]:
-    """(radius [m], lateral acceleration [m/s^2]) of a steady circle, medians over the log."""
-    radius = statistics.median(abs(s.speed / s.yaw_rate) for _, s in log if abs(s.yaw_rate) > 1e-3)
-    return radius, statistics.median(abs(s.speed * s.yaw_rate) for _, s in log)
+def report(name: str, measured: CarLimits, table: CarLimits) -> str:
+    kind = robots.get(name)
+    lines = [f"{kind.title} ({name}):"]
+    for key, value in vars(measured).items():
+        lines.append(f"  {key:18} {value:6.2f}   (table: {getattr(table, key):.2f})")
+    return "\n".join(lines)
 
 
-def print_against(measured, table) -> None:
-    """Each measured limit beside the table's value."""
-    for name, value in vars(measured).items():
-        print(f"{name:18} {value:6.2f}   (table: {getattr(table, name):.2f})")
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="roar limits", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("robots", nargs="*", choices=[[], *robots.names()], metavar="ROBOT",
+                   help=f"which robots ({', '.join(robots.names())}; default: all)")
+    names = p.parse_args(argv).robots or list(robots.names())
+    status = ExitStatus.OK
+    for name in names:
+        kind = robots.get(name)
+        measured = kind.measure_limits()
+        print(report(name, measured, kind.limits), flush=True)
+        if not agrees(measured, kind.limits):
+            status = ExitStatus.SHORT
+    return status
+
+
+if __name__ == "__main__":
+    sys.exit(run_command("roar limits", main))

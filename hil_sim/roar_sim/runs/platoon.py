@@ -13,16 +13,15 @@ from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field
 
 from roar.autopilot.platoon import cruise_agent, follow_agent
-from roar.calibration import Calibration
+from roar.cli.errors import ExitStatus, UserError, run_command
 from roar.protocol import spec
 from roar.v2v import V2VLink
-from roar_sim.robots.car_limits import SIMULATED_CAR
-from roar_sim.runs.fleet import Fleet
+from roar_sim.clock.lockstep import CONTROL_PERIOD_S as PERIOD_S
 from roar_sim.links.netns import VethPair, call_in
-from roar_sim.runs.race import observation
+from roar_sim.robots.esc import MODEL
+from roar_sim.runs.fleet import Fleet
 from roar_sim.world.track import Track
 
-PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6  # [s] each car's control period
 V2V_EVERY = round(spec.V2V_PERIOD_US / spec.TIMING_HOST_SEND_PERIOD_US)  # control periods per V2V message
 LEADER, FOLLOWER = 1, 2  # car ids on the V2V group
 
@@ -55,29 +54,26 @@ def platoon(track: Track, gap_m: float = 1.5, cruise_m_s: float = 1.0, seconds: 
     """across: the leader's V2V socket on this side of a veth link (roar_sim.links.netns), the
     follower's in the namespace at its other end, so the messages cross a kernel link."""
     run = PlatoonRun(gap_m)
-    line, calibration = track.centerline, Calibration()
+    line = track.centerline
     with _links(port, interface, across) as (lead_link, follow_link), Fleet(track, count=2, gap_m=gap_m) as fleet:
         lead, follow = fleet.cars
-        leader = cruise_agent(line, SIMULATED_CAR, PERIOD_S, cruise_m_s)
-        follower = follow_agent(line, SIMULATED_CAR, PERIOD_S, gap_m, leader=lambda: follow_link.latest.get(LEADER))
+        leader = cruise_agent(line, MODEL, PERIOD_S, cruise_m_s)
+        follower = follow_agent(line, MODEL, PERIOD_S, gap_m, leader=lambda: follow_link.latest.get(LEADER))
         for car in fleet.cars:  # arm: each car boots latched until it hears neutral
-            car.write(calibration.message(0.0, 0.0))
+            car.drive(0.0, 0.0)
         fleet.run(PERIOD_S)
         leader.setup()
         follower.setup()
         hint = {}
         for step in range(round(seconds / PERIOD_S)):
             t = fleet.time_s
-            observed = {}
-            for name, car in (("lead", lead), ("follow", follow)):
-                observed[name] = observation(t, car.state())
+            observed = {"lead": lead.observe(), "follow": follow.observe()}
             o = observed["lead"]
             if step % V2V_EVERY == 0 and (silence_from_s is None or t < silence_from_s):
                 lead_link.send(o.x, o.y, o.yaw, o.speed)
             follow_link.receive(t)
             for car, agent, name in ((lead, leader, "lead"), (follow, follower, "follow")):
-                command = agent.step(observed[name])
-                car.write(calibration.message(command.throttle, command.steering))
+                car.send(agent.step(observed[name]))
             fleet.run(PERIOD_S)
             along, speed = {}, {}
             for name, car in (("lead", lead), ("follow", follow)):
@@ -156,64 +152,68 @@ def plot(run: PlatoonRun, silence_from_s: float | None):
     return fig
 
 
-def main(argv: list[str] | None = None) -> int:
+def parser():
     import argparse
-    import sys
     from pathlib import Path
 
-    from roar.v2v import free_port
-    from roar_sim.world import plotting
-    from roar_sim.core.library import CoreLoadError
-    from roar_sim.robots.esc import SimError
-    from roar_sim.links.netns import NetnsUnavailable, veth_pair
-    from roar_sim.world.track import TrackError, get
-
-    parser = argparse.ArgumentParser(
+    p = argparse.ArgumentParser(
         prog="roar platoon", formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Two simulated cars platoon as ROAR's did: each its own firmware core, one world; the "
                     "leader cruises, the follower keeps a gap behind it from the leader's position over UDP "
                     "multicast (V2V), and stops by itself when the messages stop.\n\nExit status: 0; 1 for bad "
                     "input; 2 when the cars touched, the gap was not held, or the follower did not stop.")
-    parser.add_argument("--track", default="oval", help="oval, figure-eight, course or a track .json (default: oval)")
-    parser.add_argument("--gap", type=float, default=1.5, metavar="M", help="gap to keep [m] (default 1.5)")
-    parser.add_argument("--speed", type=float, default=1.0, metavar="M/S", help="the leader's speed [m/s] (default 1)")
-    parser.add_argument("--seconds", type=float, default=15.0, help="simulated time [s] (default 15)")
-    parser.add_argument("--silence-at", type=float, metavar="S",
-                        help="the leader stops sending at S seconds: the follower must stop by itself")
-    parser.add_argument("--netns", action="store_true",
-                        help="the follower's V2V socket in another network namespace, over a real veth link "
-                             "(needs root); default: loopback")
-    parser.add_argument("--port", type=int, metavar="PORT",
-                        help=f"V2V UDP port (default: a free one; ROAR's cars used {spec.V2V_PORT})")
-    parser.add_argument("--plot", type=Path, metavar="PNG", help="write gap and speeds over time to this PNG")
-    args = parser.parse_args(argv)
+    p.add_argument("--track", default="oval", help="oval, figure-eight, course or a track .json (default: oval)")
+    p.add_argument("--gap", type=float, default=1.5, metavar="M", help="gap to keep [m] (default 1.5)")
+    p.add_argument("--speed", type=float, default=1.0, metavar="M/S", help="the leader's speed [m/s] (default 1)")
+    p.add_argument("--seconds", type=float, default=15.0, help="simulated time [s] (default 15)")
+    p.add_argument("--silence-at", type=float, metavar="S",
+                   help="the leader stops sending at S seconds: the follower must stop by itself")
+    p.add_argument("--netns", action="store_true",
+                   help="the follower's V2V socket in another network namespace, over a real veth link (needs "
+                        "root); default: loopback")
+    p.add_argument("--port", type=int, metavar="PORT",
+                   help=f"V2V UDP port (default: a free one; ROAR's cars used {spec.V2V_PORT})")
+    p.add_argument("--plot", type=Path, metavar="PNG", help="write gap and speeds over time to this PNG")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    from roar.v2v import free_port
+    from roar_sim.links.netns import veth_pair
+    from roar_sim.world import plotting
+    from roar_sim.world.track import get
+
+    p = parser()
+    args = p.parse_args(argv)
     if not 0.5 <= args.gap <= 5.0:
-        parser.error("--gap must be 0.5..5 m")
+        p.error("--gap must be 0.5..5 m")
     if not 0.2 <= args.speed <= 2.5:
-        parser.error("--speed must be 0.2..2.5 m/s")
+        p.error("--speed must be 0.2..2.5 m/s")
     if not 1.0 <= args.seconds <= 600.0:
-        parser.error("--seconds must be 1..600")
+        p.error("--seconds must be 1..600")
     if args.silence_at is not None and not 0 < args.silence_at < args.seconds:
-        parser.error("--silence-at must fall within the run (0 < S < --seconds)")
+        p.error("--silence-at must fall within the run (0 < S < --seconds)")
     if args.port is not None and not 1024 <= args.port <= 65535:
-        parser.error("--port must be 1024..65535")
-    plotting.check_png_argument(parser, args.plot)
+        p.error("--port must be 1024..65535")
+    plotting.check_png_argument(p, args.plot)
     port = args.port or free_port()
+    track = get(args.track)
     try:
-        track = get(args.track)
         with veth_pair() if args.netns else nullcontext() as link:
             how = (f"over a veth link {link.here_ip} -> {link.there_ip} into namespace {link.ns}" if link
                    else "over loopback") + f", group {spec.V2V_GROUP} port {port}"
             run = platoon(track, args.gap, args.speed, args.seconds, args.silence_at, port=port, across=link)
-    except (TrackError, CoreLoadError, SimError, NetnsUnavailable) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 1
     except OSError as e:
-        print(f"error: V2V port {port}: {e.strerror or e}", file=sys.stderr)
-        return 1
+        raise UserError(f"V2V port {port}: {e.strerror or e}") from None
     summary = summarise(run, args.silence_at)
     print(report(run, summary, track, args.speed, how, args.silence_at))
     if args.plot and not plotting.save(lambda: plot(run, args.silence_at), args.plot):
-        return 1
+        return ExitStatus.ERROR
     failed = run.contacts or not summary.held or (args.silence_at is not None and summary.stopped_at_s is None)
-    return 2 if failed else 0
+    return ExitStatus.SHORT if failed else ExitStatus.OK
+
+
+if __name__ == "__main__":
+    import sys
+
+    sys.exit(run_command("roar platoon", main))

@@ -1,15 +1,15 @@
-"""Race a simulated robot: the autopilot's racing agent (roar.autopilot) drives N laps through
-the firmware logic (commands at 50 Hz, lockstep), measured against the track's physical-limit
-lap time for that robot.
+"""Race a simulated robot: its default driver (roar.autopilot) laps a track through its firmware
+(commands at 50 Hz, lockstep), measured against the track's physical-limit lap time for that
+robot.
 
-    roar race [--junior] [--track oval|figure-eight|course|FILE.json] [--laps 2] [--waypoints FILE]
-              [--margin 0.9] [--k-dd S] [--steering pursuit|pid] [--driver line|lane] [--start-lights SEED]
-              [--boxes N] [--avoid] [--record DIR] [--plot out/race.png] [--realtime] [--gui]
+    roar race [--robot esc|iarrc|junior] [--track oval|figure-eight|course|FILE.json] [--laps 2]
+              [--waypoints FILE] [--margin 0.9] [--k-dd S] [--steering pursuit|pid] [--driver line|lane]
+              [--start-lights SEED] [--boxes N] [--avoid] [--record DIR] [--plot out/race.png]
+              [--realtime] [--gui]
 
-The ESC car (default) hears control messages on its serial link. The ROAR Junior (--junior)
-is driven as a user's script drives it: pure pursuit's curvature becomes wheel duties, each
-period one GET of its control route over a kept-alive loopback HTTP connection (the http://
-transport), answered by the Junior's firmware loop.
+Every command reaches the robot as a host's does (roar_sim.robots): the ESC car hears control
+messages on its serial port; the IARRC car speed setpoints (its own PID holds them); the ROAR
+Junior one GET of its control route each, pure pursuit's curvature mixed into wheel duties.
 
 Prints lap times, their ratio to the physical limit, the maximum and RMS cross-track error and
 wall contacts, and plots the driven path coloured by speed beside the speed along the track.
@@ -24,87 +24,51 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
-from contextlib import contextmanager
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from roar.autopilot import (Agent, CarLimits, Command, Observation, Runner, WaypointError, diff_drive_agent,
-                            lap_time, load_waypoints, race_agent, speed_profile)
-from roar.autopilot.pure_pursuit import PurePursuit
-from roar.calibration import Calibration
-from roar.protocol import spec
+from roar.autopilot import Agent, Command, Observation, Runner, WaypointError, lap_time, load_waypoints, speed_profile
+from roar.cli.errors import ExitStatus, run_command
+from roar_sim import robots
+from roar_sim.clock.lockstep import CONTROL_PERIOD_S as PERIOD_S
+from roar_sim.robots import Robot
+from roar_sim.sensors.tfmini import Tfmini
 from roar_sim.world import plotting
-from roar_sim.plants.esc_servo import EscMode
-from roar_sim.robots.car_limits import SIMULATED_CAR
-from roar_sim.core.library import CoreLoadError
-from roar_sim.robots.esc import SimCar, SimConfig, SimError
 from roar_sim.world.obstacles import MIN_GAP_M, box_course, place_boxes, touching
 from roar_sim.world.start_lights import StartLights, green_moment
-from roar_sim.sensors.tfmini import Tfmini
 from roar_sim.world.track import Track, TrackError, get
 
-PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6  # [s] 50 Hz, like a real host
-ROBOTS = ("car", "junior")
 MARGIN_RANGE = (0.3, 1.0)  # fraction of the robot's limits a race may be driven at
 K_DD_RANGE_S = (0.05, 2.0)  # [s] pure pursuit's look-ahead per m/s a race may use
 LANE_CAMERA = (320, 240)  # [px] the camera the lane driver sees through
+STEERING = {"pursuit": "pure pursuit", "pid": "the heading PID"}  # a robot's laterals, in words
 
 
-def observation(t_s: float, s) -> Observation:
-    """What the autopilot observes of a simulated robot's state `s` at t_s [s]."""
-    return Observation(t_s, s.x, s.y, s.yaw, abs(s.speed), s.yaw_rate)
+class LaneCourse:
+    """What the lane driver meets beside its robot: start lights (a seed), boxes on the track, the
+    TFmini on its nose, and a folder its frames are recorded to."""
 
-
-class LockstepIO:
-    """A simulated robot in lockstep as the runner's car: observed from the simulator, time moved
-    by wait(); subclasses say how a command travels and which agent drives."""
-
-    limits: CarLimits
-
-    def __init__(self, sim, calibration: Calibration | None = None) -> None:
-        self.sim, self.calibration = sim, calibration or Calibration()
-
-    def observe(self) -> Observation:
-        return observation(self.sim.time_s, self.sim.state())
-
-    def send(self, command: Command) -> None:
-        raise NotImplementedError
-
-    def wait(self, seconds: float) -> None:
-        self.sim.run(seconds)
-
-    def agent(self, line: np.ndarray, margin: float, lateral: str, k_dd_s: float | None = None) -> Agent:
-        """The driver; k_dd_s: pure pursuit's look-ahead per m/s [s] (None: the autopilot's default)."""
-        raise NotImplementedError
-
-    def touching_wall(self) -> bool:
-        return self.sim.plant.wall_contacts() > 0
-
-    def braking(self) -> bool:
-        return False
-
-    def signed_speed(self) -> float:
-        return self.sim.state().speed
-
-
-class SimIO(LockstepIO):
-    """The ESC car: commands as control messages on its serial link; `lights`, the start lights
-    beside the track, `boxes` on it, and its TFmini `laser`, if any."""
-
-    limits = SIMULATED_CAR.limits
-
-    def __init__(self, sim, calibration: Calibration | None = None, lights: StartLights | None = None,
-                 boxes: list[int] | None = None, laser=None, record: Path | None = None) -> None:
-        super().__init__(sim, calibration)
-        self.lights, self.boxes, self.laser, self.record = lights, boxes or [], laser, record
+    def __init__(self, robot: Robot, start_seed: int | None = None, boxes: Sequence[tuple[float, float]] = (),
+                 avoid: bool = False, record: Path | None = None) -> None:
+        self.robot, self.record = robot, record
+        world, track = robot.plant.world, robot.track
+        self.lights = None
+        if start_seed is not None:
+            self.lights = StartLights(world, track, green_moment(start_seed))
+            robot.plant.props.append(self.lights)
+        self.boxes = place_boxes(world, track, boxes)
+        self.laser = Tfmini(robot.plant) if avoid else None
+        if record is not None:
+            record.mkdir(parents=True, exist_ok=True)
         self._frames = 0
 
     def camera(self) -> tuple[np.ndarray, np.ndarray]:
         """The lane driver's frame (RGB, depth); with record, also written as NNNNNN.png and
         NNNNNN_depth.npy (metres), the folder `roar vision` reads."""
-        rgb, depth = self.sim.plant.camera(*LANE_CAMERA)
+        rgb, depth = self.robot.plant.camera(*LANE_CAMERA)
         if self.record is not None:
             from roar.vision.geometry import cv2
 
@@ -114,34 +78,21 @@ class SimIO(LockstepIO):
             self._frames += 1
         return rgb, depth
 
-    def send(self, command: Command) -> None:
-        self.sim.write(self.calibration.message(command.throttle, command.steering))
+    def agent(self, margin: float) -> Agent:
+        """The camera alone drives: the line (and the pose) stay out of the control path."""
+        from roar.autopilot.lane_agent import lane_agent
+        from roar.vision.geometry import SIMULATED_CAR_CAMERA, BirdsEye
+        from roar.vision.lanes import LaneDetector
+        from roar.vision.start_lights import StartLightDetector
+        from roar_sim.robots.esc import MODEL
 
-    def agent(self, line: np.ndarray, margin: float, lateral: str, k_dd_s: float | None = None) -> Agent:
-        if lateral == "lane":  # the camera alone: the line (and the pose) stay out of the control path
-            from roar.autopilot.lane_agent import lane_agent
-            from roar.vision.geometry import BirdsEye
-            from roar.vision.lanes import LaneDetector
-            from roar_sim.plants.racecar import camera_model
-
-            w, h = LANE_CAMERA
-            detector = LaneDetector(BirdsEye(camera_model(w, h)))
-            start = None
-            if self.lights is not None:
-                from roar.vision.start_lights import StartLightDetector
-
-                start = StartLightDetector()
-            return lane_agent(self.camera, detector, SIMULATED_CAR, PERIOD_S, margin,
-                              depth_camera=camera_model(w, h), start=start,
-                              laser=self.laser.read if self.laser is not None else None)
-        pursuit = None if k_dd_s is None else PurePursuit(SIMULATED_CAR.wheelbase_m, k_dd_s=k_dd_s)
-        return race_agent(line, SIMULATED_CAR, PERIOD_S, margin=margin, lateral=lateral, pursuit=pursuit)
-
-    def braking(self) -> bool:
-        return self.sim.esc_mode in (EscMode.BRAKE, EscMode.REVERSE)
+        camera = SIMULATED_CAR_CAMERA.model(*LANE_CAMERA)
+        return lane_agent(self.camera, LaneDetector(BirdsEye(camera)), MODEL, PERIOD_S, margin, depth_camera=camera,
+                          start=StartLightDetector() if self.lights is not None else None,
+                          laser=self.laser.read if self.laser is not None else None)
 
     def touching_box(self) -> bool:
-        return touching(self.sim.plant, self.boxes) > 0
+        return touching(self.robot.plant, self.boxes) > 0
 
 
 @dataclass
@@ -151,7 +102,7 @@ class RaceResult:
     lap_times_s: list[float] = field(default_factory=list)
     cross_track_m: list[float] = field(default_factory=list)
     path: list[tuple[float, float, float, float, float]] = field(default_factory=list)  # (x, y, speed, arc length, t)
-    robot: str = "car"  # "car" (the ESC car) or "junior"
+    robot: str = "esc"  # the robot's name (roar_sim.robots)
     wall_contacts: int = 0  # control periods with the car touching a wall
     travelled_m: float = 0.0  # [m] net progress along the track, all laps
     braking_periods: int = 0  # control periods the ESC spent braking or reversing the motor
@@ -207,58 +158,58 @@ def check_line(track: Track, line: np.ndarray) -> None:
             raise WaypointError(f"waypoint {i + 1} at ({point[0]:.2f}, {point[1]:.2f}) is {abs(cte):.2f} m from "
                                 f"the centre line, outside the track (half width {half:g} m)")
         positions.append(s_along)
-    steps = (np.diff(positions + positions[:1]) + track.length_m / 2) % track.length_m - track.length_m / 2
-    if steps.sum() < 0:
-        raise WaypointError(f"the waypoints run against the track's direction (the car starts facing along the "
-                            f"centre line from its first point): reverse their order")
+    if track.arc_delta(np.array(positions), np.roll(positions, -1)).sum() < 0:
+        raise WaypointError("the waypoints run against the track's direction (the car starts facing along the "
+                            "centre line from its first point): reverse their order")
 
 
-def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margin: float = 0.9,
-         config: SimConfig | None = None, progress: bool = False, timeout_s: float | None = None,
-         lateral: str = "pursuit", robot: str = "car", start_lights: int | None = None,
-         boxes: Sequence[tuple[float, float]] = (), avoid: bool = False, record: Path | None = None,
-         k_dd_s: float | None = None) -> RaceResult:
-    """Race `robot` ("car": the ESC car; "junior": the ROAR Junior over HTTP) round `track`.
-    config's realtime and gui apply to either robot. The lane driver only: start_lights (a
-    seed) -- start lights turn green at a moment drawn from the seed, and the car waits for
-    them; avoid -- the car carries a TFmini and keeps to a lane, changing lanes for what is
-    ahead; record -- a folder the driver's frames are written to. boxes: (distance along the
-    centre line, offset to its left) [m] of each box. k_dd_s: pure pursuit's look-ahead per m/s
-    [s] (None: the autopilot's default)."""
-    if robot not in ROBOTS:
-        raise ValueError(f"robot must be one of {', '.join(ROBOTS)}, got {robot!r}")
-    if (start_lights is not None or avoid or record) and (robot != "car" or lateral != "lane"):
+def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margin: float = 0.9, robot: str = "esc",
+         realtime: bool = False, gui: bool = False, progress: bool = False, timeout_s: float | None = None,
+         lateral: str = "pursuit", start_lights: int | None = None, boxes: Sequence[tuple[float, float]] = (),
+         avoid: bool = False, record: Path | None = None, k_dd_s: float | None = None) -> RaceResult:
+    """Race `robot` (a name of roar_sim.robots) round `track`, its commands as a host sends them.
+    lateral: its steering ("pursuit", "pid" where it has it), or "lane": the ESC car driving by
+    its camera alone, and with it start_lights (a seed: start lights turn green at a moment drawn
+    from it, and the car waits for them), avoid (a TFmini on its nose, keeping to a lane and
+    changing lanes for what is ahead), record (a folder the driver's frames are written to).
+    boxes: (distance along the centre line, offset to its left) [m] of each box. k_dd_s: pure
+    pursuit's look-ahead per m/s [s] (None: the robot's default)."""
+    kind = robots.get(robot)
+    if lateral == "lane" and not kind.lane_driving:
+        raise ValueError(f"the {kind.title} does not drive by its camera: lane driving is the ESC car's")
+    if lateral not in (*kind.laterals, "lane"):
+        raise ValueError(f"the {kind.title} steers by {' or '.join(STEERING[k] for k in kind.laterals)} only, "
+                         f"not {lateral!r}")
+    if (start_lights is not None or avoid or record) and lateral != "lane":
         raise ValueError("start lights, the TFmini and recording are for the lane driver (the ESC car driving by "
                          "its camera)")
     line = track.centerline if waypoints is None else np.asarray(waypoints)[:, :2]
     if waypoints is not None:
         check_line(track, line)
-    config = config or SimConfig()
     bar = None
-    car = _open_car(track, config, start_lights, boxes, avoid, record) if robot == "car" else \
-        _open_junior(track, config)
-    with car as io:
-        result = RaceResult(track, speed_profile(track.centerline, io.limits), robot=robot, boxes=len(boxes))
-        lights = getattr(io, "lights", None)
+    with ExitStack() as stack:
+        car = stack.enter_context(kind(track, realtime=realtime, gui=gui))
+        course = LaneCourse(car, start_lights, boxes, avoid, record) if lateral == "lane" else None
+        result = RaceResult(track, speed_profile(track.centerline, car.limits), robot=robot, boxes=len(boxes))
+        lights = course.lights if course else None
         result.green_at_s = lights.green_at_s if lights else None
         timeout_s = timeout_s or race_timeout_s(result, laps) + (result.green_at_s or 0.0)
         lap = {"hint": None, "s": 0.0, "travelled": 0.0, "start": 0.0}
 
-        def record(obs: Observation, command: Command) -> None:
+        def on_step(obs: Observation, command: Command) -> None:
             if result.green_at_s is not None and result.moved_at_s is None:
                 result.green_frames += obs.t_s >= result.green_at_s
                 if command.throttle > 0:  # the race starts now: the first lap is timed from here
                     result.moved_at_s = lap["start"] = obs.t_s
             hint, s_now, cte = track.project((obs.x, obs.y), lap["hint"])
-            ds = (s_now - lap["s"] + track.length_m / 2) % track.length_m - track.length_m / 2
-            lap.update(hint=hint, s=s_now, travelled=lap["travelled"] + ds)
+            lap.update(hint=hint, s=s_now, travelled=lap["travelled"] + track.arc_delta(lap["s"], s_now))
             result.travelled_m = lap["travelled"]
             result.cross_track_m.append(cte)
             result.path.append((obs.x, obs.y, obs.speed, s_now, obs.t_s))
-            result.wall_contacts += io.touching_wall()
-            result.box_contacts += bool(boxes) and io.touching_box()
-            result.braking_periods += io.braking()
-            result.slowest_m_s = min(result.slowest_m_s, io.signed_speed())
+            result.wall_contacts += car.touching_wall()
+            result.box_contacts += bool(boxes) and course.touching_box()
+            result.braking_periods += car.braking()
+            result.slowest_m_s = min(result.slowest_m_s, car.state().speed)
             if lap["travelled"] >= track.length_m * (len(result.lap_times_s) + 1):
                 result.lap_times_s.append(obs.t_s - lap["start"])
                 lap["start"] = obs.t_s
@@ -266,36 +217,14 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
                 bar.update(max(0.0, min(laps, lap["travelled"] / track.length_m) - bar.n))
 
         bar = _progress_bar(laps, track.name) if progress else None  # once the simulator is up
-        io.send(Command(0.0, 0.0))  # arm: the ESC car boots latched until it hears neutral
-        io.wait(PERIOD_S)
-        Runner(io, io.agent(line, margin, lateral, k_dd_s), PERIOD_S).run(
-            until=lambda obs: len(result.lap_times_s) >= laps or obs.t_s >= timeout_s, on_step=record)
-        io.wait(PERIOD_S)
+        car.arm()
+        agent = course.agent(margin) if course else car.agent(line, margin, lateral, k_dd_s)
+        Runner(car, agent, PERIOD_S).run(
+            until=lambda obs: len(result.lap_times_s) >= laps or obs.t_s >= timeout_s, on_step=on_step)
+        car.wait(PERIOD_S)
     if bar:
         bar.close()
     return result
-
-
-@contextmanager
-def _open_car(track: Track, config: SimConfig, start_seed: int | None = None,
-              boxes: Sequence[tuple[float, float]] = (), avoid: bool = False, record: Path | None = None):
-    with SimCar(track, config) as sim:
-        lights = None
-        if start_seed is not None:
-            lights = StartLights(sim.plant.world, track, green_moment(start_seed))
-            sim.plant.props.append(lights)
-        laser = Tfmini(sim.plant) if avoid else None
-        if record is not None:
-            record.mkdir(parents=True, exist_ok=True)
-        yield SimIO(sim, lights=lights, boxes=place_boxes(sim.plant.world, track, boxes), laser=laser, record=record)
-
-
-@contextmanager
-def _open_junior(track: Track, config: SimConfig):
-    from roar_sim.runs.junior_race import JuniorIO
-
-    with JuniorIO.serving(track, realtime=config.realtime, gui=config.gui) as io:
-        yield io
 
 
 def race_timeout_s(result: RaceResult, laps: int) -> float:
@@ -312,8 +241,7 @@ def _progress_bar(laps: int, name: str):
 
 def report(result: RaceResult) -> str:
     tr = result.track
-    who = "ROAR Junior (over HTTP)" if result.robot == "junior" else "ESC car"
-    lines = [f"{who} on track {tr.name}: {tr.length_m:.1f} m, width {tr.width_m:.1f} m; "
+    lines = [f"{robots.get(result.robot).title} on track {tr.name}: {tr.length_m:.1f} m, width {tr.width_m:.1f} m; "
              f"physical-limit lap {result.limit_lap_s:.2f} s"]
     for i, t in enumerate(result.lap_times_s, 1):
         lines.append(f"  lap {i}: {t:6.2f} s  ({tr.length_m / t:.2f} m/s average, "
@@ -328,7 +256,7 @@ def report(result: RaceResult) -> str:
     lines.append(f"wall contacts: {result.wall_contacts}")
     if result.boxes:
         lines.append(f"box contacts: {result.box_contacts} (control periods touching one of the {result.boxes} boxes)")
-    if result.robot == "car":
+    if result.braking_periods:
         lines.append(f"braking: {result.braking_periods * PERIOD_S:.2f} s through the firmware's brake/reverse "
                      f"sequence (the ESC has no brake)")
     return "\n".join(lines)
@@ -349,100 +277,99 @@ def plot(result: RaceResult):
     ax_v.set_ylim(bottom=0)
     ax_v.legend(loc="lower right", fontsize=8)
     times = ", ".join(f"{t:.2f} s" for t in result.lap_times_s)
-    who = "ROAR Junior" if result.robot == "junior" else "ESC car"
-    fig.suptitle(f"{who}, {result.track.name}: laps {times} (limit {result.limit_lap_s:.2f} s, best "
+    fig.suptitle(f"{robots.get(result.robot).title}, {result.track.name}: laps {times} (limit {result.limit_lap_s:.2f} s, best "
                  f"{result.best_ratio:.2f} x); max cross-track {result.max_cross_track_m:.2f} m, "
                  f"wall contacts {result.wall_contacts}", fontsize=10)
     return fig
 
 
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="roar race", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--robot", choices=robots.names(), default="esc",
+                   help="which robot races: the ESC car (default), the IARRC car (by speed), the ROAR Junior (over "
+                        "its HTTP control route)")
+    p.add_argument("--seconds", type=float, default=None, metavar="S",
+                   help="time limit in simulated seconds (default: 4 x the physical-limit laps + 10)")
+    p.add_argument("--track", default="oval",
+                   help="oval, figure-eight, course (long straights, for boxes), or a track .json file (default: oval)")
+    p.add_argument("--laps", type=int, default=2, help="laps to drive (default: 2)")
+    p.add_argument("--waypoints", type=Path, metavar="FILE",
+                   help="follow this closed line (x,y,z per line) instead of the centre line")
+    p.add_argument("--margin", type=float, default=0.9, help="fraction of the robot's limits to drive at (default 0.9)")
+    p.add_argument("--k-dd", type=float, default=None, metavar="S",
+                   help="pure pursuit's look-ahead per m/s of speed [s] (default 0.35 for the cars, 0.5 for the "
+                        "Junior; `roar sweep` tunes it)")
+    p.add_argument("--steering", choices=["pursuit", "pid"], default="pursuit",
+                   help="lateral control: pure pursuit (default) or the heading-error PID (not the Junior)")
+    p.add_argument("--driver", choices=["line", "lane"], default="line",
+                   help="line: follow the known centre line by the robot's pose (default); lane: the ESC car drives "
+                        "by its camera alone (lane lines, no pose; the pose only scores)")
+    p.add_argument("--start-lights", type=int, metavar="SEED",
+                   help="with --driver lane: start lights beside the track turn green at a moment drawn from SEED; "
+                        "the car waits for green")
+    p.add_argument("--boxes", type=int, default=0, metavar="N",
+                   help="with --driver lane: N boxes on straight road, alternately in the right and the left lane "
+                        "(--track course has room for 3 a lap)")
+    p.add_argument("--avoid", action="store_true",
+                   help="with --driver lane: the car carries a TFmini laser, keeps to the right lane and changes "
+                        "lanes for what is ahead in it (IARRC's rule)")
+    p.add_argument("--record", type=Path, metavar="DIR",
+                   help="with --driver lane: write every frame the driver sees (PNG and depth .npy) to DIR, for "
+                        "`roar vision DIR`")
+    p.add_argument("--plot", type=Path, metavar="PNG", help="write the path and speed plot to this PNG")
+    p.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
+    p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
+    return p
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="roar race", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--junior", action="store_true",
-                        help="race the ROAR Junior (differential drive, over HTTP) instead of the ESC car")
-    parser.add_argument("--seconds", type=float, default=None, metavar="S",
-                        help="time limit in simulated seconds (default: 4 x the physical-limit laps + 10)")
-    parser.add_argument("--track", default="oval", help="oval, figure-eight, course (long straights, for boxes), or a track .json file (default: oval)")
-    parser.add_argument("--laps", type=int, default=2, help="laps to drive (default: 2)")
-    parser.add_argument("--waypoints", type=Path, metavar="FILE",
-                        help="follow this closed line (x,y,z per line) instead of the centre line")
-    parser.add_argument("--margin", type=float, default=0.9,
-                        help="fraction of the car's limits to drive at (default 0.9)")
-    parser.add_argument("--k-dd", type=float, default=None, metavar="S",
-                        help="pure pursuit's look-ahead per m/s of speed [s] (default 0.35 for the car, 0.5 for the "
-                             "Junior; `roar sweep` tunes it)")
-    parser.add_argument("--steering", choices=["pursuit", "pid"], default="pursuit",
-                        help="lateral control: pure pursuit (default) or the heading-error PID")
-    parser.add_argument("--driver", choices=["line", "lane"], default="line",
-                        help="line: follow the known centre line by the car's pose (default); lane: drive by "
-                             "the camera alone (lane lines, no pose; the pose only scores)")
-    parser.add_argument("--start-lights", type=int, metavar="SEED",
-                        help="with --driver lane: start lights beside the track turn green at a moment drawn "
-                             "from SEED; the car waits for green")
-    parser.add_argument("--boxes", type=int, default=0, metavar="N",
-                        help="with --driver lane: N boxes on straight road, alternately in the right and the left "
-                             "lane (--track course has room for 3 a lap)")
-    parser.add_argument("--avoid", action="store_true",
-                        help="with --driver lane: the car carries a TFmini laser, keeps to the right lane and "
-                             "changes lanes for what is ahead in it (IARRC's rule)")
-    parser.add_argument("--record", type=Path, metavar="DIR",
-                        help="with --driver lane: write every frame the driver sees (PNG and depth .npy) to DIR, "
-                             "for `roar vision DIR`")
-    parser.add_argument("--plot", type=Path, metavar="PNG", help="write the path and speed plot to this PNG")
-    parser.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
-    parser.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
-    args = parser.parse_args(argv)
+    p = parser()
+    args = p.parse_args(argv)
+    kind = robots.get(args.robot)
     if not 1 <= args.laps <= 100:
-        parser.error("--laps must be 1..100")
+        p.error("--laps must be 1..100")
     if args.seconds is not None and not 1 <= args.seconds <= 36_000:
-        parser.error("--seconds must be 1..36000")
+        p.error("--seconds must be 1..36000")
     if not MARGIN_RANGE[0] <= args.margin <= MARGIN_RANGE[1]:
-        parser.error(f"--margin must be {MARGIN_RANGE[0]:g}..{MARGIN_RANGE[1]:g}")
+        p.error(f"--margin must be {MARGIN_RANGE[0]:g}..{MARGIN_RANGE[1]:g}")
     if args.k_dd is not None and not K_DD_RANGE_S[0] <= args.k_dd <= K_DD_RANGE_S[1]:
-        parser.error(f"--k-dd must be {K_DD_RANGE_S[0]:g}..{K_DD_RANGE_S[1]:g} s")
+        p.error(f"--k-dd must be {K_DD_RANGE_S[0]:g}..{K_DD_RANGE_S[1]:g} s")
     if args.k_dd is not None and (args.steering != "pursuit" or args.driver != "line"):
-        parser.error("--k-dd tunes pure pursuit: it needs the line driver steering by pursuit")
-    if args.junior and args.steering != "pursuit":
-        parser.error("--junior steers by pure pursuit only (its wheel speeds set the curvature)")
-    if args.driver == "lane" and (args.junior or args.waypoints):
-        parser.error("--driver lane drives the ESC car by its camera: no --junior, no --waypoints")
+        p.error("--k-dd tunes pure pursuit: it needs the line driver steering by pursuit")
+    if args.steering not in kind.laterals:
+        p.error(f"--robot {args.robot} steers by {' or '.join(STEERING[k] for k in kind.laterals)} only")
+    if args.driver == "lane" and (not kind.lane_driving or args.waypoints):
+        p.error("--driver lane drives the ESC car by its camera: no other --robot, no --waypoints")
     if args.start_lights is not None and args.driver != "lane":
-        parser.error("--start-lights needs --driver lane (the car sees the lights through its camera)")
+        p.error("--start-lights needs --driver lane (the car sees the lights through its camera)")
     if (args.boxes or args.avoid or args.record) and args.driver != "lane":
-        parser.error("--boxes, --avoid and --record need --driver lane (the car drives by its camera and laser)")
+        p.error("--boxes, --avoid and --record need --driver lane (the car drives by its camera and laser)")
     if not 0 <= args.boxes <= 20:
-        parser.error("--boxes must be 0..20")
-    plotting.check_png_argument(parser, args.plot)
+        p.error("--boxes must be 0..20")
+    plotting.check_png_argument(p, args.plot)
     if args.record is not None:
         try:
             args.record.mkdir(parents=True, exist_ok=True)
         except OSError as e:
-            parser.error(f"--record {args.record}: {e.strerror or e}")
-    try:
-        track = get(args.track)
-        waypoints = load_waypoints(args.waypoints) if args.waypoints else None
-        boxes = box_course(track, args.boxes)
-        if len(boxes) < args.boxes:
-            raise TrackError(f"track {track.name!r} has straight road for {len(boxes)} boxes (each needs "
-                             f"{MIN_GAP_M:g} m from the next), not {args.boxes}: try --track course")
-        result = race(track, args.laps, waypoints, args.margin, SimConfig(realtime=args.realtime, gui=args.gui),
-                      progress=True, lateral="lane" if args.driver == "lane" else args.steering,
-                      timeout_s=args.seconds, robot="junior" if args.junior else "car",
-                      start_lights=args.start_lights, boxes=boxes, avoid=args.avoid, record=args.record,
-                      k_dd_s=args.k_dd)
-    except (TrackError, WaypointError, CoreLoadError, SimError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 1
+            p.error(f"--record {args.record}: {e.strerror or e}")
+    track = get(args.track)
+    waypoints = load_waypoints(args.waypoints) if args.waypoints else None
+    boxes = box_course(track, args.boxes)
+    if len(boxes) < args.boxes:
+        raise TrackError(f"track {track.name!r} has straight road for {len(boxes)} boxes (each needs {MIN_GAP_M:g} m "
+                         f"from the next), not {args.boxes}: try --track course")
+    result = race(track, args.laps, waypoints, args.margin, args.robot, args.realtime, args.gui, progress=True,
+                  timeout_s=args.seconds, lateral="lane" if args.driver == "lane" else args.steering,
+                  start_lights=args.start_lights, boxes=boxes, avoid=args.avoid, record=args.record, k_dd_s=args.k_dd)
     print(report(result))
     if result.path and args.plot and not plotting.save(lambda: plot(result), args.plot):
-        return 1
+        return ExitStatus.ERROR
     shortfall = result.shortfall(args.laps, args.seconds or race_timeout_s(result, args.laps))
     if shortfall:
         print(f"race incomplete: {shortfall}", file=sys.stderr)
-        return 2
-    return 0
+        return ExitStatus.SHORT
+    return ExitStatus.OK
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_command("roar race", main))

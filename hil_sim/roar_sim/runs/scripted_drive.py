@@ -15,12 +15,12 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from roar.cli.errors import ExitStatus, run_command
 from roar.protocol import ControlError, decode, encode, spec
-from roar_sim.world import plotting
+from roar_sim.clock.lockstep import LOOP_US
 from roar_sim.core.car import CarBoard, CarOutputs
-from roar_sim.core.library import CoreLoadError
+from roar_sim.world import plotting
 
-LOOP_US = 1_000  # [us] main-loop period
 FRAME_US = spec.TIMING_SERVO_FRAME_US  # [us] output frame period
 SEND_US = spec.TIMING_HOST_SEND_PERIOD_US  # [us] host resend period
 
@@ -158,15 +158,12 @@ def plot(samples, marks):
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(prog="python -m roar_sim.runs.scripted_drive", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--plot", type=Path, metavar="PNG", help="write a plot of the pulses to this PNG file")
     args = parser.parse_args(argv)
     plotting.check_png_argument(parser, args.plot)
-    try:
-        trace = run()
-    except CoreLoadError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 1
+    trace = run()
     print_trace(trace)
     delay = trace.failsafe_delay_us()
     print(f"\n{len(trace.samples)} loop iterations at 1 kHz, {len(trace.replies)} reply lines from the car.")
@@ -174,9 +171,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"Failsafe: neutral {delay / 1000:.0f} ms after the host's last valid message "
               f"(timeout {spec.TIMING_FAILSAFE_TIMEOUT_US / 1000:.0f} ms, checked every {LOOP_US / 1000:.0f} ms).")
     if args.plot and not plotting.save(lambda: plot(trace.samples, trace.marks), args.plot):
-        return 1
-    return 0
+        return ExitStatus.ERROR
+    return ExitStatus.OK
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_command("make trace", main))

@@ -13,9 +13,11 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from roar.cli.errors import ExitStatus, run_command
 from roar.errors import RoarError
 from roar.protocol import spec
 from roar.protocol.control import encode_setpoint
+from roar_sim.clock.lockstep import CONTROL_PERIOD_S
 
 RISE_TARGET_S = 0.7  # [s] 10-90 %
 OVERSHOOT_TARGET = 0.10  # fraction of the step
@@ -23,7 +25,6 @@ STEADY_ERROR_TARGET = 0.02  # fraction of the step
 ARM_S = 0.1  # [s] mode switch at off while the receiver locks
 SETTLE_S = 0.3  # [s] armed at zero speed before the step
 SAMPLE_S = 0.005  # [s]
-HOST_PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6  # [s]
 
 
 class StepError(RoarError):
@@ -66,7 +67,7 @@ def measure(speed_m_s: float = 2.0, seconds: float = 3.0, gains: tuple[int, int,
             steering_us: int = spec.CONTROL_NEUTRAL_US) -> StepResponse:
     from roar_sim.robots.iarrc import IarrcCar
 
-    with IarrcCar() as car:
+    with IarrcCar(operator=False) as car:  # the switches are this run's
         if gains is not None:
             car.board.set_pid(*gains)
         car.run(ARM_S)  # the receiver locks with the mode switch at off: the car disarmed
@@ -74,11 +75,11 @@ def measure(speed_m_s: float = 2.0, seconds: float = 3.0, gains: tuple[int, int,
         t = 0.0
         while t < SETTLE_S:
             car.host(encode_setpoint(0, steering_us))
-            car.run(HOST_PERIOD_S)
-            t += HOST_PERIOD_S
+            car.run(CONTROL_PERIOD_S)
+            t += CONTROL_PERIOD_S
         target = encode_setpoint(round(speed_m_s * 1000), steering_us)
         times, speeds, estimates, throttle = [], [], [], []
-        steps_per_send = round(HOST_PERIOD_S / SAMPLE_S)
+        steps_per_send = round(CONTROL_PERIOD_S / SAMPLE_S)
         for n in range(round(seconds / SAMPLE_S)):
             if n % steps_per_send == 0:
                 car.host(target)
@@ -144,17 +145,13 @@ def main(argv: list[str] | None = None) -> int:
     from roar_sim.world.plotting import check_png_argument, save
 
     check_png_argument(p, args.plot)
-    try:
-        r = measure(args.speed, args.seconds, args.gains)
-    except StepError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 1
+    r = measure(args.speed, args.seconds, args.gains)
     print(r.summary())
     print("targets met" if r.meets_targets() else "targets NOT met")
     if not save(lambda: figure(r), args.plot):
-        return 1
-    return 0 if r.meets_targets() else 3
+        return ExitStatus.ERROR
+    return ExitStatus.OK if r.meets_targets() else ExitStatus.TARGETS_MISSED
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_command("roar step-response", main))

@@ -3,7 +3,7 @@ tracks, each race a Ray task -- a local Ray on this machine by default, a Ray cl
 --address -- and keep the results in a CSV table and a plot.
 
     roar sweep [--track figure-eight] [--k-dd 0.2,0.4,0.6,0.8] [--margin 0.85:1:4] [--laps 2]
-               [--junior] [--out out/sweep] [--address HOST:PORT | auto] [--workers N] [--serial]
+               [--robot esc|iarrc|junior] [--out out/sweep] [--address HOST:PORT | auto] [--workers N] [--serial]
 
 A list is `a,b,c`; `lo:hi:n` is n values from lo to hi. Each run is one race (`roar race
 --track T --k-dd K --margin M --laps L`); the simulation is in lockstep, so a run's result does
@@ -38,7 +38,9 @@ from contextlib import closing
 from dataclasses import dataclass
 from pathlib import Path
 
+from roar.cli.errors import ExitStatus, run_command
 from roar.errors import RoarError
+from roar_sim import robots
 from roar_sim.world import plotting
 
 COLUMNS = ("track", "robot", "k_dd_s", "margin", "laps", "status", "laps_done", "best_lap_s", "limit_lap_s",
@@ -63,7 +65,7 @@ class Run:
     k_dd_s: float
     margin: float
     laps: int = 2
-    robot: str = "car"
+    robot: str = "esc"
 
     @property
     def key(self) -> tuple:
@@ -71,7 +73,7 @@ class Run:
 
 
 def grid(tracks: Sequence[str], k_dd_s: Sequence[float], margins: Sequence[float], laps: int = 2,
-         robot: str = "car") -> list[Run]:
+         robot: str = "esc") -> list[Run]:
     """Every combination, tracks outermost, then K_dd, then margin."""
     return [Run(t, k, m, laps, robot) for t in tracks for k in k_dd_s for m in margins]
 
@@ -365,7 +367,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--margin", default=DEFAULT_MARGINS, metavar="LIST",
                         help=f"fractions of the robot's limits to drive at (default: {DEFAULT_MARGINS})")
     parser.add_argument("--laps", type=int, default=2, help="laps per race; the best counts (default: 2)")
-    parser.add_argument("--junior", action="store_true", help="race the ROAR Junior (over HTTP) instead of the ESC car")
+    parser.add_argument("--robot", choices=robots.names(), default="esc", help="which robot races (default: the ESC car)")
     parser.add_argument("--out", type=Path, default=Path("out/sweep"), metavar="DIR",
                         help="results.csv and sweep.png go here (default: out/sweep); an existing results.csv "
                              "is resumed")
@@ -396,21 +398,17 @@ def main(argv: list[str] | None = None) -> int:
               f"{'here' if args.serial else 'on Ray at ' + args.address if args.address else 'on a local Ray'}",
               file=sys.stderr)
         rows = sweep(runs, table, serial=args.serial, address=args.address, workers=args.workers, progress=True)
-    except SweepError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 1
     except OSError as e:
-        print(f"error: {args.out}: {e.strerror or e}", file=sys.stderr)
-        return 1
+        raise SweepError(f"{args.out}: {e.strerror or e}") from None
     except KeyboardInterrupt:
         print(f"interrupted: the finished runs are in {args.out / 'results.csv'}; the same command resumes",
               file=sys.stderr)
-        return 130
+        return ExitStatus.INTERRUPTED
     print(report(rows, tracks))
     print(f"table: {table.path}")
     if not plotting.save(lambda: plot(rows, tracks), args.out / "sweep.png"):
-        return 1
-    return 2 if any(r["status"] == "failed" for r in rows) else 0
+        return ExitStatus.ERROR
+    return ExitStatus.SHORT if any(r["status"] == "failed" for r in rows) else ExitStatus.OK
 
 
 def _runs(args, k_range: tuple[float, float], m_range: tuple[float, float]) -> tuple[list[Run], list[str]]:
@@ -425,11 +423,11 @@ def _runs(args, k_range: tuple[float, float], m_range: tuple[float, float]) -> t
         except TrackError as e:
             raise SweepError(str(e)) from None
     runs = grid(tracks, parse_values(args.k_dd, "k-dd", *k_range), parse_values(args.margin, "margin", *m_range),
-                args.laps, "junior" if args.junior else "car")
+                args.laps, args.robot)
     if len(runs) > MAX_RUNS:
         raise SweepError(f"the grid has {len(runs)} runs; more than {MAX_RUNS} is surely a typo")
     return runs, tracks
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_command("roar sweep", main))

@@ -27,4 +27,4 @@ def silenced(fds: tuple[int, ...] = (2,)):
 
 
 with silenced():
-    import pybullet as pb
+    import pybullet as pb  # noqa: F401 (what this module gives: pb)

@@ -121,6 +121,11 @@ class Track:
     def length_m(self) -> float:
         return float(self.segment_lengths.sum())
 
+    def arc_delta(self, from_s, to_s):
+        """[m] the shorter way along the lap from arc-length position from_s to to_s: positive
+        along the track's direction, negative against it (works on numpy arrays too)."""
+        return (to_s - from_s + self.length_m / 2) % self.length_m - self.length_m / 2
+
     @property
     def start_pose(self) -> tuple[float, float, float]:
         """(x, y, yaw) at the first point, facing the second."""
@@ -246,7 +251,6 @@ def _shape_problem(pts: np.ndarray, width_m: float) -> str | None:
     """Why a car cannot drive this closed centre line at this width (one line), or None."""
     step = width_m * CHECK_STEP_FRACTION
     dense, owner = _resample(pts, step)
-    n = len(dense)
     # Bend: the circle through each point and its neighbours half a width away on either side.
     k = max(1, int(round(width_m / 2 / step)))
     a, b, c = np.roll(dense, k, axis=0), dense, np.roll(dense, -k, axis=0)

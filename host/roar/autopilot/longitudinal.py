@@ -57,3 +57,23 @@ class SpeedController:
             throttle = 0.0 if drive <= 0 else self.deadband + (1 - self.deadband) * drive
         self.direction.update(throttle)
         return throttle
+
+
+@dataclass
+class SpeedSetpoint:
+    """Speed "control" for a car that holds a speed itself (the IARRC car's PID on its wheel
+    encoder): the command is a setpoint, as a fraction of full_scale_m_s, the speed a command of 1
+    asks such a car for. Its own PID lags a profile's quick changes, so the setpoint leads the
+    target by `lead` times the speed still missing; the car does the rest, braking included."""
+
+    full_scale_m_s: float  # [m/s]
+    lead: float = 1.0  # setpoint above the target per m/s the car is short of it
+
+    def reset(self) -> None:
+        pass
+
+    def step(self, target_m_s: float, speed_m_s: float, dt_s: float) -> float:
+        """The command in [0, 1] for target_m_s >= 0 at speed_m_s (a magnitude): never a setpoint
+        backwards, the car brakes for zero by itself."""
+        setpoint = target_m_s + self.lead * (target_m_s - speed_m_s)
+        return max(0.0, min(1.0, setpoint / self.full_scale_m_s))

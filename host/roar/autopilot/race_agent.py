@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from roar.autopilot.agent import Agent, Command, Module, Observation, Passthrough
-from roar.autopilot.longitudinal import SpeedController
+from roar.autopilot.longitudinal import SpeedController, SpeedSetpoint
 from roar.autopilot.pid import PID
 from roar.autopilot.pure_pursuit import PurePursuit, goal_on_path
 from roar.autopilot.speed_profile import CarLimits, speed_profile
@@ -81,7 +81,7 @@ class HeadingController:
 class RaceController(Module[tuple[Observation, Plan], Command]):
     """Steering from pure pursuit (default) or the heading PID; throttle from the speed controller."""
 
-    def __init__(self, car: CarModel, pursuit: PurePursuit, speed: SpeedController, period_s: float,
+    def __init__(self, car: CarModel, pursuit: PurePursuit, speed: SpeedController | SpeedSetpoint, period_s: float,
                  heading: HeadingController | None = None) -> None:
         self.car, self.pursuit, self.speed, self.period_s, self.heading = car, pursuit, speed, period_s, heading
 
@@ -103,9 +103,11 @@ class RaceController(Module[tuple[Observation, Plan], Command]):
 
 def race_agent(points: np.ndarray, car: CarModel, period_s: float, margin: float = 0.9,
                pursuit: PurePursuit | None = None, follower: LoopWaypointFollower | None = None,
-               lateral: str = "pursuit") -> Agent:
+               lateral: str = "pursuit", speed: SpeedController | SpeedSetpoint | None = None) -> Agent:
     """An agent that laps `points` (a closed line, (N, 2+)) at `margin` of the car's grip,
-    steering by pure pursuit or, with lateral="pid", by the heading PID."""
+    steering by pure pursuit or, with lateral="pid", by the heading PID; its throttle from
+    `speed` (default: a SpeedController for a car whose ESC has no brake; a SpeedSetpoint for a
+    car that holds a speed itself)."""
     if lateral not in ("pursuit", "pid"):
         raise ValueError(f"lateral must be 'pursuit' or 'pid', got {lateral!r}")
     xy = np.asarray(points, dtype=float)[:, :2]
@@ -114,7 +116,8 @@ def race_agent(points: np.ndarray, car: CarModel, period_s: float, margin: float
     speeds = speed_profile(xy, car.limits.with_margin(margin))
     planner = RacePlanner(xy, speeds, follower, pursuit)
     heading = HeadingController(car.max_steer_rad) if lateral == "pid" else None
-    controller = RaceController(car, pursuit, SpeedController(car.limits.max_speed_m_s), period_s, heading)
+    speed = speed or SpeedController(car.limits.max_speed_m_s)
+    controller = RaceController(car, pursuit, speed, period_s, heading)
     return Agent(Passthrough(), planner, controller)
 
 

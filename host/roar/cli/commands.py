@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 
@@ -67,8 +68,10 @@ def vision(args) -> int:
         raise UserError("want --fov 1..179 deg, --height 0..5 m, --ahead -5..5 m, --pitch -45..89 deg, --fps 0.1..120")
     try:
         from roar.cli.vision_frames import FramesError, run
+        from roar.vision.geometry import CameraPreset
 
-        return run(args.folder, args.out, args.video, args.fps, args.fov, args.height, args.ahead, args.pitch)
+        camera = CameraPreset(args.fov, args.ahead, args.height, math.radians(args.pitch))
+        return run(args.folder, args.out, args.video, args.fps, camera)
     except ImportError as e:
         raise UserError(f"roar vision needs {e.name}: pip install 'roar-platform[vision]'") from None
     except FramesError as e:

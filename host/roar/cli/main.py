@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
 import sys
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
@@ -17,12 +18,14 @@ from pathlib import Path
 from roar.calibration import default_path
 from roar.cli import plugins
 from roar.cli.errors import UserError, run_command
+from roar.vision.geometry import SIMULATED_CAR_CAMERA
 
 EXAMPLES = """examples:
   roar race --track figure-eight         the autopilot laps the simulated car against the physical limit
+  roar race --robot junior               ... or the ROAR Junior (robots: esc, iarrc, junior)
   roar sim --serial                      the simulated car as a serial port (prints its path)
   roar send sim:// --throttle 0.3 --steering 0.5 --for 5
-  roar send "sim://?car=iarrc" --speed 1.5 --for 3
+  roar send "sim://?robot=iarrc" --speed 1.5 --for 3
   roar drive serial:///dev/ttyUSB0       drive with the keyboard
   roar calibrate ble://                  set trim and end-points, saved for next time
   roar <command> --help                  more about one command
@@ -52,7 +55,7 @@ def build_parser() -> argparse.ArgumentParser:
     how = p.add_mutually_exclusive_group()
     how.add_argument("--throttle", type=float, default=None, help="-1 (full reverse) .. 1 (full forward); default 0")
     how.add_argument("--speed", type=float, default=None, metavar="M/S",
-                     help="the speed to hold [m/s], on a car with a speed controller (e.g. sim://?car=iarrc)")
+                     help="the speed to hold [m/s], on a car with a speed controller (e.g. sim://?robot=iarrc)")
     p.add_argument("--steering", type=float, default=0.0, help="-1 (full left) .. 1 (full right); default 0")
     p.add_argument("--for", dest="seconds", type=float, default=1.0, metavar="SECONDS",
                    help="how long to hold it (default 1 s, at most 3600)")
@@ -102,11 +105,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="where the debug views go (default: out/vision)")
     p.add_argument("--video", type=Path, default=None, metavar="MP4", help="also write the lane views as a video")
     p.add_argument("--fps", type=float, default=10.0, help="the video's frame rate (default 10)")
-    p.add_argument("--fov", type=float, default=70.0, metavar="DEG", help="vertical field of view (default 70)")
-    p.add_argument("--height", type=float, default=0.09, metavar="M", help="camera above the floor (default 0.09)")
-    p.add_argument("--ahead", type=float, default=0.39, metavar="M",
-                   help="camera ahead of the car's reference point, the rear axle (default 0.39)")
-    p.add_argument("--pitch", type=float, default=14.04, metavar="DEG", help="tilted down from level (default 14.04)")
+    cam = SIMULATED_CAR_CAMERA
+    p.add_argument("--fov", type=float, default=cam.fov_deg, metavar="DEG",
+                   help=f"vertical field of view (default {cam.fov_deg:g})")
+    p.add_argument("--height", type=float, default=cam.z_m, metavar="M",
+                   help=f"camera above the floor (default {cam.z_m:g})")
+    p.add_argument("--ahead", type=float, default=cam.x_m, metavar="M",
+                   help=f"camera ahead of the car's reference point, the rear axle (default {cam.x_m:g})")
+    p.add_argument("--pitch", type=float, default=math.degrees(cam.pitch_rad), metavar="DEG",
+                   help=f"tilted down from level (default {math.degrees(cam.pitch_rad):.2f})")
 
     # Commands of other packages (the simulator's race and sim): each parses its own arguments
     # (main() hands them over), so they are listed here for --help only.

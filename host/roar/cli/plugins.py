@@ -1,4 +1,4 @@
-"""`roar` commands that other packages add (the simulator adds `race` and `sim`), through the
+"""`roar` commands that other packages add (the simulator adds `race`, `sim` and more), through the
 "roar.commands" entry point group: name = the command, value = "module:object", where the
 object is a Command. Loading one must be cheap: import heavy modules inside main()."""
 
@@ -10,7 +10,8 @@ from typing import Callable
 
 GROUP = "roar.commands"
 # Commands this project's extras provide, so a base install can say what to install.
-EXTRA_COMMANDS = {"platoon": "sim", "race": "sim", "sim": "sim", "step-response": "sim", "sweep": "sweep"}
+EXTRA_COMMANDS = {"limits": "sim", "platoon": "sim", "race": "sim", "sim": "sim", "step-response": "sim",
+                  "sweep": "sweep"}
 
 
 @dataclass(frozen=True)

@@ -18,13 +18,10 @@ from pathlib import Path
 import numpy as np
 
 from roar.errors import RoarError
+from roar.vision.geometry import SIMULATED_CAR_CAMERA, CameraPreset
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
 DEPTH_SUFFIX = "_depth.npy"
-DEFAULT_FOV_DEG = 70.0  # [deg] the simulated car's camera (roar_sim.plants.racecar)
-DEFAULT_HEIGHT_M = 0.09  # [m]
-DEFAULT_AHEAD_M = 0.39  # [m]
-DEFAULT_PITCH_DEG = math.degrees(math.atan(0.25))  # [deg] down from level
 
 
 class FramesError(RoarError):
@@ -65,12 +62,11 @@ def _figure_rgb(fig) -> np.ndarray:
     return np.asarray(fig.canvas.buffer_rgba())[:, :, :3].copy()
 
 
-def run(folder: Path, out: Path, video: Path | None = None, fps: float = 10.0, fov_deg: float = DEFAULT_FOV_DEG,
-        height_m: float = DEFAULT_HEIGHT_M, ahead_m: float = DEFAULT_AHEAD_M,
-        pitch_deg: float = DEFAULT_PITCH_DEG) -> int:
+def run(folder: Path, out: Path, video: Path | None = None, fps: float = 10.0,
+        camera: CameraPreset = SIMULATED_CAR_CAMERA) -> int:
     import matplotlib.pyplot as plt
 
-    from roar.vision.geometry import BirdsEye, CameraModel, cv2
+    from roar.vision.geometry import BirdsEye, cv2
     from roar.vision.lanes import LaneDetector, debug_view
     from roar.vision.occupancy import figure, occupancy
 
@@ -82,8 +78,7 @@ def run(folder: Path, out: Path, video: Path | None = None, fps: float = 10.0, f
         h, w = rgb.shape[:2]
         if size is None:
             size = (w, h)
-            camera = CameraModel.from_fov(w, h, fov_deg, ahead_m, height_m, math.radians(pitch_deg))
-            detector = LaneDetector(BirdsEye(camera))
+            detector = LaneDetector(BirdsEye(camera.model(w, h)))
         elif size != (w, h):
             raise FramesError(f"{path.name} is {w}x{h}, the frames before it {size[0]}x{size[1]}: one camera a folder")
         lanes = detector.detect(rgb)
@@ -105,8 +100,7 @@ def run(folder: Path, out: Path, video: Path | None = None, fps: float = 10.0, f
         if depth_path.exists():
             depth = np.load(depth_path, allow_pickle=False)
             dh, dw = depth.shape[:2]
-            grid = occupancy(depth.astype(np.float32), CameraModel.from_fov(dw, dh, fov_deg, ahead_m, height_m,
-                                                                             math.radians(pitch_deg)))
+            grid = occupancy(depth.astype(np.float32), camera.model(dw, dh))
             nearest = grid.nearest_ahead(0.25)
             line += f"; obstacle ahead {'none' if nearest is None else f'{nearest:.2f} m'}"
             occupancy_fig = figure(rgb, grid)

@@ -1,7 +1,7 @@
 """http:// -- a ROAR Junior (ESP32-CAM + L298N) over Wi-Fi, or the simulated one.
 
     http://192.168.4.1:81                the robot: control port 81, camera on the port below (80)
-    http://127.0.0.1:8081                the simulated Junior (`roar sim --junior`), camera on 8080
+    http://127.0.0.1:8081                the simulated Junior (`roar sim --robot junior --http`), camera on 8080
     ?mixing=smooth                       how throttle and steering become wheel duties (default
                                          original, as the ROAR Junior client; see roar.junior)
     ?camera=PORT   ?timeout=2            the camera's port; seconds to wait for a reply

@@ -3,6 +3,7 @@ bird's-eye view -- the image warped onto a metric grid of the floor in the car's
 y to the left, metres from the car's reference point).
 
     cam = CameraModel.from_fov(320, 240, fov_deg=70, x_m=0.39, z_m=0.09, pitch_rad=0.245)
+    cam = SIMULATED_CAR_CAMERA.model(320, 240)       # the same: the simulated ESC car's camera
     bev = BirdsEye(cam)                      # 0.45..2.5 m ahead, +-1.6 m, 1 cm a pixel
     top = bev.warp(rgb)                      # row 0 is the far edge, column 0 the left edge
     x, y = bev.to_car(row, col)
@@ -54,6 +55,24 @@ class CameraModel:
         down = -(dx * s + dz * c)  # image rows grow downwards
         right = -dy
         return self.cx + self.fx * right / forward, self.cy + self.fy * down / forward
+
+
+@dataclass(frozen=True)
+class CameraPreset:
+    """A car's camera at any resolution: its vertical field of view and where it is mounted."""
+
+    fov_deg: float  # [deg] vertical field of view
+    x_m: float  # [m] ahead of the car's reference point (the rear axle)
+    z_m: float  # [m] above the floor
+    pitch_rad: float  # [rad] tilted down from level
+    y_m: float = 0.0  # [m] to the left
+
+    def model(self, width: int, height: int) -> CameraModel:
+        return CameraModel.from_fov(width, height, self.fov_deg, self.x_m, self.z_m, self.pitch_rad, self.y_m)
+
+
+# The simulated ESC car's camera: the ZED link of PyBullet's racecar.urdf, tilted down a quarter.
+SIMULATED_CAR_CAMERA = CameraPreset(fov_deg=70.0, x_m=0.39, z_m=0.09, pitch_rad=math.atan(0.25))
 
 
 @dataclass(frozen=True)

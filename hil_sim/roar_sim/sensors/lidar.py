@@ -1,0 +1,28 @@
+"""A 2D scanning lidar, as the racecar carries a Hokuyo UST-10LX: beams over its field of view,
+level from its link, each the distance to the first thing it meets (the walls, other cars,
+boxes), or its range where it meets nothing."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+MIN_RANGE_M = 0.06  # [m] a UST-10LX's minimum range: the beams start this far out
+FOV_RAD = math.radians(270)  # [rad]
+RANGE_M = 10.0  # [m]
+BEAMS = 1080
+
+
+def scan(world, position, yaw: float, beams: int = BEAMS, fov_rad: float = FOV_RAD,
+         range_m: float = RANGE_M) -> np.ndarray:
+    """Distances [m] from right to left of a scan from `position` facing `yaw` [rad]. The beams
+    start at the housing's edge: from the link's centre, inside its own collision box, Bullet now
+    and then reports a hit at distance 0 (the lidar seeing itself)."""
+    angles = yaw + np.linspace(-fov_rad / 2, fov_rad / 2, beams)
+    directions = np.stack([np.cos(angles), np.sin(angles), np.zeros(beams)], axis=1)
+    start = np.asarray(position) + MIN_RANGE_M * directions
+    end = np.asarray(position) + range_m * directions
+    hits = world.ray_test(start.tolist(), end.tolist())
+    reach = range_m - MIN_RANGE_M
+    return np.array([MIN_RANGE_M + h[2] * reach if h[0] >= 0 else range_m for h in hits])
