@@ -1,9 +1,12 @@
-"""The base package alone, as a user who only drives real cars installs it: a fresh virtual
-environment with `pip install roar-platform` (no extras) drives a loop:// car, pulls in neither
-the simulator nor Bluetooth, and says in one line what to install for them."""
+"""Installs as users make them, each into a fresh virtual environment outside the checkout: the
+base package alone (`pip install roar-platform`, no extras) drives a loop:// car, pulls in neither
+the simulator nor Bluetooth, and says in one line what to install for them; the wheel with the
+simulator (`[sim]`) builds the firmware core from the sources it carries and races a lap."""
 
+import os
 import subprocess
 import sys
+import zipfile
 
 import pytest
 
@@ -48,3 +51,63 @@ def test_the_simulator_and_bluetooth_say_what_to_install(base_venv, argv, extra)
     assert proc.returncode == 1
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and f"pip install 'roar-platform[{extra}]'" in lines[0], proc.stderr
+
+
+# --- the wheel, with the simulator, outside any checkout ---------------------------------------------
+
+@pytest.fixture(scope="module")
+def sim_wheel(tmp_path_factory):
+    """A wheel built from the checkout, installed with [sim] into a fresh virtual environment in a
+    folder of its own: (the wheel, the venv's bin folder, a working folder away from the checkout)."""
+    where = tmp_path_factory.mktemp("wheel")
+    proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--disable-pip-version-check",
+                           "-w", str(where / "dist"), str(ROOT)], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    wheel = next((where / "dist").glob("roar_platform-*.whl"))
+    subprocess.run([sys.executable, "-m", "venv", str(where / "venv")], check=True)
+    proc = subprocess.run([str(where / "venv" / "bin" / "pip"), "install", "-q", "--disable-pip-version-check",
+                           f"{wheel}[sim]"], capture_output=True, text=True, timeout=1200)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    (where / "work").mkdir()
+    return wheel, where / "venv" / "bin", where / "work"
+
+
+def away_from_the_checkout(work, **env):
+    """The environment of a user's shell in `work`: their own cache, no PYTHONPATH into the checkout."""
+    clean = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "ROAR_CORE_LIB", "CXX")}
+    return {**clean, "HOME": str(work), "XDG_CACHE_HOME": str(work / "cache"), **env}
+
+
+def test_the_wheel_holds_the_three_packages_and_the_core_sources_and_nothing_else(sim_wheel):
+    wheel, _, _ = sim_wheel
+    names = zipfile.ZipFile(wheel).namelist()
+    assert {n.split("/")[0] for n in names} == {"roar", "roar_wire", "roar_sim", wheel.name.split("-py3")[0] + ".dist-info"}
+    packaged = {n.split("roar_sim/toolchains/firmware/", 1)[1] for n in names if "/toolchains/firmware/" in n}
+    expected = {str(p.relative_to(ROOT / "firmware")) for part in ("core/include", "core/src", "host")
+                for p in (ROOT / "firmware" / part).rglob("*") if p.is_file()}
+    assert packaged == expected and "host/c_api.h" in packaged
+
+
+def test_the_installed_wheel_builds_the_core_in_the_users_cache_and_races_a_lap(sim_wheel):
+    _, bin_dir, work = sim_wheel
+    env = away_from_the_checkout(work)
+    race = subprocess.run([str(bin_dir / "roar"), "race", "--laps", "1", "--plot", "lap.png"], cwd=work, env=env,
+                          capture_output=True, text=True, timeout=600)
+    assert race.returncode == 0, race.stderr[-2000:]
+    assert "lap 1:" in race.stdout and "wall contacts: 0" in race.stdout
+    assert (work / "lap.png").read_bytes()[:4] == b"\x89PNG"
+    assert (work / "cache" / "roar" / "core" / "release" / "libroarcore.so").exists()
+    where = subprocess.run([str(bin_dir / "python"), "-c", "from roar_sim.toolchains import native; "
+                            "print(native.INSTALLED, native.CORE)"], cwd=work, env=env, capture_output=True, text=True)
+    installed, core = where.stdout.split()
+    assert installed == "True" and "site-packages" in core and not core.startswith(str(ROOT))
+
+
+def test_without_a_compiler_the_installed_simulator_says_so_in_one_line(sim_wheel):
+    _, bin_dir, work = sim_wheel
+    env = away_from_the_checkout(work, XDG_CACHE_HOME=str(work / "empty-cache"), CXX="no-such-c++")
+    race = subprocess.run([str(bin_dir / "roar"), "race", "--laps", "1"], cwd=work, env=env, capture_output=True,
+                          text=True, timeout=120)
+    lines = race.stderr.strip().splitlines()
+    assert race.returncode == 1 and len(lines) == 1, race.stderr
+    assert "C++ compiler" in lines[0] and "apt-get install g++" in lines[0]

@@ -1,8 +1,12 @@
-"""Host build of the firmware core (firmware/core): a shared library for ctypes and the native
-C++ test program, each in a plain and a sanitized (-fsanitize=address,undefined) variant.
+"""Native build of the firmware core (firmware/core, with the host board of firmware/host): a shared
+library the simulator loads, and the native C++ test program, each in a plain and a sanitized
+(-fsanitize=address,undefined) variant.
 
-Builds are incremental (rebuilt when any core source or header is newer) and atomic (written
-to a temporary name, then renamed), so parallel test processes can share them.
+In a checkout the sources are the checkout's and the builds go to build/host/; an installed wheel
+carries the sources inside this package (setup.py puts them there) and builds into the user's
+cache (~/.cache/roar/core, or under $XDG_CACHE_HOME) on first use. Builds are incremental
+(rebuilt when any source or header is newer) and atomic (written to a temporary name, then
+renamed), so parallel processes can share them.
 
     python -m roar_sim.toolchains.native [--variant release|sanitize] [--force]
 """
@@ -19,10 +23,19 @@ from pathlib import Path
 
 from roar.errors import RoarError
 
-ROOT = Path(__file__).resolve().parents[3]
-CORE = ROOT / "firmware" / "core"
-HOST_BOARD = ROOT / "firmware" / "host"  # the C ABI and the memory-backed HALs: host build only
-BUILD = ROOT / "build" / "host"
+ROOT = Path(__file__).resolve().parents[3]  # the checkout, when this runs from one
+PACKAGED = Path(__file__).resolve().parent / "firmware"  # an installed wheel's copy of firmware/core and /host
+INSTALLED = PACKAGED.is_dir()
+FIRMWARE = PACKAGED if INSTALLED else ROOT / "firmware"
+CORE = FIRMWARE / "core"
+HOST_BOARD = FIRMWARE / "host"  # the C ABI and the memory-backed HALs: host build only
+
+
+def _cache() -> Path:
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "roar" / "core"
+
+
+BUILD = _cache() if INSTALLED else ROOT / "build" / "host"
 
 WARNINGS = ["-Wall", "-Wextra", "-Wpedantic", "-Werror"]
 VARIANTS = {
@@ -80,17 +93,20 @@ def output_path(target: str = "library", variant: str = "release") -> Path:
 
 
 def compiler() -> str:
-    cxx = os.environ.get("CXX") or shutil.which("c++") or shutil.which("g++")
+    """The C++ compiler: $CXX, or c++ / g++ on the PATH; CoreBuildError (one line) if there is none."""
+    wanted = os.environ.get("CXX")
+    cxx = shutil.which(wanted) if wanted else shutil.which("c++") or shutil.which("g++")
     if not cxx:
-        raise CoreBuildError("no C++ compiler found: install g++ (apt-get install g++) or set CXX")
+        missing = f"CXX={wanted} is not a program here" if wanted else "there is no C++ compiler here"
+        raise CoreBuildError(f"the simulator builds the firmware core with a C++ compiler, and {missing}: install g++ "
+                             f"(apt-get install g++) or set CXX")
     return cxx
 
 
 def build(target: str = "library", variant: str = "release", force: bool = False) -> Path:
     """Build (if stale) and return the path of the target."""
     if not CORE.is_dir():
-        raise CoreBuildError(f"the simulator builds the firmware core from the repository's firmware/core, which is "
-                             f"not at {CORE}: install from a checkout (pip install -e '<checkout>[sim]')")
+        raise CoreBuildError(f"the firmware core's sources are not at {CORE}: reinstall roar-platform[sim]")
     if target not in TARGETS or variant not in VARIANTS:
         raise CoreBuildError(f"unknown build {target}/{variant}: targets {sorted(TARGETS)}, variants {sorted(VARIANTS)}")
     name, link_flags, extra = TARGETS[target]
