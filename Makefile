@@ -1,23 +1,28 @@
-# make run    set up, then race the simulated car round a track; print the laps, plot path and speed
-# make trace  set up, then drive the firmware logic through a scripted session; print + plot pulses
-# make test   set up, then run the whole suite
+# make run    set up what a race needs, then race the simulated car round a track; print the laps, plot
+# make trace  set up what a race needs, then drive the firmware logic through a scripted session; plot
+# make test   set up everything, then run the whole suite
 # make bench  set up, then print the benchmarks
 # make gen    regenerate protocol files from protocol/spec.toml
 # make firmware  build the Nano and AnyFC F7 firmware offline; print flash/RAM per target
 # make deploy BOARD=junior|car [PORT=...]            MicroPython program onto a board (mpremote)
 # make flash-micropython IMAGE=file.bin [PORT=...]   MicroPython itself onto an ESP32 (esptool)
 # make upload ENV=nanoatmega328 [PORT=...]           a C++ board through PlatformIO
-.PHONY: setup run trace test bench gen core firmware deploy flash-micropython upload clean
+.PHONY: setup setup-run run trace test bench gen core firmware deploy flash-micropython upload clean
 
 PY := .venv/bin/python
 
+# everything `make test` needs (the cross toolchains, the emulators, every Python extra)
 setup:
-	@bash scripts/setup.sh
+	@bash scripts/setup.sh test
 
-run: setup
+# only what a race needs: the venv with the simulator and a C++ compiler for the firmware core
+setup-run:
+	@bash scripts/setup.sh run
+
+run: setup-run
 	@.venv/bin/roar race --track oval --laps 3 --plot out/race.png
 
-trace: setup
+trace: setup-run
 	@$(PY) -m roar_sim.runs.scripted_drive --plot out/scripted_drive.png
 
 # pytest exits 5 when it collects no tests; that is a failure of the suite, not a pass.
@@ -30,7 +35,7 @@ bench: setup
 gen: setup
 	@$(PY) protocol/generate.py
 
-core: setup
+core: setup-run
 	@$(PY) -m roar_sim.toolchains.native --variant release
 	@$(PY) -m roar_sim.toolchains.native --variant sanitize
 
