@@ -207,18 +207,22 @@ async def serve(track: Track | None, host: str, port: int, seconds: float, gui: 
         await server.stop()
 
 
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="roar sim --robot junior --http", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--http", default="127.0.0.1:8081", metavar="HOST:PORT",
+                   help="where to serve the control route (default 127.0.0.1:8081; port 0 picks free ports); "
+                        "the camera is on the port below it")
+    p.add_argument("--track", default="", help="oval, figure-eight, course or a track .json file (default: open floor)")
+    p.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: Ctrl-C)")
+    p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
+    return p
+
+
 def main(argv: list[str] | None = None) -> int:
     from roar_sim.world.track import get
 
-    parser = argparse.ArgumentParser(prog="roar sim --robot junior --http", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--http", default="127.0.0.1:8081", metavar="HOST:PORT",
-                        help="where to serve the control route (default 127.0.0.1:8081; port 0 picks free ports); "
-                             "the camera is on the port below it")
-    parser.add_argument("--track", default="", help="oval, figure-eight, course or a track .json file (default: open floor)")
-    parser.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: Ctrl-C)")
-    parser.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
-    args = parser.parse_args(argv)
+    args = parser().parse_args(argv)
     host, port = parse_address(args.http)
     track = get(args.track) if args.track else None
     try:

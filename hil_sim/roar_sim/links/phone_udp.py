@@ -212,7 +212,7 @@ def parse_ports(text: str) -> dict[str, int]:
     return dict(zip(("rgb", "depth", "state", "control"), ports))
 
 
-def main(argv: list[str] | None = None) -> int:
+def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="roar sim --stream", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--robot", default="esc", choices=["esc"], help="the car whose phone it is: the ESC car")
@@ -225,6 +225,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--ports", type=parse_ports, default=None, metavar="RGB,DEPTH,STATE,CONTROL",
                    help=f"the four ports (default ROAR's {','.join(str(v) for v in PORTS.values())},{spec.UDP_PORT_CONTROL})")
     p.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: Ctrl-C)")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = parser()
     args = p.parse_args(argv)
     if not 0.5 <= args.rate <= 60:
         p.error(f"--rate must be 0.5..60 frames/s, got {args.rate:g}")

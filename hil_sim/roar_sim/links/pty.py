@@ -100,15 +100,19 @@ def serial_robots() -> list[str]:
     return [name for name in robots.names() if "serial" in robots.get(name).links]
 
 
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="roar sim --serial", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--robot", default="esc", metavar="NAME",
+                   help="esc: the ESC car (throttle, steering; default); iarrc: the IARRC car (speed setpoints)")
+    p.add_argument("--track", default="oval", help="oval, figure-eight, course or a track .json file (default: oval)")
+    p.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: run until Ctrl-C)")
+    p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
+    return p
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="roar sim --serial", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--robot", default="esc", metavar="NAME",
-                        help="esc: the ESC car (throttle, steering; default); iarrc: the IARRC car (speed setpoints)")
-    parser.add_argument("--track", default="oval", help="oval, figure-eight, course or a track .json file (default: oval)")
-    parser.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: run until Ctrl-C)")
-    parser.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
-    args = parser.parse_args(argv)
+    args = parser().parse_args(argv)
     kind = robots.get(args.robot)
     if "serial" not in kind.links:
         raise UserError(f"the {kind.title} has no serial port (robots with one: {', '.join(serial_robots())})"

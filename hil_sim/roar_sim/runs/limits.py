@@ -34,11 +34,15 @@ def report(name: str, measured: CarLimits, table: CarLimits) -> str:
     return "\n".join(lines)
 
 
-def main(argv: list[str] | None = None) -> int:
+def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="roar limits", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("robots", nargs="*", choices=[[], *robots.names()], metavar="ROBOT",
                    help=f"which robots ({', '.join(robots.names())}; default: all)")
-    names = p.parse_args(argv).robots or list(robots.names())
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    names = parser().parse_args(argv).robots or list(robots.names())
     status = ExitStatus.OK
     for name in names:
         kind = robots.get(name)

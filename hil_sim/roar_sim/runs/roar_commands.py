@@ -7,6 +7,7 @@ one error boundary (roar.cli.errors)."""
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 from pathlib import Path
 
@@ -32,10 +33,7 @@ def _race(argv: list[str]) -> int:
     return main(argv)
 
 
-def _sim(argv: list[str]) -> int:
-    for old, new in RENAMED.items():
-        if any(a == old or a.startswith(old + "=") for a in argv):
-            raise UserError(f"{old} is {new} now (roar sim --help)")
+def _sim_parser() -> argparse.ArgumentParser:
     from roar_sim import robots
 
     p = argparse.ArgumentParser(prog="roar sim", description=SIM_DESCRIPTION,
@@ -54,11 +52,26 @@ def _sim(argv: list[str]) -> int:
                    help="with --serial or --http: stop after this long (default: Ctrl-C)")
     p.add_argument("--laps", type=int, default=2, help="without a link: laps to drive (default 2)")
     p.add_argument("--plot", type=Path, metavar="PNG", help="without a link: write the driven path to this PNG")
+    return p
+
+
+def _sim_parse_args(argv: list[str]) -> argparse.Namespace:
     if "--stream" in argv:  # its own options (size, rate, push)
+        return _parser_of("roar_sim.links.phone_udp")([a for a in argv if a != "--stream"])
+    return _sim_parser().parse_args(argv)
+
+
+def _sim(argv: list[str]) -> int:
+    for old, new in RENAMED.items():
+        if any(a == old or a.startswith(old + "=") for a in argv):
+            raise UserError(f"{old} is {new} now (roar sim --help)")
+    from roar_sim import robots
+
+    if "--stream" in argv:
         from roar_sim.links.phone_udp import main as stream
 
         return stream([a for a in argv if a != "--stream"])
-    args = p.parse_args(argv)
+    args = _sim_parser().parse_args(argv)
     kind = robots.get(args.robot)
     for flag, name in (("serial", "--serial"), ("http", "--http")):
         if getattr(args, flag) and flag not in kind.links:
@@ -106,15 +119,22 @@ def _limits(argv: list[str]) -> int:
     return main(argv)
 
 
-race = Command("race a simulated robot with its autopilot (`roar race --help`)", _race)
+def _parser_of(module: str):
+    """The parse_args of a module's parser(), imported when called."""
+    return lambda argv: importlib.import_module(module).parser().parse_args(argv)
+
+
+race = Command("race a simulated robot with its autopilot (`roar race --help`)", _race, _parser_of("roar_sim.runs.race"))
 sim = Command("run a simulated robot: a race, a serial port (--serial), HTTP (--http) or the phone's UDP (--stream)",
-              _sim)
+              _sim, _sim_parse_args)
 step_response = Command("the simulated IARRC car's speed PID answering a step, plotted (`roar step-response --help`)",
-                        _step_response)
+                        _step_response, _parser_of("roar_sim.runs.step_response"))
 sweep = Command("race a grid of autopilot parameters x tracks as Ray tasks; CSV table and plot (`roar sweep --help`)",
-                _sweep)
-platoon = Command("two simulated cars platooning over UDP multicast (`roar platoon --help`)", _platoon)
-limits = Command("measure a simulated robot's physical limits against its table (`roar limits --help`)", _limits)
+                _sweep, _parser_of("roar_sim.runs.sweep"))
+platoon = Command("two simulated cars platooning over UDP multicast (`roar platoon --help`)", _platoon,
+                  _parser_of("roar_sim.runs.platoon"))
+limits = Command("measure a simulated robot's physical limits against its table (`roar limits --help`)", _limits,
+                 _parser_of("roar_sim.runs.limits"))
 
 if __name__ == "__main__":
     sys.exit(run_command("roar sim", _sim, sys.argv[1:]))

@@ -127,7 +127,7 @@ def gains_argument(text: str) -> tuple[int, int, int, int]:
     return values
 
 
-def main(argv: list[str] | None = None) -> int:
+def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="roar step-response", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--speed", type=float, default=2.0, help="the step [m/s] (default 2.0)")
@@ -136,6 +136,11 @@ def main(argv: list[str] | None = None) -> int:
                    help="PID gains in per mille, as the PID telemetry command takes them (default: the core's)")
     p.add_argument("--plot", type=Path, default=Path("step_response.png"), metavar="PNG",
                    help="where to draw the response beside the setpoint (default step_response.png)")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = parser()
     args = p.parse_args(argv)
     limit = spec.SETPOINT_MAX_SPEED_MM_S / 1000
     if not 0 < args.speed <= limit:

@@ -354,38 +354,43 @@ def plot(rows: Sequence[dict], tracks: Sequence[str]):
     return fig
 
 
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="roar sweep", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--track", default=DEFAULT_TRACKS,
+                   help=f"tracks, comma-separated: oval, figure-eight, course or .json files (default: "
+                        f"{DEFAULT_TRACKS})")
+    p.add_argument("--k-dd", default=DEFAULT_K_DD_S, metavar="LIST",
+                   help=f"pure pursuit's look-ahead per m/s [s] (default: {DEFAULT_K_DD_S})")
+    p.add_argument("--margin", default=DEFAULT_MARGINS, metavar="LIST",
+                   help=f"fractions of the robot's limits to drive at (default: {DEFAULT_MARGINS})")
+    p.add_argument("--laps", type=int, default=2, help="laps per race; the best counts (default: 2)")
+    p.add_argument("--robot", choices=robots.names(), default="esc", help="which robot races (default: the ESC car)")
+    p.add_argument("--out", type=Path, default=Path("out/sweep"), metavar="DIR",
+                   help="results.csv and sweep.png go here (default: out/sweep); an existing results.csv "
+                        "is resumed")
+    p.add_argument("--address", metavar="HOST:PORT",
+                   help="run on this Ray cluster ('auto': the one `ray start` began on this machine); "
+                        "default: a local Ray for this sweep alone")
+    p.add_argument("--workers", type=int, metavar="N",
+                   help="CPUs of the local Ray (default: all of this machine's)")
+    p.add_argument("--serial", action="store_true", help="run here, one race after another, without Ray")
+    return p
+
+
 def main(argv: list[str] | None = None) -> int:
     from roar_sim.runs.race import K_DD_RANGE_S, MARGIN_RANGE
 
-    parser = argparse.ArgumentParser(prog="roar sweep", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--track", default=DEFAULT_TRACKS,
-                        help=f"tracks, comma-separated: oval, figure-eight, course or .json files (default: "
-                             f"{DEFAULT_TRACKS})")
-    parser.add_argument("--k-dd", default=DEFAULT_K_DD_S, metavar="LIST",
-                        help=f"pure pursuit's look-ahead per m/s [s] (default: {DEFAULT_K_DD_S})")
-    parser.add_argument("--margin", default=DEFAULT_MARGINS, metavar="LIST",
-                        help=f"fractions of the robot's limits to drive at (default: {DEFAULT_MARGINS})")
-    parser.add_argument("--laps", type=int, default=2, help="laps per race; the best counts (default: 2)")
-    parser.add_argument("--robot", choices=robots.names(), default="esc", help="which robot races (default: the ESC car)")
-    parser.add_argument("--out", type=Path, default=Path("out/sweep"), metavar="DIR",
-                        help="results.csv and sweep.png go here (default: out/sweep); an existing results.csv "
-                             "is resumed")
-    parser.add_argument("--address", metavar="HOST:PORT",
-                        help="run on this Ray cluster ('auto': the one `ray start` began on this machine); "
-                             "default: a local Ray for this sweep alone")
-    parser.add_argument("--workers", type=int, metavar="N",
-                        help="CPUs of the local Ray (default: all of this machine's)")
-    parser.add_argument("--serial", action="store_true", help="run here, one race after another, without Ray")
-    args = parser.parse_args(argv)
+    p = parser()
+    args = p.parse_args(argv)
     if not 1 <= args.laps <= 20:
-        parser.error("--laps must be 1..20")
+        p.error("--laps must be 1..20")
     if args.workers is not None and not 1 <= args.workers <= 1024:
-        parser.error("--workers must be 1..1024")
+        p.error("--workers must be 1..1024")
     if args.workers is not None and (args.address or args.serial):
-        parser.error("--workers sizes the local Ray: not with --address or --serial")
+        p.error("--workers sizes the local Ray: not with --address or --serial")
     if args.address and args.serial:
-        parser.error("--serial runs without Ray: not with --address")
+        p.error("--serial runs without Ray: not with --address")
     try:
         runs, tracks = _runs(args, K_DD_RANGE_S, MARGIN_RANGE)
         if args.address not in (None, "auto"):

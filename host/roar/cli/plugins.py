@@ -18,6 +18,9 @@ EXTRA_COMMANDS = {"limits": "sim", "platoon": "sim", "race": "sim", "sim": "sim"
 class Command:
     help: str  # one line for `roar --help`
     main: Callable[[list[str]], int]  # the command's own arguments -> exit status
+    # the command's argument parsing alone, without running it (argparse's SystemExit on bad
+    # arguments): how the docs' command lines are checked against the commands
+    parse_args: Callable[[list[str]], object] | None = None
 
 
 def installed() -> dict[str, EntryPoint]:
