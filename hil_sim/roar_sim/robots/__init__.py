@@ -25,6 +25,7 @@ from typing import ClassVar
 import numpy as np
 
 from roar.autopilot import Agent, CarLimits, Command, Observation
+from roar.autopilot.limits import HOLDS_LINE, circle
 from roar.errors import RoarError
 from roar.telemetry import VehicleState
 from roar_sim.clock.lockstep import CONTROL_PERIOD_S, Lockstep
@@ -158,3 +159,21 @@ class Robot(Lockstep):
             self.run(CONTROL_PERIOD_S)
             log.append((self.time_s, self.state()))
         return log
+
+
+def grip_on_circles(make: Callable[[], Robot], steerings, speeds, drive_circle) -> float:
+    """[m/s^2] the most lateral acceleration a robot holds on steady circles: for each steering,
+    fresh robots from make() driven faster and faster (drive_circle(robot, speed, steering) -> the
+    log of its steady part) until the circle widens beyond HOLDS_LINE of the slowest one's radius,
+    where the tyres slide (understeer)."""
+    lateral = 0.0
+    for steering in steerings:
+        base_radius = None
+        for speed in speeds:
+            with make() as robot:
+                radius, accel_lateral = circle(drive_circle(robot, speed, steering))
+            base_radius = base_radius or radius  # the slowest run: no slip
+            if radius > HOLDS_LINE * base_radius:
+                break
+            lateral = max(lateral, accel_lateral)
+    return lateral

@@ -18,7 +18,7 @@ Commands reach it as they reach a real one, as control messages on its serial po
 from __future__ import annotations
 
 from roar.autopilot import Agent, CarLimits, CarModel, race_agent
-from roar.autopilot.limits import HOLDS_LINE, circle, straight_line
+from roar.autopilot.limits import straight_line
 from roar.autopilot.pure_pursuit import PurePursuit
 from roar.calibration import Calibration
 from roar.protocol import encode, spec
@@ -27,7 +27,7 @@ from roar_sim.clock.lockstep import CONTROL_PERIOD_S, LOOP_US, PHYSICS_US, loops
 from roar_sim.core.car import CarBoard, CarConfig, CarOutputs
 from roar_sim.plants.esc_servo import EscMode, HobbyEsc, SteeringServo
 from roar_sim.plants.racecar import WHEELBASE_M, CarState, Racecar
-from roar_sim.robots import Pose, ReplyLines, Robot
+from roar_sim.robots import Pose, ReplyLines, Robot, grip_on_circles
 from roar_sim.world.scene import World
 from roar_sim.world.track import Track
 
@@ -154,17 +154,11 @@ class EscCar(Robot):
             hold(car, N, N, 0.2)
             run = hold(car, spec.CONTROL_MAX_US, N, 4.0)
             top, accel, brake = straight_line(run, hold(car, spec.CONTROL_MIN_US, N, 2.0))
-        lateral = 0.0
-        for steer_us in (1650, 1700, 1750, 1800):
-            base_radius = None
-            for throttle_us in range(1700, 2001, 50):
-                with cls() as car:
-                    hold(car, N, N, 0.2)
-                    radius, accel_lateral = circle(hold(car, throttle_us, steer_us, 5.0)[-100:])  # the last 2 s
-                base_radius = base_radius or radius  # the slowest run: no slip
-                if radius > HOLDS_LINE * base_radius:
-                    break  # the circle has widened: the tyres slide (understeer)
-                lateral = max(lateral, accel_lateral)
+        def drive_circle(car: EscCar, throttle_us: int, steering_us: int) -> list:
+            hold(car, N, N, 0.2)
+            return hold(car, throttle_us, steering_us, 5.0)[-100:]  # the last 2 s
+
+        lateral = grip_on_circles(cls, (1650, 1700, 1750, 1800), range(1700, 2001, 50), drive_circle)
         return CarLimits(round(top, 2), round(accel, 2), round(brake, 2), round(lateral, 2))
 
 

@@ -19,7 +19,7 @@ import math
 from dataclasses import dataclass
 
 from roar.autopilot import Agent, CarLimits, CarModel, SpeedSetpoint, race_agent
-from roar.autopilot.limits import HOLDS_LINE, circle, straight_line
+from roar.autopilot.limits import straight_line
 from roar.autopilot.pure_pursuit import PurePursuit
 from roar.calibration import Calibration
 from roar.protocol import encode_setpoint, spec
@@ -30,7 +30,7 @@ from roar_sim.core.iarrc import IarrcBoard, iarrc_tasks
 from roar_sim.core.library import IarrcTask
 from roar_sim.plants.esc_servo import EscMode, HobbyEsc, SteeringServo
 from roar_sim.plants.racecar import WHEELBASE_M, CarState, Motor, Racecar
-from roar_sim.robots import Pose, ReplyLines, Robot
+from roar_sim.robots import Pose, ReplyLines, Robot, grip_on_circles
 from roar_sim.world.track import Track
 from roar_wire import sbus
 
@@ -221,17 +221,11 @@ class IarrcCar(Robot):
             hold(car, 0, n, 0.3)
             run = hold(car, fastest, n, 4.0)
             top, accel, brake = straight_line(run, hold(car, 0, n, 3.0))
-        lateral = 0.0
-        for steer_us in (1650, 1700, 1750, 1800):
-            base_radius = None
-            for speed_mm_s in range(1000, fastest + 1, 500):
-                with cls() as car:
-                    hold(car, 0, n, 0.3)
-                    radius, accel_lateral = circle(hold(car, speed_mm_s, steer_us, 5.0)[-100:])  # the last 2 s
-                base_radius = base_radius or radius  # the slowest run: no slip
-                if radius > HOLDS_LINE * base_radius:
-                    break  # the circle has widened: the tyres slide (understeer)
-                lateral = max(lateral, accel_lateral)
+        def drive_circle(car: IarrcCar, speed_mm_s: int, steering_us: int) -> list:
+            hold(car, 0, n, 0.3)
+            return hold(car, speed_mm_s, steering_us, 5.0)[-100:]  # the last 2 s
+
+        lateral = grip_on_circles(cls, (1650, 1700, 1750, 1800), range(1000, fastest + 1, 500), drive_circle)
         return CarLimits(round(top, 2), round(accel, 2), round(brake, 2), round(lateral, 2))
 
 
