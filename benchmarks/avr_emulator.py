@@ -22,7 +22,7 @@ def run() -> None:
     if missing:
         print(f"  skipped: {missing}")
         return
-    with simavr.AvrCar(avr.build_parser_bench()) as bench:
+    with simavr.EmulatedNano(avr.build_parser_bench()) as bench:
         bench.run(0.2)
         parser_cycles, plain_cycles, car_cycles = (w for _, w in bench.pulse_cycles("B5")[:3])
     per_parser, per_plain, per_car = (c / avr.BENCH_MESSAGES for c in (parser_cycles, plain_cycles, car_cycles))
@@ -36,7 +36,7 @@ def run() -> None:
           f"receive path {per_car / line_cycles:.3f}")
 
     latencies = []
-    with simavr.AvrCar() as nano:
+    with simavr.EmulatedNano() as nano:
         nano.run(0.05)
         nano.write(encode(1500, 1500) + b"\n")
         nano.run(0.1)

@@ -18,7 +18,7 @@ def run() -> None:
     if missing:
         print(f"  ATmega328P: skipped ({missing})")
     else:
-        with simavr.AvrCar(avr.build_parser_bench()) as bench:
+        with simavr.EmulatedNano(avr.build_parser_bench()) as bench:
             bench.run(0.2)
             cycles = bench.pulse_cycles("B5")[3][1] / avr.BENCH_SBUS_FRAMES
         share = cycles / (simavr.F_CPU * FRAME_PERIOD_S)

@@ -10,9 +10,9 @@ import pytest
 from conftest import wait_for
 from roar.protocol import encode, spec
 
-avr_sim = pytest.importorskip("roar_sim.emulators.simavr")
-if avr_sim.available():
-    pytest.skip(avr_sim.available(), allow_module_level=True)
+simavr = pytest.importorskip("roar_sim.emulators.simavr")
+if simavr.available():
+    pytest.skip(simavr.available(), allow_module_level=True)
 
 TOLERANCE_US = 10  # [us] per pulse: other interrupts delay an edge now and then (as on hardware)
 FRAME_S = spec.TIMING_SERVO_FRAME_US / 1e6
@@ -23,7 +23,7 @@ N = spec.CONTROL_NEUTRAL_US
 
 @pytest.fixture
 def nano():
-    with avr_sim.AvrCar() as car:
+    with simavr.EmulatedNano() as car:
         car.run(0.05)  # boot: Serial.begin() before the first byte
         yield car
 
@@ -88,7 +88,7 @@ def test_malformed_input_changes_nothing_and_is_answered(nano):
 def test_failsafe_drives_d5_to_neutral_after_silence(nano):
     stream(nano, N, N, 0.1)
     stream(nano, 1700, 1600, 0.3)
-    last_command = nano.sent_at[-1] / avr_sim.F_CPU
+    last_command = nano.sent_at[-1] / simavr.F_CPU
     nano.run(0.6)
     neutral_from = next(r for r, w in nano.pulses("D5", last_command) if abs(w - N) <= TOLERANCE_US)
     assert FAILSAFE_S <= neutral_from - last_command <= FAILSAFE_S + 2 * FRAME_S
@@ -139,7 +139,7 @@ def test_the_host_library_drives_the_emulated_nano_over_a_pty():
     """Real time: the pyserial transport of roar.Vehicle talks to UART0 through simavr's pty."""
     from roar import Vehicle
 
-    proc, path = avr_sim.AvrCar.serve_pty(4.0)
+    proc, path = simavr.EmulatedNano.serve_pty(4.0)
     pulses, lines = [], []
     started = time.monotonic()
     try:
@@ -158,7 +158,7 @@ def test_the_host_library_drives_the_emulated_nano_over_a_pty():
     for line in out.splitlines():
         kind, *rest = line.split(" ", 3)
         if kind == "P":
-            pulses.append((rest[0], int(rest[1]) / avr_sim.F_CPU, int(rest[2]) / avr_sim.CYCLES_PER_US))
+            pulses.append((rest[0], int(rest[1]) / simavr.F_CPU, int(rest[2]) / simavr.CYCLES_PER_US))
         elif kind == "U":
             lines.append(rest[1] if len(rest) > 1 else "")
     assert proc.returncode == 0
@@ -204,7 +204,7 @@ def test_a_hung_loop_resets_the_board_which_boots_at_neutral_and_latched():
     from roar_sim.toolchains import avr
 
     hang = avr.HANG_THROTTLE_US
-    with avr_sim.AvrCar(avr.build(variant="hang")) as nano:
+    with simavr.EmulatedNano(avr.build(variant="hang")) as nano:
         nano.run(0.05)
         stream(nano, N, N, 0.1)
         stream(nano, hang, N, 1.5)

@@ -78,35 +78,35 @@ def test_board_folders_are_thin_glue_with_pins_in_one_place(folder):
     assert lines < limit, f"{folder}: {lines} lines of glue; move logic into firmware/core"
 
 
-avr_build = pytest.importorskip("roar_sim.toolchains.avr")
-arm_build = pytest.importorskip("roar_sim.toolchains.arm")
+avr = pytest.importorskip("roar_sim.toolchains.avr")
+arm = pytest.importorskip("roar_sim.toolchains.arm")
 
 
 def test_the_nano_firmware_builds_offline_and_fits():
-    if avr_build.available():
-        pytest.skip(avr_build.available())
-    elf = avr_build.build(force=True)
-    flash, ram = avr_build.sizes(elf)
-    assert 1000 < flash < avr_build.FLASH_BYTES
-    assert ram < avr_build.RAM_BYTES - 512  # leave room for the stack
+    if avr.available():
+        pytest.skip(avr.available())
+    elf = avr.build(force=True)
+    flash, ram = avr.sizes(elf)
+    assert 1000 < flash < avr.FLASH_BYTES
+    assert ram < avr.RAM_BYTES - 512  # leave room for the stack
     assert elf.with_suffix(".hex").read_text().startswith(":")
 
 
 def test_the_anyfc_f7_controller_links_offline_with_its_vector_table_first():
     if not shutil.which("arm-none-eabi-g++"):
         pytest.skip("apt-get install gcc-arm-none-eabi libnewlib-arm-none-eabi")
-    elf = arm_build.build()
+    elf = arm.build()
     symbols = subprocess.run(["arm-none-eabi-nm", str(elf)], capture_output=True, text=True, check=True).stdout
     vector = next(line.split()[0] for line in symbols.splitlines() if line.endswith("vector_table"))
     assert int(vector, 16) == 0x08000000
-    flash, ram = avr_build.sizes(elf, "arm-none-eabi-size")
+    flash, ram = avr.sizes(elf, "arm-none-eabi-size")
     assert flash < 64 * 1024 and ram < 16 * 1024
 
 
 def test_sizes_are_measured_and_printed_for_every_target(capsys):
     from roar_sim.toolchains import sizes
 
-    missing = avr_build.available() or (None if shutil.which("arm-none-eabi-g++") else
+    missing = avr.available() or (None if shutil.which("arm-none-eabi-g++") else
                                         "apt-get install gcc-arm-none-eabi libnewlib-arm-none-eabi")
     if missing:
         pytest.skip(f"the size report needs both cross toolchains: {missing}")
@@ -176,7 +176,7 @@ def test_freertos_comes_through_platformio_and_is_never_in_the_repository(pio_co
     assert not [p for p in tracked if Path(p).name in ("tasks.c", "queue.c", "FreeRTOS.h", "port.c")]
     # The PlatformIO script and the offline link compile the same kernel files.
     script = (FIRMWARE / "stm32_freertos" / "pio_freertos.py").read_text()
-    assert re.findall(r'"\+<([^>]+)>"', script) == list(arm_build.FREERTOS_SOURCES)
+    assert re.findall(r'"\+<([^>]+)>"', script) == list(arm.FREERTOS_SOURCES)
 
 
 def test_the_freertos_build_links_against_a_kernel_checkout():
@@ -185,7 +185,7 @@ def test_the_freertos_build_links_against_a_kernel_checkout():
         pytest.skip("set ROAR_FREERTOS_KERNEL to a FreeRTOS-Kernel checkout (the tag platformio.ini names)")
     if not shutil.which("arm-none-eabi-g++"):
         pytest.skip("apt-get install gcc-arm-none-eabi libnewlib-arm-none-eabi")
-    elf = arm_build.build_freertos(Path(kernel))
+    elf = arm.build_freertos(Path(kernel))
     symbols = subprocess.run(["arm-none-eabi-nm", str(elf)], capture_output=True, text=True, check=True).stdout
     for name in ("xTaskCreateStatic", "xTaskDelayUntil", "xStreamBufferSendFromISR", "SVC_Handler", "PendSV_Handler"):
         assert f" {name}" in symbols, name

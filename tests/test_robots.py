@@ -85,6 +85,23 @@ def test_sim_urls_drive_each_robot_by_name(name):
             assert car.transport.replies is True and any(r.startswith("READY") for r in car.replies)
 
 
+@pytest.mark.parametrize("name", ["esc", "iarrc", "junior"])
+def test_the_gym_environment_drives_each_robot_by_name(name):
+    gym = pytest.importorskip("gymnasium", reason="pip install gymnasium (make setup installs it)")
+    env = gym.make("roar_sim.gym_env:roar/Race-v0", robot=name)
+    try:
+        observation, _ = env.reset(seed=1)
+        total = 0.0
+        for _ in range(50):
+            observation, reward, terminated, _, info = env.step(np.array([0.5, 0.0], np.float32))
+            total += reward
+        kind = robots.get(name)
+        assert not terminated and total > 0.1 and info == {**info, **env.unwrapped.sim.info()}  # metres along the line
+        assert ("lidar" in observation) == kind.has_lidar and ("ultrasonic" in observation) == (name == "junior")
+    finally:
+        env.close()
+
+
 @pytest.fixture
 def fourth_robot(tmp_path, monkeypatch):
     (tmp_path / "fourth.py").write_text(FOURTH)

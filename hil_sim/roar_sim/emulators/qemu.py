@@ -2,7 +2,7 @@
 Debian's qemu-system-arm has no STM32F7). An image reports over semihosting (QEMU writes those
 lines to its stderr) and ends with SYS_EXIT_EXTENDED, whose code becomes QEMU's exit status.
 
-    result = run(arm_build.build_clock_probe())
+    result = run(arm.build_clock_probe())
     result.returncode, result.lines            # 0, ["clock timer2", "advanced_us 1234", ...]
 """
 
@@ -49,14 +49,14 @@ def instructions(result: Result, ticks: int | str) -> float:
 
 
 def task_instructions(result: Result) -> dict[str, float]:
-    """{task name: worst instructions} from the task bench image (arm_build.build_task_bench()),
+    """{task name: worst instructions} from the task bench image (arm.build_task_bench()),
     whose lines read "task NAME TICKS"."""
     rows = [line.split() for line in result.lines if line.startswith("task ")]
     return {name: instructions(result, int(ticks)) for _, name, ticks in rows}
 
 
 class EmulatedIarrc:
-    """The AnyFC F7's IARRC controller (arm_build.build_iarrc_emulated()) running in QEMU, its
+    """The AnyFC F7's IARRC controller (arm.build_iarrc_emulated()) running in QEMU, its
     USARTs on Unix sockets: USART1 the vision computer, USART3 the Bluetooth module, USART6 the
     SBUS receiver. QEMU waits for each socket's client at start, so nothing the board prints at
     boot is lost. Lines it writes are collected by a reader thread per port.

@@ -2,13 +2,13 @@
 through the C harness hil_sim/avr/avr_harness.c (libsimavr): bytes into UART0, RC pulses into
 D3/D4, pulse widths measured on D5/D6 with the emulated cycle counter (1/16 us resolution).
 
-    with AvrCar() as nano:                 # lockstep: emulated time moves only in run()
+    with EmulatedNano() as nano:                 # lockstep: emulated time moves only in run()
         nano.write(b"(1500,1500)")
         nano.run(0.2)
         nano.pulses("D5")                  # [(rise_s, width_us), ...]
         nano.lines()                       # [(t_s, "READY 1"), (t_s, "ARMED")]
 
-    AvrCar.serve_pty(seconds)              # real time, UART0 on a pty: (process, "/dev/pts/N")
+    EmulatedNano.serve_pty(seconds)              # real time, UART0 on a pty: (process, "/dev/pts/N")
 """
 
 from __future__ import annotations
@@ -52,7 +52,7 @@ def build_harness() -> Path:
     return HARNESS
 
 
-class AvrCar:
+class EmulatedNano:
     def __init__(self, elf: Path | None = None) -> None:
         missing = available()
         if missing:
@@ -124,7 +124,7 @@ class AvrCar:
         for stream in (self._proc.stdin, self._proc.stdout):
             stream.close()
 
-    def __enter__(self) -> AvrCar:
+    def __enter__(self) -> EmulatedNano:
         return self
 
     def __exit__(self, *exc) -> None:

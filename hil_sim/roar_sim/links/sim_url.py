@@ -47,9 +47,10 @@ class SimTransport(Transport):
                  trace: Path | None = None, plot: Path | None = None, robot: str = "esc") -> None:
         from roar_sim import robots
 
-        self.track_name, self.speedup, self.gui, self.robot = track, speedup, gui, robot
+        self.track_name, self.speedup, self.gui = track, speedup, gui
         self.trace_path, self.plot_path = trace, plot
-        self.replies = robots.get(robot).replies  # the ESC and IARRC cars answer with lines, the Junior not
+        self.kind = robots.get(robot)  # the robot's class (UnknownRobot, one line, for a name there is not)
+        self.replies = self.kind.replies  # the ESC and IARRC cars answer with lines, the Junior not
         self.sim = None  # the roar_sim.robots.Robot once open
         self.trace: list[tuple[float, float, float, float, float]] = []  # (t, x, y, yaw, speed)
         self._inbox: collections.deque[bytes] = collections.deque()
@@ -74,26 +75,20 @@ class SimTransport(Transport):
         if "car" in options:
             raise TransportError("option car= is robot= now: e.g. sim://?robot=iarrc")
         robot = pop_option(options, "robot", str, "esc")
+        track = target.strip("/") if not target.endswith(".json") else target
         try:
-            from roar_sim import robots
-
-            robots.get(robot)
+            return cls(track, speedup, pop_option(options, "gui", bool, False), trace, plot, robot)
         except ImportError as e:
             raise TransportError(missing_simulator(e)) from None
-        except robots.UnknownRobot as e:
+        except RoarError as e:
             raise TransportError(str(e)) from None
-        return cls(target.strip("/") if not target.endswith(".json") else target, speedup,
-                   pop_option(options, "gui", bool, False), trace, plot, robot)
 
     def open(self) -> None:
-        try:
-            from roar_sim import robots
-            from roar_sim.world.track import get
-        except ImportError as e:
-            raise TransportError(missing_simulator(e)) from None
+        from roar_sim.world.track import get
+
         try:
             track = get(self.track_name) if self.track_name else None
-            self.sim = robots.get(self.robot)(track, realtime=True, speedup=self.speedup, gui=self.gui)
+            self.sim = self.kind(track, realtime=True, speedup=self.speedup, gui=self.gui)
         except RoarError as e:
             raise TransportError(str(e)) from None
         self._running.set()
