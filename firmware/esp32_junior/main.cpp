@@ -35,7 +35,7 @@ namespace {
 constexpr uint8_t kPwmBits = 10;
 constexpr uint32_t kPwmFullScale = (1ul << kPwmBits) - 1;
 constexpr uint32_t kPingPeriodUs = 60000;     // [us] between ultrasonic pings (echoes die out)
-constexpr uint32_t kClientTimeoutMs = 2000;   // [ms] a connection quiet this long is closed
+constexpr uint32_t kClientTimeoutMs = roar::proto::kJuniorIdleCloseUs / 1000u;  // [ms] quiet this long: closed
 constexpr int kMaxClients = 4;                // connections served at once
 constexpr uint32_t kWatchdogS = (roar::proto::kTimingLoopWatchdogUs + 999999ul) / 1000000ul;  // [s]
 

@@ -259,6 +259,14 @@ size_t roar_http_reader_feed(void* reader, const uint8_t* data, size_t n, uint8_
   *state = static_cast<uint8_t>(s);
   return used;
 }
+const char* roar_http_reader_path(const void* reader, size_t* length) {
+  const HttpRequestReader* r = as<HttpRequestReader>(reader);
+  *length = r->path_length();
+  return r->path();
+}
+size_t roar_http_refuse(const void* reader, char* out, size_t cap) {
+  return JuniorBoard::refuse(*as<HttpRequestReader>(reader), out, cap);
+}
 
 }  // extern "C"
 

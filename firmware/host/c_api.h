@@ -17,7 +17,7 @@
 extern "C" {
 #endif
 
-#define ROAR_CORE_ABI_VERSION 6
+#define ROAR_CORE_ABI_VERSION 7
 
 uint32_t roar_core_abi_version(void);
 uint32_t roar_protocol_version(void);
@@ -220,6 +220,12 @@ void roar_http_reader_init(void* reader);   /* also: ready for the next request 
 /* Feeds bytes until the request is decided; returns how many it took (the rest belongs to the
  * next request). *state: a roar_http_read. */
 size_t roar_http_reader_feed(void* reader, const uint8_t* data, size_t n, uint8_t* state);
+/* After a complete read: the request's path ("/cam-lo.jpg" of "/cam-lo.jpg?x=1"), *length bytes,
+ * not NUL-terminated, valid until the reader is fed or reset. */
+const char* roar_http_reader_path(const void* reader, size_t* length);
+/* JuniorBoard::refuse: the response (NUL-terminated) with which every port of the Junior refuses a
+ * decided request (malformed, too long, not GET, a GET with a body); 0 for a GET its routes answer. */
+size_t roar_http_refuse(const void* reader, char* out, size_t cap);
 
 /* --- SBUS receiver frames ------------------------------------------------------------------ */
 typedef struct {

@@ -31,16 +31,26 @@ void HttpRequestReader::reset() {
   in_request_line_ = true;
   at_line_start_ = false;
   keep_alive_ = false;
+  has_body_ = false;
   state_ = HttpRead::Incomplete;
 }
 
 void HttpRequestReader::header_line_end() {
   static const char kConnection[] = "connection:";
+  static const char kContentLength[] = "content-length:";
   if (starts_with(header_, header_len_, kConnection)) {
     const char* value = header_ + sizeof(kConnection) - 1;
     const size_t value_len = header_len_ - (sizeof(kConnection) - 1);
     if (contains(value, value_len, "close")) keep_alive_ = false;
     if (contains(value, value_len, "keep-alive")) keep_alive_ = true;
+  } else if (starts_with(header_, header_len_, kContentLength)) {
+    // a body unless the value is all zeros (and spaces); a value cut off by the prefix counts
+    if (header_len_ == kHeaderPrefix) has_body_ = true;
+    for (size_t i = sizeof(kContentLength) - 1; i < header_len_; ++i) {
+      if (header_[i] != '0' && header_[i] != ' ' && header_[i] != '\t') has_body_ = true;
+    }
+  } else if (starts_with(header_, header_len_, "transfer-encoding:")) {
+    has_body_ = true;
   }
   header_len_ = 0;
 }

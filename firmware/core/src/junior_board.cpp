@@ -30,9 +30,7 @@ const char* reason(JuniorQueryError error) {
 
 }  // namespace
 
-size_t JuniorBoard::respond(const HttpRequestReader& request, uint32_t distance_cm, char* out, size_t cap,
-                            bool* keep_open) {
-  *keep_open = false;
+size_t JuniorBoard::refuse(const HttpRequestReader& request, char* out, size_t cap) {
   if (cap < kMaxReplyBytes) return 0;
   switch (request.state()) {
     case HttpRead::Incomplete:
@@ -47,6 +45,16 @@ size_t JuniorBoard::respond(const HttpRequestReader& request, uint32_t distance_
   if (!equals(request.method(), request.method_length(), "GET")) {
     return reply(out, cap, "405 Method Not Allowed", "only GET\n", false);
   }
+  if (request.has_body()) return reply(out, cap, "400 Bad Request", "a GET takes no body\n", false);
+  return 0;
+}
+
+size_t JuniorBoard::respond(const HttpRequestReader& request, uint32_t distance_cm, char* out, size_t cap,
+                            bool* keep_open) {
+  *keep_open = false;
+  if (cap < kMaxReplyBytes || request.state() == HttpRead::Incomplete) return 0;
+  const size_t refused = refuse(request, out, cap);
+  if (refused) return refused;
   if (!equals(request.path(), request.path_length(), proto::kJuniorControlRoute)) {
     return reply(out, cap, "404 Not Found", "no such route\n", false);
   }

@@ -24,7 +24,7 @@ LOOP_MS = 1  # [ms] loop period
 PING_MS = 60  # [ms] between ultrasonic pings (echoes die out)
 MAX_ECHO_US = 23500  # [us] an echo longer than 4 m and back is no echo
 MAX_CLIENTS = 4  # connections served at once
-CLIENT_TIMEOUT_MS = 2000  # [ms] a connection quiet this long is closed
+CLIENT_TIMEOUT_MS = spec.JUNIOR_IDLE_CLOSE_US // 1000  # [ms] a connection quiet this long is closed
 READ_BYTES = 256  # [bytes] read from a connection at a time
 WATCHDOG_MS = max(1000, spec.TIMING_LOOP_WATCHDOG_US // 1000)  # [ms] the ESP32's watchdog takes >= 1 s
 PWM_FULL = 65535  # duty_u16 at full scale

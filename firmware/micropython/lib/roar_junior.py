@@ -27,7 +27,8 @@ _CR, _LF, _SPACE = 13, 10, 32
 
 class HttpRequestReader:
     """One HTTP/1.x request read byte by byte into fixed buffers: the request line is kept,
-    header lines are skipped except "Connection:", the request ends at the blank line. Over its
+    header lines are skipped except "Connection:" and those that declare a body (has_body: the
+    body is never read), the request ends at the blank line. Over its
     limits or not "METHOD /target HTTP/1.x", the read ends in TOO_LONG or MALFORMED."""
 
     def __init__(self):
@@ -41,6 +42,7 @@ class HttpRequestReader:
         self._in_request_line = True
         self._at_line_start = False
         self.keep_alive = False
+        self.has_body = False  # a body follows the headers (never read: the board refuses it)
         self.method = self.path = self.query = ""
 
     def feed(self, data):
@@ -91,6 +93,11 @@ class HttpRequestReader:
                 self.keep_alive = False
             if b"keep-alive" in value:
                 self.keep_alive = True
+        elif header.startswith(b"content-length:"):  # a body unless all zeros; cut off counts
+            if self._header_len == HEADER_PREFIX or header[15:].strip(b"0 \t"):
+                self.has_body = True
+        elif header.startswith(b"transfer-encoding:"):
+            self.has_body = True
         self._header_len = 0
 
     def _parse_line(self):
@@ -202,12 +209,9 @@ class JuniorBoard:
 
     def respond(self, request, distance_cm, now_ms):
         """(the response bytes, keep the connection open) to a decided request."""
-        if request.state == MALFORMED:
-            return _reply("400 Bad Request", "not an HTTP/1.x request\n", False), False
-        if request.state == TOO_LONG:
-            return _reply("400 Bad Request", "request too long\n", False), False
-        if request.method != "GET":
-            return _reply("405 Method Not Allowed", "only GET\n", False), False
+        refused = refusal(request)
+        if refused:
+            return refused, False
         if request.path != spec.JUNIOR_CONTROL_ROUTE:
             return _reply("404 Not Found", "no such route\n", False), False
         refused = self.control.apply_query(request.query, now_ms)
@@ -220,6 +224,20 @@ class JuniorBoard:
         """The loop body: the pins to write now, ((in1, in2, duty) left, (...) right)."""
         left, right = self.control.duties(now_ms)
         return self._left.step(left, now_ms), self._right.step(right, now_ms)
+
+
+def refusal(request):
+    """The response with which every port refuses a decided request (malformed, too long, not
+    GET, a GET with a body); b"" for a GET its routes answer."""
+    if request.state == MALFORMED:
+        return _reply("400 Bad Request", "not an HTTP/1.x request\n", False)
+    if request.state == TOO_LONG:
+        return _reply("400 Bad Request", "request too long\n", False)
+    if request.method != "GET":
+        return _reply("405 Method Not Allowed", "only GET\n", False)
+    if request.has_body:
+        return _reply("400 Bad Request", "a GET takes no body\n", False)
+    return b""
 
 
 def _reply(status, body, keep_open):

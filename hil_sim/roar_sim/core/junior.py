@@ -73,6 +73,19 @@ class HttpRequestReader:
         used = self._lib.roar_http_reader_feed(self._mem, as_bytes(data), len(data), self._state)
         return used, HttpRead(self._state[0])
 
+    @property
+    def path(self) -> str:
+        """After a complete read: the request's path, without its query."""
+        length = ffi.new("size_t *")
+        path = self._lib.roar_http_reader_path(self._mem, length)
+        return ffi.unpack(path, length[0]).decode("ascii")
+
+    def refusal(self) -> bytes:
+        """The response with which every port of the Junior refuses this decided request
+        (malformed, too long, not GET, a GET with a body); b"" for one its routes answer."""
+        out = ffi.new("char[]", self._lib.roar_junior_reply_max())
+        return ffi.unpack(out, self._lib.roar_http_refuse(self._mem, out, len(out)))
+
 
 class JuniorBoard:
     """The Junior's loop (JuniorBoard::poll) on a HAL of plain memory: the board's wrapping 32-bit

@@ -1,7 +1,9 @@
 // One HTTP/1.x request, read byte by byte into a fixed buffer, for a board that serves a route
 // without a heap and without blocking its loop: the request line ("GET /?a=b HTTP/1.1") is
-// kept, header lines are skipped except for a "Connection:" header, and the request is complete
-// at the blank line. A request line longer than the buffer, a request longer than
+// kept, header lines are skipped except for "Connection:" and the headers that declare a body
+// ("Content-Length:" other than 0, "Transfer-Encoding:"), and the request is complete at the
+// blank line. The reader never reads a body: a request that declares one is complete with
+// has_body(), for the board to refuse, so body bytes are never taken for a next request. A request line longer than the buffer, a request longer than
 // kMaxRequestBytes in all, or a request line that is not "METHOD /target HTTP/1.x" ends the
 // read with an error; the board answers it and closes the connection. After a complete request
 // the connection stays open for the next one (keep_alive()) unless the client asked otherwise
@@ -37,6 +39,7 @@ class HttpRequestReader {
   const char* query() const { return line_ + query_at_; }  // "forward=True", without the '?'
   size_t query_length() const { return query_len_; }
   bool keep_alive() const { return state_ == HttpRead::Complete && keep_alive_; }
+  bool has_body() const { return has_body_; }  // a body follows the headers (not read)
 
  private:
   static const uint8_t kHeaderPrefix = 32;  // [bytes] of each header line looked at
@@ -53,6 +56,7 @@ class HttpRequestReader {
   bool in_request_line_ = true;
   bool at_line_start_ = false;  // in the headers: nothing but CR seen on this line yet
   bool keep_alive_ = false;
+  bool has_body_ = false;
   HttpRead state_ = HttpRead::Incomplete;
 };
 

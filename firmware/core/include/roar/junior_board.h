@@ -34,11 +34,17 @@ class JuniorBoard {
   // The response to a finished read (any state but Incomplete), NUL-terminated in out; returns
   // its length, or 0 when cap is below kMaxReplyBytes. A GET of the control route applies its
   // query (parameters in order) and answers 200 with distance_cm as the body; a query with a
-  // parameter that is not understood, a malformed or too long request get 400, other paths 404,
-  // other methods 405, each with a one-line reason as the body, and change nothing. *keep_open
+  // parameter that is not understood and whatever refuse() refuses get 400 or 405, other paths
+  // 404, each with a one-line reason as the body, and change nothing. *keep_open
   // says whether the connection stays open for the next request (a 200 to a client that keeps
   // its connection).
   size_t respond(const HttpRequestReader& request, uint32_t distance_cm, char* out, size_t cap, bool* keep_open);
+
+  // The rules every port of the Junior applies before its routes, as respond() applies them: the
+  // response (NUL-terminated in out; the connection then closes) to a finished read that is
+  // malformed or too long (400), not a GET (405) or a GET that declares a body (400); 0 for a
+  // GET without a body, which the port's routes answer. Also 0 when cap is below kMaxReplyBytes.
+  static size_t refuse(const HttpRequestReader& request, char* out, size_t cap);
 
   // The loop body: failsafe, L298N pins with dead time, pins written, watchdog fed.
   DrivePins poll();

@@ -146,6 +146,7 @@ static constexpr uint16_t kJuniorCameraLowHeight = 240u;  // [px] Height of the 
 static constexpr uint16_t kJuniorCameraHighWidth = 800u;  // [px] Width of the high-resolution frames (/cam-hi.jpg, /cam.mjpeg)
 static constexpr uint16_t kJuniorCameraHighHeight = 600u;  // [px] Height of the high-resolution frames
 static constexpr uint32_t kJuniorFailsafeTimeoutUs = 500000ul;  // [us] No control request for longer than this stops both sides
+static constexpr uint32_t kJuniorIdleCloseUs = 2000000ul;  // [us] A connection (either port) that sends nothing for this long is closed, so idle clients cannot hold the robot's few connections
 
 }  // namespace proto
 
