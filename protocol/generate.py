@@ -343,14 +343,19 @@ def main(argv: list[str] | None = None) -> int:
             for p in stale:
                 print(f"stale: {p.relative_to(ROOT)} (run: python protocol/generate.py)", file=sys.stderr)
             return 1 if stale else 0
-        for path, text in outputs().items():
+        generated = outputs()
+        wrote = 0
+        for path, text in generated.items():
             path.parent.mkdir(parents=True, exist_ok=True)
             if not path.exists() or path.read_text(encoding="utf-8") != text:
                 path.write_text(text, encoding="utf-8")
                 print(f"wrote {path.relative_to(ROOT)}")
+                wrote += 1
+        if not wrote:
+            print(f"{len(generated)} generated files up to date with protocol/spec.toml")
     except SpecError as e:
         print(f"error: {e}", file=sys.stderr)
-        return 2
+        return 1
     return 0
 
 

@@ -109,7 +109,8 @@ def test_the_simulated_port_never_tears_reply_lines_for_a_slow_reader(pty_car):
 
 @pytest.mark.parametrize("value", [10**400, -(10**400)])
 def test_huge_integers_are_a_value_error(value):
-    with Vehicle("loop://") as car, pytest.raises(ValueError, match="throttle must be within"):
+    words = "throttle must be a finite number -1..1, got an integer of 401 digits"
+    with Vehicle("loop://") as car, pytest.raises(ValueError, match=words):
         car.drive(throttle=value)
 
 
@@ -161,3 +162,144 @@ def test_no_pybullet_banner_in_any_output(argv):
 def test_pybullet_itself_still_prints_its_banner_so_the_test_above_can_fail():
     proc = subprocess.run([sys.executable, "-c", "import pybullet"], capture_output=True, text=True, timeout=60)
     assert "build time" in proc.stdout + proc.stderr
+
+
+# --- round 3: data from files and the network, and what the messages say ------------------------
+
+def test_send_over_a_dropped_link_does_not_claim_it_sent_neutral(capsys):
+    code = main(["send", "loop://?fail_after=3", "--for", "0.3"])
+    out = capsys.readouterr().out
+    assert code == 1 and "neutral sent" not in out
+    assert "link down: loop:// link cut (fail_after); neutral could not be sent" in out
+
+
+@pytest.mark.parametrize("value, shown", [(1.0000001, "got 1.0000001"), (float("nan"), "got nan"), ("1", "got '1'")])
+def test_a_bad_value_is_shown_as_given(value, shown):
+    words = f"throttle must be a finite number -1..1, {shown}$"
+    with Vehicle("loop://") as car, pytest.raises(ValueError, match=words):
+        car.drive(throttle=value)
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["scan", "--timeout", "0"], "argument --timeout: must be a finite number more than 0 and at most 60 s, got '0'"),
+    (["race", "--track", ""], "the track name is empty"),
+])
+def test_messages_say_what_is_wrong(capsys, argv, words):
+    assert words in one_line_error(capsys, *argv)
+
+
+def test_a_zero_timeout_in_a_url_says_the_range_excludes_zero():
+    with pytest.raises(TransportError, match="timeout must be a finite number more than 0 and at most 30 s, got 0.0"):
+        Vehicle("http://127.0.0.1:8081?timeout=0")
+
+
+def test_terminal_escapes_in_a_track_file_are_shown_escaped(tmp_path, capsys):
+    """A track's name reaches the terminal: its control characters (colours, cursor moves, a
+    right-to-left override) are printed escaped, never raw."""
+    import json
+
+    from roar_sim.runs import race
+    from roar_sim.world.track import oval
+
+    path = tmp_path / "evil.json"
+    path.write_text(json.dumps({"name": "\x1b[2J\x1b[31mred\x1b[0m\u202eevil\r", "width_m": oval().width_m,
+                                "centerline": oval().centerline.tolist()}))
+    assert race.main(["--track", str(path), "--laps", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "\x1b" not in out and "\u202e" not in out and "\r" not in out
+    assert "on track \\x1b[2J\\x1b[31mred\\x1b[0m\\u202eevil\\r:" in out
+
+
+def test_what_a_junior_replies_is_shown_escaped():
+    """A body from the network in an error message: escaped too."""
+    from roar.checks import printable
+
+    assert printable("bad\x1b[31m\x07\n") == "bad\\x1b[31m\\x07\\n"
+    assert printable("é ok ✓") == "é ok ✓"  # printable text is left alone
+    assert printable("x" * 100, 10) == "xxxxxxx..."
+
+
+def test_files_with_a_utf8_byte_order_mark_are_read(tmp_path):
+    import json
+
+    from roar.autopilot import load_waypoints, save_waypoints
+    from roar_sim.world.track import Track, oval
+
+    save_waypoints(tmp_path / "plain.txt", oval().centerline)
+    bom = tmp_path / "bom.txt"
+    bom.write_bytes(b"\xef\xbb\xbf" + (tmp_path / "plain.txt").read_bytes())
+    assert (load_waypoints(bom) == load_waypoints(tmp_path / "plain.txt")).all()
+    track = json.dumps({"width_m": oval().width_m, "centerline": oval().centerline.tolist()})
+    (tmp_path / "bom.json").write_bytes(b"\xef\xbb\xbf" + track.encode())
+    assert Track.load(tmp_path / "bom.json").length_m == pytest.approx(oval().length_m)
+    (tmp_path / "calibration.toml").write_bytes(b"\xef\xbb\xbf" + b"[steering]\ntrim_us = 1510\n")
+    assert Calibration.load(tmp_path / "calibration.toml").steering.trim_us == 1510
+
+
+@pytest.mark.parametrize("shift, words", [((5.0, 0.0), "outside the track"),
+                                          (None, "run against the track's direction")])
+def test_waypoints_off_the_track_or_reversed_name_their_file(tmp_path, capsys, shift, words):
+    import numpy as np
+
+    from roar.autopilot import save_waypoints
+    from roar_sim.world.track import oval
+
+    line = oval().centerline
+    line = line + np.array(shift) if shift else line[::-1]
+    path = tmp_path / "line.txt"
+    save_waypoints(path, line)
+    err = one_line_error(capsys, "race", "--waypoints", str(path), "--laps", "1")
+    assert f"roar race: error: {path}: " in err and words in err
+
+
+def _library_calls():
+    """(what, a call taking one value) for every timeout, period and rate a user hands the library."""
+    import asyncio
+
+    from roar import camera
+    from roar.aio import run_sync
+    from roar.stream import Reassembler, StreamReceiver
+
+    def on_vehicle(method):
+        def call(value):
+            with Vehicle("loop://") as car:
+                return getattr(car, method)(timeout_s=value)
+        return call
+
+    def next_frame(value):
+        async def run():
+            async with StreamReceiver("state", port=0) as receiver:
+                return await receiver.next_frame(value)
+        return asyncio.run(run())
+
+    async def nothing():
+        return None
+
+    return {
+        "Vehicle.wait_for": ("timeout_s", on_vehicle("wait_for")),
+        "Vehicle.wait_armed": ("timeout_s", on_vehicle("wait_armed")),
+        "Vehicle.flush": ("timeout_s", on_vehicle("flush")),
+        "Vehicle(rate_hz=)": ("rate_hz", lambda v: Vehicle("loop://", rate_hz=v).close()),
+        "camera.fetch": ("timeout_s", lambda v: camera.fetch("http://127.0.0.1:1/cam-lo.jpg", v)),
+        "camera.MjpegStream": ("timeout_s", lambda v: camera.MjpegStream("http://127.0.0.1:1/cam.mjpeg", v)),
+        "aio.run_sync": ("timeout_s", lambda v: run_sync(nothing(), v)),
+        "Reassembler": ("timeout_s", lambda v: Reassembler(timeout_s=v)),
+        "StreamReceiver.next_frame": ("timeout_s", next_frame),
+    }
+
+
+@pytest.mark.parametrize("call", sorted(_library_calls()))
+@pytest.mark.parametrize("value", [float("nan"), float("inf"), -1, 1e308, 10**400, "1", None, True])
+def test_every_timeout_period_and_rate_is_checked(call, value):
+    """A NaN no longer hangs, an infinity is no OverflowError, a string no TypeError: a
+    ValueError naming the argument, at once."""
+    import time
+
+    name, fn = _library_calls()[call]
+    t0 = time.monotonic()
+    if value is None and call in ("Vehicle(rate_hz=)", "aio.run_sync"):
+        fn(value)  # None: the default rate, no timeout
+    else:
+        with pytest.raises(ValueError, match=f"^{name} must be a finite number"):
+            fn(value)
+    assert time.monotonic() - t0 < 2.0

@@ -2,6 +2,7 @@
 
 import csv
 import os
+import re
 import select
 import shutil
 import subprocess
@@ -13,6 +14,7 @@ import pytest
 from conftest import ROOT, wait_for
 from roar.calibration import Calibration, default_path
 from roar.cli import main
+from roar.cli.errors import EXIT_STATUSES
 from roar.cli.teleop import Teleop
 
 COMMANDS = ["send", "drive", "calibrate", "scan", "ports", "sim"]
@@ -36,11 +38,17 @@ def test_help_teaches_every_command(capsys):
         main(["--help"])
     out = capsys.readouterr().out
     assert e.value.code == 0
-    assert all(c in out for c in COMMANDS) and "sim://" in out and "serial:///dev/ttyUSB0" in out
+    assert all(c in out for c in COMMANDS) and "serial:///dev/ttyUSB0" in out
+    from roar.transports.registry import schemes
+
+    listed = re.findall(r"^  (\w+)://", out, re.M)
+    assert sorted(listed) == schemes() and "sim" in listed  # every URL this installation opens
+    assert EXIT_STATUSES in out
     for command in COMMANDS:
         with pytest.raises(SystemExit):
             main([command, "--help"])
-        assert "usage: roar " + command in capsys.readouterr().out
+        text = capsys.readouterr().out
+        assert "usage: roar " + command in text and EXIT_STATUSES in text
 
 
 def test_the_roar_script_is_installed():
@@ -66,13 +74,13 @@ def test_send_drives_the_simulated_car(capsys, tmp_path):
 
 @pytest.mark.parametrize("argv, words", [
     (["send", "loop://", "--throttle", "nan"], "throttle must be a finite number"),
-    (["send", "loop://", "--steering", "2"], "steering must be within [-1, 1]"),
+    (["send", "loop://", "--steering", "2"], "steering must be a finite number -1..1, got 2.0"),
     (["send", "loop://", "--for", "0"], "--for must be more than 0"),
     (["send", "tcp://car"], "unknown URL scheme"),
     (["send", "serial:///dev/nonexistent-port"], "cannot open serial port /dev/nonexistent-port"),
     (["send", "sim://monza"], "unknown track 'monza'"),
     (["drive", "loop://"], "run it in a terminal"),
-    (["scan", "--timeout", "0"], "--timeout must be"),
+    (["scan", "--timeout", "0"], "argument --timeout: must be a finite number more than 0 and at most 60 s, got '0'"),
     (["send", "loop://", "--calibration", "/nonexistent.toml"], "cannot read"),
 ])
 def test_bad_input_gives_one_line_and_status_1(capsys, argv, words, no_stdin):
@@ -136,8 +144,9 @@ def test_calibrate_walks_through_and_saves(tmp_path, monkeypatch):
 
 
 def test_calibrate_without_answers_saves_nothing(capsys, no_stdin):
-    code, out, _ = run(capsys, "calibrate", "loop://")
-    assert code == 1 and "not saved" in out and not default_path().exists()
+    code, out, err = run(capsys, "calibrate", "loop://")
+    assert code == 1 and err.strip() == "roar calibrate: error: input ended: calibration not saved"
+    assert not default_path().exists()
 
 
 def test_teleop_steps_and_clamps():

@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 from conftest import ROOT
+from roar.cli.errors import EXIT_MEANINGS, UserError
 
 DOCS = sorted(["README.md", "host/README.md", "hil_sim/README.md", "firmware/README.md", "firmware/micropython/README.md",
                "protocol/PROTOCOL.md", *(str(p.relative_to(ROOT)) for p in (ROOT / "docs").rglob("*.md"))])
@@ -79,6 +80,18 @@ def test_links_resolve_to_files_and_headings(name):
     assert broken == []
 
 
+def test_the_exit_status_table_is_the_one_the_commands_use():
+    """host/README.md's table is EXIT_MEANINGS row for row; no doc gives a status another meaning."""
+    section = text("host/README.md").split("### Exit statuses", 1)[1]
+    rows = re.findall(r"^\| (\d+) \| (.+) \|$", section, re.M)
+    assert [(int(code), meaning.replace("\\|", "|")) for code, meaning in rows] == \
+        [(int(status), meaning) for status, meaning in EXIT_MEANINGS.items()]
+    for name in DOCS:
+        for code in re.findall(r"exit(?:s| status| with)? (\d+)", outside_code(name)):
+            assert int(code) in {int(s) for s in EXIT_MEANINGS}, f"{name}: exit status {code}"
+        assert "argparse's (status 2)" not in text(name)
+
+
 def command_lines(name: str) -> list[list[str]]:
     """The command lines of the doc's shell blocks, comments dropped."""
     found = []
@@ -108,13 +121,15 @@ def check_command(argv: list[str]) -> str | None:
     try:
         if argv[1] in installed:
             command = installed[argv[1]].load()
-            if command.parse_args is None:
-                return f"roar {argv[1]} cannot check its arguments (Command.parse_args)"
+            if command.parsers is None:
+                return f"roar {argv[1]} cannot check its arguments (Command.parsers)"
             command.parse_args(argv[2:])
         else:
             cli.build_parser().parse_args(argv[1:])
     except SystemExit as e:
         return None if e.code == 0 else "its command refuses these arguments"
+    except UserError as e:
+        return f"its command refuses these arguments: {e}"
     return None
 
 

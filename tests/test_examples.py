@@ -23,7 +23,7 @@ def test_the_same_script_drives_the_simulator_and_a_serial_car(tmp_path, pty_car
     trace = tmp_path / "circle.csv"
     # Both at once: the in-process simulator at 4x, and the serial car in real time.
     sim = subprocess.Popen([sys.executable, str(CIRCLE), f"sim://?speedup=4&trace={trace}"], cwd=ROOT,
-                           stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     serial = subprocess.Popen([sys.executable, str(CIRCLE), f"serial://{pty_car.path}"], cwd=ROOT,
                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     driving = []  # the serial car's positions while the script drives it (after neutral it coasts straight)
@@ -35,7 +35,7 @@ def test_the_same_script_drives_the_simulator_and_a_serial_car(tmp_path, pty_car
             if outputs.throttle_us > 1500 and outputs.steering_us == 2000:
                 driving.append((state.x, state.y))
             time.sleep(0.1)
-        _, sim_err = sim.communicate(timeout=60)
+        sim_out, sim_err = sim.communicate(timeout=60)
         _, serial_err = serial.communicate(timeout=60)
     finally:
         for p in (sim, serial):
@@ -44,6 +44,9 @@ def test_the_same_script_drives_the_simulator_and_a_serial_car(tmp_path, pty_car
                 p.communicate()
     assert sim.returncode == 0, sim_err
     assert serial.returncode == 0, serial_err
+    # it says what it does, then that it is done
+    assert sim_out.splitlines() == [f"driving in circles on sim://?speedup=4&trace={trace} for 12 s (Ctrl-C stops)",
+                                    "done: neutral sent, the car stops"]
 
     # Simulator: 48 s of simulated circles, staying on one circle round one centre.
     with trace.open() as f:

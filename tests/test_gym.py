@@ -65,6 +65,68 @@ def test_actions_drive_the_car_through_the_firmware_and_progress_is_the_reward()
         env.close()
 
 
+@pytest.mark.parametrize("keywords, words", [
+    ({"camera": (0, 0)}, "camera width must be a finite number 16..1280 px, got 0"),
+    ({"camera": (10000, 10000)}, "camera width must be a finite number 16..1280 px, got 10000; camera height"),
+    ({"camera": (32.5, 24)}, "camera must be (width, height) in whole pixels"),
+    ({"camera": "320x240"}, "camera must be (width, height) in whole pixels"),
+    ({"track": 42}, "track must be a track's name, a track .json file or a Track, got 42"),
+    ({"max_seconds": float("nan")}, "max_seconds must be a finite number more than 0 and at most 86400 s, got nan"),
+    ({"max_seconds": float("inf")}, "max_seconds must be a finite number"),
+    ({"max_seconds": 0}, "max_seconds must be a finite number more than 0"),
+    ({"max_seconds": -1}, "max_seconds must be a finite number more than 0"),
+    ({"contact_penalty": float("nan")}, "contact_penalty must be a finite number"),
+    ({"contact_penalty": -1}, "contact_penalty must be a finite number 0..1e+06, got -1"),
+    ({"crash_ends": "no"}, "crash_ends must be True or False, got 'no'"),
+    ({"lidar_beams": 7.5}, "lidar_beams must be a whole number 0..1080, got 7.5"),
+    ({"render_mode": "window"}, "render_mode must be one of ['rgb_array', 'human'] or None, got 'window'"),
+    ({"robot": 3}, "robot must be a robot's name (esc, iarrc, junior), got 3"),
+    ({"max_seconds": 0, "camera": (0, 0), "track": 42}, "track must be; camera width; camera height; max_seconds"),
+])
+def test_every_keyword_is_checked_before_the_world_is_built(keywords, words):
+    """All that is wrong, in one ValueError naming each keyword; nothing is simulated first."""
+    from roar_sim.gym_env import RaceEnv
+
+    with pytest.raises(ValueError) as e:
+        RaceEnv(**keywords)
+    message = str(e.value)
+    assert "\n" not in message and message.startswith("RaceEnv: ")
+    for part in words.split("; "):
+        assert part in message, message
+
+
+def test_human_rendering_without_a_display_says_how_to_check_headless(monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    with pytest.raises(ValueError, match=r"needs a display .*check_env\(env, skip_render_check=True\)"):
+        gym.make(ENV_ID, render_mode="human")
+
+
+@pytest.mark.parametrize("beyond, within", [([2.0, 0.0], [1.0, 0.0]), ([1e308, 0.0], [1.0, 0.0]),
+                                            ([-5.0, 5.0], [-1.0, 1.0])])
+def test_actions_beyond_the_range_are_clipped_to_it(beyond, within):
+    """As the docs say: each value is clipped to -1..1 -- the same pulses as the bound itself."""
+    pulses = []
+    for action in (beyond, within):
+        env = gym.make(ENV_ID)
+        try:
+            env.reset(seed=0)
+            pulses.append([env.step(np.array(action))[4]["throttle_us"] for _ in range(3)])
+        finally:
+            env.close()
+    assert pulses[0] == pulses[1]
+
+
+@pytest.mark.parametrize("action", [[np.inf, 0.0], [0.0, np.nan], [1.0], [1.0, 0.0, 0.0], "fast", None])
+def test_an_action_that_is_not_two_finite_numbers_is_refused(action):
+    env = gym.make(ENV_ID, lidar_beams=0)
+    try:
+        env.reset(seed=0)
+        with pytest.raises(ValueError, match=r"two finite numbers \(each clipped to -1..1\)"):
+            env.step(action)
+    finally:
+        env.close()
+
+
 def test_a_wall_terminates_and_the_time_limit_truncates():
     env = gym.make(ENV_ID, max_seconds=1.0)
     try:

@@ -62,7 +62,7 @@ def test_the_step_response_command_plots_and_reports(tmp_path):
     assert png.stat().st_size > 10_000
     bad = subprocess.run([sys.executable, "-m", "roar.cli", "step-response", "--speed", "9"], cwd=ROOT,
                          capture_output=True, text=True, timeout=60)
-    assert bad.returncode == 2 and bad.stderr.strip().splitlines()[-1].startswith("roar step-response: error:")
+    assert bad.returncode == 1 and bad.stderr.strip().splitlines()[-1].startswith("roar step-response: error:")
 
 
 def test_manual_mode_drives_by_the_sticks_and_the_stop_switch_stops():

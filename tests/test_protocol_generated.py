@@ -15,6 +15,11 @@ def test_generated_files_are_up_to_date():
     assert generate.stale_files() == [], "run: python protocol/generate.py"
 
 
+def test_a_run_with_nothing_to_write_says_so():
+    proc = subprocess.run([sys.executable, str(ROOT / "protocol" / "generate.py")], capture_output=True, text=True)
+    assert proc.returncode == 0 and "generated files up to date with protocol/spec.toml" in proc.stdout
+
+
 def test_check_mode_reports_clean_tree():
     proc = subprocess.run([sys.executable, str(ROOT / "protocol" / "generate.py"), "--check"], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr

@@ -72,7 +72,7 @@ def test_the_iarrc_car_races_by_speed_setpoints_without_touching_a_wall():
 def test_sim_urls_drive_each_robot_by_name(name):
     """sim://?robot=NAME: what a Vehicle writes reaches that robot's firmware as its link carries it."""
     with Vehicle(f"sim://oval?robot={name}&speedup=4") as car:
-        assert wait_for(lambda: car.state() is not None)
+        assert wait_for(lambda: car.state().x_m is not None)  # the simulator's first step is in
         x0 = car.state().x_m
         if name == "iarrc":
             car.drive(speed=1.0)  # a speed car: setpoints

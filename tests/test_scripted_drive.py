@@ -1,7 +1,7 @@
 """`make run` today: the firmware core driven by a scripted host session, printed and plotted."""
 
-import pytest
 
+from roar.cli.errors import run_command
 from roar.protocol import spec
 from roar_sim.runs import scripted_drive
 from roar_sim.core.library import BrakePhase, ControlSource
@@ -39,7 +39,7 @@ def test_main_prints_trace_and_writes_png(tmp_path, capsys):
 def test_bad_plot_path_is_refused_before_the_run(tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("")
-    with pytest.raises(SystemExit) as e:
-        scripted_drive.main(["--plot", str(blocker / "x.png")])
+    assert run_command("roar drive-script", scripted_drive.main, ["--plot", str(blocker / "x.png")]) == 1
     err = capsys.readouterr()
-    assert e.value.code == 2 and "--plot cannot write" in err.err.strip().splitlines()[-1] and err.out == ""
+    last = err.err.strip().splitlines()[-1]
+    assert "--plot cannot write" in last and "is a file, not a folder" in last and err.out == ""

@@ -28,15 +28,18 @@ def payload(seq: int) -> bytes:
     """Frame seq's depth payload: its number as fx, a shape and values only it has."""
     rng = random.Random(seq)
     height, width = rng.choice(SHAPES)
-    return wire.with_intrinsics(float(seq), 1.0, width / 2, height / 2, rng.randbytes(4 * height * width))
+    return wire.with_intrinsics(float(seq + 1), 1.0, width / 2, height / 2, rng.randbytes(4 * height * width))
 
 
 def seq_of(data: bytes) -> int:
-    return int(wire.intrinsics(data)[0])
+    return int(wire.intrinsics(data)[0]) - 1
 
 
 def intact(data: bytes) -> bool:
-    return len(data) >= wire.INTRINSICS_BYTES and data == payload(seq_of(data))
+    try:
+        return data == payload(seq_of(data))
+    except ValueError:  # not a frame's start: no intrinsics there
+        return False
 
 
 def depth_whole(data: bytes) -> bool:
@@ -302,3 +305,103 @@ def test_a_vehicle_drives_the_simulated_car_through_its_phone_and_reads_its_stre
         sim.communicate()
     with pytest.raises(TransportError, match="HOST only"):
         Vehicle("udp://127.0.0.1:8004")
+
+
+# --- numbers that are not numbers, hosts that do not exist, one URL parser ------------------------
+
+NAN_STATE = b"000000007" + b",".join([b"nan"] * len(wire.STATE_FIELDS)) + b"\n"  # the issue's datagram
+
+
+def test_a_state_of_nans_from_the_network_is_dropped_and_counted():
+    """The issue's datagram: never a state a control loop could read, counted as undecodable;
+    the next good state goes through."""
+    import socket
+
+    async def run():
+        async with StreamReceiver("state", port=0) as receiver:
+            sender = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            try:
+                sender.sendto(NAN_STATE, receiver.address)
+                for frame_id, bad in ((8, b"inf"), (9, b"-inf"), (10, b"1e999")):
+                    line = b",".join([bad] * len(wire.STATE_FIELDS)) + b"\n"
+                    sender.sendto(b"%03d%03d%03d" % (0, 0, frame_id) + line, receiver.address)
+                good = wire.state_line({name: 1.5 for name in wire.STATE_FIELDS})
+                sender.sendto(b"%03d%03d%03d" % (0, 0, 11) + good, receiver.address)
+                frame = await receiver.next_frame(5.0)
+            finally:
+                sender.close()
+            return frame, receiver.counters
+
+    frame, counters = asyncio.run(run())
+    assert frame is not None and frame.frame_id == 11 and all(v == 1.5 for v in frame.state.values())
+    assert counters.undecodable == 4
+
+
+def test_telemetry_and_v2v_that_are_not_numbers_are_dropped_and_counted():
+    import socket
+    import time
+
+    from roar import Vehicle
+    from roar.v2v import V2VLink
+    from roar_wire import v2v
+
+    tel = "TEL autonomous none 11850 1 4321 1498 1500 1712 1540 -2500 500 400 0 110 3"
+    with Vehicle("loop://") as car:
+        car.transport.inject(tel.replace("1498", "nan"), tel.replace("11850", "inf"),
+                             tel.replace("autonomous", "\x1b[31m"), tel)
+        deadline = time.monotonic() + 5
+        while car.state().speed_m_s is None and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert car.state().speed_m_s == 1.498 and car.rejected_telemetry == 3
+    for text in (b"1,5,nan,0,0,0", b"1,5,0,inf,0,0", b"1,5,0,0,0,-inf", b"1,5,1e999,0,0,0"):
+        assert v2v.decode(text) is None
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]  # free now
+    with V2VLink(0, port=port) as link:
+        link._out.sendto(b"1,5,nan,0,0,0", link.address)
+        link._out.sendto(v2v.encode(1, 6, 1.0, 2.0, 0.0, 0.5), link.address)
+        deadline = time.monotonic() + 5
+        while 1 not in link.receive(0.0) and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert link.latest[1].x == 1.0 and link.rejected == 1
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["stream", "udp://nonexistent.invalid", "--seconds", "5"], "cannot find host 'nonexistent.invalid'"),
+    (["sim", "--stream", "--push", "nonexistent.invalid", "--seconds", "2"], "--push: cannot find host"),
+    (["stream", "udp://127.0.0.1?bogus=1", "--seconds", "1"], "unknown option(s) bogus for udp://"),
+    (["stream", "udp://127.0.0.1:9?push=1", "--seconds", "1"], "udp:// needs the phone's HOST only"),
+    (["stream", "sim://", "--seconds", "1"], "want udp://HOST"),
+])
+def test_stream_urls_and_hosts_are_refused_at_once(capsys, argv, words):
+    import time
+
+    from roar.cli import main
+
+    t0 = time.monotonic()
+    assert main(argv) == 1
+    err = capsys.readouterr().err.strip()
+    assert words in err and "\n" not in err and time.monotonic() - t0 < 2.0, err
+
+
+def test_stream_reads_push_from_the_url_as_the_vehicle_does_and_listens_where_the_peer_is():
+    from roar.cli.stream_view import target
+    from roar.stream import peer
+
+    assert target("udp://127.0.0.1?push=1") == ("127.0.0.1", True)
+    assert target("udp://127.0.0.1") == ("127.0.0.1", False)
+    assert peer("127.0.0.1") == ("127.0.0.1", "127.0.0.1")  # a loopback peer: listen on loopback only
+    assert peer("localhost")[1] == "127.0.0.1"
+
+
+def test_roar_stream_without_matplotlib_names_the_extra(capsys, monkeypatch):
+    """A base install (no [camera,vision] extras): one line saying what to install."""
+    import sys
+
+    from roar.cli import main
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib -> ImportError
+    assert main(["stream", "udp://127.0.0.1", "--seconds", "1"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "pip install 'roar-platform[camera,vision]'" in err, err

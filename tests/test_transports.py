@@ -28,7 +28,8 @@ def test_urls_parse(url, expected):
     ("serial:///dev/ttyUSB0?parity=E", "unknown option(s) parity"),
     ("loop://?fail_after=1&fail_after=2", "given twice"),
     ("sim://?speedup=50", "speedup must be"),
-    ("sim://?plot=out.jpg", "plot must name a .png"),
+    ("sim://?plot=out.jpg", "plot: must name a .png"),
+    ("sim://?trace=", "trace= is empty: give a file name"),
     ("ble://?timeout=-1", "timeout must be"),
 ])
 def test_bad_urls_give_one_line_errors(url, words):

@@ -3,6 +3,7 @@ video), reads the same lanes as live, finds a box in a recorded depth image, and
 folders and frames in one line."""
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -72,6 +73,37 @@ def test_bad_folders_and_frames_fail_in_one_line(tmp_path, capsys):
     assert len(errors) == 5 and all(e.startswith("roar vision: error: ") for e in errors), errors
     assert "is not a folder" in errors[0] and "no frames" in errors[1] and "not an image" in errors[2]
     assert "H x W x 3" in errors[3] and "--fov" in errors[4]
+
+
+@pytest.mark.parametrize("rgb, depth, words", [
+    ((2, 2), None, "a.npy is 2x2: a frame is at least 16x16 px"),
+    ((240, 320), np.full((2, 2), np.nan, np.float32), "a_depth.npy is 2x2, its frame 320x240"),
+    ((240, 320), np.zeros((240, 320, 3), np.float32), "a_depth.npy: want an H x W array of depths"),
+    ((240, 320), np.array(["far"] * 4).reshape(2, 2), "a_depth.npy: want an H x W array of depths"),
+])
+def test_frames_too_small_and_depth_that_does_not_fit_its_frame_are_refused(tmp_path, capsys, rgb, depth, words):
+    np.save(tmp_path / "a.npy", np.full((*rgb, 3), 90, np.uint8))
+    if depth is not None:
+        np.save(tmp_path / "a_depth.npy", depth)
+    assert main(["vision", str(tmp_path), "--out", str(tmp_path / "out")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("roar vision: error: ") and words in err and "\n" not in err, err
+
+
+def test_depth_that_is_not_a_number_is_counted_and_a_frame_without_lines_is_quiet(tmp_path, capfd):
+    """A frame where no line is seen draws its views without a warning; NaN depth pixels are
+    counted in the frame's line (and left out of the occupancy grid)."""
+    np.save(tmp_path / "a.npy", np.full((240, 320, 3), 90, np.uint8))
+    depth = np.full((240, 320), 3.0, np.float32)
+    depth[:10, :10] = np.nan
+    depth[20, 20] = np.inf
+    np.save(tmp_path / "a_depth.npy", depth)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # matplotlib's "no artists with labels" would raise here
+        assert main(["vision", str(tmp_path), "--out", str(tmp_path / "out")]) == 0
+    out, err = capfd.readouterr()
+    assert "a.npy: lines none; obstacle ahead" in out and "(101 of 76800 depth pixels not a number)" in out
+    assert err == "", err
 
 
 def test_a_race_records_the_frames_its_driver_saw_for_roar_vision(tmp_path, capsys):

@@ -17,6 +17,8 @@ throttle and steering -> wheel duties (smooth mixing) -> the GET request's bytes
 (its HTTP reader, JuniorControl, the L298N pins) -> the two motors; its reply, the ultrasonic
 distance, is observed.
 
+    action       [throttle, steering], each -1..1 (+ steering = right); a value beyond is clipped
+                 to the range, a NaN or an infinity is a ValueError
     observation  {"state": [x, y, cos yaw, sin yaw, speed, yaw rate, cross-track, heading error],
                   "lidar": ranges [m] over 270 deg, right to left (a scan every 2nd action;
                            lidar_beams=0 leaves it out, the fastest; robots with a lidar),
@@ -26,6 +28,11 @@ distance, is observed.
     terminated   touching a wall (crash_ends=True), or off the track
     truncated    after max_seconds of simulated time
 
+Keywords (each checked, all problems in one ValueError): track, robot, camera=(width, height)
+(16..1280 x 16..960 px), max_seconds (more than 0, at most a day), contact_penalty (>= 0),
+crash_ends, lidar_beams, render_mode ("rgb_array", or "human": the PyBullet window, which needs
+a display -- headless, check_env(env, skip_render_check=True)).
+
 reset(seed=...) builds a fresh world, so the same seed and actions give the same observations
 bit for bit; the seed draws the start: up to 0.1 m across the centre line and 0.05 rad of heading.
 """
@@ -33,11 +40,13 @@ bit for bit; the seed draws the start: up to 0.1 m across the centre line and 0.
 from __future__ import annotations
 
 import math
+import os
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from roar.checks import number, shown
 from roar_sim import robots
 from roar_sim.clock.lockstep import CONTROL_PERIOD_S as PERIOD_S  # [s] one action
 from roar_sim.robots import Robot
@@ -52,7 +61,54 @@ FAR_M = 10.0  # [m] the depth camera's far plane
 VIEW_SIZE = (320, 240)  # [px] render()'s chase view
 MAX_SPEED_M_S = 20.0  # [m/s] the state's bound (the car tops out near 3)
 MAX_YAW_RATE_RAD_S = 50.0  # [rad/s]
+MIN_CAMERA_PX = 16  # [px] the smallest camera side
+MAX_CAMERA_SIZE = (1280, 960)  # [px] the largest camera (a bigger one renders for seconds a step)
+MAX_SECONDS_S = 24 * 3600.0  # [s] the longest episode
+MAX_CONTACT_PENALTY = 1e6  # the largest reward penalty a step at a wall
+MAX_LIDAR_BEAMS = 1080  # beams of the largest scan
 SLIDE_M_S = 3.0  # [m/s] allowed sideways besides the speed along the heading, for the projection's search
+
+
+def _problems(render_modes, track, camera, max_seconds, contact_penalty, crash_ends, lidar_beams, render_mode,
+              robot, kind) -> list[str]:
+    """What is wrong with RaceEnv's keywords, one phrase each."""
+    problems = []
+
+    def check(name, value, low, high, unit="", low_open=False):
+        try:
+            number(name, value, low, high, unit, low_open)
+        except ValueError as e:
+            problems.append(str(e))
+
+    if not isinstance(robot, str):
+        problems.append(f"robot must be a robot's name ({', '.join(robots.names())}), got {shown(robot)}")
+    if not isinstance(track, (str, Track)):
+        problems.append(f"track must be a track's name, a track .json file or a Track, got {shown(track)}")
+    if camera is not None:
+        size = tuple(camera) if isinstance(camera, (tuple, list)) else ()
+        if len(size) != 2 or not all(isinstance(v, int) and not isinstance(v, bool) for v in size):
+            problems.append(f"camera must be (width, height) in whole pixels, got {shown(camera)}")
+        else:
+            check("camera width", size[0], MIN_CAMERA_PX, MAX_CAMERA_SIZE[0], "px")
+            check("camera height", size[1], MIN_CAMERA_PX, MAX_CAMERA_SIZE[1], "px")
+    check("max_seconds", max_seconds, 0, MAX_SECONDS_S, "s", low_open=True)
+    check("contact_penalty", contact_penalty, 0, MAX_CONTACT_PENALTY)
+    if not isinstance(crash_ends, bool):
+        problems.append(f"crash_ends must be True or False, got {shown(crash_ends)}")
+    if lidar_beams is not None:
+        if not isinstance(lidar_beams, int) or isinstance(lidar_beams, bool):
+            problems.append(f"lidar_beams must be a whole number 0..{MAX_LIDAR_BEAMS}, got {shown(lidar_beams)}")
+        elif kind is not None and lidar_beams and not kind.has_lidar:
+            problems.append(f"the {kind.title} has no lidar: leave lidar_beams out")
+        else:
+            check("lidar_beams", lidar_beams, 0, MAX_LIDAR_BEAMS)
+    if render_mode is not None and render_mode not in render_modes:
+        problems.append(f"render_mode must be one of {render_modes} or None, got {shown(render_mode)}")
+    if render_mode == "human" and not os.environ.get("DISPLAY"):
+        problems.append("render_mode='human' opens the PyBullet window and needs a display (DISPLAY is not set): "
+                        "use render_mode='rgb_array'; gymnasium's check_env(env, skip_render_check=True) skips "
+                        "the human mode")
+    return problems
 
 
 class RaceEnv(gym.Env):
@@ -61,14 +117,14 @@ class RaceEnv(gym.Env):
     def __init__(self, track: str | Track = "oval", camera: tuple[int, int] | None = None, max_seconds: float = 60.0,
                  contact_penalty: float = 1.0, crash_ends: bool = True, lidar_beams: int | None = None,
                  render_mode: str | None = None, robot: str = "esc") -> None:
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
-        self.kind = robots.get(robot)
+        """Every keyword is checked before anything is built; what is wrong, all of it, in one
+        ValueError."""
+        self.kind = robots.get(robot) if isinstance(robot, str) else None
+        problems = _problems(self.metadata["render_modes"], track, camera, max_seconds, contact_penalty, crash_ends,
+                             lidar_beams, render_mode, robot, self.kind)
+        if problems:
+            raise ValueError("RaceEnv: " + "; ".join(problems))
         lidar_beams = (LIDAR_BEAMS if self.kind.has_lidar else 0) if lidar_beams is None else lidar_beams
-        if lidar_beams and not self.kind.has_lidar:
-            raise ValueError(f"the {self.kind.title} has no lidar: leave lidar_beams out")
-        if not 0 <= lidar_beams <= 1080:
-            raise ValueError(f"lidar_beams must be 0 (no lidar) .. 1080, got {lidar_beams!r}")
         self.track = track if isinstance(track, Track) else get(track)
         self.robot, self.lidar_beams = robot, lidar_beams
         self._shortest_m = float(self.track.segment_lengths.min())  # [m] of a centre-line segment
@@ -113,10 +169,14 @@ class RaceEnv(gym.Env):
     def step(self, action):
         if self.sim is None:
             raise RuntimeError("call reset() before step()")
-        values = np.asarray(action, dtype=np.float64).reshape(-1).tolist()
+        try:
+            values = np.asarray(action, dtype=np.float64).reshape(-1).tolist()
+        except (TypeError, ValueError):
+            values = []
         if len(values) != 2 or not all(map(math.isfinite, values)):
-            raise ValueError(f"an action is (throttle, steering), two finite numbers in -1..1; got {action!r}")
-        throttle, steering = (min(1.0, max(-1.0, v)) for v in values)
+            raise ValueError(f"an action is (throttle, steering), two finite numbers (each clipped to -1..1); "
+                             f"got {shown(action)}")
+        throttle, steering = (min(1.0, max(-1.0, v)) for v in values)  # the action space's bounds
         self.sim.drive(throttle, steering)
         self.sim.run(PERIOD_S)
         state = self.sim.state()  # one reading for the reward and the observation

@@ -10,6 +10,8 @@ import concurrent.futures
 import threading
 from typing import Awaitable, TypeVar
 
+from roar.checks import timeout
+
 T = TypeVar("T")
 _loop: asyncio.AbstractEventLoop | None = None
 _lock = threading.Lock()
@@ -28,6 +30,11 @@ def background_loop() -> asyncio.AbstractEventLoop:
 def run_sync(coro: Awaitable[T], timeout_s: float | None = None) -> T:
     """Run a coroutine on the background loop and wait for its result (re-raising its error).
     On timeout the coroutine is cancelled and TimeoutError raised."""
+    try:
+        timeout_s = None if timeout_s is None else timeout("timeout_s", timeout_s)
+    except ValueError:
+        coro.close()  # never to run: no "never awaited" warning on top of the error
+        raise
     loop = background_loop()
     if threading.current_thread().name == "roar-asyncio":
         raise RuntimeError("run_sync() called from the background loop itself")

@@ -22,14 +22,13 @@ or have a neutral-set button). Steering trim has no such limit.
 
 from __future__ import annotations
 
-import math
-import numbers
 import os
 import tomllib
 from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
+from roar.checks import number
 from roar.errors import RoarError
 from roar.protocol import encode, spec
 from roar.user_files import read_parsed
@@ -129,17 +128,7 @@ def load_default() -> Calibration:
 
 def check_unit(name: str, value) -> float:
     """A command value as float in [-1, 1]; one-line ValueError otherwise (NaN and inf included)."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ValueError(f"{name} must be a number in [-1, 1], got {value!r}")
-    try:
-        value = float(value)
-    except OverflowError:  # an int beyond any float
-        raise ValueError(f"{name} must be within [-1, 1], got a number with {len(str(value))} digits") from None
-    if not math.isfinite(value):
-        raise ValueError(f"{name} must be a finite number in [-1, 1], got {value}")
-    if not -1.0 <= value <= 1.0:
-        raise ValueError(f"{name} must be within [-1, 1], got {value:g}")
-    return value
+    return number(name, value, -1.0, 1.0)
 
 
 def first_error(e: ValidationError) -> str:

@@ -20,10 +20,12 @@ from urllib.parse import urlsplit
 
 import numpy as np
 
+from roar.checks import timeout
 from roar.errors import RoarError
 
 MAX_FRAME_BYTES = 4 * 1024 * 1024  # [bytes] a part larger than this is not a camera frame
 MAX_HEADER_BYTES = 8 * 1024  # [bytes]
+MAX_CAMERA_WAIT_S = 60.0  # [s] the longest a camera request may wait
 
 
 class CameraError(RoarError):
@@ -60,7 +62,7 @@ def _connect(url: str, timeout_s: float) -> tuple[http.client.HTTPConnection, st
 
 def fetch(url: str, timeout_s: float = 2.0, redirects: int = 3) -> np.ndarray:
     """One frame from a still-image route (following redirects, as /cam.jpg does)."""
-    conn, path = _connect(url, timeout_s)
+    conn, path = _connect(url, timeout("timeout_s", timeout_s, MAX_CAMERA_WAIT_S))
     try:
         conn.request("GET", path)
         response = conn.getresponse()
@@ -90,7 +92,7 @@ class MjpegStream:
     def __init__(self, url: str, timeout_s: float = 5.0) -> None:
         self.url = url
         self.skipped = 0  # parts that were not whole images
-        conn, path = _connect(url, timeout_s)
+        conn, path = _connect(url, timeout("timeout_s", timeout_s, MAX_CAMERA_WAIT_S))
         try:
             conn.request("GET", path)
             self._response = conn.getresponse()
@@ -161,5 +163,5 @@ class MjpegStream:
 
 def mjpeg_frames(url: str, timeout_s: float = 5.0) -> Iterator[np.ndarray]:
     """Every whole frame of an MJPEG stream, until it ends."""
-    with MjpegStream(url, timeout_s) as stream:
+    with MjpegStream(url, timeout("timeout_s", timeout_s, MAX_CAMERA_WAIT_S)) as stream:
         yield from stream

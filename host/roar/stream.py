@@ -19,6 +19,7 @@ flight, as ROAR's pull mode does. Datagrams that are not chunks are counted and 
 from __future__ import annotations
 
 import asyncio
+import ipaddress
 import socket
 import time
 from collections.abc import AsyncIterator
@@ -27,12 +28,15 @@ from typing import Any
 
 import numpy as np
 
+from roar.checks import number, timeout
+from roar.errors import RoarError
 from roar.protocol import spec
 from roar_wire import stream as wire
 
 KINDS = {"rgb": spec.UDP_PORT_RGB, "depth": spec.UDP_PORT_DEPTH, "state": spec.UDP_PORT_VEHICLE_STATE}
 FRAME_TIMEOUT_S = spec.UDP_FRAME_TIMEOUT_US / 1e6  # [s]
 MAX_PENDING_FRAMES = 4  # frames being reassembled at once; the oldest gives way
+MAX_FRAME_WAIT_S = 60.0  # [s] the longest a frame may take to arrive whole
 QUEUE_FRAMES = 2  # [frames] delivered but not yet taken; older ones give way to newer (a live stream)
 RECEIVE_BUFFER_BYTES = 4 * 1024 * 1024  # [bytes] asked of the socket: a 640x480 depth map is 34 datagrams at once
 
@@ -49,7 +53,7 @@ class Counters:
     stale: int = 0  # a chunk of a frame at or before the last one delivered
     incomplete: int = 0  # frames dropped unfinished (timeout, or overtaken)
     malformed: int = 0  # frames whose payload is cut short by its own framing (a truncated last chunk)
-    undecodable: int = 0  # whole frames whose payload did not decode
+    undecodable: int = 0  # whole frames whose payload did not decode (not JPEG, wrong size, a number not finite)
     overtaken: int = 0  # frames nobody took before newer ones filled the queue
 
 
@@ -65,6 +69,8 @@ class Reassembler:
 
     def __init__(self, frame_ids: bool = True, timeout_s: float = FRAME_TIMEOUT_S,
                  max_pending: int = MAX_PENDING_FRAMES, whole=None) -> None:
+        timeout_s = number("timeout_s", timeout_s, 0, MAX_FRAME_WAIT_S, "s", low_open=True)
+        max_pending = int(number("max_pending", max_pending, 1, 1_000_000))
         self.frame_ids, self.timeout_s, self.max_pending = frame_ids, timeout_s, max_pending
         self.whole = whole  # payload -> bool: complete by its own framing (None: not checked)
         self.counters = Counters()
@@ -144,6 +150,21 @@ class Reassembler:
 JPEG_END = b"\xff\xd9"  # end-of-image marker; entropy-coded data never holds it
 
 
+class UnknownHost(RoarError):
+    """A host name that does not resolve; str() is one line naming it."""
+
+
+def peer(host: str) -> tuple[str, str]:
+    """(host's IPv4 address, the address to listen on for what it sends: loopback for a peer on
+    this machine, every interface otherwise); UnknownHost, at once, if it does not resolve."""
+    try:
+        address = socket.getaddrinfo(host, None, socket.AF_INET, socket.SOCK_DGRAM)[0][4][0]
+    except (OSError, UnicodeError) as e:
+        reason = e.strerror if isinstance(e, OSError) and e.strerror else str(e) or type(e).__name__
+        raise UnknownHost(f"cannot find host {host!r}: {reason}") from None
+    return address, "127.0.0.1" if ipaddress.ip_address(address).is_loopback else "0.0.0.0"
+
+
 def depth_shape(cx: float, cy: float) -> tuple[int, int]:
     """(height, width) of a depth map whose principal point is at its centre."""
     return round(2 * cy), round(2 * cx)
@@ -158,7 +179,10 @@ def whole(kind: str, payload: bytes, strict: bool = True) -> bool:
         return False
     if kind == "rgb":
         return payload.endswith(JPEG_END)
-    _, _, cx, cy = wire.intrinsics(payload)
+    try:
+        _, _, cx, cy = wire.intrinsics(payload)
+    except ValueError:  # not positive finite numbers: never a whole frame
+        return False
     height, width = depth_shape(cx, cy)
     return len(payload) - wire.INTRINSICS_BYTES == 4 * height * width
 
@@ -259,6 +283,7 @@ class StreamReceiver:
         return await self._queue.get()
 
     async def next_frame(self, timeout_s: float) -> Frame | None:
+        timeout_s = timeout("timeout_s", timeout_s)
         try:
             return await asyncio.wait_for(self._queue.get(), timeout_s)
         except asyncio.TimeoutError:

@@ -63,9 +63,13 @@ class VehicleState:
     battery_v: float | None = None  # [V] (a car that sends telemetry lines: the IARRC car)
     battery_low: bool | None = None  # below the car's low-voltage warning (it cuts the motor lower still)
     distance_m: float | None = None  # [m] driven since the car booted, by its wheel encoder, signed
-    mode: str | None = None  # the controller's mode: disarmed, manual, autonomous, failsafe, emergency
-    failsafe: str | None = None  # why it failed safe: none, rc_lost, host_silent, battery
+    mode: str | None = None  # the controller's mode: a word of roar.protocol.spec.IarrcMode (autonomous, ...)
+    failsafe: str | None = None  # why it failed safe: a word of roar.protocol.spec.IarrcFailsafe
     setpoint_m_s: float | None = None  # [m/s] the speed the car is holding (autonomous)
+
+
+MODES = {str(m) for m in spec.IarrcMode}  # the words a TEL line may carry
+FAILSAFES = {str(f) for f in spec.IarrcFailsafe}
 
 
 def parse_telemetry(line: str) -> dict | None:
@@ -76,7 +80,9 @@ def parse_telemetry(line: str) -> dict | None:
     if len(words) != len(names) + 1 or words[0] != spec.TELEMETRY_REPLY:
         return None
     raw = dict(zip(names, words[1:]))
-    try:
+    if raw["mode"] not in MODES or raw["failsafe"] not in FAILSAFES:
+        return None
+    try:  # decimal integers only: a NaN or an infinity is no number here
         numbers = {k: int(v) for k, v in raw.items() if k not in ("mode", "failsafe")}
     except ValueError:
         return None

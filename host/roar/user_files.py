@@ -9,10 +9,11 @@ from typing import Any, Callable
 
 
 def read_text(path: str | Path, error: type[ValueError]) -> str:
-    """The file's text; `error("<path>: <reason>")` when it cannot be read as UTF-8 text."""
+    """The file's text; `error("<path>: <reason>")` when it cannot be read as UTF-8 text (a byte
+    order mark before it, as some Windows editors write, is no part of it)."""
     path = Path(path)
     try:
-        return path.read_text(encoding="utf-8")
+        return path.read_text(encoding="utf-8-sig")
     except OSError as e:
         raise error(f"{path}: cannot read: {e.strerror or e}") from None
     except UnicodeDecodeError:
@@ -30,15 +31,44 @@ def read_parsed(path: str | Path, loads: Callable[[str], Any], error: type[Value
         raise error(f"{Path(path)}: not valid {kind}: nested too deeply") from None
 
 
+def _blocked(path: Path) -> str | None:
+    """Why no folder can be made at or above path: an ancestor that is a file (one line), or None."""
+    for ancestor in [path, *path.parents]:
+        if ancestor.exists():
+            return None if ancestor.is_dir() else f"{ancestor} is a file, not a folder"
+    return None
+
+
 def unwritable(path: str | Path) -> str | None:
-    """Why `path` cannot be written (one line), or None when it can. Creates missing folders."""
+    """Why the file `path` cannot be written (one line), or None when it can. Creates missing folders."""
     path = Path(path)
+    if str(path) in ("", "."):
+        return "the file name is empty"
+    blocked = _blocked(path.parent)
+    if blocked:
+        return f"cannot write {path}: {blocked}"
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as e:
-        return f"cannot write {path}: {e.strerror or e}"
+        return f"cannot write {path}: cannot make its folder {path.parent}: {e.strerror or e}"
     if path.is_dir():
         return f"cannot write {path}: it is a folder"
     if not os.access(path if path.exists() else path.parent, os.W_OK):
         return f"cannot write {path}: permission denied"
+    return None
+
+
+def unusable_folder(path: str | Path) -> str | None:
+    """Why files cannot be written into the folder `path` (one line), or None when they can.
+    Creates it when missing."""
+    path = Path(path)
+    blocked = _blocked(path)
+    if blocked:
+        return f"cannot write into {path}: {blocked}"
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        return f"cannot make the folder {path}: {e.strerror or e}"
+    if not os.access(path, os.W_OK):
+        return f"cannot write into {path}: permission denied"
     return None

@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from roar.calibration import Calibration, check_unit, load_default
+from roar.checks import number, timeout
 from roar.protocol import encode, encode_setpoint, spec
 from roar.sender import CommandSender
 from roar.telemetry import UNKNOWN, CarEvent, EventKind, VehicleState, parse_event, parse_telemetry
@@ -68,6 +69,7 @@ class Vehicle:
         self.replies: collections.deque[str] = collections.deque(maxlen=200)  # the car's lines, newest last
         self.events: collections.deque[CarEvent] = collections.deque(maxlen=200)  # the same, typed
         self.errors = 0  # "ERR ..." replies seen
+        self.rejected_telemetry = 0  # telemetry lines dropped: not the spec's fields (a number that is not one)
         self._events_cond = threading.Condition()
         self._throttle = self._steering = 0.0
         self._speed = 0.0  # [m/s] on a car that drives by speed
@@ -143,7 +145,7 @@ class Vehicle:
 
     def flush(self, timeout_s: float = STOP_FLUSH_TIMEOUT_S) -> bool:
         """Wait until the latest command has been written to the link (False if it was not)."""
-        return self._sender.flush(timeout_s)
+        return self._sender.flush(timeout("timeout_s", timeout_s))
 
     def send_pulses(self, throttle_us: int, steering_us: int) -> None:
         """Send raw pulse widths [us], bypassing the calibration (for calibration tools)."""
@@ -189,6 +191,8 @@ class Vehicle:
             if telemetry is not None:
                 self._telemetry = telemetry
                 self._learn_version(spec.META_SPEED_VERSION)  # only a speed-controlled car sends these
+            elif line.startswith(spec.TELEMETRY_REPLY + " "):
+                self.rejected_telemetry += 1
             event = parse_event(line, now)
             if event is None:
                 continue
@@ -226,7 +230,8 @@ class Vehicle:
         """The first event of these kinds (any kind when none given) received at or after `since`
         (time.monotonic(); default: now), waiting up to timeout_s; None if none came. Links
         without replies (ble://, loop://) never deliver events."""
-        since = time.monotonic() if since is None else since
+        timeout_s = timeout("timeout_s", timeout_s)
+        since = time.monotonic() if since is None else number("since", since, -1e12, 1e12, "s")
 
         def found() -> CarEvent | None:
             return next((e for e in self.events if e.at_s >= since and (not kinds or e.kind in kinds)), None)
@@ -238,6 +243,7 @@ class Vehicle:
     def wait_armed(self, timeout_s: float = 2.0) -> bool:
         """True once the car is armed (at once if it already is), False after timeout_s. The car
         boots latched; the vehicle's first command is neutral, which arms it."""
+        timeout_s = timeout("timeout_s", timeout_s)
         with self._events_cond:
             return self._events_cond.wait_for(lambda: self.latched is False, timeout_s)
 
@@ -297,16 +303,12 @@ class Vehicle:
 
 
 def _check_rate(rate_hz) -> float:
-    if isinstance(rate_hz, bool) or not isinstance(rate_hz, (int, float)) or not 5 <= rate_hz <= 500:
-        raise ValueError(f"rate_hz must be 5..500 (the car's failsafe needs a command every "
-                         f"{spec.TIMING_FAILSAFE_TIMEOUT_US / 1000:g} ms), got {rate_hz!r}")
-    return float(rate_hz)
+    """The failsafe needs a command every 250 ms: at least 5 Hz; a link takes at most 500 Hz."""
+    return number("rate_hz", rate_hz, 5, 500, "Hz")
 
 
 def _check_speed(speed) -> float:
-    if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not -MAX_SPEED_M_S <= speed <= MAX_SPEED_M_S:
-        raise ValueError(f"speed must be a number of m/s in [-{MAX_SPEED_M_S:g}, {MAX_SPEED_M_S:g}], got {speed!r}")
-    return float(speed)
+    return number("speed", speed, -MAX_SPEED_M_S, MAX_SPEED_M_S, "m/s")
 
 
 def _close_at_exit(ref: weakref.ref) -> None:

@@ -7,3 +7,10 @@ on the laptop) and on MicroPython >= 1.22 (copied to the board's /lib).
 
 Nothing here imports dataclasses, enum or typing, or allocates per byte.
 """
+
+INF = float("inf")
+
+
+def finite(value):
+    """Whether a float is a number (not NaN, not infinite): what a decoder accepts from the wire."""
+    return value == value and value not in (INF, -INF)

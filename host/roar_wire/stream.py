@@ -13,7 +13,7 @@ Runs unchanged on CPython and MicroPython.
 
 import struct
 
-from roar_wire import spec
+from roar_wire import finite, spec
 
 HEADER_BYTES = spec.UDP_HEADER_BYTES
 CHUNK_BYTES = spec.UDP_MAX_CHUNK_DATA_BYTES
@@ -76,10 +76,15 @@ def with_intrinsics(fx, fy, cx, cy, body):
 
 
 def intrinsics(payload):
-    """(fx, fy, cx, cy) from the start of a camera or depth payload."""
+    """(fx, fy, cx, cy) [pixels] from the start of a camera or depth payload; ValueError when
+    they are not there or not positive finite numbers."""
     if len(payload) < INTRINSICS_BYTES:
         raise ValueError("a camera payload starts with %d bytes of intrinsics" % INTRINSICS_BYTES)
-    return struct.unpack("<4f", payload[:INTRINSICS_BYTES])
+    values = struct.unpack("<4f", payload[:INTRINSICS_BYTES])
+    for v in values:
+        if not (finite(v) and v > 0):
+            raise ValueError("camera intrinsics must be positive finite numbers")
+    return values
 
 
 def state_line(values):
@@ -89,14 +94,19 @@ def state_line(values):
 
 
 def parse_state(data):
-    """A vehicle-state CSV as a dict of floats, or None when it is not len(STATE_FIELDS) numbers."""
+    """A vehicle-state CSV as a dict of floats, or None when it is not len(STATE_FIELDS) finite
+    numbers (a NaN or an infinity never reaches a control loop)."""
     try:
         parts = data.decode().strip().split(",")
         if len(parts) != len(STATE_FIELDS):
             return None
-        return dict(zip(STATE_FIELDS, (float(p) for p in parts)))
+        values = [float(p) for p in parts]
     except (UnicodeError, ValueError):
         return None
+    for v in values:
+        if not finite(v):
+            return None
+    return dict(zip(STATE_FIELDS, values))
 
 
 def control_line(throttle, steering):

@@ -8,7 +8,7 @@ platooning cars shared positions this way.
 Runs unchanged on CPython and MicroPython.
 """
 
-from roar_wire import spec
+from roar_wire import finite, spec
 
 FIELDS = spec.V2V_FIELDS.split(",")
 MAX_BYTES = spec.V2V_MAX_DATAGRAM_BYTES
@@ -22,7 +22,7 @@ def encode(car_id, seq, x, y, yaw, speed):
         raise ValueError("car_id must be 0..255")
     values = (x, y, yaw, speed)
     for v in values:
-        if v != v or v in (float("inf"), float("-inf")):
+        if not finite(v):
             raise ValueError("V2V values must be finite")
     text = "%d,%d,%.4f,%.4f,%.5f,%.4f" % ((car_id, seq % SEQ_MODULUS) + values)
     return text.encode()
@@ -46,7 +46,7 @@ def decode(datagram):
     if not (0 <= car_id <= MAX_CAR_ID and 0 <= seq < SEQ_MODULUS):
         return None
     for v in (x, y, yaw, speed):
-        if v != v or v in (float("inf"), float("-inf")):
+        if not finite(v):
             return None
     return car_id, seq, x, y, yaw, speed
 

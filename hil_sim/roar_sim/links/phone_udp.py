@@ -23,8 +23,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from roar.protocol import encode, spec
-from roar.cli.errors import ExitStatus, UserError, run_command
+from roar.cli.errors import ArgumentParser, ExitStatus, UserError, run_command, seconds_option, stopped_status
 from roar.vision.geometry import SIMULATED_CAR_CAMERA
+from roar.stream import UnknownHost, peer
 from roar_wire import stream as wire
 
 PORTS = {"rgb": spec.UDP_PORT_RGB, "depth": spec.UDP_PORT_DEPTH, "state": spec.UDP_PORT_VEHICLE_STATE}
@@ -213,8 +214,7 @@ def parse_ports(text: str) -> dict[str, int]:
 
 
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="roar sim --stream", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="roar sim --stream", description=__doc__)
     p.add_argument("--robot", default="esc", choices=["esc"], help="the car whose phone it is: the ESC car")
     p.add_argument("--track", default="oval", help="oval, figure-eight, course or a track .json file (default oval)")
     p.add_argument("--size", type=parse_size, default=(320, 240), help="camera size WxH (default 320x240)")
@@ -224,7 +224,7 @@ def parser() -> argparse.ArgumentParser:
                    help="the address to bind the ports to (default 127.0.0.1; 0.0.0.0 for other machines)")
     p.add_argument("--ports", type=parse_ports, default=None, metavar="RGB,DEPTH,STATE,CONTROL",
                    help=f"the four ports (default ROAR's {','.join(str(v) for v in PORTS.values())},{spec.UDP_PORT_CONTROL})")
-    p.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: Ctrl-C)")
+    p.add_argument("--seconds", type=seconds_option, default=0.0, metavar="S", help="stop after this long (default: Ctrl-C)")
     return p
 
 
@@ -233,11 +233,17 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     if not 0.5 <= args.rate <= 60:
         p.error(f"--rate must be 0.5..60 frames/s, got {args.rate:g}")
+    push_to = None
+    if args.push is not None:
+        try:
+            push_to = peer(args.push)[0]  # once, now: not a name lookup per datagram
+        except UnknownHost as e:
+            p.error(f"--push: {e}")
     from roar_sim.robots.esc import EscCar
     from roar_sim.world.track import get
 
     sim = EscCar(get(args.track))
-    config = StreamConfig(width=args.size[0], height=args.size[1], rate_hz=args.rate, push_to=args.push,
+    config = StreamConfig(width=args.size[0], height=args.size[1], rate_hz=args.rate, push_to=push_to,
                           host=args.host, ports=args.ports)
     phone = Phone(sim, config)
 
@@ -256,8 +262,8 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         asyncio.run(run())
-    except KeyboardInterrupt:
-        return ExitStatus.INTERRUPTED
+    except KeyboardInterrupt as e:
+        return stopped_status(e)
     finally:
         sim.close()
     print(f"rendered {phone.frames_rendered} frames, {phone.render_s / max(1, phone.frames_rendered) * 1000:.1f} ms each")

@@ -19,7 +19,7 @@ import termios
 import threading
 import tty
 
-from roar.cli.errors import ExitStatus, UserError, run_command
+from roar.cli.errors import ArgumentParser, ExitStatus, UserError, run_command, seconds_option, stopped_status
 from roar_sim import robots
 from roar_sim.robots import Robot
 from roar_sim.world.track import get
@@ -101,12 +101,11 @@ def serial_robots() -> list[str]:
 
 
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="roar sim --serial", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="roar sim --serial", description=__doc__)
     p.add_argument("--robot", default="esc", metavar="NAME",
                    help="esc: the ESC car (throttle, steering; default); iarrc: the IARRC car (speed setpoints)")
     p.add_argument("--track", default="oval", help="oval, figure-eight, course or a track .json file (default: oval)")
-    p.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: run until Ctrl-C)")
+    p.add_argument("--seconds", type=seconds_option, default=0.0, metavar="S", help="stop after this long (default: run until Ctrl-C)")
     p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
     return p
 
@@ -122,8 +121,8 @@ def main(argv: list[str] | None = None) -> int:
         status = ExitStatus.OK
         try:
             car.serve(args.seconds)
-        except KeyboardInterrupt:
-            status = ExitStatus.INTERRUPTED
+        except KeyboardInterrupt as e:  # Ctrl-C or SIGTERM: say where the car was left
+            status = stopped_status(e)
         s = car.sim.state()
         print(f"stopped after {car.sim.time_s:.1f} s: car at x={s.x:.2f} m, y={s.y:.2f} m, speed {s.speed:.2f} m/s")
     return status

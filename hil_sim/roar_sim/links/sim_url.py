@@ -25,7 +25,7 @@ from pathlib import Path
 
 from roar.errors import RoarError
 from roar.telemetry import VehicleState
-from roar.transports.base import LinkLost, Transport, TransportError, pop_option
+from roar.transports.base import LinkLost, Transport, TransportError, pop_number, pop_option
 from roar.user_files import unwritable
 from roar_sim.world.plotting import png_problem
 
@@ -63,15 +63,16 @@ class SimTransport(Transport):
 
     @classmethod
     def from_url(cls, target: str, options: dict[str, str]) -> SimTransport:
-        speedup = pop_option(options, "speedup", float, 1.0)
-        if not 0.1 <= speedup <= MAX_SPEEDUP:
-            raise TransportError(f"speedup must be 0.1..{MAX_SPEEDUP:g}, got {speedup:g}")
+        speedup = pop_number(options, "speedup", 1.0, 0.1, MAX_SPEEDUP, "x real time")
+        for name in ("trace", "plot"):
+            if name in options and not options[name].strip():
+                raise TransportError(f"{name}= is empty: give a file name")
         trace = pop_option(options, "trace", Path, None)
         plot = pop_option(options, "plot", Path, None)
         for name, path, check in (("trace", trace, unwritable), ("plot", plot, png_problem)):
             problem = path is not None and check(path)
             if problem:  # checked now, not when the drive is over
-                raise TransportError(f"{name} {problem}")
+                raise TransportError(f"{name}: {problem}")
         if "car" in options:
             raise TransportError("option car= is robot= now: e.g. sim://?robot=iarrc")
         robot = pop_option(options, "robot", str, "esc")

@@ -15,7 +15,7 @@ import math
 import sys
 
 from roar.autopilot import CarLimits
-from roar.cli.errors import ExitStatus, run_command
+from roar.cli.errors import ArgumentParser, ExitStatus, run_command
 from roar_sim import robots
 
 REL_TOLERANCE, ABS_TOLERANCE = 0.05, 0.02  # how far a measurement may be from its table entry
@@ -35,7 +35,7 @@ def report(name: str, measured: CarLimits, table: CarLimits) -> str:
 
 
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="roar limits", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="roar limits", description=__doc__)
     p.add_argument("robots", nargs="*", choices=[[], *robots.names()], metavar="ROBOT",
                    help=f"which robots ({', '.join(robots.names())}; default: all)")
     return p

@@ -9,11 +9,14 @@ leader lapping at a steady speed, the follower keeping gap_m behind it along the
 
 from __future__ import annotations
 
+import sys
 from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field
 
+from tqdm import tqdm
+
 from roar.autopilot.platoon import cruise_agent, follow_agent
-from roar.cli.errors import ExitStatus, UserError, run_command
+from roar.cli.errors import ArgumentParser, ExitStatus, UserError, path_option, run_command
 from roar.protocol import spec
 from roar.v2v import V2VLink
 from roar_sim.clock.lockstep import CONTROL_PERIOD_S as PERIOD_S
@@ -50,9 +53,10 @@ def _links(port: int, interface: str, across: VethPair | None):
 
 def platoon(track: Track, gap_m: float = 1.5, cruise_m_s: float = 1.0, seconds: float = 15.0,
             silence_from_s: float | None = None, port: int = spec.V2V_PORT, interface: str = "127.0.0.1",
-            across: VethPair | None = None) -> PlatoonRun:
+            across: VethPair | None = None, progress: bool = False) -> PlatoonRun:
     """across: the leader's V2V socket on this side of a veth link (roar_sim.links.netns), the
-    follower's in the namespace at its other end, so the messages cross a kernel link."""
+    follower's in the namespace at its other end, so the messages cross a kernel link.
+    progress: a bar of simulated seconds on stderr."""
     run = PlatoonRun(gap_m)
     line = track.centerline
     with _links(port, interface, across) as (lead_link, follow_link), Fleet(track, count=2, gap_m=gap_m) as fleet:
@@ -65,7 +69,9 @@ def platoon(track: Track, gap_m: float = 1.5, cruise_m_s: float = 1.0, seconds: 
         leader.setup()
         follower.setup()
         hint = {}
-        for step in range(round(seconds / PERIOD_S)):
+        steps = round(seconds / PERIOD_S)
+        for step in tqdm(range(steps), desc="platoon", unit="step", file=sys.stderr, mininterval=0.5,
+                         disable=not progress, leave=False):
             t = fleet.time_s
             observed = {"lead": lead.observe(), "follow": follow.observe()}
             o = observed["lead"]
@@ -153,15 +159,13 @@ def plot(run: PlatoonRun, silence_from_s: float | None):
 
 
 def parser():
-    import argparse
-    from pathlib import Path
 
-    p = argparse.ArgumentParser(
-        prog="roar platoon", formatter_class=argparse.RawDescriptionHelpFormatter,
+    p = ArgumentParser(
+        prog="roar platoon",
         description="Two simulated cars platoon as ROAR's did: each its own firmware core, one world; the "
                     "leader cruises, the follower keeps a gap behind it from the leader's position over UDP "
-                    "multicast (V2V), and stops by itself when the messages stop.\n\nExit status: 0; 1 for bad "
-                    "input; 2 when the cars touched, the gap was not held, or the follower did not stop.")
+                    "multicast (V2V), and stops by itself when the messages stop. It falls short (exit status 2) "
+                    "when the cars touched, the gap was not held, or the follower did not stop.")
     p.add_argument("--track", default="oval", help="oval, figure-eight, course or a track .json (default: oval)")
     p.add_argument("--gap", type=float, default=1.5, metavar="M", help="gap to keep [m] (default 1.5)")
     p.add_argument("--speed", type=float, default=1.0, metavar="M/S", help="the leader's speed [m/s] (default 1)")
@@ -173,7 +177,7 @@ def parser():
                         "root); default: loopback")
     p.add_argument("--port", type=int, metavar="PORT",
                    help=f"V2V UDP port (default: a free one; ROAR's cars used {spec.V2V_PORT})")
-    p.add_argument("--plot", type=Path, metavar="PNG", help="write gap and speeds over time to this PNG")
+    p.add_argument("--plot", type=path_option, metavar="PNG", help="write gap and speeds over time to this PNG")
     return p
 
 
@@ -202,7 +206,8 @@ def main(argv: list[str] | None = None) -> int:
         with veth_pair() if args.netns else nullcontext() as link:
             how = (f"over a veth link {link.here_ip} -> {link.there_ip} into namespace {link.ns}" if link
                    else "over loopback") + f", group {spec.V2V_GROUP} port {port}"
-            run = platoon(track, args.gap, args.speed, args.seconds, args.silence_at, port=port, across=link)
+            run = platoon(track, args.gap, args.speed, args.seconds, args.silence_at, port=port, across=link,
+                          progress=True)
     except OSError as e:
         raise UserError(f"V2V port {port}: {e.strerror or e}") from None
     summary = summarise(run, args.silence_at)
@@ -214,6 +219,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    import sys
-
     sys.exit(run_command("roar platoon", main))

@@ -31,7 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from roar.autopilot import Agent, Command, Observation, Runner, WaypointError, lap_time, load_waypoints, speed_profile
-from roar.cli.errors import ExitStatus, run_command
+from roar.user_files import unusable_folder
+from roar.cli.errors import ArgumentParser, ExitStatus, path_option, run_command
 from roar_sim import robots
 from roar_sim.clock.lockstep import CONTROL_PERIOD_S as PERIOD_S
 from roar_sim.robots import Robot
@@ -284,7 +285,7 @@ def plot(result: RaceResult):
 
 
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="roar race", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="roar race", description=__doc__)
     p.add_argument("--robot", choices=robots.names(), default="esc",
                    help="which robot races: the ESC car (default), the IARRC car (by speed), the ROAR Junior (over "
                         "its HTTP control route)")
@@ -293,7 +294,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--track", default="oval",
                    help="oval, figure-eight, course (long straights, for boxes), or a track .json file (default: oval)")
     p.add_argument("--laps", type=int, default=2, help="laps to drive (default: 2)")
-    p.add_argument("--waypoints", type=Path, metavar="FILE",
+    p.add_argument("--waypoints", type=path_option, metavar="FILE",
                    help="follow this closed line (x,y,z per line) instead of the centre line")
     p.add_argument("--margin", type=float, default=0.9, help="fraction of the robot's limits to drive at (default 0.9)")
     p.add_argument("--k-dd", type=float, default=None, metavar="S",
@@ -313,10 +314,10 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--avoid", action="store_true",
                    help="with --driver lane: the car carries a TFmini laser, keeps to the right lane and changes "
                         "lanes for what is ahead in it (IARRC's rule)")
-    p.add_argument("--record", type=Path, metavar="DIR",
+    p.add_argument("--record", type=path_option, metavar="DIR",
                    help="with --driver lane: write every frame the driver sees (PNG and depth .npy) to DIR, for "
                         "`roar vision DIR`")
-    p.add_argument("--plot", type=Path, metavar="PNG", help="write the path and speed plot to this PNG")
+    p.add_argument("--plot", type=path_option, metavar="PNG", help="write the path and speed plot to this PNG")
     p.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
     return p
@@ -347,13 +348,17 @@ def main(argv: list[str] | None = None) -> int:
     if not 0 <= args.boxes <= 20:
         p.error("--boxes must be 0..20")
     plotting.check_png_argument(p, args.plot)
-    if args.record is not None:
-        try:
-            args.record.mkdir(parents=True, exist_ok=True)
-        except OSError as e:
-            p.error(f"--record {args.record}: {e.strerror or e}")
+    problem = args.record is not None and unusable_folder(args.record)
+    if problem:
+        p.error(f"--record {problem}")
     track = get(args.track)
-    waypoints = load_waypoints(args.waypoints) if args.waypoints else None
+    waypoints = None
+    if args.waypoints:
+        waypoints = load_waypoints(args.waypoints)
+        try:
+            check_line(track, waypoints[:, :2])
+        except WaypointError as e:  # name the file the waypoints came from
+            raise WaypointError(f"{args.waypoints}: {e}") from None
     boxes = box_course(track, args.boxes)
     if len(boxes) < args.boxes:
         raise TrackError(f"track {track.name!r} has straight road for {len(boxes)} boxes (each needs {MIN_GAP_M:g} m "

@@ -9,9 +9,8 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
-from pathlib import Path
 
-from roar.cli.errors import UserError, run_command
+from roar.cli.errors import ArgumentParser, UserError, path_option, run_command, seconds_option
 from roar.cli.plugins import Command
 
 SIM_DESCRIPTION = """Run a simulated robot (--robot esc, iarrc or junior; default esc) as a program reaches a
@@ -36,8 +35,7 @@ def _race(argv: list[str]) -> int:
 def _sim_parser() -> argparse.ArgumentParser:
     from roar_sim import robots
 
-    p = argparse.ArgumentParser(prog="roar sim", description=SIM_DESCRIPTION,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="roar sim", description=SIM_DESCRIPTION)
     p.add_argument("--robot", choices=robots.names(), default="esc", help="which robot (default esc)")
     link = p.add_mutually_exclusive_group()
     link.add_argument("--serial", action="store_true", help="serve the car as a serial port (a pty) in real time")
@@ -48,17 +46,17 @@ def _sim_parser() -> argparse.ArgumentParser:
     p.add_argument("--track", default=None,
                    help="oval, figure-eight, course or a track .json file (default: oval; with --http an open floor)")
     p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
-    p.add_argument("--seconds", type=float, default=0.0,
+    p.add_argument("--seconds", type=seconds_option, default=None, metavar="S",
                    help="with --serial or --http: stop after this long (default: Ctrl-C)")
-    p.add_argument("--laps", type=int, default=2, help="without a link: laps to drive (default 2)")
-    p.add_argument("--plot", type=Path, metavar="PNG", help="without a link: write the driven path to this PNG")
+    p.add_argument("--laps", type=int, default=None, help="without a link: laps to drive (default 2)")
+    p.add_argument("--plot", type=path_option, metavar="PNG", help="without a link: write the driven path to this PNG")
     return p
 
 
-def _sim_parse_args(argv: list[str]) -> argparse.Namespace:
-    if "--stream" in argv:  # its own options (size, rate, push)
-        return _parser_of("roar_sim.links.phone_udp")([a for a in argv if a != "--stream"])
-    return _sim_parser().parse_args(argv)
+def _sim_parsers() -> dict[tuple[str, ...], argparse.ArgumentParser]:
+    from roar_sim.links.phone_udp import parser as stream_parser
+
+    return {(): _sim_parser(), ("--stream",): stream_parser()}  # --stream has its own options (size, rate, push)
 
 
 def _sim(argv: list[str]) -> int:
@@ -74,25 +72,33 @@ def _sim(argv: list[str]) -> int:
     args = _sim_parser().parse_args(argv)
     kind = robots.get(args.robot)
     for flag, name in (("serial", "--serial"), ("http", "--http")):
-        if getattr(args, flag) and flag not in kind.links:
+        if getattr(args, flag) not in (None, False) and flag not in kind.links:
             has = [n for n in robots.names() if flag in robots.get(n).links]
             raise UserError(f"the {kind.title} has no {'serial port' if flag == 'serial' else 'HTTP port'}: "
                             f"{name} serves {' or '.join(has)}")
+    served = args.serial or args.http is not None
+    if served and (args.laps is not None or args.plot):
+        raise UserError("--laps and --plot are for a race (roar sim without --serial or --http)")
+    if not served and args.seconds is not None:
+        raise UserError("--seconds is how long --serial or --http serve; a race ends after its laps "
+                        "(roar race --seconds sets its time limit)")
     gui = ["--gui"] if args.gui else []
-    if args.http:
+    seconds = ["--seconds", str(args.seconds)] if args.seconds is not None else []
+    if args.http is not None:
         from roar_sim.links.junior_http import main as serve_junior
 
-        track = ["--track", args.track] if args.track else []
-        return serve_junior(["--http", args.http, "--seconds", str(args.seconds), *track, *gui])
-    args.track = args.track or "oval"
+        track = ["--track", args.track] if args.track is not None else []
+        return serve_junior(["--http", args.http, *seconds, *track, *gui])
+    args.track = "oval" if args.track is None else args.track
     if args.serial:
         from roar_sim.links.pty import main as serve
 
-        return serve(["--robot", args.robot, "--track", args.track, "--seconds", str(args.seconds), *gui])
+        return serve(["--robot", args.robot, "--track", args.track, *seconds, *gui])
     from roar_sim.runs.race import main as race
 
     plot = ["--plot", str(args.plot)] if args.plot else []
-    return race(["--robot", args.robot, "--track", args.track, "--laps", str(args.laps), *gui, *plot])
+    laps = ["--laps", str(args.laps)] if args.laps is not None else []
+    return race(["--robot", args.robot, "--track", args.track, *laps, *gui, *plot])
 
 
 def _step_response(argv: list[str]) -> int:
@@ -120,13 +126,13 @@ def _limits(argv: list[str]) -> int:
 
 
 def _parser_of(module: str):
-    """The parse_args of a module's parser(), imported when called."""
-    return lambda argv: importlib.import_module(module).parser().parse_args(argv)
+    """The command's parsers: a module's parser(), imported when called."""
+    return lambda: {(): importlib.import_module(module).parser()}
 
 
 race = Command("race a simulated robot with its autopilot (`roar race --help`)", _race, _parser_of("roar_sim.runs.race"))
 sim = Command("run a simulated robot: a race, a serial port (--serial), HTTP (--http) or the phone's UDP (--stream)",
-              _sim, _sim_parse_args)
+              _sim, _sim_parsers)
 step_response = Command("the simulated IARRC car's speed PID answering a step, plotted (`roar step-response --help`)",
                         _step_response, _parser_of("roar_sim.runs.step_response"))
 sweep = Command("race a grid of autopilot parameters x tracks as Ray tasks; CSV table and plot (`roar sweep --help`)",

@@ -10,12 +10,10 @@ The car logic is the board loop of the C++ firmware core (CarBoard::poll, host b
 
 from __future__ import annotations
 
-import argparse
 import sys
 from dataclasses import dataclass
-from pathlib import Path
 
-from roar.cli.errors import ExitStatus, run_command
+from roar.cli.errors import ArgumentParser, ExitStatus, path_option, run_command
 from roar.protocol import ControlError, decode, encode, spec
 from roar_sim.clock.lockstep import LOOP_US
 from roar_sim.core.car import CarBoard, CarOutputs
@@ -158,9 +156,8 @@ def plot(samples, marks):
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m roar_sim.runs.scripted_drive", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--plot", type=Path, metavar="PNG", help="write a plot of the pulses to this PNG file")
+    parser = ArgumentParser(prog="python -m roar_sim.runs.scripted_drive", description=__doc__)
+    parser.add_argument("--plot", type=path_option, metavar="PNG", help="write a plot of the pulses to this PNG file")
     args = parser.parse_args(argv)
     plotting.check_png_argument(parser, args.plot)
     trace = run()

@@ -13,7 +13,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from roar.cli.errors import ExitStatus, run_command
+from roar.cli.errors import ArgumentParser, ExitStatus, path_option, run_command
 from roar.errors import RoarError
 from roar.protocol import spec
 from roar.protocol.control import encode_setpoint
@@ -128,14 +128,13 @@ def gains_argument(text: str) -> tuple[int, int, int, int]:
 
 
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="roar step-response", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="roar step-response", description=__doc__)
     p.add_argument("--speed", type=float, default=2.0, help="the step [m/s] (default 2.0)")
     p.add_argument("--seconds", type=float, default=3.0, help="how long after the step (default 3)")
     p.add_argument("--gains", type=gains_argument, metavar="KP,KI,KD,FF",
                    help="PID gains in per mille, as the PID telemetry command takes them (default: the core's)")
-    p.add_argument("--plot", type=Path, default=Path("step_response.png"), metavar="PNG",
-                   help="where to draw the response beside the setpoint (default step_response.png)")
+    p.add_argument("--plot", type=path_option, default=Path("out/step_response.png"), metavar="PNG",
+                   help="where to draw the response beside the setpoint (default out/step_response.png)")
     return p
 
 

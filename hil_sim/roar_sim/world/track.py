@@ -30,12 +30,14 @@ from typing import TypeVar
 
 import numpy as np
 
+from roar.checks import printable, shown
 from roar.errors import RoarError
 from roar.user_files import read_parsed
 
 T = TypeVar("T")
 
 MIN_POINTS = 8
+MAX_NAME_CHARS = 60  # a track's name as shown: longer ones are cut
 MIN_SPACING_M = 0.01  # [m]
 SMALL_WINDOW = 12  # segments each side: project() searches this few in plain floats
 MAX_SPACING_M = 2.0  # [m]
@@ -227,9 +229,9 @@ class Track:
             raise TrackError(f"{path}: width_m must be a number of metres, got {data['width_m']!r}")
         name = data.get("name", path.stem)
         if not isinstance(name, str):
-            raise TrackError(f"{path}: name must be a string, got {name!r}")
+            raise TrackError(f"{path}: name must be a string, got {shown(name)}")
         try:
-            return cls(name, np.array(cl, dtype=float), data["width_m"])
+            return cls(printable(name, MAX_NAME_CHARS), np.array(cl, dtype=float), data["width_m"])
         except TrackError as e:
             raise TrackError(f"{path}: {e}") from None
 
@@ -343,6 +345,10 @@ BUILTIN = {"oval": oval, "figure-eight": figure_eight, "course": course}
 
 def get(name_or_path: str) -> Track:
     """A built-in track by name, or a track file by path."""
+    if not isinstance(name_or_path, str) or not name_or_path.strip():
+        raise TrackError(f"the track name is empty: use {', '.join(BUILTIN)} or a .json track file"
+                         if isinstance(name_or_path, str) else
+                         f"a track is a name or a .json file's path, got {shown(name_or_path)}")
     if name_or_path in BUILTIN:
         return BUILTIN[name_or_path]()
     if name_or_path.endswith(".json") or Path(name_or_path).exists():

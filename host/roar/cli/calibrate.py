@@ -11,6 +11,7 @@ from typing import TextIO
 
 from pydantic import ValidationError
 
+from roar.cli.errors import UserError
 from roar.calibration import ARM_WINDOW, THROTTLE_TRIM_RANGE, Calibration, ChannelCalibration, first_error
 from roar.protocol import spec
 from roar.vehicle import Vehicle
@@ -87,14 +88,14 @@ def run(car: Vehicle, path: Path, inp: TextIO, out: TextIO) -> int:
         t_min = _ask("low end: full speed the other way (the lowest pulse you allow)", th.min_us, throttle, inp, out, hi=t_trim)
         throttle(t_trim)
     except Aborted:
-        out.write("\ninput ended: calibration not saved\n")
-        return 1
+        out.write("\n")
+        raise UserError("input ended: calibration not saved") from None
     try:
         new = Calibration(throttle=ChannelCalibration(trim_us=t_trim, min_us=t_min, max_us=t_max, reversed=t_rev),
                           steering=ChannelCalibration(trim_us=s_trim, min_us=s_min, max_us=s_max, reversed=s_rev))
     except ValidationError as e:
-        out.write(f"\ncalibration not saved: {first_error(e)}\n")
-        return 1
+        out.write("\n")
+        raise UserError(f"calibration not saved: {first_error(e)}") from None
     new.save(path)
     out.write(f"\nsaved {path}:\n  throttle {t_min}/{t_trim}/{t_max} us{' reversed' if t_rev else ''}\n"
               f"  steering {s_min}/{s_trim}/{s_max} us{' reversed' if s_rev else ''}\n")

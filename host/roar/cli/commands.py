@@ -6,8 +6,10 @@ import math
 import sys
 import time
 
+from roar.checks import printable
 from roar.cli.errors import UserError
 from roar.protocol import spec
+from roar.user_files import unusable_folder, unwritable
 from roar.vehicle import Vehicle
 
 MAX_SEND_S = 3600.0  # [s]
@@ -39,9 +41,9 @@ def send(args) -> int:
         car.stop()
         silent = car.transport.replies and car.wait_for(timeout_s=REPLY_GRACE_S, since=0.0) is None
         link_ok = car.connected
-        link = "link ok" if link_ok else f"link down: {car.link_error}"
         lines = [r for r in car.replies if not r.startswith(spec.TELEMETRY_REPLY)]  # telemetry is summed up below
-        replies = ", ".join(lines[-5:]) or ("none" if car.transport.replies else "none (this link has none)")
+        replies = ", ".join(printable(r) for r in lines[-5:]) or ("none" if car.transport.replies
+                                                                 else "none (this link has none)")
         state = car.state()
         if state.battery_v is not None:
             replies += f"; battery {state.battery_v:.2f} V, driven {state.distance_m:.2f} m, mode {state.mode}"
@@ -49,33 +51,35 @@ def send(args) -> int:
         raise UserError(f"no reply from a car on {args.url} (no READY, ARMED or FAILSAFE line in "
                         f"{args.seconds + REPLY_GRACE_S:g} s): is a ROAR car running there?")
     stopped = "zero speed" if args.speed is not None else "neutral"
-    print(f"done, {stopped} sent; {link}; car replies: {replies}")
+    if link_ok:
+        print(f"done, {stopped} sent; link ok; car replies: {replies}")
+    else:  # nothing could be sent at the end: say so, and what stops the car
+        print(f"link down: {printable(car.link_error, 200)}; {stopped} could not be sent (the car's failsafe stops "
+              f"it when commands stop coming); car replies: {replies}")
     return 0 if car.errors == 0 and link_ok else 1
 
 
 def stream(args) -> int:
-    from roar.cli.stream_view import StreamError, run
+    from roar.cli.stream_view import run
 
-    try:
-        return run(args.url, args.seconds, args.push, args.out)
-    except StreamError as e:
-        raise UserError(str(e)) from None
+    return run(args.url, args.seconds, args.push, args.out)
 
 
 def vision(args) -> int:
     if not (1 <= args.fov < 180 and 0 < args.height <= 5 and -5 <= args.ahead <= 5 and -45 <= args.pitch <= 89
             and 0.1 <= args.fps <= 120):
         raise UserError("want --fov 1..179 deg, --height 0..5 m, --ahead -5..5 m, --pitch -45..89 deg, --fps 0.1..120")
+    problem = unusable_folder(args.out) or (args.video is not None and unwritable(args.video))
+    if problem:
+        raise UserError(problem)
     try:
-        from roar.cli.vision_frames import FramesError, run
+        from roar.cli.vision_frames import run
         from roar.vision.geometry import CameraPreset
 
         camera = CameraPreset(args.fov, args.ahead, args.height, math.radians(args.pitch))
         return run(args.folder, args.out, args.video, args.fps, camera)
     except ImportError as e:
         raise UserError(f"roar vision needs {e.name}: pip install 'roar-platform[vision]'") from None
-    except FramesError as e:
-        raise UserError(str(e)) from None
 
 
 def drive(args) -> int:
@@ -90,6 +94,9 @@ def calibrate(args) -> int:
     from roar.cli.calibrate import run
 
     path = args.file or default_path()
+    problem = unwritable(path)  # before the walk-through, not after it
+    if problem:
+        raise UserError(f"--file {problem}")
     with Vehicle(args.url, calibration=None) as car:
         return run(car, path, sys.stdin, sys.stdout)
 
@@ -100,8 +107,6 @@ def scan(args) -> int:
     except ImportError as e:
         raise UserError(f"roar scan needs {e.name}: pip install 'roar-platform[ble]'") from None
 
-    if not 0 < args.timeout <= 60:
-        raise UserError(f"--timeout must be 0..60 s, got {args.timeout:g}")
     print(f"scanning for {args.timeout:g} s ...", file=sys.stderr, flush=True)
     found = ble_scan(args.timeout, only_cars=not args.all)
     if not found:
@@ -109,8 +114,8 @@ def scan(args) -> int:
         return 1
     print(f"{'NAME':24} {'ADDRESS':20} RSSI")
     for dev in found:
-        print(f"{dev.name or '?':24} {dev.address:20} {dev.rssi if dev.rssi is not None else '?'}")
-    print(f"\ndrive one with: roar drive 'ble://{found[0].name or found[0].address}'")
+        print(f"{printable(dev.name or '?', 24):24} {dev.address:20} {dev.rssi if dev.rssi is not None else '?'}")
+    print(f"\ndrive one with: roar drive 'ble://{printable(found[0].name or found[0].address)}'")
     return 0
 
 

@@ -1,9 +1,6 @@
-"""`roar`: one command for cars on USB serial, Bluetooth LE or in the simulator.
+"""`roar`: one command for cars on USB serial, Bluetooth LE, Wi-Fi or in the simulator.
 
 A car is named by a URL:
-  sim://                      the simulated car on an open floor (sim://oval for a track)
-  serial:///dev/ttyUSB0       a car on USB serial (find the port with `roar ports`)
-  ble://  ble://ROAR Car      a car over Bluetooth LE (find it with `roar scan`)
 """
 
 from __future__ import annotations
@@ -17,7 +14,9 @@ from pathlib import Path
 
 from roar.calibration import default_path
 from roar.cli import plugins
-from roar.cli.errors import UserError, run_command
+from roar.checks import MAX_SCAN_S
+from roar.cli.errors import ArgumentParser, UserError, number_option, path_option, run_command, seconds_option
+from roar.transports.registry import url_help
 from roar.vision.geometry import SIMULATED_CAR_CAMERA
 
 EXAMPLES = """examples:
@@ -37,13 +36,12 @@ def _add_url(p: argparse.ArgumentParser) -> None:
 
 
 def _add_calibration(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--calibration", type=Path, metavar="TOML",
+    p.add_argument("--calibration", type=path_option, metavar="TOML",
                    help=f"calibration file (default: {default_path()} if it exists)")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="roar", description=__doc__, epilog=EXAMPLES,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = ArgumentParser(prog="roar", description=__doc__ + url_help(), epilog=EXAMPLES)
     parser.add_argument("-v", "--verbose", action="store_true", help="log what the library does")
     parser.add_argument("--version", action="version", version=f"roar {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
@@ -71,12 +69,13 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Walk through steering and throttle trim and end-points with the car "
                                    "holding each pulse as you type it; saves a calibration file.")
     _add_url(p)
-    p.add_argument("--file", type=Path, default=None, metavar="TOML",
+    p.add_argument("--file", type=path_option, default=None, metavar="TOML",
                    help=f"where to save (default: {default_path()})")
 
     p = sub.add_parser("scan", help="list Bluetooth LE cars nearby",
                        description="Scan for cars advertising the ROAR service (or every device with --all).")
-    p.add_argument("--timeout", type=float, default=5.0, metavar="SECONDS", help="how long to listen (default 5)")
+    p.add_argument("--timeout", type=number_option(0, MAX_SCAN_S, "s", low_open=True), default=5.0, metavar="SECONDS",
+                   help="how long to listen (default 5)")
     p.add_argument("--all", action="store_true", help="list every device, not only ROAR cars")
 
     sub.add_parser("ports", help="list serial ports", description="List serial ports, marking likely car boards.")
@@ -87,10 +86,10 @@ def build_parser() -> argparse.ArgumentParser:
                                    "window (or PNGs without a display), and print frames/s, latency and loss "
                                    "once a second.")
     p.add_argument("url", metavar="URL", help="udp://HOST, the phone (udp://127.0.0.1 for `roar sim --stream`)")
-    p.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: Ctrl-C)")
+    p.add_argument("--seconds", type=seconds_option, default=0.0, metavar="S", help="stop after this long (default: Ctrl-C)")
     p.add_argument("--push", action="store_true",
                    help="listen on ports 8001-8003 for pushed frames instead of asking for each with 'ack'")
-    p.add_argument("--out", type=Path, default=None, metavar="DIR",
+    p.add_argument("--out", type=path_option, default=None, metavar="DIR",
                    help="write PNGs here (one a second, and the last) instead of opening a window")
 
     p = sub.add_parser("vision", help="lane detection and obstacles over a folder of recorded frames",
@@ -100,10 +99,10 @@ def build_parser() -> argparse.ArgumentParser:
                                    "lies beside it. Writes a debug view per frame, optionally a video, and "
                                    "prints offset, heading and the nearest obstacle per frame. The camera is the "
                                    "simulated car's unless --fov/--height/--ahead/--pitch say otherwise.")
-    p.add_argument("folder", type=Path, metavar="FOLDER", help="the recorded frames")
-    p.add_argument("--out", type=Path, default=Path("out/vision"), metavar="DIR",
+    p.add_argument("folder", type=path_option, metavar="FOLDER", help="the recorded frames")
+    p.add_argument("--out", type=path_option, default=Path("out/vision"), metavar="DIR",
                    help="where the debug views go (default: out/vision)")
-    p.add_argument("--video", type=Path, default=None, metavar="MP4", help="also write the lane views as a video")
+    p.add_argument("--video", type=path_option, default=None, metavar="MP4", help="also write the lane views as a video")
     p.add_argument("--fps", type=float, default=10.0, help="the video's frame rate (default 10)")
     cam = SIMULATED_CAR_CAMERA
     p.add_argument("--fov", type=float, default=cam.fov_deg, metavar="DEG",
@@ -143,11 +142,15 @@ def _plugin_call(argv: list[str]) -> tuple[list[str], list[str]] | None:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    parser = build_parser()
     plugin_call = _plugin_call(argv)
-    args = parser.parse_args(plugin_call[0] if plugin_call else argv)
+    command = next((a for a in argv if not a.startswith("-")), None)
+    return run_command(f"roar {command}" if command else "roar", _main, argv, plugin_call)
+
+
+def _main(argv: list[str], plugin_call: tuple[list[str], list[str]] | None) -> int:
+    args = build_parser().parse_args(plugin_call[0] if plugin_call else argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="roar: %(message)s")
-    return run_command(f"roar {args.command}", _run, args, plugin_call[1] if plugin_call else None)
+    return _run(args, plugin_call[1] if plugin_call else None)
 
 
 def _run(args: argparse.Namespace, plugin_argv: list[str] | None) -> int:

@@ -4,6 +4,7 @@ object is a Command. Loading one must be cheap: import heavy modules inside main
 
 from __future__ import annotations
 
+import argparse
 from dataclasses import dataclass
 from importlib.metadata import EntryPoint, entry_points
 from typing import Callable
@@ -18,9 +19,19 @@ EXTRA_COMMANDS = {"limits": "sim", "platoon": "sim", "race": "sim", "sim": "sim"
 class Command:
     help: str  # one line for `roar --help`
     main: Callable[[list[str]], int]  # the command's own arguments -> exit status
-    # the command's argument parsing alone, without running it (argparse's SystemExit on bad
-    # arguments): how the docs' command lines are checked against the commands
-    parse_args: Callable[[list[str]], object] | None = None
+    # the command's argument parsers, without running it: {flags that select it: parser}; () for
+    # the command's own, ("--stream",) for `roar sim --stream`'s. How the docs' command lines
+    # are checked against the commands, and how the suite tries every option with bad values.
+    parsers: Callable[[], dict[tuple[str, ...], argparse.ArgumentParser]] | None = None
+
+    def parse_args(self, argv: list[str]) -> argparse.Namespace:
+        """argv parsed as main() would (the parser its flags select), without running anything;
+        a bad argument raises as the parser does (roar.cli.errors.UserError)."""
+        if self.parsers is None:
+            raise TypeError("this command does not expose its parsers")
+        parsers = self.parsers()
+        flags = max((f for f in parsers if all(flag in argv for flag in f)), key=len)
+        return parsers[flags].parse_args([a for a in argv if a not in flags])
 
 
 def installed() -> dict[str, EntryPoint]:

@@ -12,13 +12,14 @@ import os
 import sys
 import time
 from pathlib import Path
-from urllib.parse import urlsplit
 
 import numpy as np
 
 from roar.errors import RoarError
 from roar.protocol import spec
-from roar.stream import KINDS, StreamReceiver
+from roar.stream import KINDS, StreamReceiver, peer
+from roar.transports import TransportError, open_url, parse_url
+from roar.user_files import unusable_folder
 
 REPORT_PERIOD_S = 1.0  # [s]
 
@@ -27,14 +28,17 @@ class StreamError(RoarError):
     """A stream URL or option that cannot work; str() is one line."""
 
 
-def target(url: str) -> str:
-    parts = urlsplit(url)
-    if parts.scheme != "udp" or not parts.hostname:
-        raise StreamError(f"want udp://HOST (the car's phone, or 127.0.0.1 for `roar sim --stream`), got {url!r}")
-    if parts.port is not None:
-        raise StreamError(f"the streams use their own ports ({', '.join(f'{k} {p}' for k, p in KINDS.items())}); "
-                          f"give udp://HOST without a port")
-    return parts.hostname
+def target(url: str) -> tuple[str, bool]:
+    """(host, push) of a udp:// URL, read as the udp:// transport reads it (the same rules,
+    the same options: ?push=1)."""
+    try:
+        scheme = parse_url(url)[0]
+        if scheme != "udp":
+            raise StreamError(f"want udp://HOST (the car's phone, or 127.0.0.1 for `roar sim --stream`), got {url!r}")
+        transport = open_url(url)  # built, not opened
+    except TransportError as e:
+        raise StreamError(str(e)) from None
+    return transport.host, transport.push
 
 
 class _Window:
@@ -83,10 +87,11 @@ class _Window:
 
 
 async def watch(host: str, seconds: float, push: bool, out: Path | None, window: bool = True) -> int:
+    address, listen = peer(host)
     receivers = {}
     for kind, port in KINDS.items():
-        rx = StreamReceiver(kind, host="0.0.0.0", port=port if push else 0,
-                            sender=None if push else (host, port), ack=not push)
+        rx = StreamReceiver(kind, host=listen, port=port if push else 0,
+                            sender=None if push else (address, port), ack=not push)
         try:
             await rx.start()
         except OSError as e:
@@ -152,9 +157,19 @@ def report(receivers, counts, latencies, period_s, state_frame) -> str:
 
 
 def run(url: str, seconds: float, push: bool, out: Path | None) -> int:
-    host = target(url)
-    if not 0 <= seconds <= 86400:
+    host, url_push = target(url)
+    push = push or url_push
+    if not 0 <= seconds <= 86400:  # also refuses nan
         raise StreamError(f"--seconds must be 0 (until Ctrl-C) .. 86400, got {seconds:g}")
+    problem = out is not None and unusable_folder(out)
+    if problem:
+        raise StreamError(f"--out {problem}")
+    try:
+        import matplotlib  # noqa: F401 (the window, or the PNGs)
+        import PIL  # noqa: F401 (the camera's JPEGs)
+    except ImportError as e:
+        raise StreamError(f"roar stream needs {e.name}: pip install 'roar-platform[camera,vision]'") from None
+    peer(host)  # a host that does not resolve is an error now, not after --seconds of silence
     print(f"receiving from udp://{host} ({'pushed to this machine' if push else 'asking with ' + repr(spec.UDP_REQUEST_PAYLOAD)}); "
           f"Ctrl-C stops", flush=True)
     return asyncio.run(watch(host, seconds, push, out))

@@ -22,6 +22,7 @@ from roar.vision.geometry import SIMULATED_CAR_CAMERA, CameraPreset
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
 DEPTH_SUFFIX = "_depth.npy"
+MIN_FRAME_PX = 16  # [px] the shortest side of a frame the lane detector can look at
 
 
 class FramesError(RoarError):
@@ -54,7 +55,26 @@ def load_rgb(path: Path) -> np.ndarray:
         rgb = bgr[:, :, ::-1]
     if rgb.ndim != 3 or rgb.shape[2] < 3 or rgb.dtype != np.uint8:
         raise FramesError(f"{path.name}: want an H x W x 3 RGB image of bytes, got {rgb.dtype} {rgb.shape}")
+    if min(rgb.shape[:2]) < MIN_FRAME_PX:
+        raise FramesError(f"{path.name} is {rgb.shape[1]}x{rgb.shape[0]}: a frame is at least "
+                          f"{MIN_FRAME_PX}x{MIN_FRAME_PX} px")
     return np.ascontiguousarray(rgb[:, :, :3])
+
+
+def load_depth(path: Path, size: tuple[int, int]) -> tuple[np.ndarray, int]:
+    """(depth [m] as float32, how many of its pixels are not finite numbers) from NAME_depth.npy,
+    which must be an H x W array of numbers the size (W, H) of its frame."""
+    try:
+        depth = np.load(path, allow_pickle=False)
+    except (OSError, ValueError) as e:
+        raise FramesError(f"{path.name}: not a numpy array ({e})") from None
+    if depth.ndim != 2 or depth.dtype.kind not in "fiu":
+        raise FramesError(f"{path.name}: want an H x W array of depths in metres, got {depth.dtype} {depth.shape}")
+    if depth.shape[::-1] != size:
+        raise FramesError(f"{path.name} is {depth.shape[1]}x{depth.shape[0]}, its frame {size[0]}x{size[1]}: "
+                          f"a depth image is its frame's size")
+    depth = depth.astype(np.float32)
+    return depth, int(np.count_nonzero(~np.isfinite(depth)))
 
 
 def _figure_rgb(fig) -> np.ndarray:
@@ -98,11 +118,12 @@ def run(folder: Path, out: Path, video: Path | None = None, fps: float = 10.0,
                    if lanes.centre is not None else ""))
         depth_path = path.with_name(path.stem + DEPTH_SUFFIX)
         if depth_path.exists():
-            depth = np.load(depth_path, allow_pickle=False)
-            dh, dw = depth.shape[:2]
-            grid = occupancy(depth.astype(np.float32), camera.model(dw, dh))
+            depth, unknown = load_depth(depth_path, size)
+            grid = occupancy(depth, camera.model(w, h))
             nearest = grid.nearest_ahead(0.25)
             line += f"; obstacle ahead {'none' if nearest is None else f'{nearest:.2f} m'}"
+            if unknown:
+                line += f" ({unknown} of {depth.size} depth pixels not a number)"
             occupancy_fig = figure(rgb, grid)
             occupancy_fig.savefig(out / f"{path.stem}_occupancy.png")
             plt.close(occupancy_fig)

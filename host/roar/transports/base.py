@@ -5,6 +5,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from typing import Any, ClassVar
 
+from roar.checks import number
 from roar.errors import RoarError
 from roar.telemetry import VehicleState
 
@@ -89,6 +90,16 @@ def pop_option(options: dict[str, str], name: str, kind: type, default):
         return kind(raw)
     except ValueError:
         raise TransportError(f"option {name}={raw!r} is not a valid {kind.__name__}") from None
+
+
+def pop_number(options: dict[str, str], name: str, default: float, low: float, high: float, unit: str = "",
+               low_open: bool = False) -> float:
+    """Take one numeric query option, finite and within low..high; one-line TransportError if not."""
+    value = pop_option(options, name, float, default)
+    try:
+        return number(name, value, low, high, unit, low_open)
+    except ValueError as e:
+        raise TransportError(str(e)) from None
 
 
 def unit_command(data: bytes, scheme: str) -> tuple[float, float]:

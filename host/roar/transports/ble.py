@@ -20,11 +20,13 @@ from bleak import BleakClient, BleakScanner
 from bleak.exc import BleakError
 
 from roar.aio import run_sync
+from roar.checks import MAX_SCAN_S, number
 from roar.protocol import spec
 from roar.telemetry import VehicleState
-from roar.transports.base import LinkLost, Transport, TransportError, pop_option
+from roar.transports.base import LinkLost, Transport, TransportError, pop_number
 
 DEFAULT_TIMEOUT_S = 10.0  # [s] to find and connect to the car
+MAX_CONNECT_S = 120.0  # [s] the longest a connection may be given
 WRITE_TIMEOUT_S = 1.0  # [s]
 _ADDRESS = re.compile(r"^([0-9A-Fa-f]{2}:){5}[0-9A-Fa-f]{2}$|^[0-9A-Fa-f-]{36}$")  # MAC, or a macOS UUID
 
@@ -48,6 +50,7 @@ def _no_bluetooth(e: BaseException) -> TransportError:
 
 def scan(timeout_s: float = 5.0, only_cars: bool = True, backend=None) -> list[FoundDevice]:
     """Devices heard within timeout_s, strongest first; only ROAR cars unless only_cars=False."""
+    timeout_s = number("timeout_s", timeout_s, 0, MAX_SCAN_S, "s", low_open=True)
 
     async def _scan():
         return await BleakScanner.discover(timeout=timeout_s, return_adv=True, backend=backend)
@@ -71,7 +74,7 @@ class BleTransport(Transport):
     def __init__(self, target: str = "", timeout_s: float = DEFAULT_TIMEOUT_S, scanner_backend=None,
                  client_backend=None) -> None:
         self.target = target
-        self.timeout_s = timeout_s
+        self.timeout_s = number("timeout_s", timeout_s, 0, MAX_CONNECT_S, "s", low_open=True)
         self.scanner_backend, self.client_backend = scanner_backend, client_backend
         self._client: BleakClient | None = None
         self._connected = False
@@ -79,9 +82,7 @@ class BleTransport(Transport):
     @classmethod
     def from_url(cls, target: str, options: dict[str, str], scanner_backend=None,
                  client_backend=None) -> BleTransport:
-        timeout = pop_option(options, "timeout", float, DEFAULT_TIMEOUT_S)
-        if not 0 < timeout <= 120:
-            raise TransportError(f"timeout must be 0..120 s, got {timeout:g}")
+        timeout = pop_number(options, "timeout", DEFAULT_TIMEOUT_S, 0, MAX_CONNECT_S, "s", low_open=True)
         return cls(target.strip("/"), timeout, scanner_backend, client_backend)
 
     def describe_target(self) -> str:

@@ -21,6 +21,15 @@ _REGISTRY: dict[str, str | type[Transport]] = {
 }
 # What to install for the schemes this project's extras provide.
 EXTRAS = {"ble": "ble", "sim": "sim"}
+# scheme -> (an example URL, what it reaches), for `roar --help`
+EXAMPLES = {
+    "sim": ("sim://  sim://oval?robot=iarrc", "a simulated robot, on an open floor or a track"),
+    "serial": ("serial:///dev/ttyUSB0", "a car on USB serial (find the port with `roar ports`)"),
+    "ble": ("ble://  ble://ROAR Car", "a car over Bluetooth LE (find it with `roar scan`)"),
+    "http": ("http://192.168.4.1:81", "the ROAR Junior (control port; its camera on the port below)"),
+    "udp": ("udp://192.168.1.20", "a car through the phone on it (ROAR's UDP streams and controls)"),
+    "loop": ("loop://", "no car: records what is sent (for tests)"),
+}
 _entry_points_loaded = False
 
 
@@ -37,6 +46,16 @@ def register(scheme: str, transport: str | type[Transport]) -> None:
 def schemes() -> list[str]:
     _load_entry_points()
     return sorted(_REGISTRY)
+
+
+def url_help() -> str:
+    """Every scheme this installation opens, one line each with an example: `roar --help`'s list."""
+    installed = schemes()
+    lines = []
+    for scheme in [s for s in EXAMPLES if s in installed] + [s for s in installed if s not in EXAMPLES]:
+        example, what = EXAMPLES.get(scheme, (f"{scheme}://", "(from an installed plug-in)"))
+        lines.append(f"  {example:32}{what}")
+    return "\n".join(lines)
 
 
 def _load_entry_points() -> None:

@@ -48,21 +48,22 @@ class UdpPhoneTransport(Transport):
         return cls(host, pop_option(options, "push", bool, False))
 
     def open(self) -> None:
-        from roar.stream import KINDS, StreamReceiver
+        from roar.stream import KINDS, StreamReceiver, UnknownHost, peer
 
         try:
+            address, listen = peer(self.host)
             self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-            self._sock.connect((self.host, spec.UDP_PORT_CONTROL))
-        except OSError as e:
-            raise TransportError(f"udp://{self.host}: {e.strerror or e}") from None
+            self._sock.connect((address, spec.UDP_PORT_CONTROL))
+        except (OSError, UnknownHost) as e:
+            raise TransportError(f"udp://{self.host}: {e.strerror if isinstance(e, OSError) else e}") from None
         started = threading.Event()
 
         async def run() -> None:
             self._stop = asyncio.Event()
             try:
                 for kind, port in KINDS.items():
-                    rx = StreamReceiver(kind, host="0.0.0.0", port=port if self.push else 0,
-                                        sender=None if self.push else (self.host, port), ack=not self.push)
+                    rx = StreamReceiver(kind, host=listen, port=port if self.push else 0,
+                                        sender=None if self.push else (address, port), ack=not self.push)
                     self.receivers[kind] = await rx.start()
             except BaseException as e:
                 self._error = e

@@ -232,7 +232,8 @@ def debug_view(detector: LaneDetector, rgb: np.ndarray):
         axes[1].plot(c, r, color=colours[name], lw=1.5, label=f"{name} {line.confidence:.2f}")
         pr, pc = detector.bev.to_pixel(line.points[:, 0], line.points[:, 1])
         axes[1].scatter(pc, pr, s=12, color=colours[name])
-    axes[1].legend(fontsize=7, loc="lower right")
+    if any(line is not None for line in d["lines"].values()):  # a legend of nothing is a warning
+        axes[1].legend(fontsize=7, loc="lower right")
     axes[2].imshow(np.dstack([d["white"], d["yellow"], np.zeros_like(d["white"])]))
     axes[2].set_title("masks: white (red), yellow (green)")
     for ax in axes:
