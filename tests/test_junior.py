@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from conftest import ROOT, wait_for
+from roar.cli.errors import run_command
 from roar import Vehicle
 from roar.junior import original_mix, query_for, smooth_mix
 from roar.protocol import spec
@@ -24,6 +25,7 @@ from roar_sim.robots.junior import Junior
 from roar_sim.world.bullet import pb
 
 IDLE_WAIT_S = 0.7  # [s] longer than the camera keeps capturing after its last request
+OTHER_CLIENT = "127.0.0.2"  # a second client's address on loopback
 
 FORWARD = SidePins(True, False, 1000)
 TIMEOUT_S = spec.JUNIOR_FAILSAFE_TIMEOUT_US / 1e6
@@ -221,12 +223,13 @@ def test_the_control_port_answers_as_the_firmware(junior):
 
 
 def test_idle_connections_do_not_stop_a_driver_and_two_drivers_are_served(junior):
-    """200 connections opened and never used, then two clients drive at 50 Hz for a second:
-    every request answered, the robot never stopped by its failsafe."""
+    """200 connections opened by another client and never used, then two clients drive at 50 Hz
+    for a second: every request answered, the robot never stopped by its failsafe."""
     from urllib.parse import urlsplit
 
     parts = urlsplit(junior.urls.control_url)
-    idle = [socket.create_connection((parts.hostname, parts.port)) for _ in range(200)]
+    idle = [socket.create_connection((parts.hostname, parts.port), source_address=(OTHER_CLIENT, 0))
+            for _ in range(200)]
     try:
         answered, stops = [], []
 
@@ -254,7 +257,100 @@ def test_idle_connections_do_not_stop_a_driver_and_two_drivers_are_served(junior
             s.close()
 
 
+def address(url: str) -> tuple[str, int]:
+    host, port = url.removeprefix("http://").rsplit(":", 1)
+    return host, int(port)
+
+
+def exchange(url: str, data: bytes, timeout: float = 5.0) -> bytes:
+    """Everything the server sends back to `data` until it closes the connection."""
+    with socket.create_connection(address(url), timeout=timeout) as s:
+        s.sendall(data)
+        out = b""
+        while chunk := s.recv(65536):
+            out += chunk
+    return out
+
+
+SMUGGLED = b"GET /?forward=True&left_spd=1&right_spd=1 HTTP/1.1\r\nHost: junior\r\n\r\n"
+
+
+@pytest.mark.parametrize("headers, body", [
+    (b"Content-Length: %d\r\n" % len(SMUGGLED), SMUGGLED),
+    (b"Transfer-Encoding: chunked\r\n", b"%x\r\n%s\r\n0\r\n\r\n" % (len(SMUGGLED), SMUGGLED)),
+])
+def test_a_get_with_a_body_is_refused_and_its_body_never_runs(junior, headers, body):
+    """The body of a GET is not a second request: the GET is refused with 400, the connection
+    closes, and the robot does not drive -- on the control port and, by the same rules, the camera's."""
+    for url in (junior.urls.control_url, junior.urls.camera_url):
+        assert http_get(junior.urls.control_url, "/?stop=True")[0] == 200
+        request = b"GET /?stop=True HTTP/1.1\r\nHost: junior\r\n" + headers + b"\r\n" + body
+        reply = exchange(url, request)
+        assert reply.count(b"HTTP/1.1 ") == 1 and reply.startswith(b"HTTP/1.1 400 Bad Request\r\n"), reply
+        assert reply.endswith(b"\r\n\r\na GET takes no body\n") and b"Connection: close" in reply
+        time.sleep(0.1)
+        assert junior.server.sim.pins[0].duty == 0
+
+
+@pytest.mark.parametrize("request_bytes", [
+    b"POST /cam-lo.jpg HTTP/1.1\r\nHost: junior\r\n\r\n",
+    b"GET /cam-lo.jpg HTTP/1.1\r\nX-Padding: " + b"a" * 5000 + b"\r\n\r\n",
+    b"GET /cam-lo.jpg HTTP/1.1\r\nContent-Length: 3\r\n\r\nabc",
+    b"hello\r\n\r\n",
+], ids=["post", "long-header", "body", "garbage"])
+def test_both_ports_refuse_alike(junior, request_bytes):
+    """One set of rules for both ports: the camera's refusal is the control port's, byte for byte."""
+    control = exchange(junior.urls.control_url, request_bytes.replace(b"/cam-lo.jpg", b"/?stop=True"))
+    camera = exchange(junior.urls.camera_url, request_bytes)
+    assert camera == control and camera.split(b" ", 2)[1] in (b"400", b"405"), (camera, control)
+
+
+def test_quiet_connections_are_closed_and_a_client_holds_a_few(junior):
+    """A connection that sends nothing, or half a request and then nothing (slow loris), is
+    closed after the robot's idle time; a client's connections beyond the cap are closed at once,
+    while another client is served."""
+    from roar_sim.links.junior_http import IDLE_CLOSE_S, MAX_CONNECTIONS_PER_CLIENT
+
+    for url in (junior.urls.control_url, junior.urls.camera_url):
+        held = [socket.create_connection(address(url), source_address=(OTHER_CLIENT, 0), timeout=10)
+                for _ in range(MAX_CONNECTIONS_PER_CLIENT + 4)]
+        held[0].sendall(b"GET /?sto")  # half a request, then silence
+        t0 = time.monotonic()
+        try:
+            # the ones over the cap: closed at once (EOF, or reset)
+            for s in held[MAX_CONNECTIONS_PER_CLIENT:]:
+                try:
+                    assert s.recv(100) == b""
+                except ConnectionResetError:
+                    pass
+            assert time.monotonic() - t0 < 1.0
+            # another client meanwhile: served
+            assert exchange(url, b"GET /nowhere HTTP/1.1\r\n\r\n").startswith(b"HTTP/1.1 404")
+            # the rest: closed once quiet for the idle time, not before
+            for s in held[:MAX_CONNECTIONS_PER_CLIENT]:
+                assert s.recv(100) == b""
+            assert IDLE_CLOSE_S - 0.1 < time.monotonic() - t0 < IDLE_CLOSE_S + 3.0
+        finally:
+            for s in held:
+                s.close()
+
+
 # --- the host: http:// and the camera -----------------------------------------------------------
+
+def test_the_transport_reconnects_after_the_robot_closed_its_quiet_connection(junior):
+    from roar.protocol import encode, spec
+    from roar.transports.http_junior import HttpTransport
+    from roar_sim.links.junior_http import IDLE_CLOSE_S
+
+    transport = HttpTransport(*address(junior.urls.control_url), camera_port=address(junior.urls.camera_url)[1])
+    transport.open()
+    try:
+        transport.write(encode(spec.CONTROL_NEUTRAL_US, spec.CONTROL_NEUTRAL_US))
+        time.sleep(IDLE_CLOSE_S + 0.5)  # the robot closes the connection meanwhile
+        transport.write(encode(spec.CONTROL_NEUTRAL_US, spec.CONTROL_NEUTRAL_US))
+        assert transport.requests == 3
+    finally:
+        transport.close()
 
 @pytest.mark.parametrize("throttle, steering, expected", [
     (0, 0.7, (0, 0)), (0.2, 0, (1, 1)), (-0.9, 0, (-1, -1)), (0.5, 1.0, (1.0, 0)), (0.5, -0.5, (0, 0.9))])
@@ -425,8 +521,7 @@ def test_the_autopilot_laps_the_oval_with_the_junior_by_its_http_requests(tmp_pa
 def test_the_junior_refuses_the_heading_pid(capsys):
     from roar_sim.runs import race
 
-    with pytest.raises(SystemExit):
-        race.main(["--robot", "junior", "--steering", "pid"])
+    assert run_command("roar race", race.main, ["--robot", "junior", "--steering", "pid"]) == 1
     assert "pure pursuit only" in capsys.readouterr().err
 
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 import asyncio
 import io
 import multiprocessing
+import signal
 from dataclasses import dataclass
 from typing import Callable
 
@@ -43,18 +44,22 @@ def encode_image(rgb, fmt: str) -> bytes:
 
 
 def _render_worker(track: Track | None, conn) -> None:
-    """A renderer process: its own world, the robot placed as asked, one image per request."""
+    """A renderer process: its own world, the robot placed as asked, one image per request. It
+    ignores Ctrl-C (a terminal sends it to the whole group: the server decides when renderers
+    end) and ends when told to or when the server is gone (its pipe closed)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     from roar_sim.plants.junior import JuniorPlant
 
     plant = JuniorPlant(track)
-    while True:
-        request = conn.recv()
-        if request is None:
-            break
-        (position, orientation), (width, height), fmt = request
-        plant.place(position, orientation)
-        conn.send(encode_image(plant.camera(width, height)[0], fmt))
-    plant.close()
+    try:
+        while (request := conn.recv()) is not None:
+            (position, orientation), (width, height), fmt = request
+            plant.place(position, orientation)
+            conn.send(encode_image(plant.camera(width, height)[0], fmt))
+    except (EOFError, OSError):
+        pass
+    finally:
+        plant.close()
 
 
 def _call(pipe, request) -> bytes:

@@ -4,8 +4,12 @@
     camera   http://HOST:PORT-1/cam-lo.jpg  /cam-hi.jpg  /cam.bmp  /cam.jpg  /cam.mjpeg   (port 80)
 
 The control port runs the firmware's own HTTP reader and responses (roar_sim.robots.junior), so
-its replies are the robot's byte for byte; each connection is its own task, so a client that
-opens connections and sends nothing holds up no one. The camera frames come from
+its replies are the robot's byte for byte; the camera port reads requests with the same reader
+and refuses what the control port refuses, with the same replies (malformed or over 2048 bytes:
+400; not GET: 405; a GET that declares a body: 400, its body never read as a request). Each
+connection is its own task, so a slow client holds up no one; a connection quiet for the
+robot's idle time (2 s) is closed, as the robot closes it, and a client holds at most
+MAX_CONNECTIONS_PER_CLIENT at once (more are closed at once). The camera frames come from
 roar_sim.links.junior_camera: renderer processes beside the simulation, capturing while asked for.
 
     roar sim --robot junior --http [127.0.0.1:8081] [--track oval] [--seconds 0]
@@ -19,15 +23,18 @@ import sys
 import threading
 from dataclasses import dataclass
 
-from roar.cli.errors import ExitStatus, UserError, run_command
+from roar.cli.errors import ArgumentParser, ExitStatus, UserError, run_command, seconds_option
 from roar.protocol import spec
 from roar.transports.http_junior import host_port
+from roar_sim.core.junior import HttpRequestReader
+from roar_sim.core.library import HttpRead
 from roar_sim.links.junior_camera import RENDER_WORKERS, Camera, CameraError
 from roar_sim.robots.junior import Junior
 from roar_sim.world.track import Track
 
 CHUNK_S = 0.002  # [s] simulated time per step of the real-time loop
-MAX_REQUEST_BYTES = 4096  # [bytes] a camera request's line and headers
+IDLE_CLOSE_S = spec.JUNIOR_IDLE_CLOSE_US / 1e6  # [s] a connection quiet this long is closed
+MAX_CONNECTIONS_PER_CLIENT = 16  # connections one client address holds at once, per port
 CAMERA_TIMEOUT_S = 5.0  # [s] a frame not rendered by then gets 503
 SIZES = {"low": (spec.JUNIOR_CAMERA_LOW_WIDTH, spec.JUNIOR_CAMERA_LOW_HEIGHT),
          "high": (spec.JUNIOR_CAMERA_HIGH_WIDTH, spec.JUNIOR_CAMERA_HIGH_HEIGHT)}
@@ -65,6 +72,7 @@ class JuniorServer:
         self._thread: threading.Thread | None = None
         self._servers: list[asyncio.AbstractServer] = []
         self._tasks: set[asyncio.Task] = set()
+        self._held: dict[tuple[str, int], int] = {}  # (client address, our port) -> connections open
 
     # --- the simulation ------------------------------------------------------------------------
 
@@ -78,7 +86,7 @@ class JuniorServer:
         connection = self.sim.connect()
         try:
             while connection.open:
-                data = await reader.read(4096)
+                data = await _read(reader)
                 if not data:
                     break
                 for reply in connection.feed(data):
@@ -92,15 +100,21 @@ class JuniorServer:
     # --- camera port -------------------------------------------------------------------------
 
     async def _camera(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        request, state = HttpRequestReader(), HttpRead.INCOMPLETE  # the control port's reader and rules
         try:
-            head = await reader.readuntil(b"\r\n\r\n")
-        except (asyncio.IncompleteReadError, asyncio.LimitOverrunError, ConnectionError):
+            while state == HttpRead.INCOMPLETE and (data := await _read(reader)):
+                state = request.feed(data)[1]
+        except (ConnectionError, OSError):
+            state = HttpRead.INCOMPLETE
+        if state == HttpRead.INCOMPLETE:  # the client went quiet or away mid-request
             writer.close()
             return
-        parts = head.split(b"\r\n", 1)[0].split()
-        path = parts[1].decode("ascii", "replace").split("?")[0] if len(parts) == 3 else ""
+        refused = request.refusal()
+        path = "" if refused else request.path
         try:
-            if (path in ROUTES or path == spec.JUNIOR_ROUTE_CAMERA_STREAM) and not self.camera.workers:
+            if refused:
+                writer.write(refused)
+            elif (path in ROUTES or path == spec.JUNIOR_ROUTE_CAMERA_STREAM) and not self.camera.workers:
                 writer.write(_response("503 Service Unavailable", "text/plain", CAMERA_OFF))
             elif path in ROUTES:
                 size, fmt = ROUTES[path]
@@ -141,8 +155,7 @@ class JuniorServer:
         self._thread = threading.Thread(target=self._simulate, name="junior-sim", daemon=True)
         self._thread.start()
         control = await asyncio.start_server(self._tracked(self._control), self.host, self.port)
-        camera = await asyncio.start_server(self._tracked(self._camera), self.host, self.camera_port,
-                                            limit=MAX_REQUEST_BYTES)
+        camera = await asyncio.start_server(self._tracked(self._camera), self.host, self.camera_port)
         self._servers = [control, camera]
         port = control.sockets[0].getsockname()[1]
         camera_port = camera.sockets[0].getsockname()[1]
@@ -151,6 +164,12 @@ class JuniorServer:
     def _tracked(self, handler):
         """handler, its task remembered while it runs, so that stop() can end open connections."""
         async def run(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+            peer, ours = writer.get_extra_info("peername"), writer.get_extra_info("sockname")
+            key = (peer[0] if peer else "", ours[1] if ours else 0)
+            if self._held.get(key, 0) >= MAX_CONNECTIONS_PER_CLIENT:
+                writer.close()  # this client holds enough: the others are not kept waiting for it
+                return
+            self._held[key] = self._held.get(key, 0) + 1
             task = asyncio.current_task()
             self._tasks.add(task)
             try:
@@ -159,6 +178,9 @@ class JuniorServer:
                 pass  # stop() ended the connection (the handler has closed it)
             finally:
                 self._tasks.discard(task)
+                self._held[key] -= 1
+                if not self._held[key]:
+                    del self._held[key]
         return run
 
     async def stop(self) -> None:
@@ -175,6 +197,14 @@ class JuniorServer:
             self._thread.join()
         self.camera.close()
         self.sim.close()
+
+
+async def _read(reader: asyncio.StreamReader) -> bytes:
+    """What the client sent next; b"" when it closed or stayed quiet for IDLE_CLOSE_S."""
+    try:
+        return await asyncio.wait_for(reader.read(4096), IDLE_CLOSE_S)
+    except asyncio.TimeoutError:
+        return b""
 
 
 def _response(status: str, content_type: str, body: bytes, extra: list[str] | None = None) -> bytes:
@@ -208,13 +238,12 @@ async def serve(track: Track | None, host: str, port: int, seconds: float, gui: 
 
 
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="roar sim --robot junior --http", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="roar sim --robot junior --http", description=__doc__)
     p.add_argument("--http", default="127.0.0.1:8081", metavar="HOST:PORT",
                    help="where to serve the control route (default 127.0.0.1:8081; port 0 picks free ports); "
                         "the camera is on the port below it")
-    p.add_argument("--track", default="", help="oval, figure-eight, course or a track .json file (default: open floor)")
-    p.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: Ctrl-C)")
+    p.add_argument("--track", default=None, help="oval, figure-eight, course or a track .json file (default: open floor)")
+    p.add_argument("--seconds", type=seconds_option, default=0.0, metavar="S", help="stop after this long (default: Ctrl-C)")
     p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
     return p
 
@@ -224,7 +253,7 @@ def main(argv: list[str] | None = None) -> int:
 
     args = parser().parse_args(argv)
     host, port = parse_address(args.http)
-    track = get(args.track) if args.track else None
+    track = get(args.track) if args.track is not None else None
     try:
         asyncio.run(serve(track, host, port, args.seconds, args.gui, camera_port=0 if port == 0 else None,
                           on_ready=lambda text: print(text, flush=True)))

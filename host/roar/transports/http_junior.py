@@ -19,10 +19,11 @@ import socket
 
 import numpy as np
 
+from roar.checks import printable
 from roar.junior import MIXES, query_for
 from roar.protocol import spec
 from roar.telemetry import VehicleState
-from roar.transports.base import LinkLost, Transport, TransportError, pop_option, unit_command
+from roar.transports.base import LinkLost, Transport, TransportError, pop_number, pop_option, unit_command
 
 
 def host_port(text: str) -> tuple[str, int] | None:
@@ -43,6 +44,7 @@ class HttpTransport(Transport):
         self.camera_port = camera_port if camera_port is not None else port - 1
         self._mix = MIXES[mixing]
         self._conn: http.client.HTTPConnection | None = None
+        self._reused = False  # the next request goes on a connection that served one before
         self.range_m: float | None = None  # [m] the latest ultrasonic reading; inf: no echo
         self.requests = 0
 
@@ -55,10 +57,10 @@ class HttpTransport(Transport):
         mixing = pop_option(options, "mixing", str, "original")
         if mixing not in MIXES:
             raise TransportError(f"mixing must be one of {', '.join(MIXES)}, got {mixing!r}")
-        camera = pop_option(options, "camera", int, port - 1)
-        timeout = pop_option(options, "timeout", float, 2.0)
-        if not 0 < timeout <= 30:
-            raise TransportError(f"timeout must be 0..30 s, got {timeout:g}")
+        camera = pop_option(options, "camera", int, None)
+        if camera is not None and not 1 <= camera <= 65535:
+            raise TransportError(f"camera must be a port 1..65535, got {camera}")
+        timeout = pop_number(options, "timeout", 2.0, 0, 30, "s", low_open=True)
         return cls(host, port, mixing, camera, timeout)
 
     def open(self) -> None:
@@ -70,23 +72,36 @@ class HttpTransport(Transport):
         if conn is None:
             raise LinkLost(f"Junior at {self.host}:{self.port} is not connected")
         try:
-            conn.request("GET", "/?" + query)
-            response = conn.getresponse()
+            try:
+                response = self._exchange(conn, query)
+            except (http.client.RemoteDisconnected, ConnectionResetError, BrokenPipeError):
+                if not self._reused:
+                    raise
+                conn.close()  # the robot closed a connection quiet for its idle time: a new one, once
+                response = self._exchange(conn, query)
             body = response.read().decode("ascii", "replace").strip()
+            self._reused = response.getheader("Connection", "").lower() != "close"
         except (OSError, http.client.HTTPException) as e:
+            self._reused = False
             conn.close()
             reason = e.strerror if isinstance(e, OSError) and e.strerror else str(e) or type(e).__name__
             if isinstance(e, socket.timeout):
                 reason = f"no reply within {self.timeout_s:g} s"
             raise error(f"Junior at {self.host}:{self.port}: {reason}") from None
         if response.status != 200:
-            raise TransportError(f"Junior at {self.host}:{self.port} refused {query!r}: {response.status} {body}")
+            raise TransportError(f"Junior at {self.host}:{self.port} refused {query!r}: {response.status} "
+                                 f"{printable(body)}")
         self.requests += 1
         try:
             cm = float(body)
         except ValueError:
             raise TransportError(f"{self.host}:{self.port} is not a Junior: it replied {body[:40]!r}") from None
         self.range_m = cm / 100 if cm > 0 else math.inf
+
+    def _exchange(self, conn: http.client.HTTPConnection, query: str) -> http.client.HTTPResponse:
+        self._reused = self._reused and conn.sock is not None
+        conn.request("GET", "/?" + query)
+        return conn.getresponse()
 
     def write(self, data: bytes) -> None:
         throttle, steering = unit_command(data, self.scheme)
