@@ -12,7 +12,8 @@ import sys
 
 import pytest
 
-from roar_sim.runs.sweep import SweepError, Run, grid, parse_values
+from roar_sim.runs import sweep as sweep_module
+from roar_sim.runs.sweep import COLUMNS, Run, SweepError, Table, grid, parse_values
 
 pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
 pytest.importorskip("ray", reason="pip install ray (make setup installs it; roar-platform[sweep])")
@@ -207,4 +208,69 @@ def test_a_table_of_something_else_is_not_overwritten(tmp_path):
 @pytest.mark.parametrize("args", [["--laps", "0"], ["--workers", "2", "--serial"], ["--serial", "--address", "auto"]])
 def test_bad_options(tmp_path, args):
     done = roar("sweep", "--out", str(tmp_path), *args, timeout=60)
-    assert done.returncode == 2 and "error:" in done.stderr and "Traceback" not in done.stderr
+    assert done.returncode == 1 and "error:" in done.stderr and "Traceback" not in done.stderr
+
+
+def fake_race(run):
+    """A result row as race_run makes it, without racing (the table is what is under test)."""
+    return {**sweep_module._run_columns(run), "status": "ok", "laps_done": run.laps, "best_lap_s": 10.0 + run.margin,
+            "limit_lap_s": 9.0, "best_ratio": (10.0 + run.margin) / 9.0, "wall_contacts": 0,
+            "max_cross_track_m": 0.1, "error": ""}
+
+
+DAMAGED_ROWS = [
+    "figure-eight,esc,0.3,0.9,1,ok",  # cut short (the issue's row)
+    "figure-eight,esc,0.3,0.95,1,ok,1,,,,,,",  # whole, but the numbers are gone
+    "figure-eight,esc,0.3,1.0,1,great,1,10,9,1.1,0,0.1,",  # a status the tool does not write
+    "figure-eight,esc,0.3,0.85,1,ok,1,10,9,nan,0,0.1,",  # a ratio that is not finite
+]
+
+
+@pytest.mark.parametrize("damaged", DAMAGED_ROWS)
+def test_a_damaged_row_is_reported_set_aside_and_run_again(tmp_path, monkeypatch, capsys, damaged):
+    """Each damaged row: one line naming it, the row kept in results.damaged.csv, its run raced
+    again, and a table that reads back whole -- run after run."""
+    monkeypatch.setattr(sweep_module, "race_run", fake_race)
+    table = tmp_path / "results.csv"
+    table.write_text(",".join(COLUMNS) + "\n" + damaged + "\n")
+    argv = ["--out", str(tmp_path), "--serial", "--track", "figure-eight", "--k-dd", "0.3",
+            "--margin", "0.85,0.9,0.95,1", "--laps", "1"]
+    for attempt in range(2):
+        capsys.readouterr()
+        assert sweep_module.main(argv) == 0
+        err = capsys.readouterr().err
+        if attempt == 0:
+            assert f"{table} line 2: " in err and "set aside in results.damaged.csv" in err, err
+            assert "0 already in" in err and "4 to run" in err, err
+        else:
+            assert "line 2" not in err and "4 already in" in err, err
+        written = rows(table)
+        assert len(written) == 4 and all(r["status"] == "ok" and r["best_ratio"] for r in written), written
+    assert (tmp_path / "results.damaged.csv").read_text().splitlines()[1].rstrip(",") == damaged.rstrip(",")
+
+
+def test_an_interrupted_write_never_leaves_half_a_table(tmp_path, monkeypatch):
+    """The table is replaced whole: a write that dies midway leaves the last whole table."""
+    table = Table(tmp_path / "results.csv")
+    runs = grid(["oval"], [0.3], [0.85, 0.9], laps=1)
+    table.add(sweep_module._strings(fake_race(runs[0])))
+    before = (tmp_path / "results.csv").read_bytes()
+
+    def dies(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(sweep_module.os, "replace", dies)
+    with pytest.raises(OSError):
+        table.add(sweep_module._strings(fake_race(runs[1])))
+    assert (tmp_path / "results.csv").read_bytes() == before
+    assert Table(tmp_path / "results.csv").damaged == []
+
+
+def test_a_malformed_result_becomes_a_failed_row():
+    row = sweep_module._strings({**fake_race(Run("oval", 0.3, 0.9, 1)), "limit_lap_s": float("inf")})
+    table = Table.__new__(Table)
+    table.rows, table.damaged = {}, []
+    table._write = lambda keys: None
+    table.add(row)
+    (kept,) = table.rows.values()
+    assert kept["status"] == "failed" and "limit_lap_s 'inf' is not a finite number" in kept["error"]

@@ -31,15 +31,20 @@ import csv
 import logging
 import math
 import os
+import signal
 import socket
+import subprocess
 import sys
+import time
 from collections.abc import Callable, Iterable, Sequence
-from contextlib import closing
+from contextlib import closing, contextmanager, suppress
 from dataclasses import dataclass
 from pathlib import Path
 
-from roar.cli.errors import ExitStatus, run_command
+from roar.checks import printable, shown
+from roar.cli.errors import ArgumentParser, ExitStatus, path_option, run_command, stopped_status
 from roar.errors import RoarError
+from roar.user_files import unusable_folder
 from roar_sim import robots
 from roar_sim.world import plotting
 
@@ -49,6 +54,9 @@ DEFAULT_K_DD_S = "0.2,0.4,0.6,0.8"  # [s] pure pursuit's look-ahead per m/s
 DEFAULT_MARGINS = "0.85,0.9,0.95,1.0"  # fractions of the car's limits
 DEFAULT_TRACKS = "figure-eight"
 MAX_RUNS = 10_000  # a grid larger than this is a typo
+MAX_DAMAGED_SHOWN = 5  # damaged table rows reported one per line; the rest counted
+RAY_STOP_S = 0.1  # [s] for the local Ray's processes to end after SIGTERM, before SIGKILL
+WAIT_SLICE_S = 0.1  # [s] longest wait for Ray results without looking for Ctrl-C
 CONNECT_TIMEOUT_S = 5.0  # [s] for a Ray cluster's address to answer
 
 
@@ -134,25 +142,41 @@ def _run_columns(run: Run) -> dict:
 
 
 class Table:
-    """The results CSV: rows by run key, appended as runs finish (so an interruption keeps
-    them), rewritten in grid order at the end."""
+    """The results CSV: rows by run key, written as runs finish (so an interruption keeps them),
+    in grid order at the end. The file is only ever replaced whole (a new file, renamed over it),
+    so it never holds half a table; a row that does not read back (cut short, a field that is not
+    a number, a status the tool does not write) is `damaged`: set aside in results.damaged.csv and
+    run again."""
 
     def __init__(self, path: Path) -> None:
         self.path = path
         self.rows: dict[tuple, dict] = {}
+        self.damaged: list[tuple[int, str, list[str]]] = []  # (line number, what is wrong, its fields)
         if path.exists():
             self._load()
 
+    @property
+    def damaged_path(self) -> Path:
+        return self.path.with_name(self.path.stem + ".damaged.csv")
+
     def _load(self) -> None:
         try:
-            with self.path.open(newline="") as f:
-                reader = csv.DictReader(f)
-                if tuple(reader.fieldnames or ()) != COLUMNS:
+            with self.path.open(newline="", encoding="utf-8") as f:
+                reader = csv.reader(f)
+                header = next(reader, None)
+                if header is not None and tuple(header) != COLUMNS:
                     raise SweepError(f"{self.path} is not a sweep results table (its columns differ): "
                                      f"move it away or give another --out")
-                for row in reader:
-                    self.rows[_key(row)] = row
-        except (OSError, UnicodeDecodeError, csv.Error, ValueError) as e:
+                for fields in reader:
+                    if not fields:
+                        continue
+                    problem = row_problem(fields)
+                    if problem:
+                        self.damaged.append((reader.line_num, problem, fields))
+                    else:
+                        row = dict(zip(COLUMNS, fields))
+                        self.rows[_key(row)] = row
+        except (OSError, UnicodeDecodeError, csv.Error) as e:
             raise SweepError(f"{self.path}: cannot read it as a results table ({e})") from None
 
     def finished(self, run: Run) -> bool:
@@ -160,27 +184,67 @@ class Table:
         return row is not None and row["status"] != "failed"
 
     def add(self, row: dict) -> None:
+        """Keep `row` (a malformed one becomes a `failed` row saying why) and write the table."""
+        problem = row_problem([row.get(c, "") for c in COLUMNS])
+        if problem:
+            row = {**{c: row.get(c, "") for c in COLUMNS[:5]}, **{c: "" for c in COLUMNS[5:]},
+                   "status": "failed", "laps_done": "0", "error": f"the run's result row is malformed: {problem}"}
         self.rows[_key(row)] = row
-        new = not self.path.exists() or self.path.stat().st_size == 0
-        with self.path.open("a", newline="") as f:
-            writer = csv.DictWriter(f, COLUMNS)
-            if new:
-                writer.writeheader()
-            writer.writerow(row)
+        self._write(list(self.rows))
 
     def rewrite(self, runs: Sequence[Run]) -> None:
         """The rows of `runs` in their order, then any other rows kept from earlier sweeps."""
         keys = [r.key for r in runs if r.key in self.rows]
-        rest = [k for k in self.rows if k not in set(keys)]
-        tmp = self.path.with_suffix(".csv.tmp")
-        with tmp.open("w", newline="") as f:
+        chosen = set(keys)
+        self._write(keys + [k for k in self.rows if k not in chosen])
+
+    def _write(self, keys: Sequence[tuple]) -> None:
+        if self.damaged:  # set aside once, before the table drops them
+            new = not self.damaged_path.exists()
+            with self.damaged_path.open("a", newline="", encoding="utf-8") as f:
+                writer = csv.writer(f)
+                if new:
+                    writer.writerow(COLUMNS)
+                writer.writerows(fields for _, _, fields in self.damaged)
+            self.damaged = []
+        tmp = self.path.with_name(self.path.name + ".tmp")
+        with tmp.open("w", newline="", encoding="utf-8") as f:
             writer = csv.DictWriter(f, COLUMNS)
             writer.writeheader()
-            writer.writerows(self.rows[k] for k in keys + rest)
+            writer.writerows(self.rows[k] for k in keys)
         os.replace(tmp, self.path)
 
     def of(self, runs: Iterable[Run]) -> list[dict]:
         return [self.rows[r.key] for r in runs if r.key in self.rows]
+
+
+STATUSES = ("ok", "incomplete", "failed")
+
+
+def row_problem(fields: Sequence[str]) -> str | None:
+    """What makes a table row unreadable, in a few words; None for a row the tool wrote."""
+    if len(fields) != len(COLUMNS):
+        return f"{len(fields)} fields where a row has {len(COLUMNS)}"
+    row = dict(zip(COLUMNS, fields))
+    if not row["track"] or not row["robot"]:
+        return "no track or robot"
+    if row["status"] not in STATUSES:
+        return f"status {shown(row['status'])} is none of {', '.join(STATUSES)}"
+    numbers = {"k_dd_s": float, "margin": float, "laps": int}
+    if row["status"] != "failed":
+        numbers |= {"laps_done": int, "limit_lap_s": float, "wall_contacts": int, "max_cross_track_m": float}
+        if row["laps_done"] not in ("", "0"):
+            numbers |= {"best_lap_s": float, "best_ratio": float}
+    for column, kind in numbers.items():
+        try:
+            value = kind(row[column])
+        except ValueError:
+            return f"{column} {shown(row[column])} is not {'a whole number' if kind is int else 'a number'}"
+        if not math.isfinite(value) or value < 0:
+            return f"{column} {shown(row[column])} is not a finite number >= 0"
+    if row["status"] != "failed" and (int(row["laps_done"]) >= int(row["laps"])) != (row["status"] == "ok"):
+        return f"status {row['status']} with {row['laps_done']} of {row['laps']} laps"
+    return None
 
 
 def _key(row: dict) -> tuple:
@@ -230,7 +294,8 @@ def _on_ray(todo: Sequence[Run], fn: Callable[[Run], dict], address: str | None,
         task = ray.remote(num_cpus=1, max_retries=0)(attempt)
         pending = {task.remote(fn, run): run for run in todo}
         while pending:
-            ready, _ = ray.wait(list(pending), num_returns=1)
+            # a short timeout: Ray's wait blocks in C++, where Ctrl-C waits until it returns
+            ready, _ = ray.wait(list(pending), num_returns=1, timeout=WAIT_SLICE_S)
             for ref in ready:
                 run = pending.pop(ref)
                 try:
@@ -239,7 +304,66 @@ def _on_ray(todo: Sequence[Run], fn: Callable[[Run], dict], address: str | None,
                     yield failed_row(run, f"{type(e).__name__}: the Ray worker running it died")
     finally:
         if ours:
+            if address is None:
+                _without_grace(ray)
             ray.shutdown()
+
+
+def _without_grace(ray) -> None:
+    """Have ray.shutdown() stop the processes of the local Ray this sweep started all together:
+    SIGTERM to all (each ends what it started), killed if not gone within RAY_STOP_S. By default
+    shutdown gives each a second, one after another -- seconds after a Ctrl-C. (The driver still
+    says goodbye to them first. Ray's node handle is not public API: without it, the default.)"""
+    node = getattr(getattr(getattr(ray, "_private", None), "worker", None), "_global_node", None)
+    if node is None or not isinstance(getattr(node, "all_processes", None), dict):
+        return
+    kill = node.kill_all_processes
+
+    def stop_together(**_) -> None:
+        processes = [info.process for infos in node.all_processes.values() for info in infos
+                     if info.process.poll() is None]
+        for process in processes:
+            process.terminate()
+        deadline = time.monotonic() + RAY_STOP_S
+        for process in processes:
+            try:
+                process.wait(max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:  # it and what it started (the raylet's agents)
+                for pid in [*_descendants(process.pid), process.pid]:
+                    with suppress(OSError):
+                        os.kill(pid, signal.SIGKILL)
+        kill(check_alive=False, allow_graceful=False, wait=False)  # Ray's bookkeeping
+
+    node.kill_all_processes = stop_together
+
+
+def _descendants(pid: int) -> list[int]:
+    """The processes `pid` started, and theirs (Linux's /proc; none elsewhere)."""
+    parents = {}
+    for entry in os.listdir("/proc") if os.path.isdir("/proc") else ():
+        with suppress(OSError, ValueError, IndexError):
+            with open(f"/proc/{entry}/stat") as f:
+                parents[int(entry)] = int(f.read().rsplit(")", 1)[1].split()[1])
+    found, todo = [], [pid]
+    while todo:
+        of = todo.pop()
+        children = [p for p, parent in parents.items() if parent == of]
+        found += children
+        todo += children
+    return found
+
+
+@contextmanager
+def _sigint_kept_from_children():
+    """Processes (and threads) started within block SIGINT for good: a terminal's Ctrl-C, sent to
+    the whole process group, reaches the sweep alone, which then ends its local Ray at once,
+    instead of killing Ray's servers under their clients. A Ctrl-C meanwhile waits, pending,
+    until the end of the block, and interrupts there."""
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
 
 
 def start_ray(address: str | None, workers: int | None):
@@ -251,8 +375,9 @@ def start_ray(address: str | None, workers: int | None):
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")  # nothing leaves the machine unasked
     try:
         if address is None:
-            ray.init(num_cpus=workers or os.cpu_count(), include_dashboard=False, log_to_driver=False,
-                     logging_level=logging.ERROR)
+            with _sigint_kept_from_children():
+                ray.init(num_cpus=workers or os.cpu_count(), include_dashboard=False, log_to_driver=False,
+                         logging_level=logging.ERROR)
         else:
             ray.init(address=address, log_to_driver=False, logging_level=logging.ERROR)
     except (ConnectionError, RuntimeError, ValueError) as e:
@@ -311,7 +436,8 @@ def report(rows: Sequence[dict], tracks: Sequence[str]) -> str:
                          f"{float(b['best_lap_s']):.2f} s = {float(b['best_ratio']):.3f} x the physical limit "
                          f"({float(b['limit_lap_s']):.2f} s)")
     for r in failed:
-        lines.append(f"failed: {r['track']} K_dd {float(r['k_dd_s']):g} margin {float(r['margin']):g}: {r['error']}")
+        lines.append(f"failed: {printable(r['track'])} K_dd {float(r['k_dd_s']):g} margin {float(r['margin']):g}: "
+                     f"{printable(r['error'], 200)}")
     return "\n".join(lines)
 
 
@@ -355,8 +481,7 @@ def plot(rows: Sequence[dict], tracks: Sequence[str]):
 
 
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="roar sweep", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="roar sweep", description=__doc__)
     p.add_argument("--track", default=DEFAULT_TRACKS,
                    help=f"tracks, comma-separated: oval, figure-eight, course or .json files (default: "
                         f"{DEFAULT_TRACKS})")
@@ -366,7 +491,7 @@ def parser() -> argparse.ArgumentParser:
                    help=f"fractions of the robot's limits to drive at (default: {DEFAULT_MARGINS})")
     p.add_argument("--laps", type=int, default=2, help="laps per race; the best counts (default: 2)")
     p.add_argument("--robot", choices=robots.names(), default="esc", help="which robot races (default: the ESC car)")
-    p.add_argument("--out", type=Path, default=Path("out/sweep"), metavar="DIR",
+    p.add_argument("--out", type=path_option, default=Path("out/sweep"), metavar="DIR",
                    help="results.csv and sweep.png go here (default: out/sweep); an existing results.csv "
                         "is resumed")
     p.add_argument("--address", metavar="HOST:PORT",
@@ -395,8 +520,16 @@ def main(argv: list[str] | None = None) -> int:
         runs, tracks = _runs(args, K_DD_RANGE_S, MARGIN_RANGE)
         if args.address not in (None, "auto"):
             _reachable(args.address)
-        args.out.mkdir(parents=True, exist_ok=True)
+        problem = unusable_folder(args.out)
+        if problem:
+            raise SweepError(f"--out {problem}")
         table = Table(args.out / "results.csv")
+        for line, problem, _ in table.damaged[:MAX_DAMAGED_SHOWN]:
+            print(f"{table.path} line {line}: {problem}: set aside in {table.damaged_path.name} "
+                  f"(its run, if in this sweep, runs again)", file=sys.stderr)
+        if len(table.damaged) > MAX_DAMAGED_SHOWN:
+            print(f"{table.path}: {len(table.damaged) - MAX_DAMAGED_SHOWN} more damaged rows set aside",
+                  file=sys.stderr)
         before = sum(table.finished(r) for r in runs)
         print(f"{_count(len(runs), 'run')} ({_count(len(tracks), 'track')} x {_count(len(runs) // len(tracks), 'parameter point')}); "
               f"{before} already in {table.path}, {len(runs) - before} to run "
@@ -405,10 +538,10 @@ def main(argv: list[str] | None = None) -> int:
         rows = sweep(runs, table, serial=args.serial, address=args.address, workers=args.workers, progress=True)
     except OSError as e:
         raise SweepError(f"{args.out}: {e.strerror or e}") from None
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as e:
         print(f"interrupted: the finished runs are in {args.out / 'results.csv'}; the same command resumes",
               file=sys.stderr)
-        return ExitStatus.INTERRUPTED
+        return stopped_status(e)
     print(report(rows, tracks))
     print(f"table: {table.path}")
     if not plotting.save(lambda: plot(rows, tracks), args.out / "sweep.png"):
