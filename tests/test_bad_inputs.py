@@ -303,3 +303,34 @@ def test_every_timeout_period_and_rate_is_checked(call, value):
         with pytest.raises(ValueError, match=f"^{name} must be a finite number"):
             fn(value)
     assert time.monotonic() - t0 < 2.0
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["stream", "udp://127.0.0.1", "--out", "{file}"], "--out cannot write into {file}: {file} is a file, not a folder"),
+    (["stream", "udp://127.0.0.1", "--out", "/proc/roar"], "--out cannot make the folder /proc/roar"),
+    (["vision", "{frames}", "--out", "{file}"], "--out cannot write into {file}: {file} is a file, not a folder"),
+    (["vision", "{frames}", "--video", "{file}/v.mp4"], "--video cannot write {file}/v.mp4: {file} is a file"),
+    (["race", "--plot", "{file}/x.png"], "--plot cannot write {file}/x.png: {file} is a file, not a folder"),
+    (["send", "sim://?trace={file}/x.csv"], "trace: cannot write {file}/x.csv: {file} is a file, not a folder"),
+    (["sweep", "--out", "{file}"], "--out cannot write into {file}: {file} is a file, not a folder"),
+    (["calibrate", "loop://", "--file", "{file}/x.toml"], "--file cannot write {file}/x.toml: {file} is a file"),
+])
+def test_output_paths_are_checked_before_any_work_with_the_real_problem(tmp_path, capsys, monkeypatch, argv, words):
+    """A parent that is a file (as /etc/passwd/x), a folder that cannot be made (/proc): named in
+    one line before the command does anything -- calibrate before its walk-through."""
+    import io
+
+    import numpy as np
+
+    monkeypatch.setattr("sys.stdin", io.StringIO("1500\n" * 20))  # calibrate would take these
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    (tmp_path / "frames").mkdir()
+    np.save(tmp_path / "frames" / "a.npy", np.full((240, 320, 3), 90, np.uint8))
+    paths = {"file": blocker, "frames": tmp_path / "frames"}
+    argv = [a.format(**paths) for a in argv]
+    t0 = time.monotonic()
+    assert main(argv) == 1
+    out, err = capsys.readouterr()
+    assert err.strip() == f"roar {argv[0]}: error: {words.format(**paths)}" or words.format(**paths) in err, err
+    assert "\n" not in err.strip() and out == "" and time.monotonic() - t0 < 5

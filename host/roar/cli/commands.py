@@ -69,9 +69,10 @@ def vision(args) -> int:
     if not (1 <= args.fov < 180 and 0 < args.height <= 5 and -5 <= args.ahead <= 5 and -45 <= args.pitch <= 89
             and 0.1 <= args.fps <= 120):
         raise UserError("want --fov 1..179 deg, --height 0..5 m, --ahead -5..5 m, --pitch -45..89 deg, --fps 0.1..120")
-    problem = unusable_folder(args.out) or (args.video is not None and unwritable(args.video))
-    if problem:
-        raise UserError(problem)
+    for option, problem in (("--out", unusable_folder(args.out)),
+                            ("--video", args.video is not None and unwritable(args.video))):
+        if problem:
+            raise UserError(f"{option} {problem}")
     try:
         from roar.cli.vision_frames import run
         from roar.vision.geometry import CameraPreset
