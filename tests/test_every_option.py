@@ -255,3 +255,13 @@ def test_a_bad_url_option_is_one_line_or_a_documented_car(scheme, option, value,
     car.close()
     assert (scheme, option, value) in URL_RUNS, f"{url} opened: refuse {value!r} for {option} in one line, " \
                                                 f"or document it in URL_RUNS"
+
+
+def test_every_default_output_goes_under_out():
+    """What a command writes without being told where (plots, tables, frames) lands in out/,
+    never in the folder the user happens to be in."""
+    defaults = {(command, option): action.default for command, (_, parser) in commands().items()
+                for option, action in options(parser) if isinstance(action.default, Path)}
+    assert defaults  # there are some
+    for (command, option), default in defaults.items():
+        assert default.parts[0] == "out", f"roar {command} {option} defaults to {default}"
