@@ -38,17 +38,21 @@ def printable(text, limit: int = 80) -> str:
     return out if len(out) <= limit else out[: limit - 3] + "..."
 
 
-def number(name: str, value, low: float, high: float, unit: str = "", low_open: bool = False) -> float:
-    """value as a float, if it is a finite number in low..high (above low when low_open)."""
-    what = f"{name} must be a finite number {describe(low, high, unit, low_open)}"
+def number(name: str, value, low: float, high: float, unit: str = "", low_open: bool = False,
+           given=None) -> float:
+    """value as a float, if it is a finite number in low..high (above low when low_open); the
+    message shows `given` (what the user typed) when there is one, else the value."""
+    what = f"{name} must be" if name else "must be"
+    what += f" a finite number {describe(low, high, unit, low_open)}"
+    got = shown(value if given is None else given)
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ValueError(f"{what}, got {shown(value)}")
+        raise ValueError(f"{what}, got {got}")
     try:
         v = float(value)
     except OverflowError:  # an int beyond any float
         raise ValueError(f"{what}, got an integer of {len(str(abs(value)))} digits") from None
     if not math.isfinite(v) or v > high or v < low or (low_open and v == low):
-        raise ValueError(f"{what}, got {shown(value)}")
+        raise ValueError(f"{what}, got {got}")
     return v
 
 

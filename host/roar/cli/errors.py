@@ -7,7 +7,6 @@ the table."""
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import signal
 import sys
@@ -16,7 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 from enum import IntEnum
 
-from roar.checks import MAX_WAIT_S, describe, shown
+from roar.checks import MAX_WAIT_S, number
 from roar.errors import RoarError
 
 
@@ -78,11 +77,11 @@ def number_option(low: float, high: float, unit: str = "", low_open: bool = Fals
         try:
             value = float(text)
         except ValueError:
-            value = math.nan
-        if not math.isfinite(value) or not low <= value <= high or (low_open and value == low):
-            raise argparse.ArgumentTypeError(f"must be a finite number {describe(low, high, unit, low_open)}, "
-                                             f"got {shown(text)}")
-        return value
+            value = text  # not a number: refused below, shown as typed
+        try:
+            return number("", value, low, high, unit, low_open, given=text)
+        except ValueError as e:
+            raise argparse.ArgumentTypeError(str(e)) from None
     return parse
 
 
