@@ -10,7 +10,7 @@ SECONDS = 10.0  # [s] simulated
 def run() -> None:
     from roar.protocol import encode
     from roar_sim.runs.fleet import Fleet
-    from roar_sim.world.track import get
+    from roar.tracks import get
 
     rates = {}
     for count in (1, 2):

@@ -21,7 +21,7 @@ def run() -> None:
     from roar.calibration import Calibration
     from roar_sim.gym_env import LIDAR_BEAMS, LIDAR_EVERY, LIDAR_RANGE_M, PERIOD_S
     from roar_sim.robots.esc import EscCar
-    from roar_sim.world.track import get
+    from roar.tracks import get
 
     message = Calibration().message(0.2, 0.0)
 

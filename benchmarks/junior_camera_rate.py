@@ -10,7 +10,7 @@ import time
 from roar import Vehicle
 from roar.protocol import spec
 from roar_sim.links.junior_http import InBackground
-from roar_sim.world.track import oval
+from roar.tracks.track import oval
 
 TITLE = "Junior camera frames served at 320x240 while driving"
 SECONDS = 4.0  # [s] per round

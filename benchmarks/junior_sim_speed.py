@@ -12,7 +12,7 @@ from roar_sim.core.junior import SidePins
 from roar_sim.plants.junior import JuniorPlant
 from roar_sim.clock.lockstep import PHYSICS_US
 from roar_sim.robots.junior import Junior
-from roar_sim.world.track import oval
+from roar.tracks.track import oval
 
 TITLE = "Junior simulation speed (simulated s per wall s)"
 SIM_SECONDS = 10.0

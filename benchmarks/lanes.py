@@ -20,7 +20,7 @@ def run() -> None:
     from roar.vision.geometry import SIMULATED_CAR_CAMERA
     from roar_sim.plants.racecar import Racecar
     from roar_sim.runs.race import LANE_CAMERA, race
-    from roar_sim.world.track import get
+    from roar.tracks import get
 
     w, h = LANE_CAMERA
     plant = Racecar(get("oval"))

@@ -7,7 +7,8 @@ import numpy as np
 
 from roar_sim import robots
 from roar_sim.runs.race import RaceResult, race
-from roar_sim.world.track import BUILTIN, get
+from roar.tracks import get
+from roar.tracks.track import BUILTIN
 
 TITLE = "autopilot lap time / physical-limit lap time (target <= 1.15, no wall contacts)"
 LAPS = 3

@@ -11,7 +11,7 @@ from roar.protocol import encode
 from roar_sim.clock.lockstep import PHYSICS_US
 from roar_sim.robots.esc import EscCar
 from roar_sim.plants.racecar import Racecar
-from roar_sim.world.track import oval
+from roar.tracks.track import oval
 
 TITLE = "simulation speed (simulated s per wall s)"
 SIM_SECONDS = 10.0

@@ -27,7 +27,7 @@ def recorded_frames(width: int = 640, height: int = 240 * 2, count: int = 8) -> 
     from roar.protocol import encode
     from roar_sim.robots.esc import EscCar
     from roar_sim.links.phone_udp import payloads
-    from roar_sim.world.track import get
+    from roar.tracks import get
 
     sim = EscCar(get("oval"))
     sim.write(encode(1500, 1500))
@@ -101,7 +101,7 @@ def renderers(width: int = 640, height: int = 480, frames: int = 5) -> dict[str,
 
     from roar_sim.plants.racecar import Racecar
     from roar_sim.world.bullet import pb, silenced
-    from roar_sim.world.track import get
+    from roar.tracks import get
 
     out = {}
     with silenced((1, 2)):  # the EGL plugin prints its GL vendor from C

@@ -19,7 +19,7 @@ from roar_sim.robots.esc import MODEL  # noqa: E402
 from roar_sim.world.obstacles import BOX_HALF_M, add_box, box_course, place_boxes  # noqa: E402
 from roar_sim.plants.racecar import Racecar  # noqa: E402
 from roar_sim.world.bullet import pb  # noqa: E402
-from roar_sim.world.track import get  # noqa: E402
+from roar.tracks import get  # noqa: E402
 
 PERIOD_S = 0.02
 

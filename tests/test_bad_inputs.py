@@ -39,11 +39,12 @@ def test_version(capsys):
 @pytest.mark.parametrize("name, text, kind", [("cal.toml", "a = " + "[" * 100_000, "TOML"),
                                                 ("track.json", "[" * 100_000, "JSON")])
 def test_deeply_nested_files_fail_in_one_line(tmp_path, name, text, kind):
-    from roar_sim.world.track import Track, TrackError
+    from roar.tracks import TrackError
+    from roar.tracks.track_files import load_json
 
     path = tmp_path / name
     path.write_text(text)
-    load, error = (Calibration.load, CalibrationError) if kind == "TOML" else (Track.load, TrackError)
+    load, error = (Calibration.load, CalibrationError) if kind == "TOML" else (load_json, TrackError)
     with pytest.raises(error) as e:
         load(path)
     assert f"not valid {kind}" in str(e.value) and "\n" not in str(e.value)
@@ -199,7 +200,7 @@ def test_terminal_escapes_in_a_track_file_are_shown_escaped(tmp_path, capsys):
     import json
 
     from roar_sim.runs import race
-    from roar_sim.world.track import oval
+    from roar.tracks.track import oval
 
     path = tmp_path / "evil.json"
     path.write_text(json.dumps({"name": "\x1b[2J\x1b[31mred\x1b[0m\u202eevil\r", "width_m": oval().width_m,
@@ -223,7 +224,8 @@ def test_files_with_a_utf8_byte_order_mark_are_read(tmp_path):
     import json
 
     from roar.autopilot import load_waypoints, save_waypoints
-    from roar_sim.world.track import Track, oval
+    from roar.tracks.track import oval
+    from roar.tracks.track_files import load_json
 
     save_waypoints(tmp_path / "plain.txt", oval().centerline)
     bom = tmp_path / "bom.txt"
@@ -231,7 +233,7 @@ def test_files_with_a_utf8_byte_order_mark_are_read(tmp_path):
     assert (load_waypoints(bom) == load_waypoints(tmp_path / "plain.txt")).all()
     track = json.dumps({"width_m": oval().width_m, "centerline": oval().centerline.tolist()})
     (tmp_path / "bom.json").write_bytes(b"\xef\xbb\xbf" + track.encode())
-    assert Track.load(tmp_path / "bom.json").length_m == pytest.approx(oval().length_m)
+    assert load_json(tmp_path / "bom.json").length_m == pytest.approx(oval().length_m)
     (tmp_path / "calibration.toml").write_bytes(b"\xef\xbb\xbf" + b"[steering]\ntrim_us = 1510\n")
     assert Calibration.load(tmp_path / "calibration.toml").steering.trim_us == 1510
 
@@ -242,7 +244,7 @@ def test_waypoints_off_the_track_or_reversed_name_their_file(tmp_path, capsys, s
     import numpy as np
 
     from roar.autopilot import save_waypoints
-    from roar_sim.world.track import oval
+    from roar.tracks.track import oval
 
     line = oval().centerline
     line = line + np.array(shift) if shift else line[::-1]

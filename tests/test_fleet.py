@@ -11,7 +11,7 @@ pytest.importorskip("pybullet", reason="pip install pybullet (make setup install
 from roar.protocol import encode  # noqa: E402
 from roar_sim.runs.fleet import Fleet  # noqa: E402
 from roar_sim.robots.esc import EscCar  # noqa: E402
-from roar_sim.world.track import get  # noqa: E402
+from roar.tracks import get  # noqa: E402
 
 PERIOD_S = 0.02
 

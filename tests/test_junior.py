@@ -169,7 +169,7 @@ def test_nothing_within_4_m_reads_0_no_echo(sim):
 @pytest.fixture(scope="module")
 def junior():
     from roar_sim.links.junior_http import InBackground
-    from roar_sim.world.track import oval
+    from roar.tracks.track import oval
 
     with InBackground(oval(), port=0) as server:
         yield server

@@ -17,7 +17,7 @@ from roar.vision.geometry import SIMULATED_CAR_CAMERA
 from roar_sim.plants.racecar import Racecar  # noqa: E402
 from roar_sim.world.bullet import pb  # noqa: E402
 from roar_sim.runs.race import LANE_CAMERA, LaneCourse, race  # noqa: E402
-from roar_sim.world.track import get  # noqa: E402
+from roar.tracks import get  # noqa: E402
 
 W, H = LANE_CAMERA
 

@@ -16,7 +16,7 @@ from roar_sim.world.obstacles import add_box  # noqa: E402
 from roar_sim.plants.racecar import LIDAR_LINK  # noqa: E402
 from roar_sim.sensors.lidar import MIN_RANGE_M  # noqa: E402
 from roar_sim.world.bullet import pb  # noqa: E402
-from roar_sim.world.track import get  # noqa: E402
+from roar.tracks import get  # noqa: E402
 
 BEAMS, RANGE_M = 181, 10.0
 

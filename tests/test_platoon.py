@@ -82,7 +82,7 @@ def test_cars_hear_each_other_over_multicast_and_not_themselves():
 pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
 from roar_sim.links.netns import NetnsUnavailable, veth_pair  # noqa: E402
 from roar_sim.runs.platoon import platoon  # noqa: E402
-from roar_sim.world.track import get  # noqa: E402
+from roar.tracks import get  # noqa: E402
 
 
 @pytest.fixture(params=["loopback", "netns"])

@@ -14,7 +14,7 @@ from roar import Vehicle  # noqa: E402
 from roar_sim import robots  # noqa: E402
 from roar_sim.runs import limits  # noqa: E402
 from roar_sim.runs.race import race  # noqa: E402
-from roar_sim.world.track import get  # noqa: E402
+from roar.tracks import get  # noqa: E402
 
 FOURTH = '''
 from roar_sim.robots.esc import EscCar

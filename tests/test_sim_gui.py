@@ -8,7 +8,7 @@ DRIVE_IN_WINDOW = """
 from roar_sim.world.bullet import pb
 from roar.protocol import encode
 from roar_sim.robots.esc import EscCar
-from roar_sim.world.track import oval
+from roar.tracks.track import oval
 with EscCar(oval(), gui=True) as sim:
     assert pb.getConnectionInfo(sim.plant.client)["connectionMethod"] == pb.GUI
     x0 = sim.state().x

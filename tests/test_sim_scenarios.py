@@ -13,7 +13,7 @@ from roar_sim.core.car import CarConfig
 from roar_sim.core.library import ControlSource
 from roar_sim.robots.esc import EscCar
 from roar_sim.plants.racecar import ackermann_angles
-from roar_sim.world.track import oval
+from roar.tracks.track import oval
 
 N = spec.CONTROL_NEUTRAL_US
 SEND = spec.TIMING_HOST_SEND_PERIOD_US / 1e6

@@ -14,7 +14,7 @@ from roar_sim.sensors.camera_noise import NOISE, SHAKE_RAD, ShakyCamera  # noqa:
 from roar_sim.plants.racecar import Racecar  # noqa: E402
 from roar_sim.runs.race import LANE_CAMERA, PERIOD_S, race  # noqa: E402
 from roar_sim.world.start_lights import StartLights, green_moment  # noqa: E402
-from roar_sim.world.track import get  # noqa: E402
+from roar.tracks import get  # noqa: E402
 
 W, H = LANE_CAMERA
 STEPS_PER_FRAME = round(PERIOD_S / 0.005)  # physics steps between the driver's frames (50 Hz)

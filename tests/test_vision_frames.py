@@ -18,7 +18,7 @@ from roar_sim.world.obstacles import add_box  # noqa: E402
 from roar.vision.geometry import SIMULATED_CAR_CAMERA
 from roar_sim.plants.racecar import Racecar  # noqa: E402
 from roar_sim.runs.race import LANE_CAMERA  # noqa: E402
-from roar_sim.world.track import get  # noqa: E402
+from roar.tracks import get  # noqa: E402
 
 W, H = LANE_CAMERA
 

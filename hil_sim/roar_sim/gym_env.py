@@ -50,7 +50,8 @@ from roar.checks import number, shown
 from roar_sim import robots
 from roar_sim.clock.lockstep import CONTROL_PERIOD_S as PERIOD_S  # [s] one action
 from roar_sim.robots import Robot
-from roar_sim.world.track import MAX_DISTANCE_M, MAX_EXTENT_M, Track, get
+from roar.tracks import Track, get
+from roar.tracks.track import MAX_DISTANCE_M, MAX_EXTENT_M
 
 LIDAR_BEAMS = 72  # over 270 deg
 LIDAR_EVERY = 2  # actions per scan: 25 scans/s (a Hokuyo UST-10LX turns at 40 Hz); held in between
@@ -187,7 +188,8 @@ class RaceEnv(gym.Env):
         self._s, cte = s_now, self._cte
         touching = self.sim.touching_wall()
         reward = progress - (self.contact_penalty if touching else 0.0)
-        off_track = abs(cte) > self.track.width_m / 2
+        left, right = self.track.half_widths_at(self._hint)
+        off_track = cte > left or -cte > right
         terminated = off_track or (touching and self.crash_ends)
         truncated = self.sim.t_us / 1e6 >= self.max_seconds
         return self._observation(state), float(reward), bool(terminated), bool(truncated), self._info(touching)

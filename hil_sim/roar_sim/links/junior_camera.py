@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from roar.errors import RoarError
-from roar_sim.world.track import Track
+from roar.tracks.track import Track
 
 RENDER_WORKERS = 2  # renderer processes
 JPEG_QUALITY = 80  # as the robot's camera is set up

@@ -30,7 +30,7 @@ from roar_sim.core.junior import HttpRequestReader
 from roar_sim.core.library import HttpRead
 from roar_sim.links.junior_camera import RENDER_WORKERS, Camera, CameraError
 from roar_sim.robots.junior import Junior
-from roar_sim.world.track import Track
+from roar.tracks.track import Track
 
 CHUNK_S = 0.002  # [s] simulated time per step of the real-time loop
 IDLE_CLOSE_S = spec.JUNIOR_IDLE_CLOSE_US / 1e6  # [s] a connection quiet this long is closed
@@ -249,7 +249,7 @@ def parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from roar_sim.world.track import get
+    from roar.tracks import get
 
     args = parser().parse_args(argv)
     host, port = parse_address(args.http)

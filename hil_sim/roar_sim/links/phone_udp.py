@@ -240,7 +240,7 @@ def main(argv: list[str] | None = None) -> int:
         except UnknownHost as e:
             p.error(f"--push: {e}")
     from roar_sim.robots.esc import EscCar
-    from roar_sim.world.track import get
+    from roar.tracks import get
 
     sim = EscCar(get(args.track))
     config = StreamConfig(width=args.size[0], height=args.size[1], rate_hz=args.rate, push_to=push_to,

@@ -22,7 +22,7 @@ import tty
 from roar.cli.errors import ArgumentParser, ExitStatus, UserError, run_command, seconds_option, stopped_status
 from roar_sim import robots
 from roar_sim.robots import Robot
-from roar_sim.world.track import get
+from roar.tracks import get
 
 CHUNK_S = 0.002  # [s] simulated (and, in real time, wall) time between reads of the port
 MAX_UNSENT_BYTES = 4096  # [bytes] reply bytes held for a slow reader; whole lines beyond are dropped

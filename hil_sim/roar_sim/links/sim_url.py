@@ -85,7 +85,7 @@ class SimTransport(Transport):
             raise TransportError(str(e)) from None
 
     def open(self) -> None:
-        from roar_sim.world.track import get
+        from roar.tracks import get
 
         try:
             track = get(self.track_name) if self.track_name else None

@@ -16,7 +16,7 @@ from roar_sim.plants.l298n_motors import GEARBOX_FRICTION_NM, motor_torque
 from roar_sim.sensors import ultrasonic
 from roar_sim.world.bullet import pb
 from roar_sim.world.scene import World
-from roar_sim.world.track import Track
+from roar.tracks.track import Track
 
 # Chassis, as an ESP32-CAM 2WD kit is built
 CHASSIS_HALF_M = (0.10, 0.065, 0.02)  # [m] half length, width, height of the chassis box

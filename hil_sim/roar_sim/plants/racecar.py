@@ -15,7 +15,7 @@ from roar.vision.geometry import SIMULATED_CAR_CAMERA as CAMERA
 from roar_sim.sensors import lidar
 from roar_sim.world.bullet import pb
 from roar_sim.world.scene import World
-from roar_sim.world.track import Track
+from roar.tracks.track import Track
 
 WHEELBASE_M = 0.325  # [m] hinge axis to rear axle (racecar.urdf)
 TRACK_WIDTH_M = 0.2  # [m] between the steering hinges (racecar.urdf)

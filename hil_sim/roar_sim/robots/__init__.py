@@ -29,7 +29,7 @@ from roar.autopilot.limits import HOLDS_LINE, circle
 from roar.errors import RoarError
 from roar.telemetry import VehicleState
 from roar_sim.clock.lockstep import CONTROL_PERIOD_S, Lockstep
-from roar_sim.world.track import Track
+from roar.tracks.track import Track
 
 Pose = tuple[float, float, float]  # x [m], y [m], yaw [rad]
 

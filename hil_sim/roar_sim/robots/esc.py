@@ -29,7 +29,7 @@ from roar_sim.plants.esc_servo import EscMode, HobbyEsc, SteeringServo
 from roar_sim.plants.racecar import WHEELBASE_M, CarState, Racecar
 from roar_sim.robots import Pose, ReplyLines, Robot, grip_on_circles
 from roar_sim.world.scene import World
-from roar_sim.world.track import Track
+from roar.tracks.track import Track
 
 FRAME_US = spec.TIMING_SERVO_FRAME_US  # [us]
 LIMITS = CarLimits(max_speed_m_s=2.93, max_accel_m_s2=1.78, max_brake_m_s2=3.35, max_lateral_m_s2=3.38)

@@ -31,7 +31,7 @@ from roar_sim.core.library import IarrcTask
 from roar_sim.plants.esc_servo import EscMode, HobbyEsc, SteeringServo
 from roar_sim.plants.racecar import WHEELBASE_M, CarState, Motor, Racecar
 from roar_sim.robots import Pose, ReplyLines, Robot, grip_on_circles
-from roar_sim.world.track import Track
+from roar.tracks.track import Track
 from roar_wire import sbus
 
 FRAME_US = spec.TIMING_SERVO_FRAME_US  # [us] ESC/servo frame

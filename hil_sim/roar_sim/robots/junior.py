@@ -32,7 +32,7 @@ from roar_sim.core.library import HttpRead
 from roar_sim.plants.junior import WHEEL_TRACK_M, JuniorPlant, JuniorState
 from roar_sim.robots import Pose, Robot
 from roar_sim.sensors.ultrasonic import MAX_RANGE_M
-from roar_sim.world.track import Track
+from roar.tracks.track import Track
 
 PING_US = 60_000  # [us] between ultrasonic readings (the firmware's ping period)
 LIMITS = CarLimits(max_speed_m_s=0.55, max_accel_m_s2=3.11, max_brake_m_s2=1.36, max_lateral_m_s2=0.89)

@@ -15,7 +15,7 @@ from roar_sim.clock.lockstep import LOOP_US, PHYSICS_US, Lockstep, loops_until
 from roar_sim.robots.esc import EscCar
 from roar_sim.world.bullet import pb
 from roar_sim.world.scene import World
-from roar_sim.world.track import Track
+from roar.tracks.track import Track
 
 MAX_CARS = 8
 

@@ -23,7 +23,7 @@ from roar_sim.clock.lockstep import CONTROL_PERIOD_S as PERIOD_S
 from roar_sim.links.netns import VethPair, call_in
 from roar_sim.robots.esc import MODEL
 from roar_sim.runs.fleet import Fleet
-from roar_sim.world.track import Track
+from roar.tracks.track import Track
 
 V2V_EVERY = round(spec.V2V_PERIOD_US / spec.TIMING_HOST_SEND_PERIOD_US)  # control periods per V2V message
 LEADER, FOLLOWER = 1, 2  # car ids on the V2V group
@@ -185,7 +185,7 @@ def main(argv: list[str] | None = None) -> int:
     from roar.v2v import free_port
     from roar_sim.links.netns import veth_pair
     from roar_sim.world import plotting
-    from roar_sim.world.track import get
+    from roar.tracks import get
 
     p = parser()
     args = p.parse_args(argv)

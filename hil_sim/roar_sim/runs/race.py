@@ -40,7 +40,7 @@ from roar_sim.sensors.tfmini import Tfmini
 from roar_sim.world import plotting
 from roar_sim.world.obstacles import MIN_GAP_M, box_course, place_boxes, touching
 from roar_sim.world.start_lights import StartLights, green_moment
-from roar_sim.world.track import Track, TrackError, get
+from roar.tracks import Track, TrackError, get
 
 MARGIN_RANGE = (0.3, 1.0)  # fraction of the robot's limits a race may be driven at
 K_DD_RANGE_S = (0.05, 2.0)  # [s] pure pursuit's look-ahead per m/s a race may use
@@ -151,13 +151,13 @@ class RaceResult:
 def check_line(track: Track, line: np.ndarray) -> None:
     """A waypoint line must lie on the track and run its way round (the car starts on the centre
     line's first point facing the second); WaypointError with a one-line reason otherwise."""
-    half = track.width_m / 2
     hint, positions = None, []
     for i, point in enumerate(line):
         hint, s_along, cte = track.project(point, None if hint is None else hint)
+        half = track.half_widths_at(hint)[0 if cte > 0 else 1]
         if abs(cte) > half:
             raise WaypointError(f"waypoint {i + 1} at ({point[0]:.2f}, {point[1]:.2f}) is {abs(cte):.2f} m from "
-                                f"the centre line, outside the track (half width {half:g} m)")
+                                f"the centre line, outside the track (its wall is {half:.2f} m from it there)")
         positions.append(s_along)
     if track.arc_delta(np.array(positions), np.roll(positions, -1)).sum() < 0:
         raise WaypointError("the waypoints run against the track's direction (the car starts facing along the "

@@ -113,7 +113,7 @@ def parse_values(text: str, name: str, low: float, high: float) -> list[float]:
 def race_run(run: Run) -> dict:
     """Race one grid point in this process; the result row (without `error`)."""
     from roar_sim.runs.race import race
-    from roar_sim.world.track import get
+    from roar.tracks import get
 
     track = get(run.track)
     result = race(track, run.laps, margin=run.margin, robot=run.robot, k_dd_s=run.k_dd_s)
@@ -550,7 +550,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _runs(args, k_range: tuple[float, float], m_range: tuple[float, float]) -> tuple[list[Run], list[str]]:
-    from roar_sim.world.track import TrackError, get
+    from roar.tracks import TrackError, get
 
     tracks = list(dict.fromkeys(t.strip() for t in args.track.split(",") if t.strip()))
     if not tracks:

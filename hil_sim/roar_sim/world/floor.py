@@ -1,5 +1,5 @@
-"""The track's floor as the camera sees it: asphalt with white edge lines and a dashed yellow
-centre line, painted into a texture and laid on a tessellated quad over the track.
+"""The track's floor as the camera sees it: asphalt with white edge lines (inside every wall) and a
+dashed yellow centre line, painted into a texture and laid on a tessellated quad over the track.
 
 TinyRenderer (the headless renderer) drops whole triangles that cross the camera's near plane,
 so the floor is a grid of small cells rather than two huge triangles.
@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 from roar_sim.world.bullet import pb
 
-from roar_sim.world.track import Track, per_shape
+from roar.tracks import Track
+from roar_sim.world.cache import per_shape
 
 ASPHALT_RGB = (64, 64, 69)
 EDGE_LINE_RGB = (240, 240, 240)
@@ -35,17 +36,15 @@ class FloorImage:
     (origin_x + col * pixel_m, origin_y + (rows - 1 - row) * pixel_m)."""
 
     def __init__(self, track: Track) -> None:
-        left, right = track.edges()
-        corners = np.vstack([left, right])
-        self.origin = corners.min(axis=0) - MARGIN_M  # [m] world (x, y) of the bottom-left pixel
-        self.extent = corners.max(axis=0) + MARGIN_M - self.origin  # [m]
+        lo, hi = np.reshape(track.region.bounds, (2, 2))
+        self.origin = lo - MARGIN_M  # [m] world (x, y) of the bottom-left pixel
+        self.extent = hi + MARGIN_M - self.origin  # [m]
         self.pixel_m = max(PIXEL_M, float(self.extent.max()) / MAX_TEXTURE_PX)  # [m]
         cols, rows = np.minimum(np.ceil(self.extent / self.pixel_m), MAX_TEXTURE_PX).astype(int)
         self.rgb = np.empty((rows, cols, 3), np.uint8)
         self.rgb[:] = ASPHALT_RGB
-        inset = 1.0 - EDGE_LINE_INSET_M / (track.width_m / 2)
-        for edge in (left, right):
-            self._paint(track.centerline + inset * (edge - track.centerline), EDGE_LINE_RGB, EDGE_LINE_WIDTH_M)
+        for line in edge_lines(track):
+            self._paint(line, EDGE_LINE_RGB, EDGE_LINE_WIDTH_M)
         self._paint(track.centerline, CENTRE_LINE_RGB, CENTRE_LINE_WIDTH_M, dash_m=CENTRE_DASH_M)
 
     def pixel(self, xy) -> tuple[int, int]:
@@ -72,6 +71,14 @@ class FloorImage:
         for dr in range(-r, r + 1):
             for dc in range(-r, r + 1):
                 self.rgb[np.clip(row + dr, 0, rows - 1), np.clip(col + dc, 0, cols - 1)] = rgb
+
+
+def edge_lines(track: Track) -> list[np.ndarray]:
+    """The white edge lines: closed polylines EDGE_LINE_INSET_M inside every wall."""
+    inner = track.region.buffer(-EDGE_LINE_INSET_M, join_style="round")
+    parts = getattr(inner, "geoms", [inner])
+    return [np.asarray(ring.coords)[:-1] for part in parts if not part.is_empty
+            for ring in (part.exterior, *part.interiors)]
 
 
 def add_floor(track: Track, client: int) -> int:

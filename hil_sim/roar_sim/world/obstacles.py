@@ -12,7 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from roar_sim.world.bullet import pb
-from roar_sim.world.track import Track
+from roar.tracks.track import Track
 
 BOX_HALF_M = 0.1  # [m] half a box's side
 BOX_RGBA = (0.85, 0.35, 0.1, 1.0)  # traffic-cone orange

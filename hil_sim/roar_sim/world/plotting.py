@@ -23,8 +23,8 @@ def draw_track(ax, track) -> None:
     """Walls (black) and centre line (dashed grey) of a track, closed loops."""
     import numpy as np
 
-    for edge in track.edges():
-        closed = np.vstack([edge, edge[:1]])
+    for wall in track.walls:
+        closed = np.vstack([wall, wall[:1]])
         ax.plot(closed[:, 0], closed[:, 1], color="black", lw=1.5)
     cl = np.vstack([track.centerline, track.centerline[:1]])
     ax.plot(cl[:, 0], cl[:, 1], color="grey", lw=0.8, ls="--", label="centre line")

@@ -15,7 +15,8 @@ import pybullet_data
 from roar.errors import RoarError
 from roar_sim.world.floor import add_floor
 from roar_sim.world.bullet import pb
-from roar_sim.world.track import Track, per_shape
+from roar.tracks import Track
+from roar_sim.world.cache import per_shape
 
 WALL_HEIGHT_M, WALL_THICKNESS_M = 0.3, 0.05  # [m] higher than the lidar (0.17 m)
 GROUND_HALF_M = 25.0  # [m] asphalt shown beyond the track (or around the origin without one)
@@ -78,8 +79,8 @@ class World:
         c = self.client
         centre, half = np.zeros(2), GROUND_HALF_M
         if track is not None:
-            lo, hi = track.centerline.min(axis=0), track.centerline.max(axis=0)
-            centre, half = (lo + hi) / 2, float(max(hi - lo)) / 2 + track.width_m + GROUND_HALF_M
+            lo, hi = np.reshape(track.region.bounds, (2, 2))
+            centre, half = (lo + hi) / 2, float(max(hi - lo)) / 2 + GROUND_HALF_M
         shape = pb.createCollisionShape(pb.GEOM_PLANE, planeNormal=[0, 0, 1], physicsClientId=c)
         # one quad, not a box: the camera's software renderer pays for every screen-sized triangle
         corners = [[-half, -half, 0.0], [half, -half, 0.0], [half, half, 0.0], [-half, half, 0.0]]
@@ -95,8 +96,8 @@ class World:
         pb.configureDebugVisualizer(pb.COV_ENABLE_GUI, 0, physicsClientId=c)
         centre, size = (0.0, 0.0), 2.0
         if track is not None:
-            lo, hi = track.centerline.min(axis=0), track.centerline.max(axis=0)
-            centre, size = tuple((lo + hi) / 2), float(max(hi - lo)) + track.width_m
+            lo, hi = np.reshape(track.region.bounds, (2, 2))
+            centre, size = tuple((lo + hi) / 2), float(max(hi - lo))
         pb.resetDebugVisualizerCamera(size, 0, -60, [centre[0], centre[1], 0], physicsClientId=c)
 
     def _build_walls(self, track: Track) -> list[int]:
@@ -172,25 +173,16 @@ def _walls_only(track: Track) -> tuple[int, int, threading.Lock]:
 
 
 def wall_mesh(track: Track) -> tuple[list[list[float]], list[int]]:
-    """(vertices, indices) of the wall boxes along both edges, computed once per track shape. A
-    segment that would lie inside another part of the track (the crossing of a figure-eight) is
-    left out."""
+    """(vertices, indices) of the wall boxes along the edges of the track's driving area
+    (Track.walls: folds trimmed, a figure-eight's crossing open), computed once per track shape."""
     return per_shape("wall mesh", track, lambda: _build_wall_mesh(track))
 
 
 def _build_wall_mesh(track: Track) -> tuple[list[list[float]], list[int]]:
-    cl = track.centerline
-    n = len(cl)
     vertices: list[list[float]] = []
     indices: list[int] = []
-    for edge in track.edges():
-        for i in range(n):
-            a, b = edge[i], edge[(i + 1) % n]
-            mid = (a + b) / 2
-            d = np.linalg.norm(cl - mid, axis=1)
-            far = np.abs((np.arange(n) - i + n // 2) % n - n // 2) > 10
-            if np.any(d[far] < track.width_m / 2 - 0.02):
-                continue
+    for wall in track.walls:
+        for a, b in zip(wall, np.roll(wall, -1, axis=0)):
             _add_box(vertices, indices, a, b)
     return vertices, indices
 

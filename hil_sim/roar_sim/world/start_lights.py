@@ -13,7 +13,7 @@ import math
 import random
 
 from roar_sim.world.bullet import pb
-from roar_sim.world.track import Track
+from roar.tracks.track import Track
 
 AHEAD_M = 2.0  # [m] from the start along the track
 BEYOND_EDGE_M = 0.2  # [m] outside the road's right edge
@@ -36,7 +36,8 @@ class StartLights:
 
     def __init__(self, world, track: Track, green_at_s: float) -> None:
         self.client, self.green_at_s = world.client, green_at_s
-        x, y, yaw = track.pose_at(AHEAD_M, -(track.width_m / 2 + BEYOND_EDGE_M))
+        right = track.half_widths_at(track.project(track.pose_at(AHEAD_M)[:2])[0])[1]
+        x, y, yaw = track.pose_at(AHEAD_M, -(right + BEYOND_EDGE_M))
         orn = pb.getQuaternionFromEuler([0, 0, yaw])
         # the housing and lamps face back along the track, towards the car at the start
         face = (-math.cos(yaw), -math.sin(yaw))

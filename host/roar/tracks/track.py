@@ -1,65 +1,49 @@
-"""Tracks: a closed centre line of waypoints plus a width, with walls along both edges.
+"""A track: a closed centre line of waypoints with a width to each side of every point, and the
+driving area between its walls.
 
-Track file format (JSON), documented in hil_sim/README.md:
+The car starts at the first point facing the second. The walls are the edges of the driving area,
+which is the union of the strips between the centre line and its left and right boundaries (and of
+any extra area, such as a tunnel's side corridor): where a boundary folds (a hairpin whose radius is
+below its half width) the fold falls inside the area and the wall runs where the folded edges
+meet, as a real hairpin's inner wall does. Refused, each in one line that says where:
 
-    {"name": "my-track", "width_m": 1.2,
-     "centerline": [[x0, y0], [x1, y1], ...]}
+* fewer than 8 points, points closer than 1 cm or further than 2 m apart, a last point that
+  repeats the first;
+* a half width below 0.2 m or a width above 5 m anywhere;
+* a track that does not fit in a 200 m square within 1 km of the origin;
+* a bend tighter than 0.3 m along the centre line (no car here turns so sharply);
+* two parts of the track closer than their widths (their lanes would merge), except where it
+  crosses itself at an angle of at least 45 degrees (a figure-eight's crossing, left open).
 
-The centre line is a closed loop (the last point connects back to the first, so it is not
-repeated), in metres, with at least 8 points, consecutive points between 1 cm and 2 m apart,
-and width between 0.4 m and 5 m. The car starts at the first point facing the second. So that
-the car can drive it, the track must also:
-
-* fit in a 200 m square within 1 km of the origin;
-* never bend tighter than half its width (a smaller radius folds the inner wall);
-* never run within its width of another part of itself, except where it crosses itself at an
-  angle of at least 45 degrees (a figure-eight's crossing, whose walls are left open).
+Files: roar.tracks.track_files (the project's JSON, the F1TENTH/TUM centre-line CSV) and
+roar.tracks.occupancy_map (a map YAML + image).
 """
 
 from __future__ import annotations
 
 import hashlib
-import json
 import math
-import threading
-from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
-from pathlib import Path
-from typing import TypeVar
 
 import numpy as np
 
-from roar.checks import printable, shown
 from roar.errors import RoarError
-from roar.user_files import read_parsed
-
-T = TypeVar("T")
 
 MIN_POINTS = 8
 MAX_NAME_CHARS = 60  # a track's name as shown: longer ones are cut
 MIN_SPACING_M = 0.01  # [m]
 SMALL_WINDOW = 12  # segments each side: project() searches this few in plain floats
 MAX_SPACING_M = 2.0  # [m]
-MIN_WIDTH_M, MAX_WIDTH_M = 0.4, 5.0  # [m]
+MIN_HALF_WIDTH_M = 0.2  # [m] from the centre line to either wall
+MIN_WIDTH_M, MAX_WIDTH_M = 0.4, 5.0  # [m] wall to wall
 MAX_EXTENT_M = 200.0  # [m] side of the square the track must fit in
 MAX_DISTANCE_M = 1000.0  # [m] of any point from the origin
 MIN_CROSSING_DEG = 45.0  # [deg] shallowest angle at which the track may cross itself
-CHECK_STEP_FRACTION = 0.25  # the shape checks look at the centre line every width/4
-
-
-_SHAPES: dict[tuple[str, bytes], object] = {}
-_SHAPES_LOCK = threading.RLock()
-
-
-def per_shape(what: str, track: Track, make: Callable[[], T]) -> T:
-    """make()'s result for `what` of this track's shape, made once per shape in this process
-    (wall meshes, floor textures, ray clients: every fresh world of a track reuses them)."""
-    key = (what, track.fingerprint)
-    with _SHAPES_LOCK:
-        if key not in _SHAPES:
-            _SHAPES[key] = make()
-        return _SHAPES[key]  # type: ignore[return-value]
+MIN_BEND_RADIUS_M = 0.3  # [m] along the centre line: tighter than any car here turns
+BEND_CHORD_M = 0.3  # [m] the bend check's circle passes through points this far either side
+CHECK_STEP_M = 0.1  # [m] the shape checks look at the centre line this often (or every width/4)
+WALL_TOLERANCE_M = 0.005  # [m] walls follow the area's edge within this
 
 
 class TrackError(RoarError, ValueError):
@@ -68,9 +52,18 @@ class TrackError(RoarError, ValueError):
 
 @dataclass(frozen=True)
 class Track:
+    """name, centre line (N, 2) [m], width_m [m] wall to wall; optionally half_widths (N, 2) [m]
+    to the left and to the right of each point (otherwise width_m / 2 each; with them, width_m is
+    their typical total, the median), extra_area (polygons [m] of driving area beyond the strips
+    along the centre line: a tunnel's side corridors and halls) and course (what stands in a
+    tunnel world: roar.tracks.tunnel.Course)."""
+
     name: str
     centerline: np.ndarray  # (N, 2) [m] closed loop, no repeated last point
     width_m: float  # [m] wall to wall
+    half_widths: np.ndarray | None = None  # (N, 2) [m] left, right of each point
+    extra_area: tuple = ()  # polygons, each (M, 2) [m]
+    course: object = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         pts = np.asarray(self.centerline, dtype=float)
@@ -78,7 +71,7 @@ class Track:
             raise TrackError(f"track {self.name!r}: centerline must be a list of finite [x, y] pairs")
         if len(pts) < MIN_POINTS:
             raise TrackError(f"track {self.name!r}: centerline needs at least {MIN_POINTS} points, has {len(pts)}")
-        if isinstance(self.width_m, bool) or not isinstance(self.width_m, (int, float)) or \
+        if isinstance(self.width_m, bool) or not isinstance(self.width_m, (int, float, np.floating)) or \
                 not MIN_WIDTH_M <= self.width_m <= MAX_WIDTH_M:
             raise TrackError(f"track {self.name!r}: width_m must be a number {MIN_WIDTH_M}..{MAX_WIDTH_M} [m], "
                              f"got {self.width_m!r}")
@@ -96,10 +89,30 @@ class Track:
         if not MIN_SPACING_M <= gaps[bad] <= MAX_SPACING_M:
             raise TrackError(f"track {self.name!r}: points {bad} and {(bad + 1) % len(pts)} are {gaps[bad]:.3f} m "
                              f"apart (allowed {MIN_SPACING_M}..{MAX_SPACING_M} m)")
-        object.__setattr__(self, "centerline", pts)
-        problem = _shape_problem(pts, float(self.width_m))
+        halves = np.full((len(pts), 2), self.width_m / 2) if self.half_widths is None else \
+            np.asarray(self.half_widths, dtype=float)
+        problem = _widths_problem(halves, len(pts))
         if problem:
             raise TrackError(f"track {self.name!r}: {problem}")
+        object.__setattr__(self, "centerline", pts)
+        object.__setattr__(self, "half_widths", halves)
+        object.__setattr__(self, "width_m", float(self.width_m))
+        object.__setattr__(self, "extra_area", tuple(np.asarray(poly, dtype=float) for poly in self.extra_area))
+        problem = _shape_problem(pts, halves)
+        if problem:
+            raise TrackError(f"track {self.name!r}: {problem}")
+
+    @classmethod
+    def with_widths(cls, name: str, centerline, half_widths, **kwargs) -> Track:
+        """A track whose width varies along it: width_m is the median of the widths given."""
+        halves = np.asarray(half_widths, dtype=float)
+        width = float(np.median(halves.sum(axis=1))) if halves.ndim == 2 and halves.size else float("nan")
+        return cls(name, centerline, min(max(width, MIN_WIDTH_M), MAX_WIDTH_M) if math.isfinite(width) else width,
+                   halves, **kwargs)
+
+    @property
+    def uniform_width(self) -> bool:
+        return bool(np.all(self.half_widths == self.width_m / 2)) and not self.extra_area
 
     # --- geometry ------------------------------------------------------------------------------
 
@@ -114,10 +127,12 @@ class Track:
         return np.concatenate([[0.0], np.cumsum(self.segment_lengths)[:-1]])
 
     @cached_property
-    def fingerprint(self) -> bytes:  # per_shape's key
+    def fingerprint(self) -> bytes:
         """The same for tracks of the same shape: a key for what is built from the shape alone
         (wall meshes, floor textures), built once per process."""
-        return hashlib.sha256(np.float64(self.width_m).tobytes() + self.centerline.tobytes()).digest()
+        parts = [np.float64(self.width_m).tobytes(), self.centerline.tobytes(), self.half_widths.tobytes(),
+                 *(poly.tobytes() for poly in self.extra_area)]
+        return hashlib.sha256(b"|".join(parts)).digest()
 
     @cached_property
     def length_m(self) -> float:
@@ -145,14 +160,57 @@ class Track:
         x, y = a + t * (b - a)
         return float(x - offset_m * math.sin(yaw)), float(y + offset_m * math.cos(yaw)), yaw
 
-    def edges(self) -> tuple[np.ndarray, np.ndarray]:
-        """(left, right) boundary polylines, width/2 either side of the centre line."""
+    def half_widths_at(self, segment: int) -> tuple[float, float]:
+        """[m] (left, right) from the centre line to the walls at a segment's start point."""
+        left, right = self.half_widths[segment % len(self.centerline)]
+        return float(left), float(right)
+
+    @cached_property
+    def normals(self) -> np.ndarray:
+        """(N, 2) unit vectors to the left of the centre line at each point."""
         pts = self.centerline
         tangent = np.roll(pts, -1, axis=0) - np.roll(pts, 1, axis=0)
         tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
-        normal = np.stack([-tangent[:, 1], tangent[:, 0]], axis=1)
-        half = self.width_m / 2
-        return pts + half * normal, pts - half * normal
+        return np.stack([-tangent[:, 1], tangent[:, 0]], axis=1)
+
+    def edges(self) -> tuple[np.ndarray, np.ndarray]:
+        """(left, right) boundary polylines, each point's half width to either side of it, before
+        any fold is trimmed (the walls are region's edges)."""
+        return (self.centerline + self.half_widths[:, :1] * self.normals,
+                self.centerline - self.half_widths[:, 1:] * self.normals)
+
+    @cached_property
+    def region(self):
+        """The driving area as a shapely Polygon: the union of the strips between the centre line
+        and both boundaries, segment by segment (each strip's convex hull, so a folded boundary
+        stays inside), and the extra area."""
+        import shapely
+
+        left, right = self.edges()
+        c, c_next = self.centerline, np.roll(self.centerline, -1, axis=0)
+        quads = np.concatenate([np.stack([c, c_next, np.roll(side, -1, axis=0), side], axis=1)
+                                for side in (left, right)])
+        pieces = list(shapely.convex_hull(shapely.polygons(quads)))
+        pieces += [shapely.Polygon(poly).buffer(0) for poly in self.extra_area]
+        area = shapely.union_all(pieces).simplify(WALL_TOLERANCE_M / 2)
+        if area.geom_type != "Polygon":  # a sliver cut off where pieces barely touch: keep the body
+            area = max(area.geoms, key=lambda g: g.area)
+        return area
+
+    @cached_property
+    def walls(self) -> list[np.ndarray]:
+        """The walls as closed polylines (M, 2) [m], no repeated last point: the driving area's
+        outer edge, then its holes' (the infield of a loop, a figure-eight's two)."""
+        area = self.region
+        return [np.asarray(ring.coords)[:-1] for ring in (area.exterior, *area.interiors)]
+
+    def inside(self, xy, margin_m: float = 0.0) -> bool:
+        """Whether a point is in the driving area, at least margin_m from every wall."""
+        import shapely
+
+        point = shapely.Point(float(xy[0]), float(xy[1]))
+        return bool(self.region.contains(point)) and self.region.exterior.distance(point) >= margin_m and \
+            all(ring.distance(point) >= margin_m for ring in self.region.interiors)
 
     def project(self, xy, hint: int | None = None, window: int = 40) -> tuple[int, float, float]:
         """(segment index, arc-length position [m], signed cross-track error [m], left positive) of a
@@ -206,40 +264,6 @@ class Track:
     def _segments_sq(self) -> np.ndarray:
         return np.einsum("ij,ij->i", self._segments, self._segments)
 
-    # --- files -----------------------------------------------------------------------------------
-
-    def to_json(self) -> str:
-        return json.dumps({"name": self.name, "width_m": self.width_m,
-                           "centerline": [[round(float(x), 4), round(float(y), 4)] for x, y in self.centerline]})
-
-    @classmethod
-    def load(cls, path: str | Path) -> Track:  # noqa: C901
-        path = Path(path)
-        data = read_parsed(path, json.loads, TrackError, "JSON")
-        if not isinstance(data, dict) or not {"width_m", "centerline"} <= set(data):
-            raise TrackError(f"{path}: a track file needs 'width_m' and 'centerline' (and optionally 'name')")
-        unknown = set(data) - {"name", "width_m", "centerline"}
-        if unknown:
-            raise TrackError(f"{path}: unknown keys {sorted(unknown)}")
-        cl = data["centerline"]
-        if not isinstance(cl, list) or not all(isinstance(p, list) and len(p) == 2 and
-                                               all(_is_number(v) for v in p) for p in cl):
-            raise TrackError(f"{path}: centerline must be a list of [x, y] number pairs")
-        if not _is_number(data["width_m"]):
-            raise TrackError(f"{path}: width_m must be a number of metres, got {data['width_m']!r}")
-        name = data.get("name", path.stem)
-        if not isinstance(name, str):
-            raise TrackError(f"{path}: name must be a string, got {shown(name)}")
-        try:
-            return cls(printable(name, MAX_NAME_CHARS), np.array(cl, dtype=float), data["width_m"])
-        except TrackError as e:
-            raise TrackError(f"{path}: {e}") from None
-
-
-def _is_number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
 def _resample(pts: np.ndarray, step_m: float) -> tuple[np.ndarray, np.ndarray]:
     """(points every ~step_m along the closed polyline, their index in pts' segments)."""
     seg = np.roll(pts, -1, axis=0) - pts
@@ -249,12 +273,27 @@ def _resample(pts: np.ndarray, step_m: float) -> tuple[np.ndarray, np.ndarray]:
     return pts[owner] + frac[:, None] * seg[owner], owner
 
 
-def _shape_problem(pts: np.ndarray, width_m: float) -> str | None:
-    """Why a car cannot drive this closed centre line at this width (one line), or None."""
-    step = width_m * CHECK_STEP_FRACTION
+def _widths_problem(halves: np.ndarray, n: int) -> str | None:
+    """Why these half widths do not fit a centre line of n points (one line), or None."""
+    if halves.shape != (n, 2) or not np.all(np.isfinite(halves)):
+        return f"half_widths must be {n} finite (left, right) pairs [m], one per centre-line point"
+    thin = int(np.argmin(halves.min(axis=1)))
+    if halves[thin].min() < MIN_HALF_WIDTH_M:
+        return (f"at point {thin} a wall is {halves[thin].min():.2f} m from the centre line (at least "
+                f"{MIN_HALF_WIDTH_M:g} m each side)")
+    wide = int(np.argmax(halves.sum(axis=1)))
+    if halves[wide].sum() > MAX_WIDTH_M:
+        return f"at point {wide} it is {halves[wide].sum():.2f} m wide (at most {MAX_WIDTH_M:g} m)"
+    return None
+
+
+def _shape_problem(pts: np.ndarray, halves: np.ndarray) -> str | None:
+    """Why a car cannot drive this closed centre line with these half widths (one line), or None."""
+    widths = halves.sum(axis=1)
+    step = min(CHECK_STEP_M, float(widths.min()) / 4)
     dense, owner = _resample(pts, step)
-    # Bend: the circle through each point and its neighbours half a width away on either side.
-    k = max(1, int(round(width_m / 2 / step)))
+    # Bend: the circle through each point and its neighbours BEND_CHORD_M away on either side.
+    k = max(1, int(round(BEND_CHORD_M / step)))
     a, b, c = np.roll(dense, k, axis=0), dense, np.roll(dense, -k, axis=0)
     ab, bc, ca = (np.linalg.norm(b - a, axis=1), np.linalg.norm(c - b, axis=1), np.linalg.norm(a - c, axis=1))
     cross = np.abs((b - a)[:, 0] * (c - b)[:, 1] - (b - a)[:, 1] * (c - b)[:, 0])
@@ -263,25 +302,30 @@ def _shape_problem(pts: np.ndarray, width_m: float) -> str | None:
     folded = np.einsum("ij,ij->i", b - a, c - b) < 0  # turns back by more than 90 degrees
     radius[folded] = np.minimum(radius[folded], ca[folded] / 2)
     tight = int(np.argmin(radius))
-    if radius[tight] < width_m / 2 * 0.98:
-        return (f"it bends with a radius of {radius[tight]:.2f} m near point {owner[tight]}, tighter than half its "
-                f"width ({width_m / 2:g} m): the inner wall would fold")
-    # Overlap: parts of the track closer than its width, apart from deliberate crossings.
+    if radius[tight] < MIN_BEND_RADIUS_M * 0.98:
+        return (f"it bends with a radius of {radius[tight]:.2f} m near point {owner[tight]} ({dense[tight][0]:.2f}, "
+                f"{dense[tight][1]:.2f}): no car here turns tighter than {MIN_BEND_RADIUS_M:g} m")
+    # Overlap: parts of the track closer than their widths, apart from deliberate crossings.
+    width = widths[owner]
     heading = np.roll(dense, -1, axis=0) - dense
     heading /= np.linalg.norm(heading, axis=1, keepdims=True)
-    # Points less than half a minimum-radius U-turn apart along the loop are neighbours, not parts.
-    pairs = _close_pairs(dense, width_m * 0.95, np.pi * width_m / 2 * 1.05)
+    # Points less than half a U-turn round the widest half width apart along the loop are
+    # neighbours, not parts.
+    pairs = [(p, j, d) for p, j, d in _close_pairs(dense, float(width.max()) * 0.95,
+                                                  np.pi * float(halves.max()) * 1.05)
+             if d < (width[p] + width[j]) / 2 * 0.95]
 
     def angle(p: int, j: int) -> float:  # [deg] between the two parts' directions, 0..90
         return float(np.degrees(np.arccos(np.clip(abs(float(heading[p] @ heading[j])), 0.0, 1.0))))
 
     crossings = np.array([dense[p] for p, j, d in pairs if d < step and angle(p, j) >= MIN_CROSSING_DEG])
     for p, j, d in sorted(pairs, key=lambda pair: pair[2]):  # the closest first: a crossing, if any
-        if len(crossings) and np.min(np.linalg.norm(crossings - dense[p], axis=1)) < 1.5 * width_m:
+        if len(crossings) and np.min(np.linalg.norm(crossings - dense[p], axis=1)) < 1.5 * width[p]:
             continue  # the approach to a deliberate crossing
         what = (f"crosses itself at {angle(p, j):.0f} degrees (crossings need at least {MIN_CROSSING_DEG:g})"
                 if d < step else f"runs {d:.2f} m from another part of itself")
-        return f"near points {owner[p]} and {owner[j]} it {what}, closer than its width ({width_m:g} m)"
+        return (f"near points {owner[p]} and {owner[j]} ({dense[p][0]:.2f}, {dense[p][1]:.2f}) it {what}, closer "
+                f"than their widths ({(width[p] + width[j]) / 2:.2f} m): the lanes would merge")
     return None
 
 
@@ -341,16 +385,3 @@ def course() -> Track:
 
 
 BUILTIN = {"oval": oval, "figure-eight": figure_eight, "course": course}
-
-
-def get(name_or_path: str) -> Track:
-    """A built-in track by name, or a track file by path."""
-    if not isinstance(name_or_path, str) or not name_or_path.strip():
-        raise TrackError(f"the track name is empty: use {', '.join(BUILTIN)} or a .json track file"
-                         if isinstance(name_or_path, str) else
-                         f"a track is a name or a .json file's path, got {shown(name_or_path)}")
-    if name_or_path in BUILTIN:
-        return BUILTIN[name_or_path]()
-    if name_or_path.endswith(".json") or Path(name_or_path).exists():
-        return Track.load(name_or_path)
-    raise TrackError(f"unknown track {name_or_path!r}: use {', '.join(BUILTIN)} or a .json track file")

@@ -1,0 +1,48 @@
+"""What a track's name may be, wherever one is taken (`roar race --track`, `sim://?track=`, the
+Gym environment, `roar sweep`, `roar track`): a built-in track, `random:SEED[,...]`,
+`tunnel:SEED[,...]`, or a file: .json (the project's), .csv (an F1TENTH/TUM centre line) or
+.yaml (an F1TENTH/ROS map)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from roar.checks import printable, shown
+from roar.tracks.track import BUILTIN, Track, TrackError
+
+FORMS = "oval, figure-eight, course, random:SEED, tunnel:SEED, or a .json, .csv or .yaml file"
+
+
+def get(name_or_path: str) -> Track:
+    """The track a name or file names; TrackError (one line) for anything else."""
+    if not isinstance(name_or_path, str):
+        raise TrackError(f"a track is a name or a file's path, got {shown(name_or_path)}")
+    name = name_or_path.strip()
+    if not name:
+        raise TrackError(f"the track name is empty: use {FORMS}")
+    if name in BUILTIN:
+        return BUILTIN[name]()
+    if name.startswith("random:"):
+        from roar.tracks import random_track
+
+        return random_track.generate(random_track.parse(name))
+    if name.startswith("tunnel:"):
+        from roar.tracks import tunnel
+
+        return tunnel.generate(tunnel.parse(name))
+    suffix = Path(name).suffix.lower()
+    if suffix == ".json":
+        from roar.tracks.track_files import load_json
+
+        return load_json(name)
+    if suffix == ".csv":
+        from roar.tracks.track_files import load_centreline_csv
+
+        return load_centreline_csv(name)
+    if suffix in (".yaml", ".yml"):
+        from roar.tracks.occupancy_map import load_map_track
+
+        return load_map_track(name)
+    if Path(name).exists():
+        raise TrackError(f"{printable(name)}: a track file ends in .json, .csv (centre line) or .yaml (map)")
+    raise TrackError(f"unknown track {printable(name)!r}: use {FORMS}")
