@@ -160,8 +160,8 @@ def circle(r: float, cx: float = 0.0, spacing: float = 0.5) -> np.ndarray:
     (lemniscate(20, y_scale=0.3), 0.8, "crosses itself at"),  # an X too shallow to drive through
     (np.stack([5 * np.cos(np.linspace(0, 2 * np.pi, 200, endpoint=False)),
                2 * np.sin(np.linspace(0, 2 * np.pi, 200, endpoint=False)) *
-               (0.15 + 0.85 * np.cos(np.linspace(0, 2 * np.pi, 200, endpoint=False)) ** 2)], 1), 1.0,
-     "from another part of itself"),  # a waist narrower than the track
+               (0.08 + 0.92 * np.cos(np.linspace(0, 2 * np.pi, 200, endpoint=False)) ** 2)], 1), 1.0,
+     "too close for a wall between them"),  # a waist too narrow for two lanes and a wall
     (np.vstack([circle(3), circle(3)[:1]]), 1.0, "the last point repeats the first"),
     (circle(120, spacing=1.5), 1.0, "must fit in a 200 m square"),
     (circle(3, cx=2000), 1.0, "within 1000 m of the origin"),

@@ -147,8 +147,9 @@ class JuniorPlant:
         position, yaw = self._mount(CAMERA_POS_M)
         return self.world.render(position, yaw, CAMERA_PITCH_RAD, width, height, CAMERA_FOV_DEG)
 
-    def wall_contacts(self) -> int:
-        return self.world.contacts(self.robot)
+    def wall_contacts(self, of: list[int] | None = None) -> int:
+        """How many walls (or bodies of `of`) the robot touches right now."""
+        return self.world.contacts(self.robot, of)
 
     def close(self) -> None:
         self.world.close()

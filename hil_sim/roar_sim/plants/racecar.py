@@ -139,9 +139,9 @@ class Racecar:
         """[rad] the rear-left wheel's angle since the start (where the encoder sits)."""
         return pb.getJointState(self.car, REAR_WHEELS[0], physicsClientId=self.client)[0]
 
-    def wall_contacts(self) -> int:
-        """How many wall bodies the car touches right now."""
-        return self.world.contacts(self.car)
+    def wall_contacts(self, of: list[int] | None = None) -> int:
+        """How many wall bodies (or bodies of `of`) the car touches right now."""
+        return self.world.contacts(self.car, of)
 
     def lidar(self, beams: int = lidar.BEAMS, fov_rad: float = lidar.FOV_RAD, range_m: float = lidar.RANGE_M) -> np.ndarray:
         """A scan from the Hokuyo link: distances [m] from right to left; range_m where nothing is hit."""

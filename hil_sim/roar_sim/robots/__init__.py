@@ -144,6 +144,10 @@ class Robot(Lockstep):
     def touching_wall(self) -> bool:
         return self.plant.wall_contacts() > 0
 
+    def touching(self, bodies: list[int]) -> bool:
+        """Whether it touches any of these bodies (a tunnel's cones or people) right now."""
+        return bool(bodies) and self.plant.wall_contacts(bodies) > 0
+
     # --- its limits --------------------------------------------------------------------------
 
     @classmethod

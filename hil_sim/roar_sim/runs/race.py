@@ -33,6 +33,7 @@ import numpy as np
 from roar.autopilot import Agent, Command, Observation, Runner, WaypointError, lap_time, load_waypoints, speed_profile
 from roar.user_files import unusable_folder
 from roar.cli.errors import ArgumentParser, ExitStatus, path_option, run_command
+from roar.tracks.tunnel import describe
 from roar_sim import robots
 from roar_sim.clock.lockstep import CONTROL_PERIOD_S as PERIOD_S
 from roar_sim.robots import Robot
@@ -113,6 +114,8 @@ class RaceResult:
     green_frames: int = 0  # camera frames that showed green up to and including the one it moved on
     boxes: int = 0  # boxes on the track
     box_contacts: int = 0  # control periods with the car touching a box
+    cone_contacts: int = 0  # control periods with the car touching a tunnel's cone
+    people_contacts: int = 0  # control periods with the car touching a person
 
     @property
     def false_start(self) -> bool:
@@ -190,6 +193,7 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
     bar = None
     with ExitStack() as stack:
         car = stack.enter_context(kind(track, realtime=realtime, gui=gui))
+        world = car.plant.world
         course = LaneCourse(car, start_lights, boxes, avoid, record) if lateral == "lane" else None
         result = RaceResult(track, speed_profile(track.centerline, car.limits), robot=robot, boxes=len(boxes))
         lights = course.lights if course else None
@@ -209,6 +213,8 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
             result.path.append((obs.x, obs.y, obs.speed, s_now, obs.t_s))
             result.wall_contacts += car.touching_wall()
             result.box_contacts += bool(boxes) and course.touching_box()
+            result.cone_contacts += car.touching(world.cones)
+            result.people_contacts += car.touching(world.people)
             result.braking_periods += car.braking()
             result.slowest_m_s = min(result.slowest_m_s, car.state().speed)
             if lap["travelled"] >= track.length_m * (len(result.lap_times_s) + 1):
@@ -257,6 +263,9 @@ def report(result: RaceResult) -> str:
     lines.append(f"wall contacts: {result.wall_contacts}")
     if result.boxes:
         lines.append(f"box contacts: {result.box_contacts} (control periods touching one of the {result.boxes} boxes)")
+    if tr.course is not None:
+        lines.append(f"tunnel: {describe(tr)}; control periods touching a cone: {result.cone_contacts}, a person: "
+                     f"{result.people_contacts}")
     if result.braking_periods:
         lines.append(f"braking: {result.braking_periods * PERIOD_S:.2f} s through the firmware's brake/reverse "
                      f"sequence (the ESC has no brake)")
@@ -292,7 +301,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--seconds", type=float, default=None, metavar="S",
                    help="time limit in simulated seconds (default: 4 x the physical-limit laps + 10)")
     p.add_argument("--track", default="oval",
-                   help="oval, figure-eight, course (long straights, for boxes), or a track .json file (default: oval)")
+                   help="oval, figure-eight, course (long straights, for boxes), random:SEED[,length=MIN-MAX,width=M,radius=M,"
+                        "straightness=0..1], tunnel:SEED[,width=M,cones=N,markers=N,people=N], or a file: .json, an "
+                        "F1TENTH/TUM centre-line .csv, a map .yaml (default: oval)")
     p.add_argument("--laps", type=int, default=2, help="laps to drive (default: 2)")
     p.add_argument("--waypoints", type=path_option, metavar="FILE",
                    help="follow this closed line (x,y,z per line) instead of the centre line")

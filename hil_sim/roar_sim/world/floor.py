@@ -19,6 +19,7 @@ from roar_sim.world.cache import per_shape
 ASPHALT_RGB = (64, 64, 69)
 EDGE_LINE_RGB = (240, 240, 240)
 CENTRE_LINE_RGB = (230, 200, 40)
+MARKER_RGB = (40, 180, 60)  # a tunnel's floor markers: green
 PIXEL_M = 0.01  # [m] texture resolution, coarser on tracks too big for MAX_TEXTURE_PX
 MAX_TEXTURE_PX = 4096  # [px] per side: at most 48 MiB of RGB, whatever the track's size
 MARGIN_M = 0.5  # [m] floor beyond the walls
@@ -43,6 +44,10 @@ class FloorImage:
         cols, rows = np.minimum(np.ceil(self.extent / self.pixel_m), MAX_TEXTURE_PX).astype(int)
         self.rgb = np.empty((rows, cols, 3), np.uint8)
         self.rgb[:] = ASPHALT_RGB
+        if track.course is not None:  # a tunnel: a bare floor with its green markers
+            for x, y, yaw in track.course.markers:
+                self._rectangle(x, y, yaw, MARKER_RGB)
+            return
         for line in edge_lines(track):
             self._paint(line, EDGE_LINE_RGB, EDGE_LINE_WIDTH_M)
         self._paint(track.centerline, CENTRE_LINE_RGB, CENTRE_LINE_WIDTH_M, dash_m=CENTRE_DASH_M)
@@ -51,6 +56,21 @@ class FloorImage:
         """(row, col) of a world point."""
         col, up = ((np.asarray(xy, dtype=float) - self.origin) / self.pixel_m).astype(int)
         return int(self.rgb.shape[0] - 1 - up), int(col)
+
+    def _rectangle(self, x: float, y: float, yaw: float, rgb: tuple[int, int, int]) -> None:
+        """Fill a marker's rectangle (MARKER_SIZE_M, long side along yaw) centred on (x, y)."""
+        from roar.tracks.tunnel import MARKER_SIZE_M
+
+        rows, cols = self.rgb.shape[:2]
+        reach = float(np.hypot(*MARKER_SIZE_M)) / 2
+        r0, c0 = self.pixel((x - reach, y + reach))
+        r1, c1 = self.pixel((x + reach, y - reach))
+        rr, cc = np.mgrid[max(0, r0):min(rows, r1 + 1), max(0, c0):min(cols, c1 + 1)]
+        px = self.origin[0] + (cc + 0.5) * self.pixel_m - x
+        py = self.origin[1] + (rows - 1 - rr + 0.5) * self.pixel_m - y
+        along, across = px * np.cos(yaw) + py * np.sin(yaw), -px * np.sin(yaw) + py * np.cos(yaw)
+        inside = (np.abs(along) <= MARKER_SIZE_M[0] / 2) & (np.abs(across) <= MARKER_SIZE_M[1] / 2)
+        self.rgb[rr[inside], cc[inside]] = rgb
 
     def _paint(self, polyline: np.ndarray, rgb: tuple[int, int, int], width_m: float,
                dash_m: float | None = None) -> None:

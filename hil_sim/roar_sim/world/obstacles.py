@@ -16,6 +16,9 @@ from roar.tracks.track import Track
 
 BOX_HALF_M = 0.1  # [m] half a box's side
 BOX_RGBA = (0.85, 0.35, 0.1, 1.0)  # traffic-cone orange
+CONE_RGBA = (1.0, 0.45, 0.0, 1.0)  # orange
+PERSON_RGBA = (0.2, 0.3, 0.6, 1.0)  # dark blue clothes
+CONE_SIDES = 16  # the cone mesh's facets round
 
 
 def add_box(world, x: float, y: float, half_m: float = BOX_HALF_M, yaw: float = 0.0) -> int:
@@ -25,6 +28,37 @@ def add_box(world, x: float, y: float, half_m: float = BOX_HALF_M, yaw: float = 
     visual = pb.createVisualShape(pb.GEOM_BOX, halfExtents=[half_m] * 3, rgbaColor=list(BOX_RGBA), physicsClientId=c)
     return pb.createMultiBody(0, shape, visual, [x, y, half_m], pb.getQuaternionFromEuler([0, 0, yaw]),
                               physicsClientId=c)
+
+
+def add_cone(world, x: float, y: float) -> int:
+    """A static orange cone (CONE_RADIUS_M at its base, CONE_HEIGHT_M high) standing at (x, y)."""
+    from roar.tracks.tunnel import CONE_HEIGHT_M, CONE_RADIUS_M
+
+    c = world.client
+    a = np.linspace(0, 2 * np.pi, CONE_SIDES, endpoint=False)
+    ring = [[CONE_RADIUS_M * np.cos(t), CONE_RADIUS_M * np.sin(t), 0.0] for t in a]
+    vertices = [*ring, [0.0, 0.0, CONE_HEIGHT_M], [0.0, 0.0, 0.0]]
+    apex, base = CONE_SIDES, CONE_SIDES + 1
+    indices = []
+    for i in range(CONE_SIDES):
+        j = (i + 1) % CONE_SIDES
+        indices += [i, j, apex, j, i, base]
+    shape = pb.createCollisionShape(pb.GEOM_MESH, vertices=vertices, physicsClientId=c)  # its convex hull
+    visual = pb.createVisualShape(pb.GEOM_MESH, vertices=vertices, indices=indices, rgbaColor=list(CONE_RGBA),
+                                  physicsClientId=c)
+    return pb.createMultiBody(0, shape, visual, [x, y, 0.0], physicsClientId=c)
+
+
+def add_person(world, x: float, y: float) -> int:
+    """A person: a static cylinder (PERSON_RADIUS_M, PERSON_HEIGHT_M) standing at (x, y)."""
+    from roar.tracks.tunnel import PERSON_HEIGHT_M, PERSON_RADIUS_M
+
+    c = world.client
+    shape = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=PERSON_RADIUS_M, height=PERSON_HEIGHT_M,
+                                    physicsClientId=c)
+    visual = pb.createVisualShape(pb.GEOM_CYLINDER, radius=PERSON_RADIUS_M, length=PERSON_HEIGHT_M,
+                                  rgbaColor=list(PERSON_RGBA), physicsClientId=c)
+    return pb.createMultiBody(0, shape, visual, [x, y, PERSON_HEIGHT_M / 2], physicsClientId=c)
 
 
 def place_boxes(world, track: Track, spots: Sequence[tuple[float, float]]) -> list[int]:

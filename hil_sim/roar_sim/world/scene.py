@@ -14,6 +14,7 @@ import pybullet_data
 
 from roar.errors import RoarError
 from roar_sim.world.floor import add_floor
+from roar_sim.world.obstacles import add_cone, add_person
 from roar_sim.world.bullet import pb
 from roar.tracks import Track
 from roar_sim.world.cache import per_shape
@@ -65,6 +66,9 @@ class World:
         # Nearest-first for the camera's software renderer: a pixel already covered by a wall or the
         # floor is rejected by its depth test before it is shaded again for what lies beneath.
         self.walls = self._build_walls(track) if track else []
+        course = track.course if track else None  # a tunnel world's cones and people (not in its map)
+        self.cones = [add_cone(self, x, y) for x, y in course.cones] if course else []
+        self.people = [add_person(self, x, y) for x, y in course.people] if course else []
         self.floor = add_floor(track, c) if track else None
         self.ground = self._add_ground(track)
         if gui:
@@ -136,10 +140,10 @@ class World:
         yaw = pb.getEulerFromQuaternion(orn)[2]
         return x, y, yaw, vx * math.cos(yaw) + vy * math.sin(yaw), wz
 
-    def contacts(self, body: int) -> int:
-        """How many wall bodies `body` touches right now."""
+    def contacts(self, body: int, of: list[int] | None = None) -> int:
+        """How many wall bodies (or bodies of `of`: self.cones, self.people) `body` touches now."""
         touching = {pt[2] for pt in pb.getContactPoints(bodyA=body, physicsClientId=self.client)}
-        return len(touching & set(self.walls))
+        return len(touching & set(self.walls if of is None else of))
 
     def render(self, position, yaw: float, pitch: float, width: int, height: int, fov_deg: float,
                far_m: float = 10.0, near_m: float = 0.05) -> tuple[np.ndarray, np.ndarray]:

@@ -104,9 +104,9 @@ def generate(spec: RandomTrackSpec) -> Track:
         except TrackError as e:
             last = str(e).split(": ", 1)[-1]
             continue
-        if track.region.interiors and len(track.region.interiors) == 1:  # one infield: it never crosses itself
+        if track.uniform_width and len(track.walls) == 2:  # one infield: never near nor across itself
             return track
-        last = "it crosses itself"
+        last = "it comes within its width of itself"
     raise TrackError(f"{spec.name}: no track with these parameters in {MAX_DRAWS} draws (the last: {last}); try a "
                      f"longer length, a smaller radius or width")
 
@@ -163,7 +163,19 @@ def _round_corners(polygon: np.ndarray, rng: np.random.Generator, spec: RandomTr
     if np.any(biggest < spec.radius_m * 1.02) or np.any(np.abs(turns) > math.radians(170)):
         return None
     share = (1 - spec.straightness) * rng.uniform(0.4, 1.0, len(polygon))
-    radius = spec.radius_m * 1.02 + (biggest - spec.radius_m * 1.02) * share
+    return _corner_arcs(polygon, spec.radius_m * 1.02 + (biggest - spec.radius_m * 1.02) * share)
+
+
+def rounded_polygon(polygon, radii_m) -> np.ndarray:
+    """A closed centre line (points every SPACING_M) round a polygon's corners (anticlockwise),
+    each corner an arc of its radius [m] and straights between: a track of any shape, by hand."""
+    return _sample(_corner_arcs(np.asarray(polygon, dtype=float), np.broadcast_to(radii_m, (len(polygon),))))
+
+
+def _corner_arcs(polygon: np.ndarray, radius: np.ndarray) -> list:
+    """Per corner (arc start, arc centre, radius, signed turn)."""
+    turns = _turns(polygon)
+    tan_half = np.tan(np.abs(turns) / 2)
     arcs = []
     for i, corner in enumerate(polygon):
         into = corner - polygon[i - 1]

@@ -12,8 +12,11 @@ meet, as a real hairpin's inner wall does. Refused, each in one line that says w
 * a half width below 0.2 m or a width above 5 m anywhere;
 * a track that does not fit in a 200 m square within 1 km of the origin;
 * a bend tighter than 0.3 m along the centre line (no car here turns so sharply);
-* two parts of the track closer than their widths (their lanes would merge), except where it
-  crosses itself at an angle of at least 45 degrees (a figure-eight's crossing, left open).
+* a crossing of itself at less than 45 degrees (a figure-eight's crossing, at least 45, is left
+  open), or two parts too close for a wall between them (0.46 m apart).
+
+Two parts of a track closer than their widths are parted by a wall midway between them: the half
+widths on the sides facing each other are cut to it (as the real circuits' maps show).
 
 Files: roar.tracks.track_files (the project's JSON, the F1TENTH/TUM centre-line CSV) and
 roar.tracks.occupancy_map (a map YAML + image).
@@ -44,6 +47,8 @@ MIN_BEND_RADIUS_M = 0.3  # [m] along the centre line: tighter than any car here 
 BEND_CHORD_M = 0.3  # [m] the bend check's circle passes through points this far either side
 CHECK_STEP_M = 0.1  # [m] the shape checks look at the centre line this often (or every width/4)
 WALL_TOLERANCE_M = 0.005  # [m] walls follow the area's edge within this
+WALL_GAP_M = 0.06  # [m] between two parts of a track parted by a wall (a wall box is 0.05 m thick)
+MIN_HOLE_M2 = 0.1  # [m^2] a hole in the driving area smaller than this is a sliver, not an infield
 
 
 class TrackError(RoarError, ValueError):
@@ -56,13 +61,15 @@ class Track:
     to the left and to the right of each point (otherwise width_m / 2 each; with them, width_m is
     their typical total, the median), extra_area (polygons [m] of driving area beyond the strips
     along the centre line: a tunnel's side corridors and halls) and course (what stands in a
-    tunnel world: roar.tracks.tunnel.Course)."""
+    tunnel world: roar.tracks.tunnel.Course); or area, the driving area itself (a shapely
+    Polygon: a map's free space, whose edges are its walls)."""
 
     name: str
     centerline: np.ndarray  # (N, 2) [m] closed loop, no repeated last point
     width_m: float  # [m] wall to wall
     half_widths: np.ndarray | None = None  # (N, 2) [m] left, right of each point
     extra_area: tuple = ()  # polygons, each (M, 2) [m]
+    area: object = field(default=None, compare=False)  # a shapely Polygon: the driving area as given (a map's)
     course: object = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
@@ -94,13 +101,13 @@ class Track:
         problem = _widths_problem(halves, len(pts))
         if problem:
             raise TrackError(f"track {self.name!r}: {problem}")
+        problem, halves = _shape_problem(pts, halves)
+        if problem:
+            raise TrackError(f"track {self.name!r}: {problem}")
         object.__setattr__(self, "centerline", pts)
         object.__setattr__(self, "half_widths", halves)
         object.__setattr__(self, "width_m", float(self.width_m))
         object.__setattr__(self, "extra_area", tuple(np.asarray(poly, dtype=float) for poly in self.extra_area))
-        problem = _shape_problem(pts, halves)
-        if problem:
-            raise TrackError(f"track {self.name!r}: {problem}")
 
     @classmethod
     def with_widths(cls, name: str, centerline, half_widths, **kwargs) -> Track:
@@ -112,7 +119,7 @@ class Track:
 
     @property
     def uniform_width(self) -> bool:
-        return bool(np.all(self.half_widths == self.width_m / 2)) and not self.extra_area
+        return bool(np.all(self.half_widths == self.width_m / 2)) and not self.extra_area and self.area is None
 
     # --- geometry ------------------------------------------------------------------------------
 
@@ -131,7 +138,7 @@ class Track:
         """The same for tracks of the same shape: a key for what is built from the shape alone
         (wall meshes, floor textures), built once per process."""
         parts = [np.float64(self.width_m).tobytes(), self.centerline.tobytes(), self.half_widths.tobytes(),
-                 *(poly.tobytes() for poly in self.extra_area)]
+                 *(poly.tobytes() for poly in self.extra_area), self.area.wkb if self.area is not None else b""]
         return hashlib.sha256(b"|".join(parts)).digest()
 
     @cached_property
@@ -186,6 +193,8 @@ class Track:
         stays inside), and the extra area."""
         import shapely
 
+        if self.area is not None:
+            return self.area
         left, right = self.edges()
         c, c_next = self.centerline, np.roll(self.centerline, -1, axis=0)
         quads = np.concatenate([np.stack([c, c_next, np.roll(side, -1, axis=0), side], axis=1)
@@ -202,7 +211,10 @@ class Track:
         """The walls as closed polylines (M, 2) [m], no repeated last point: the driving area's
         outer edge, then its holes' (the infield of a loop, a figure-eight's two)."""
         area = self.region
-        return [np.asarray(ring.coords)[:-1] for ring in (area.exterior, *area.interiors)]
+        import shapely
+
+        holes = [ring for ring in area.interiors if shapely.Polygon(ring).area >= MIN_HOLE_M2]
+        return [np.asarray(ring.coords)[:-1] for ring in (area.exterior, *holes)]
 
     def inside(self, xy, margin_m: float = 0.0) -> bool:
         """Whether a point is in the driving area, at least margin_m from every wall."""
@@ -287,8 +299,9 @@ def _widths_problem(halves: np.ndarray, n: int) -> str | None:
     return None
 
 
-def _shape_problem(pts: np.ndarray, halves: np.ndarray) -> str | None:
-    """Why a car cannot drive this closed centre line with these half widths (one line), or None."""
+def _shape_problem(pts: np.ndarray, halves: np.ndarray) -> tuple[str | None, np.ndarray]:
+    """(why a car cannot drive this closed centre line with these half widths (one line) or
+    None, the half widths with parts closer than their widths parted by a wall midway)."""
     widths = halves.sum(axis=1)
     step = min(CHECK_STEP_M, float(widths.min()) / 4)
     dense, owner = _resample(pts, step)
@@ -304,29 +317,40 @@ def _shape_problem(pts: np.ndarray, halves: np.ndarray) -> str | None:
     tight = int(np.argmin(radius))
     if radius[tight] < MIN_BEND_RADIUS_M * 0.98:
         return (f"it bends with a radius of {radius[tight]:.2f} m near point {owner[tight]} ({dense[tight][0]:.2f}, "
-                f"{dense[tight][1]:.2f}): no car here turns tighter than {MIN_BEND_RADIUS_M:g} m")
-    # Overlap: parts of the track closer than their widths, apart from deliberate crossings.
+                f"{dense[tight][1]:.2f}): no car here turns tighter than {MIN_BEND_RADIUS_M:g} m"), halves
+    # Parts of the track closer than their widths, apart from deliberate crossings: the wall
+    # between them runs midway, each side's half width cut to it.
     width = widths[owner]
     heading = np.roll(dense, -1, axis=0) - dense
     heading /= np.linalg.norm(heading, axis=1, keepdims=True)
     # Points less than half a U-turn round the widest half width apart along the loop are
     # neighbours, not parts.
-    pairs = [(p, j, d) for p, j, d in _close_pairs(dense, float(width.max()) * 0.95,
-                                                  np.pi * float(halves.max()) * 1.05)
-             if d < (width[p] + width[j]) / 2 * 0.95]
+    pairs = [(p, j, d) for p, j, d in _close_pairs(dense, float(width.max()), np.pi * float(halves.max()) * 1.05)
+             if d < (width[p] + width[j]) / 2]
 
     def angle(p: int, j: int) -> float:  # [deg] between the two parts' directions, 0..90
         return float(np.degrees(np.arccos(np.clip(abs(float(heading[p] @ heading[j])), 0.0, 1.0))))
 
     crossings = np.array([dense[p] for p, j, d in pairs if d < step and angle(p, j) >= MIN_CROSSING_DEG])
+    halves = halves.copy()
+    n = len(pts)
     for p, j, d in sorted(pairs, key=lambda pair: pair[2]):  # the closest first: a crossing, if any
         if len(crossings) and np.min(np.linalg.norm(crossings - dense[p], axis=1)) < 1.5 * width[p]:
             continue  # the approach to a deliberate crossing
-        what = (f"crosses itself at {angle(p, j):.0f} degrees (crossings need at least {MIN_CROSSING_DEG:g})"
-                if d < step else f"runs {d:.2f} m from another part of itself")
-        return (f"near points {owner[p]} and {owner[j]} ({dense[p][0]:.2f}, {dense[p][1]:.2f}) it {what}, closer "
-                f"than their widths ({(width[p] + width[j]) / 2:.2f} m): the lanes would merge")
-    return None
+        where = f"near points {owner[p]} and {owner[j]} ({dense[p][0]:.2f}, {dense[p][1]:.2f})"
+        if d < step:
+            return (f"{where} it crosses itself at {angle(p, j):.0f} degrees (crossings need at least "
+                    f"{MIN_CROSSING_DEG:g})"), halves
+        half = (d - WALL_GAP_M) / 2
+        if half < MIN_HALF_WIDTH_M:
+            return (f"{where} it runs {d:.2f} m from another part of itself: too close for a wall between them "
+                    f"(at least {2 * MIN_HALF_WIDTH_M + WALL_GAP_M:.2f} m)"), halves
+        for here, there in ((p, j), (j, p)):
+            toward = dense[there] - dense[here]
+            side = 0 if heading[here][0] * toward[1] - heading[here][1] * toward[0] > 0 else 1  # 0: left
+            for i in (owner[here], (owner[here] + 1) % n):
+                halves[i, side] = min(halves[i, side], half)
+    return None, halves
 
 
 def _close_pairs(points: np.ndarray, within_m: float, min_arc_m: float) -> list[tuple[int, int, float]]:
