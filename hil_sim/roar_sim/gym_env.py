@@ -51,6 +51,7 @@ from roar_sim import robots
 from roar_sim.clock.lockstep import CONTROL_PERIOD_S as PERIOD_S  # [s] one action
 from roar_sim.robots import Robot
 from roar.tracks import Track, get
+from roar.tracks.names import FORMS
 from roar.tracks.track import MAX_DISTANCE_M, MAX_EXTENT_M
 
 LIDAR_BEAMS = 72  # over 270 deg
@@ -84,7 +85,7 @@ def _problems(render_modes, track, camera, max_seconds, contact_penalty, crash_e
     if not isinstance(robot, str):
         problems.append(f"robot must be a robot's name ({', '.join(robots.names())}), got {shown(robot)}")
     if not isinstance(track, (str, Track)):
-        problems.append(f"track must be a track's name, a track .json file or a Track, got {shown(track)}")
+        problems.append(f"track must be a Track or a track's name ({FORMS}), got {shown(track)}")
     if camera is not None:
         size = tuple(camera) if isinstance(camera, (tuple, list)) else ()
         if len(size) != 2 or not all(isinstance(v, int) and not isinstance(v, bool) for v in size):

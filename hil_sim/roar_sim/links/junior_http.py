@@ -23,6 +23,7 @@ import sys
 import threading
 from dataclasses import dataclass
 
+from roar.tracks.names import FORMS
 from roar.cli.errors import ArgumentParser, ExitStatus, UserError, run_command, seconds_option
 from roar.protocol import spec
 from roar.transports.http_junior import host_port
@@ -242,7 +243,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--http", default="127.0.0.1:8081", metavar="HOST:PORT",
                    help="where to serve the control route (default 127.0.0.1:8081; port 0 picks free ports); "
                         "the camera is on the port below it")
-    p.add_argument("--track", default=None, help="oval, figure-eight, course or a track .json file (default: open floor)")
+    p.add_argument("--track", default=None, help=f"{FORMS} (default: open floor)")
     p.add_argument("--seconds", type=seconds_option, default=0.0, metavar="S", help="stop after this long (default: Ctrl-C)")
     p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
     return p

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from roar.tracks.names import FORMS
 from roar.protocol import encode, spec
 from roar.cli.errors import ArgumentParser, ExitStatus, UserError, run_command, seconds_option, stopped_status
 from roar.vision.geometry import SIMULATED_CAR_CAMERA
@@ -216,7 +217,7 @@ def parse_ports(text: str) -> dict[str, int]:
 def parser() -> argparse.ArgumentParser:
     p = ArgumentParser(prog="roar sim --stream", description=__doc__)
     p.add_argument("--robot", default="esc", choices=["esc"], help="the car whose phone it is: the ESC car")
-    p.add_argument("--track", default="oval", help="oval, figure-eight, course or a track .json file (default oval)")
+    p.add_argument("--track", default="oval", help=f"{FORMS} (default oval)")
     p.add_argument("--size", type=parse_size, default=(320, 240), help="camera size WxH (default 320x240)")
     p.add_argument("--rate", type=float, default=20.0, help="frames per second (default 20)")
     p.add_argument("--push", metavar="HOST", help="push every frame to HOST instead of answering acks")

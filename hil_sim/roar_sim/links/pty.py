@@ -19,6 +19,7 @@ import termios
 import threading
 import tty
 
+from roar.tracks.names import FORMS
 from roar.cli.errors import ArgumentParser, ExitStatus, UserError, run_command, seconds_option, stopped_status
 from roar_sim import robots
 from roar_sim.robots import Robot
@@ -104,7 +105,7 @@ def parser() -> argparse.ArgumentParser:
     p = ArgumentParser(prog="roar sim --serial", description=__doc__)
     p.add_argument("--robot", default="esc", metavar="NAME",
                    help="esc: the ESC car (throttle, steering; default); iarrc: the IARRC car (speed setpoints)")
-    p.add_argument("--track", default="oval", help="oval, figure-eight, course or a track .json file (default: oval)")
+    p.add_argument("--track", default="oval", help=f"{FORMS} (default: oval)")
     p.add_argument("--seconds", type=seconds_option, default=0.0, metavar="S", help="stop after this long (default: run until Ctrl-C)")
     p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
     return p

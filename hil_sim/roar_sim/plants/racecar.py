@@ -12,12 +12,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from roar.vision.geometry import SIMULATED_CAR_CAMERA as CAMERA
+from roar_sim.plants import car_profile
+from roar_sim.plants.car_profile import URDF_MASS_KG, URDF_WHEELBASE_M, CarProfile, Motor
 from roar_sim.sensors import lidar
 from roar_sim.world.bullet import pb
 from roar_sim.world.scene import World
 from roar.tracks.track import Track
 
-WHEELBASE_M = 0.325  # [m] hinge axis to rear axle (racecar.urdf)
 TRACK_WIDTH_M = 0.2  # [m] between the steering hinges (racecar.urdf)
 WHEEL_RADIUS_M = 0.05  # [m]
 REAR_WHEELS = (2, 3)  # joint indices in racecar.urdf
@@ -27,16 +28,6 @@ LIDAR_LINK = 8  # hokuyo_joint
 CAMERA_LINK = 9  # zed_camera_joint
 
 
-@dataclass(frozen=True)
-class Motor:
-    """The drive motor and the tyres, as the floor feels them."""
-
-    max_speed_rad_s: float = 60.0  # [rad/s] wheel speed at full throttle (3 m/s)
-    max_torque_nm: float = 1.5  # [N m] per rear wheel
-    tyre_friction: float = 0.5  # the wheels' friction coefficient (times the floor's 1.0); racecar.urdf's
-
-
-ROAR_MOTOR = Motor()  # the ROAR car's brushed motor
 BRAKE_MAX_TORQUE_NM = 2.0  # [N m] per rear wheel at full brake
 ROLLING_DRAG_NM = 0.02  # [N m] coasting resistance per wheel
 ENCODER_COUNTS_PER_REV = 1024  # [counts]
@@ -52,35 +43,48 @@ class CarState:
     encoder_counts: int  # rear-left wheel encoder, signed
 
 
-def ackermann_angles(steer_rad: float) -> tuple[float, float]:
+def ackermann_angles(steer_rad: float, scale: float = 1.0) -> tuple[float, float]:
     """(left, right) hinge angles for a virtual centre angle: the inner wheel turns more, so both
-    wheel axes meet on the rear axle line."""
+    wheel axes meet on the rear axle line (of the car drawn `scale` times racecar.urdf's size)."""
     if abs(steer_rad) < 1e-6:
         return 0.0, 0.0
-    radius = WHEELBASE_M / math.tan(steer_rad)  # signed: positive = turning left
-    left = math.atan(WHEELBASE_M / (radius - TRACK_WIDTH_M / 2))
-    right = math.atan(WHEELBASE_M / (radius + TRACK_WIDTH_M / 2))
+    wheelbase, track = URDF_WHEELBASE_M * scale, TRACK_WIDTH_M * scale
+    radius = wheelbase / math.tan(steer_rad)  # signed: positive = turning left
+    left = math.atan(wheelbase / (radius - track / 2))
+    right = math.atan(wheelbase / (radius + track / 2))
     return left, right
 
 
 class Racecar:
     """The racecar in a World (DIRECT, or GUI when gui=True) with an optional track; or, given
-    `world`, one more car in that world (which then steps it: see step() and tick()), at `pose`."""
+    `world`, one more car in that world (which then steps it: see step() and tick()), at `pose`.
+    profile: the car's own numbers (roar_sim.plants.car_profile; default the ROAR car's): its size,
+    mass, motor and tyres; motor, if given, replaces the profile's."""
 
     def __init__(self, track: Track | None, dt_s: float = 0.005, gui: bool = False,
-                 motor: Motor = ROAR_MOTOR, world: World | None = None,
-                 pose: tuple[float, float, float] | None = None) -> None:
+                 motor: Motor | None = None, world: World | None = None,
+                 pose: tuple[float, float, float] | None = None, profile: CarProfile | None = None) -> None:
         self.dt_s = dt_s
-        self.motor = motor
+        self.profile = profile = profile or car_profile.load()
+        self.motor = motor = motor or profile.motor
         self._owns_world = world is None
         self.world = World(track, dt_s, gui) if world is None else world
         self.client = c = self.world.client
         x, y, yaw = pose if pose is not None else self.world.start_pose()
-        self.car = pb.loadURDF("racecar/racecar.urdf", [x, y, 0.05], pb.getQuaternionFromEuler([0, 0, yaw]),
-                               physicsClientId=c)
+        self.car = pb.loadURDF("racecar/racecar.urdf", [x, y, 0.05 * profile.scale],
+                               pb.getQuaternionFromEuler([0, 0, yaw]), globalScaling=profile.scale, physicsClientId=c)
+        if profile.mass_kg != URDF_MASS_KG:
+            for link in range(-1, pb.getNumJoints(self.car, physicsClientId=c)):
+                mass, _, inertia = pb.getDynamicsInfo(self.car, link, physicsClientId=c)[:3]
+                k = profile.mass_kg / URDF_MASS_KG  # every link lighter (or heavier) alike, inertia with it
+                pb.changeDynamics(self.car, link, mass=mass * k, localInertiaDiagonal=[v * k for v in inertia],
+                                  physicsClientId=c)
         for w in REAR_WHEELS + FRONT_WHEELS:
             pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL, targetVelocity=0, force=0, physicsClientId=c)
             pb.changeDynamics(self.car, w, lateralFriction=motor.tyre_friction, physicsClientId=c)
+            # PyBullet caps every joint at 100 rad/s unless told: a faster motor's wheels may spin
+            # faster (in a call of its own: given with lateralFriction, PyBullet 3.2.7 drops that)
+            pb.changeDynamics(self.car, w, maxJointVelocity=max(100.0, 2 * motor.max_speed_rad_s), physicsClientId=c)
         self.walls = self.world.walls
         self.time_s = 0.0
         self.props: list = []  # things in the world that change with time: update(time_s) each step
@@ -116,7 +120,7 @@ class Racecar:
             else:
                 pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL, targetVelocity=0, force=ROLLING_DRAG_NM,
                                          physicsClientId=c)
-        left, right = ackermann_angles(steer_rad)
+        left, right = ackermann_angles(steer_rad, self.profile.scale)
         for hinge, angle in ((LEFT_HINGE, left), (RIGHT_HINGE, right)):
             pb.setJointMotorControl2(self.car, hinge, pb.POSITION_CONTROL, targetPosition=angle, force=10,
                                      physicsClientId=c)

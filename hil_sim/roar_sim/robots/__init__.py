@@ -77,6 +77,7 @@ class Robot(Lockstep):
     name: ClassVar[str]  # as --robot, sim://?robot= and robot= spell it
     title: ClassVar[str]  # as reports name it
     limits: ClassVar[CarLimits]  # measured by measure_limits(); the suite re-measures them
+    half_width_m: ClassVar[float]  # [m] from its middle to its widest part: how near a wall its line may run
     links: ClassVar[tuple[str, ...]] = ()  # how programs reach it beside sim://: "serial", "http", "stream"
     laterals: ClassVar[tuple[str, ...]] = ("pursuit",)  # the steering its agent() offers
     lane_driving: ClassVar[bool] = False  # it can drive by its camera alone (roar race --driver lane)

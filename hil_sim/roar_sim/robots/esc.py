@@ -26,14 +26,19 @@ from roar.telemetry import VehicleState
 from roar_sim.clock.lockstep import CONTROL_PERIOD_S, LOOP_US, PHYSICS_US, loops_until
 from roar_sim.core.car import CarBoard, CarConfig, CarOutputs
 from roar_sim.plants.esc_servo import EscMode, HobbyEsc, SteeringServo
-from roar_sim.plants.racecar import WHEELBASE_M, CarState, Racecar
+from roar_sim.plants import car_profile
+from roar_sim.plants.car_profile import CarProfile
+from roar_sim.plants.racecar import CarState, Racecar
 from roar_sim.robots import Pose, ReplyLines, Robot, grip_on_circles
 from roar_sim.world.scene import World
 from roar.tracks.track import Track
 
 FRAME_US = spec.TIMING_SERVO_FRAME_US  # [us]
+# The default profile's (roar) limits as measured from it; `roar limits esc` and the suite measure
+# them again. Any other profile's are measured on first use and kept in the user's cache.
 LIMITS = CarLimits(max_speed_m_s=2.93, max_accel_m_s2=1.78, max_brake_m_s2=3.35, max_lateral_m_s2=3.38)
-MODEL = CarModel(wheelbase_m=WHEELBASE_M, max_steer_rad=SteeringServo().max_angle_rad, limits=LIMITS)
+MODEL = CarModel(wheelbase_m=car_profile.load().wheelbase_m, max_steer_rad=car_profile.load().max_steer_rad,
+                 limits=LIMITS)
 N = spec.CONTROL_NEUTRAL_US
 
 
@@ -42,6 +47,7 @@ class EscCar(Robot):
 
     name = "esc"
     title = "ESC car"
+    half_width_m = 0.15  # [m] half its width as the walls feel it (wheels and steering), measured
     limits = LIMITS
     links = ("serial", "stream")
     laterals = ("pursuit", "pid")
@@ -51,14 +57,22 @@ class EscCar(Robot):
 
     def __init__(self, track: Track | None = None, pose: Pose | None = None, realtime: bool = False,
                  speedup: float = 1.0, gui: bool = False, firmware: CarConfig | None = None,
-                 esc: HobbyEsc | None = None, servo: SteeringServo | None = None, world: World | None = None) -> None:
+                 esc: HobbyEsc | None = None, servo: SteeringServo | None = None, world: World | None = None,
+                 profile: CarProfile | str | None = None) -> None:
         """firmware: the core's configuration; world: one car more in a world that another steps
-        (roar_sim.runs.fleet), which then calls firmware(), actuate() and plant.tick()."""
+        (roar_sim.runs.fleet), which then calls firmware(), actuate() and plant.tick(); profile:
+        the car's own numbers (roar_sim.plants.car_profile: a name, a file or a CarProfile;
+        default the ROAR car's)."""
         super().__init__(track, realtime, speedup)
         self.firmware_config = firmware or CarConfig()
         self.board = CarBoard(self.firmware_config, loop_us=LOOP_US, frame_us=FRAME_US)
-        self.esc, self.servo = esc or HobbyEsc(), servo or SteeringServo()
-        self.plant = Racecar(track, dt_s=PHYSICS_US / 1e6, gui=gui, world=world, pose=pose)
+        self.profile = profile = car_profile.load(profile) if isinstance(profile, str) else profile or car_profile.load()
+        self.esc = esc or HobbyEsc()
+        self.servo = servo or SteeringServo(max_angle_rad=profile.max_steer_rad, rate_rad_s=profile.steer_rate_rad_s)
+        self.plant = Racecar(track, dt_s=PHYSICS_US / 1e6, gui=gui, world=world, pose=pose, profile=profile)
+        if profile.fingerprint not in _MEASURING:  # (while they are measured, it has none yet)
+            self.limits = profile_limits(profile)
+            self.model = CarModel(profile.wheelbase_m, profile.max_steer_rad, self.limits)
         self.calibration = Calibration()
         self._frames = self.board.frames
         self._replies = ReplyLines()
@@ -110,8 +124,8 @@ class EscCar(Robot):
         return self.esc.mode in (EscMode.BRAKE, EscMode.REVERSE)
 
     def agent(self, line, margin: float = 0.9, lateral: str = "pursuit", k_dd_s: float | None = None) -> Agent:
-        pursuit = None if k_dd_s is None else PurePursuit(MODEL.wheelbase_m, k_dd_s=k_dd_s)
-        return race_agent(line, MODEL, CONTROL_PERIOD_S, margin=margin, lateral=lateral, pursuit=pursuit)
+        pursuit = None if k_dd_s is None else PurePursuit(self.model.wheelbase_m, k_dd_s=k_dd_s)
+        return race_agent(line, self.model, CONTROL_PERIOD_S, margin=margin, lateral=lateral, pursuit=pursuit)
 
     # --- time --------------------------------------------------------------------------------
 
@@ -143,14 +157,14 @@ class EscCar(Robot):
     # --- its limits --------------------------------------------------------------------------
 
     @classmethod
-    def measure_limits(cls) -> CarLimits:
+    def measure_limits(cls, profile: CarProfile | None = None) -> CarLimits:
         """Top speed and acceleration at full throttle, braking by reversing the motor (the ESC
         has no brake of its own beyond the first tap), and the steady lateral acceleration it
         holds on circles at fixed steering, faster and faster until the tyres slide."""
         def hold(car: EscCar, throttle_us: int, steering_us: int, seconds: float) -> list:
             return car.log_driving(lambda: car.write(encode(throttle_us, steering_us)), seconds)
 
-        with cls() as car:
+        with cls(profile=profile) as car:
             hold(car, N, N, 0.2)
             run = hold(car, spec.CONTROL_MAX_US, N, 4.0)
             top, accel, brake = straight_line(run, hold(car, spec.CONTROL_MIN_US, N, 2.0))
@@ -158,8 +172,43 @@ class EscCar(Robot):
             hold(car, N, N, 0.2)
             return hold(car, throttle_us, steering_us, 5.0)[-100:]  # the last 2 s
 
-        lateral = grip_on_circles(cls, (1650, 1700, 1750, 1800), range(1700, 2001, 50), drive_circle)
+        lateral = grip_on_circles(lambda: cls(profile=profile), (1650, 1700, 1750, 1800), range(1700, 2001, 50),
+                                  drive_circle)
         return CarLimits(round(top, 2), round(accel, 2), round(brake, 2), round(lateral, 2))
 
+
+def profile_limits(profile: CarProfile) -> CarLimits:
+    """A profile's limits: the default's table, or measured once (a few seconds) and kept in the
+    user's cache under the profile's fingerprint."""
+    import json
+    import sys
+
+    from roar_sim.toolchains.native import user_cache
+
+    if profile == car_profile.load():
+        return LIMITS
+    if profile.fingerprint in _MEASURED:
+        return _MEASURED[profile.fingerprint]
+    kept = user_cache("limits") / f"esc-{profile.fingerprint}.json"
+    try:
+        limits = CarLimits(**json.loads(kept.read_text()))
+    except (OSError, ValueError, TypeError):
+        print(f"measuring the {profile.title}'s limits (once; kept in {kept.parent})...", file=sys.stderr)
+        _MEASURING.add(profile.fingerprint)
+        try:
+            limits = EscCar.measure_limits(profile)
+        finally:
+            _MEASURING.discard(profile.fingerprint)
+        try:
+            kept.parent.mkdir(parents=True, exist_ok=True)
+            kept.write_text(json.dumps(vars(limits)))
+        except OSError:
+            pass  # measured again next time
+    _MEASURED[profile.fingerprint] = limits
+    return limits
+
+
+_MEASURED: dict[str, CarLimits] = {}
+_MEASURING: set[str] = set()
 
 ROBOT = EscCar

@@ -29,7 +29,8 @@ from roar_sim.clock.rtos import Scheduler
 from roar_sim.core.iarrc import IarrcBoard, iarrc_tasks
 from roar_sim.core.library import IarrcTask
 from roar_sim.plants.esc_servo import EscMode, HobbyEsc, SteeringServo
-from roar_sim.plants.racecar import WHEELBASE_M, CarState, Motor, Racecar
+from roar_sim.plants.car_profile import URDF_WHEELBASE_M, Motor
+from roar_sim.plants.racecar import CarState, Racecar
 from roar_sim.robots import Pose, ReplyLines, Robot, grip_on_circles
 from roar.tracks.track import Track
 from roar_wire import sbus
@@ -73,7 +74,7 @@ class Transmitter:
 
 FULL_SCALE_M_S = spec.SETPOINT_MAX_SPEED_MM_S / 1000  # [m/s] the setpoint a command's throttle of 1 asks for
 LIMITS = CarLimits(max_speed_m_s=4.51, max_accel_m_s2=2.65, max_brake_m_s2=3.16, max_lateral_m_s2=8.03)
-MODEL = CarModel(wheelbase_m=WHEELBASE_M, max_steer_rad=SteeringServo().max_angle_rad, limits=LIMITS)
+MODEL = CarModel(wheelbase_m=URDF_WHEELBASE_M, max_steer_rad=SteeringServo().max_angle_rad, limits=LIMITS)
 
 
 class IarrcCar(Robot):
@@ -81,6 +82,7 @@ class IarrcCar(Robot):
 
     name = "iarrc"
     title = "IARRC car"
+    half_width_m = 0.15  # [m] half its width as the walls feel it (the same racecar as the ESC car's)
     limits = LIMITS
     links = ("serial",)
     laterals = ("pursuit", "pid")

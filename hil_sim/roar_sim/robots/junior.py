@@ -80,6 +80,7 @@ class Connection:
 class Junior(Robot):
     name = "junior"
     title = "ROAR Junior"
+    half_width_m = 0.09  # [m] half its width: the wheels' outer faces
     limits = LIMITS
     links = ("http",)
     ultrasonic_max_m = MAX_RANGE_M

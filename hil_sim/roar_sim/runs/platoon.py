@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 from tqdm import tqdm
 
+from roar.tracks.names import FORMS
 from roar.autopilot.platoon import cruise_agent, follow_agent
 from roar.cli.errors import ArgumentParser, ExitStatus, UserError, path_option, run_command
 from roar.protocol import spec
@@ -166,7 +167,7 @@ def parser():
                     "leader cruises, the follower keeps a gap behind it from the leader's position over UDP "
                     "multicast (V2V), and stops by itself when the messages stop. It falls short (exit status 2) "
                     "when the cars touched, the gap was not held, or the follower did not stop.")
-    p.add_argument("--track", default="oval", help="oval, figure-eight, course or a track .json (default: oval)")
+    p.add_argument("--track", default="oval", help=f"{FORMS} (default: oval)")
     p.add_argument("--gap", type=float, default=1.5, metavar="M", help="gap to keep [m] (default 1.5)")
     p.add_argument("--speed", type=float, default=1.0, metavar="M/S", help="the leader's speed [m/s] (default 1)")
     p.add_argument("--seconds", type=float, default=15.0, help="simulated time [s] (default 15)")

@@ -2,8 +2,8 @@
 (commands at 50 Hz, lockstep), measured against the track's physical-limit lap time for that
 robot.
 
-    roar race [--robot esc|iarrc|junior] [--track oval|figure-eight|course|FILE.json] [--laps 2]
-              [--waypoints FILE] [--margin 0.9] [--k-dd S] [--steering pursuit|pid] [--driver line|lane]
+    roar race [--robot esc|iarrc|junior] [--track NAME|FILE] [--laps 2]
+              [--line centre|optimal|RACELINE.csv] [--waypoints FILE] [--margin 0.9] [--k-dd S] [--steering pursuit|pid] [--driver line|lane]
               [--start-lights SEED] [--boxes N] [--avoid] [--record DIR] [--plot out/race.png]
               [--realtime] [--gui]
 
@@ -11,8 +11,8 @@ Every command reaches the robot as a host's does (roar_sim.robots): the ESC car 
 messages on its serial port; the IARRC car speed setpoints (its own PID holds them); the ROAR
 Junior one GET of its control route each, pure pursuit's curvature mixed into wheel duties.
 
-Prints lap times, their ratio to the physical limit, the maximum and RMS cross-track error and
-wall contacts, and plots the driven path coloured by speed beside the speed along the track.
+Prints lap times, their ratio to the physical limits (the centre line's and the minimum-curvature
+racing line's, roar.autopilot.racing_line), the maximum and RMS cross-track error and wall contacts, and plots the driven path coloured by speed beside the speed along the track.
 
 Exit status: 0 when every lap was driven; 1 for bad input (track, waypoints, options) or a
 simulator that cannot start, with a one-line error; 2 when the race ran but completed fewer
@@ -33,6 +33,7 @@ import numpy as np
 from roar.autopilot import Agent, Command, Observation, Runner, WaypointError, lap_time, load_waypoints, speed_profile
 from roar.user_files import unusable_folder
 from roar.cli.errors import ArgumentParser, ExitStatus, path_option, run_command
+from roar.tracks.track_files import load_raceline_csv
 from roar.tracks.tunnel import describe
 from roar_sim import robots
 from roar_sim.clock.lockstep import CONTROL_PERIOD_S as PERIOD_S
@@ -86,10 +87,9 @@ class LaneCourse:
         from roar.vision.geometry import SIMULATED_CAR_CAMERA, BirdsEye
         from roar.vision.lanes import LaneDetector
         from roar.vision.start_lights import StartLightDetector
-        from roar_sim.robots.esc import MODEL
-
         camera = SIMULATED_CAR_CAMERA.model(*LANE_CAMERA)
-        return lane_agent(self.camera, LaneDetector(BirdsEye(camera)), MODEL, PERIOD_S, margin, depth_camera=camera,
+        return lane_agent(self.camera, LaneDetector(BirdsEye(camera)), self.robot.model, PERIOD_S, margin,
+                          depth_camera=camera,
                           start=StartLightDetector() if self.lights is not None else None,
                           laser=self.laser.read if self.laser is not None else None)
 
@@ -101,6 +101,7 @@ class LaneCourse:
 class RaceResult:
     track: Track
     limit_speeds: np.ndarray  # [m/s] the physical-limit speed at each centre-line point
+    racing_limit_lap_s: float = float("nan")  # [s] the physical-limit lap of the racing line
     lap_times_s: list[float] = field(default_factory=list)
     cross_track_m: list[float] = field(default_factory=list)
     path: list[tuple[float, float, float, float, float]] = field(default_factory=list)  # (x, y, speed, arc length, t)
@@ -150,6 +151,11 @@ class RaceResult:
         """Best lap over the physical-limit lap (1.0 would be driving at the limit)."""
         return min(self.lap_times_s) / self.limit_lap_s if self.lap_times_s else float("inf")
 
+    @property
+    def best_racing_ratio(self) -> float:
+        """Best lap over the racing line's physical-limit lap."""
+        return min(self.lap_times_s) / self.racing_limit_lap_s if self.lap_times_s else float("inf")
+
 
 def check_line(track: Track, line: np.ndarray) -> None:
     """A waypoint line must lie on the track and run its way round (the car starts on the centre
@@ -170,14 +176,16 @@ def check_line(track: Track, line: np.ndarray) -> None:
 def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margin: float = 0.9, robot: str = "esc",
          realtime: bool = False, gui: bool = False, progress: bool = False, timeout_s: float | None = None,
          lateral: str = "pursuit", start_lights: int | None = None, boxes: Sequence[tuple[float, float]] = (),
-         avoid: bool = False, record: Path | None = None, k_dd_s: float | None = None) -> RaceResult:
+         avoid: bool = False, record: Path | None = None, k_dd_s: float | None = None,
+         profile: str | None = None) -> RaceResult:
     """Race `robot` (a name of roar_sim.robots) round `track`, its commands as a host sends them.
     lateral: its steering ("pursuit", "pid" where it has it), or "lane": the ESC car driving by
     its camera alone, and with it start_lights (a seed: start lights turn green at a moment drawn
     from it, and the car waits for them), avoid (a TFmini on its nose, keeping to a lane and
     changing lanes for what is ahead), record (a folder the driver's frames are written to).
     boxes: (distance along the centre line, offset to its left) [m] of each box. k_dd_s: pure
-    pursuit's look-ahead per m/s [s] (None: the robot's default)."""
+    pursuit's look-ahead per m/s [s] (None: the robot's default). profile: the ESC car's profile
+    (roar_sim.plants.car_profile: a name or a .toml; None: the ROAR car)."""
     kind = robots.get(robot)
     if lateral == "lane" and not kind.lane_driving:
         raise ValueError(f"the {kind.title} does not drive by its camera: lane driving is the ESC car's")
@@ -192,10 +200,13 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
         check_line(track, line)
     bar = None
     with ExitStack() as stack:
-        car = stack.enter_context(kind(track, realtime=realtime, gui=gui))
+        if profile is not None and robot != "esc":
+            raise ValueError("car profiles are the ESC car's: --car-profile needs --robot esc")
+        car = stack.enter_context(kind(track, realtime=realtime, gui=gui, **({"profile": profile} if profile else {})))
         world = car.plant.world
         course = LaneCourse(car, start_lights, boxes, avoid, record) if lateral == "lane" else None
-        result = RaceResult(track, speed_profile(track.centerline, car.limits), robot=robot, boxes=len(boxes))
+        result = RaceResult(track, speed_profile(track.centerline, car.limits), robot=robot, boxes=len(boxes),
+                            racing_limit_lap_s=optimal_line(track, robot).lap_time_s(car.limits))
         lights = course.lights if course else None
         result.green_at_s = lights.green_at_s if lights else None
         timeout_s = timeout_s or race_timeout_s(result, laps) + (result.green_at_s or 0.0)
@@ -234,6 +245,18 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
     return result
 
 
+TRACKING_MARGIN_M = 0.25  # [m] pure pursuit's widest miss of a line at speed (random tracks: 0.19-0.29 m)
+
+
+def optimal_line(track: Track, robot: str = "esc"):
+    """The minimum-curvature racing line a robot can follow round a track: its half width, half a
+    wall's thickness and TRACKING_MARGIN_M from every wall."""
+    from roar.autopilot.racing_line import racing_line
+    from roar_sim.world.scene import WALL_THICKNESS_M
+
+    return racing_line(track, robots.get(robot).half_width_m + WALL_THICKNESS_M / 2 + TRACKING_MARGIN_M)
+
+
 def race_timeout_s(result: RaceResult, laps: int) -> float:
     """[s] how long a race may take: four times the physical-limit laps, plus 10 s."""
     return 4 * laps * result.limit_lap_s + 10
@@ -249,10 +272,12 @@ def _progress_bar(laps: int, name: str):
 def report(result: RaceResult) -> str:
     tr = result.track
     lines = [f"{robots.get(result.robot).title} on track {tr.name}: {tr.length_m:.1f} m, width {tr.width_m:.1f} m; "
-             f"physical-limit lap {result.limit_lap_s:.2f} s"]
+             f"physical-limit lap {result.limit_lap_s:.2f} s on the centre line, {result.racing_limit_lap_s:.2f} s on "
+             f"the racing line"]
     for i, t in enumerate(result.lap_times_s, 1):
         lines.append(f"  lap {i}: {t:6.2f} s  ({tr.length_m / t:.2f} m/s average, "
-                     f"{t / result.limit_lap_s:.2f} x the limit)")
+                     f"{t / result.limit_lap_s:.2f} x the centre line's limit, {t / result.racing_limit_lap_s:.2f} x "
+                     f"the racing line's)")
     if result.green_at_s is not None:
         moved = ("never moved" if result.moved_at_s is None else "FALSE START" if result.false_start else
                  f"moved on the {result.green_frames}. frame that showed green "
@@ -305,8 +330,12 @@ def parser() -> argparse.ArgumentParser:
                         "straightness=0..1], tunnel:SEED[,width=M,cones=N,markers=N,people=N], or a file: .json, an "
                         "F1TENTH/TUM centre-line .csv, a map .yaml (default: oval)")
     p.add_argument("--laps", type=int, default=2, help="laps to drive (default: 2)")
+    p.add_argument("--line", default="centre", metavar="centre|optimal|FILE",
+                   help="the line the driver follows: the centre line (default), the minimum-curvature racing line "
+                        "(optimal), or a race line CSV in TUM's format (s_m; x_m; y_m; psi_rad; kappa_radpm; "
+                        "vx_mps; ax_mps2)")
     p.add_argument("--waypoints", type=path_option, metavar="FILE",
-                   help="follow this closed line (x,y,z per line) instead of the centre line")
+                   help="follow this closed line (ROAR's waypoint file: x,y,z per line) instead of the centre line")
     p.add_argument("--margin", type=float, default=0.9, help="fraction of the robot's limits to drive at (default 0.9)")
     p.add_argument("--k-dd", type=float, default=None, metavar="S",
                    help="pure pursuit's look-ahead per m/s of speed [s] (default 0.35 for the cars, 0.5 for the "
@@ -328,6 +357,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--record", type=path_option, metavar="DIR",
                    help="with --driver lane: write every frame the driver sees (PNG and depth .npy) to DIR, for "
                         "`roar vision DIR`")
+    p.add_argument("--car-profile", metavar="NAME|FILE",
+                   help="the ESC car's own numbers: roar (default), f1tenth (about 8 m/s), or a profile .toml "
+                        "(roar_sim/plants/car_profiles/); its limits are measured on first use")
     p.add_argument("--plot", type=path_option, metavar="PNG", help="write the path and speed plot to this PNG")
     p.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
@@ -350,8 +382,10 @@ def main(argv: list[str] | None = None) -> int:
         p.error("--k-dd tunes pure pursuit: it needs the line driver steering by pursuit")
     if args.steering not in kind.laterals:
         p.error(f"--robot {args.robot} steers by {' or '.join(STEERING[k] for k in kind.laterals)} only")
-    if args.driver == "lane" and (not kind.lane_driving or args.waypoints):
-        p.error("--driver lane drives the ESC car by its camera: no other --robot, no --waypoints")
+    if args.driver == "lane" and (not kind.lane_driving or args.waypoints or args.line != "centre"):
+        p.error("--driver lane drives the ESC car by its camera: no other --robot, no --waypoints or --line")
+    if args.waypoints and args.line != "centre":
+        p.error("--waypoints and --line both give the line to follow: choose one")
     if args.start_lights is not None and args.driver != "lane":
         p.error("--start-lights needs --driver lane (the car sees the lights through its camera)")
     if (args.boxes or args.avoid or args.record) and args.driver != "lane":
@@ -362,8 +396,22 @@ def main(argv: list[str] | None = None) -> int:
     problem = args.record is not None and unusable_folder(args.record)
     if problem:
         p.error(f"--record {problem}")
+    if args.car_profile is not None and args.robot != "esc":
+        p.error("--car-profile is the ESC car's (--robot esc)")
+    if args.car_profile is not None:
+        from roar_sim.plants import car_profile
+
+        car_profile.load(args.car_profile)  # a bad profile fails here, in one line, before anything runs
     track = get(args.track)
     waypoints = None
+    if args.line == "optimal":
+        waypoints = optimal_line(track, args.robot).points
+    elif args.line not in ("centre", "center"):
+        waypoints = load_raceline_csv(args.line).points
+        try:
+            check_line(track, waypoints)
+        except WaypointError as e:
+            raise TrackError(f"{args.line}: {e}") from None
     if args.waypoints:
         waypoints = load_waypoints(args.waypoints)
         try:
@@ -376,7 +424,8 @@ def main(argv: list[str] | None = None) -> int:
                          f"from the next), not {args.boxes}: try --track course")
     result = race(track, args.laps, waypoints, args.margin, args.robot, args.realtime, args.gui, progress=True,
                   timeout_s=args.seconds, lateral="lane" if args.driver == "lane" else args.steering,
-                  start_lights=args.start_lights, boxes=boxes, avoid=args.avoid, record=args.record, k_dd_s=args.k_dd)
+                  start_lights=args.start_lights, boxes=boxes, avoid=args.avoid, record=args.record, k_dd_s=args.k_dd,
+                  profile=args.car_profile)
     print(report(result))
     if result.path and args.plot and not plotting.save(lambda: plot(result), args.plot):
         return ExitStatus.ERROR

@@ -1,6 +1,6 @@
 """The `roar` commands the simulator adds, registered through the "roar.commands" entry point
 group (pyproject.toml): `roar race`, `roar sim`, `roar step-response` (the IARRC car's speed
-controller), `roar sweep`, `roar platoon` and `roar limits`. Each parses its own arguments; the
+controller), `roar sweep`, `roar platoon`, `roar limits`, and `roar track` / `roar world`. Each parses its own arguments; the
 simulator itself is imported only when a command runs, and its errors reach the `roar` command's
 one error boundary (roar.cli.errors)."""
 
@@ -10,6 +10,7 @@ import argparse
 import importlib
 import sys
 
+from roar.tracks.names import FORMS
 from roar.cli.errors import ArgumentParser, UserError, path_option, run_command, seconds_option
 from roar.cli.plugins import Command
 
@@ -44,7 +45,7 @@ def _sim_parser() -> argparse.ArgumentParser:
     link.add_argument("--stream", action="store_true",
                       help="be the car's phone: its streams over UDP (`roar sim --stream --help` for its options)")
     p.add_argument("--track", default=None,
-                   help="oval, figure-eight, course or a track .json file (default: oval; with --http an open floor)")
+                   help=f"{FORMS} (default: oval; with --http an open floor)")
     p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
     p.add_argument("--seconds", type=seconds_option, default=None, metavar="S",
                    help="with --serial or --http: stop after this long (default: Ctrl-C)")
@@ -125,6 +126,18 @@ def _limits(argv: list[str]) -> int:
     return main(argv)
 
 
+def _track(argv: list[str]) -> int:
+    from roar_sim.runs.show_track import main
+
+    return main(argv)
+
+
+def _world(argv: list[str]) -> int:
+    from roar_sim.runs.show_track import world_main
+
+    return world_main(argv)
+
+
 def _parser_of(module: str):
     """The command's parsers: a module's parser(), imported when called."""
     return lambda: {(): importlib.import_module(module).parser()}
@@ -141,6 +154,11 @@ platoon = Command("two simulated cars platooning over UDP multicast (`roar plato
                   _parser_of("roar_sim.runs.platoon"))
 limits = Command("measure a simulated robot's physical limits against its table (`roar limits --help`)", _limits,
                  _parser_of("roar_sim.runs.limits"))
+
+track = Command("show a track (random:SEED, a file, a map) and write it as .json, .csv or a map (`roar track --help`)",
+                _track, _parser_of("roar_sim.runs.show_track"))
+world = Command("show a world (tunnel:SEED: walls, cones, markers, people) and write its map (`roar world --help`)",
+                _world, lambda: {(): importlib.import_module("roar_sim.runs.show_track").parser("roar world")})
 
 if __name__ == "__main__":
     sys.exit(run_command("roar sim", _sim, sys.argv[1:]))

@@ -44,6 +44,7 @@ from pathlib import Path
 from roar.checks import printable, shown
 from roar.cli.errors import ArgumentParser, ExitStatus, path_option, run_command, stopped_status
 from roar.errors import RoarError
+from roar.tracks.names import FORMS
 from roar.user_files import unusable_folder
 from roar_sim import robots
 from roar_sim.world import plotting
@@ -483,7 +484,7 @@ def plot(rows: Sequence[dict], tracks: Sequence[str]):
 def parser() -> argparse.ArgumentParser:
     p = ArgumentParser(prog="roar sweep", description=__doc__)
     p.add_argument("--track", default=DEFAULT_TRACKS,
-                   help=f"tracks, comma-separated: oval, figure-eight, course or .json files (default: "
+                   help=f"tracks, comma-separated: {FORMS} (default: "
                         f"{DEFAULT_TRACKS})")
     p.add_argument("--k-dd", default=DEFAULT_K_DD_S, metavar="LIST",
                    help=f"pure pursuit's look-ahead per m/s [s] (default: {DEFAULT_K_DD_S})")
@@ -551,8 +552,9 @@ def main(argv: list[str] | None = None) -> int:
 
 def _runs(args, k_range: tuple[float, float], m_range: tuple[float, float]) -> tuple[list[Run], list[str]]:
     from roar.tracks import TrackError, get
+    from roar.tracks.names import split_names
 
-    tracks = list(dict.fromkeys(t.strip() for t in args.track.split(",") if t.strip()))
+    tracks = split_names(args.track)
     if not tracks:
         raise SweepError("--track: no tracks")
     for t in tracks:

@@ -31,11 +31,13 @@ CORE = FIRMWARE / "core"
 HOST_BOARD = FIRMWARE / "host"  # the C ABI and the memory-backed HALs: host build only
 
 
-def _cache() -> Path:
-    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "roar" / "core"
+def user_cache(part: str) -> Path:
+    """The user's cache folder for `part` of the simulator (~/.cache/roar/PART, or under
+    $XDG_CACHE_HOME): an installed core's build, measured car limits."""
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "roar" / part
 
 
-BUILD = _cache() if INSTALLED else ROOT / "build" / "host"
+BUILD = user_cache("core") if INSTALLED else ROOT / "build" / "host"
 
 WARNINGS = ["-Wall", "-Wextra", "-Wpedantic", "-Werror"]
 VARIANTS = {

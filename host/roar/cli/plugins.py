@@ -12,7 +12,7 @@ from typing import Callable
 GROUP = "roar.commands"
 # Commands this project's extras provide, so a base install can say what to install.
 EXTRA_COMMANDS = {"limits": "sim", "platoon": "sim", "race": "sim", "sim": "sim", "step-response": "sim",
-                  "sweep": "sweep"}
+                  "sweep": "sweep", "track": "sim", "world": "sim"}
 
 
 @dataclass(frozen=True)

@@ -13,6 +13,18 @@ from roar.tracks.track import BUILTIN, Track, TrackError
 FORMS = "oval, figure-eight, course, random:SEED, tunnel:SEED, or a .json, .csv or .yaml file"
 
 
+def split_names(text: str) -> list[str]:
+    """Track names from a comma-separated list, each once: `oval,random:3,width=2.2,tunnel:1` is
+    oval, random:3,width=2.2 and tunnel:1 (a key=value part belongs to the name before it)."""
+    names: list[str] = []
+    for part in (p.strip() for p in text.split(",")):
+        if "=" in part and names and ":" in names[-1]:
+            names[-1] += "," + part
+        elif part:
+            names.append(part)
+    return list(dict.fromkeys(names))
+
+
 def get(name_or_path: str) -> Track:
     """The track a name or file names; TrackError (one line) for anything else."""
     if not isinstance(name_or_path, str):

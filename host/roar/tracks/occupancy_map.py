@@ -11,7 +11,8 @@ load_map() reads one (every problem one line naming the file), save_map() writes
 track_map() draws a track as one: free cells inside its walls, occupied ones along them, unknown
 beyond. A map is a world (load_map_track): its walls are the edges of the free space the car is
 in, its centre line (and each point's widths) that of NAME_centerline.csv beside it (the F1TENTH
-race-track collection's layout: NAME_map.yaml, NAME_map.png, NAME_centerline.csv) or, without
+race-track collection's layout: NAME_map.yaml, NAME_map.png, NAME_centerline.csv; a tunnel's
+NAME_course.yaml beside them puts its cones, markers and people back) or, without
 one, the line midway between the outer wall and the infield's, started nearest the map's origin
 (where F1TENTH maps put the car) and driven anticlockwise.
 """
@@ -246,13 +247,19 @@ def load_map_track(path: str | Path) -> Track:
     name = _stem(path)
     csv = next((p for p in (path.with_name(f"{name}_centerline.csv"), path.with_name(f"{name}_centreline.csv"),
                             path.with_suffix(".csv")) if p.exists()), None)
+    course_file = path.with_name(f"{name}_course.yaml")
+    course = None
+    if course_file.exists():
+        from roar.tracks.tunnel import load_course
+
+        course = load_course(course_file)
     if csv is not None:
         given = load_centreline_csv(csv, name)
         area = free_area(grid, given.centerline[0])
-        return Track(given.name, given.centerline, given.width_m, given.half_widths, area=area)
+        return Track(given.name, given.centerline, given.width_m, given.half_widths, area=area, course=course)
     area = free_area(grid, (0.0, 0.0))
     try:
         points, halves = centreline_of(grid, area)
-        return Track.with_widths(printable(name, 60), points, np.clip(halves, 0.2, 2.5), area=area)
+        return Track.with_widths(printable(name, 60), points, np.clip(halves, 0.2, 2.5), area=area, course=course)
     except TrackError as e:
         raise TrackError(f"{path}: {str(e).removeprefix(f'track {name!r}: ')}") from None

@@ -263,3 +263,49 @@ def describe(track: Track) -> str:
     return (f"{len(c.cones)} cones, {len(c.markers)} markers, {len(c.people)} people; start "
             f"({c.start[0]:.2f}, {c.start[1]:.2f}), goal ({c.goal[0]:.2f}, {c.goal[1]:.2f})")
 
+
+
+COURSE_NOTE = ("start and goal poses [x m, y m, yaw rad]; hidden: what stands in the world and is not in its map "
+               "(cones [x, y], markers [x, y, yaw] of 0.5 x 0.3 m, people [x, y]): for scoring, not for the car")
+
+
+def course_yaml(course: Course) -> str:
+    """A course as NAME_course.yaml beside a tunnel's map."""
+    import yaml
+
+    return yaml.safe_dump({"note": COURSE_NOTE, "start": list(course.start), "goal": list(course.goal),
+                           "hidden": {"cones": [list(c) for c in course.cones],
+                                      "markers": [list(m) for m in course.markers],
+                                      "people": [list(p) for p in course.people]}}, sort_keys=False)
+
+
+def load_course(path) -> Course:
+    """A course file (course_yaml's); TrackError naming the file for anything else."""
+    import math
+    from pathlib import Path
+
+    import yaml
+
+    from roar.user_files import read_text
+
+    path = Path(path)
+    try:
+        data = yaml.safe_load(read_text(path, TrackError))
+    except yaml.YAMLError:
+        raise TrackError(f"{path}: not valid YAML") from None
+
+    def points(value, size: int, what: str) -> tuple:
+        if not isinstance(value, list) or not all(
+                isinstance(v, list) and len(v) == size and all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                                                               and math.isfinite(x) for x in v) for v in value):
+            raise TrackError(f"{path}: {what} must be a list of [{', '.join('x y yaw'.split()[:size])}] numbers")
+        return tuple(tuple(float(x) for x in v) for v in value)
+
+    if not isinstance(data, dict) or not {"start", "goal"} <= set(data):
+        raise TrackError(f"{path}: a course file has start, goal and hidden (cones, markers, people)")
+    hidden = data.get("hidden") or {}
+    if not isinstance(hidden, dict):
+        raise TrackError(f"{path}: hidden must hold cones, markers and people")
+    start, goal = points([data["start"]], 3, "start")[0], points([data["goal"]], 3, "goal")[0]
+    return Course(points(hidden.get("cones", []), 2, "cones"), points(hidden.get("markers", []), 3, "markers"),
+                  points(hidden.get("people", []), 2, "people"), start, goal)

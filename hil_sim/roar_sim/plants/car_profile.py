@@ -1,0 +1,99 @@
+"""A car's own numbers in one file: roar_sim/plants/car_profiles/NAME.toml (or any .toml a user
+writes), read by the racecar plant and the ESC car. The default is `roar`, the ROAR car; `f1tenth`
+is an F1TENTH-like car (about 8 m/s). The limits the autopilot plans with are measured from a
+profile by driving it (roar_sim.robots.esc.EscCar.measure_limits), never typed beside it.
+
+    profile = load("f1tenth")          # or load("my_car.toml")
+    profile.motor.max_speed_rad_s, profile.scale, profile.fingerprint
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import tomllib
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+from roar.checks import printable
+from roar.errors import RoarError
+from roar.user_files import read_parsed
+
+FOLDER = Path(__file__).with_name("car_profiles")
+DEFAULT = "roar"
+URDF_WHEELBASE_M = 0.325  # [m] racecar.urdf's hinge axis to rear axle
+URDF_MASS_KG = 5.89  # [kg] racecar.urdf's links together
+RANGES = {  # (low, high, unit) of every number a profile holds
+    "wheelbase_m": (0.15, 0.6, "m"), "mass_kg": (0.5, 20.0, "kg"), "motor_rpm": (500.0, 60_000.0, "rpm"),
+    "gear_ratio": (1.0, 50.0, ""), "motor_torque_nm": (0.01, 5.0, "N m"), "tyre_friction": (0.1, 2.0, ""),
+    "max_steer_rad": (0.1, 0.7, "rad"), "steer_rate_rad_s": (0.5, 30.0, "rad/s"),
+}
+
+
+class ProfileError(RoarError, ValueError):
+    """A car profile that cannot be used; str() is one line naming the file."""
+
+
+@dataclass(frozen=True)
+class Motor:
+    """The drive motor and the tyres, as the floor feels them (at the wheel, after the gearing)."""
+
+    max_speed_rad_s: float = 60.0  # [rad/s] wheel speed at full throttle
+    max_torque_nm: float = 1.5  # [N m] per rear wheel
+    tyre_friction: float = 0.5  # the wheels' friction coefficient (times the floor's 1.0)
+
+
+@dataclass(frozen=True)
+class CarProfile:
+    name: str
+    title: str
+    wheelbase_m: float  # [m]
+    mass_kg: float  # [kg]
+    motor_rpm: float  # [rpm]
+    gear_ratio: float
+    motor_torque_nm: float  # [N m] at the motor, per rear wheel
+    tyre_friction: float
+    max_steer_rad: float  # [rad]
+    steer_rate_rad_s: float  # [rad/s]
+
+    @property
+    def scale(self) -> float:
+        """How much larger than racecar.urdf the car is drawn (its wheelbase over the URDF's)."""
+        return self.wheelbase_m / URDF_WHEELBASE_M
+
+    @property
+    def motor(self) -> Motor:
+        return Motor(self.motor_rpm * 2 * math.pi / 60 / self.gear_ratio, self.motor_torque_nm * self.gear_ratio,
+                     self.tyre_friction)
+
+    @property
+    def fingerprint(self) -> str:
+        """Short hex of every number: measured limits are kept under it."""
+        numbers = ",".join(f"{getattr(self, f.name)!r}" for f in fields(self) if f.name not in ("name", "title"))
+        return hashlib.sha256(numbers.encode()).hexdigest()[:16]
+
+
+def names() -> list[str]:
+    return sorted(p.stem for p in FOLDER.glob("*.toml"))
+
+
+def load(name_or_path: str = DEFAULT) -> CarProfile:
+    """A shipped profile by name, or a .toml file; ProfileError (one line) for anything else."""
+    path = Path(name_or_path) if name_or_path.endswith(".toml") else FOLDER / f"{name_or_path}.toml"
+    if not path.exists():
+        raise ProfileError(f"no car profile {printable(name_or_path)!r}: use {', '.join(names())} or a .toml file")
+    data = read_parsed(path, tomllib.loads, ProfileError, "TOML")
+    keys = {f.name for f in fields(CarProfile)} - {"name"}
+    missing, unknown = keys - set(data), set(data) - keys
+    if missing or unknown:
+        raise ProfileError(f"{path}: " + "; ".join(
+            ([f"missing {', '.join(sorted(missing))}"] if missing else []) +
+            ([f"unknown keys {', '.join(sorted(unknown))}"] if unknown else [])))
+    if not isinstance(data["title"], str):
+        raise ProfileError(f"{path}: title must be a string")
+    for key, (low, high, unit) in RANGES.items():
+        value = data[key]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not low <= value <= high:
+            raise ProfileError(f"{path}: {key} must be a number {low:g}..{high:g} {unit}".rstrip() +
+                               f", got {printable(repr(value), 40)}")
+    return CarProfile(path.stem, printable(data["title"], 60), **{k: float(data[k]) for k in RANGES})
