@@ -45,6 +45,8 @@ BASE = {
     "sweep": ["--serial", "--track", "oval", "--k-dd", "0.5", "--margin", "0.9", "--laps", "1", "--out", "{tmp}/sweep"],
     "platoon": ["--seconds", "2"],
     "limits": ["esc"],
+    "track": ["oval"],
+    "world": ["tunnel:1"],
 }
 
 # (command, option, value) that is valid: what it does. Everything else must be refused in one line.

@@ -86,13 +86,15 @@ def test_the_wheel_holds_the_three_packages_and_the_core_sources_and_nothing_els
     expected = {str(p.relative_to(ROOT / "firmware")) for part in ("core/include", "core/src", "host")
                 for p in (ROOT / "firmware" / part).rglob("*") if p.is_file()}
     assert packaged == expected and "host/c_api.h" in packaged
+    profiles = {n.rsplit("/", 1)[1] for n in names if "/plants/car_profiles/" in n}
+    assert profiles == {p.name for p in (ROOT / "hil_sim/roar_sim/plants/car_profiles").glob("*.toml")} >= {"roar.toml"}
 
 
 def test_the_installed_wheel_builds_the_core_in_the_users_cache_and_races_a_lap(sim_wheel):
     _, bin_dir, work = sim_wheel
     env = away_from_the_checkout(work)
-    race = subprocess.run([str(bin_dir / "roar"), "race", "--laps", "1", "--plot", "lap.png"], cwd=work, env=env,
-                          capture_output=True, text=True, timeout=600)
+    race = subprocess.run([str(bin_dir / "roar"), "race", "--laps", "1", "--plot", "lap.png", "--track", "random:3",
+                           "--car-profile", "roar"], cwd=work, env=env, capture_output=True, text=True, timeout=600)
     assert race.returncode == 0, race.stderr[-2000:]
     assert "lap 1:" in race.stdout and "wall contacts: 0" in race.stdout
     assert (work / "lap.png").read_bytes()[:4] == b"\x89PNG"

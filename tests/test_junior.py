@@ -510,7 +510,7 @@ def test_the_autopilot_laps_the_oval_with_the_junior_by_its_http_requests(tmp_pa
     assert race.main(["--robot", "junior", "--laps", "1", "--plot", str(png)]) == 0
     out = capsys.readouterr().out
     assert "ROAR Junior" in out and "lap 1:" in out and "wall contacts: 0" in out
-    ratio = float(re.search(r"lap 1: .*?([\d.]+) x the limit", out).group(1))
+    ratio = float(re.search(r"lap 1: .*?([\d.]+) x the centre line.s limit", out).group(1))
     assert 1.0 <= ratio < 1.2, out  # near its own measured limits, never faster than them
     assert png.stat().st_size > 10_000
     # every period went out as a GET of the control route, and the curvature reached the wheels

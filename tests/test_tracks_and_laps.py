@@ -114,7 +114,7 @@ def test_race_cli_prints_report_and_plot(tmp_path, capsys):
     png = tmp_path / "race.png"
     assert race.main(["--laps", "1", "--plot", str(png)]) == 0
     out = capsys.readouterr().out
-    assert "lap 1:" in out and "x the limit" in out and "wall contacts: 0" in out
+    assert "lap 1:" in out and "x the centre line's limit" in out and "x the racing line's" in out and "wall contacts: 0" in out
     assert png.read_bytes()[:4] == b"\x89PNG"
 
 

@@ -5,7 +5,8 @@ roar-platform[sim].
 
     sim://                        an open floor, no walls
     sim://oval   sim://figure-eight   a built-in track
-    sim:///home/me/track.json     a track file (hil_sim/README.md)
+    sim://?track=random:7         any track name: random:SEED, tunnel:SEED (roar.tracks)
+    sim:///home/me/track.json     a track file: .json, a centre-line .csv, a map .yaml
 
 Options: robot=esc|iarrc|junior (roar_sim.robots; default esc): the IARRC car takes speed
 setpoints and sends telemetry, its transmitter's mode switch going to autonomous when the first
@@ -76,7 +77,13 @@ class SimTransport(Transport):
         if "car" in options:
             raise TransportError("option car= is robot= now: e.g. sim://?robot=iarrc")
         robot = pop_option(options, "robot", str, "esc")
-        track = target.strip("/") if not target.endswith(".json") else target
+        track = target if target.lower().endswith((".json", ".csv", ".yaml", ".yml")) else target.strip("/")
+        named = pop_option(options, "track", str, None)
+        if named is not None and not named.strip():
+            raise TransportError("track= is empty: name a track (sim://?track=oval, random:SEED, tunnel:SEED, a file)")
+        if named is not None and track:
+            raise TransportError(f"sim://{target}?track={named}: name the track once (sim://NAME or sim://?track=NAME)")
+        track = named if named is not None else track
         try:
             return cls(track, speedup, pop_option(options, "gui", bool, False), trace, plot, robot)
         except ImportError as e:

@@ -10,7 +10,6 @@ profile by driving it (roar_sim.robots.esc.EscCar.measure_limits), never typed b
 from __future__ import annotations
 
 import hashlib
-import math
 import tomllib
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -24,7 +23,7 @@ DEFAULT = "roar"
 URDF_WHEELBASE_M = 0.325  # [m] racecar.urdf's hinge axis to rear axle
 URDF_MASS_KG = 5.89  # [kg] racecar.urdf's links together
 RANGES = {  # (low, high, unit) of every number a profile holds
-    "wheelbase_m": (0.15, 0.6, "m"), "mass_kg": (0.5, 20.0, "kg"), "motor_rpm": (500.0, 60_000.0, "rpm"),
+    "wheelbase_m": (0.15, 0.6, "m"), "mass_kg": (0.5, 20.0, "kg"), "motor_speed_rad_s": (50.0, 6000.0, "rad/s"),
     "gear_ratio": (1.0, 50.0, ""), "motor_torque_nm": (0.01, 5.0, "N m"), "tyre_friction": (0.1, 2.0, ""),
     "max_steer_rad": (0.1, 0.7, "rad"), "steer_rate_rad_s": (0.5, 30.0, "rad/s"),
 }
@@ -49,7 +48,7 @@ class CarProfile:
     title: str
     wheelbase_m: float  # [m]
     mass_kg: float  # [kg]
-    motor_rpm: float  # [rpm]
+    motor_speed_rad_s: float  # [rad/s] no-load, at the motor
     gear_ratio: float
     motor_torque_nm: float  # [N m] at the motor, per rear wheel
     tyre_friction: float
@@ -63,7 +62,7 @@ class CarProfile:
 
     @property
     def motor(self) -> Motor:
-        return Motor(self.motor_rpm * 2 * math.pi / 60 / self.gear_ratio, self.motor_torque_nm * self.gear_ratio,
+        return Motor(self.motor_speed_rad_s / self.gear_ratio, self.motor_torque_nm * self.gear_ratio,
                      self.tyre_friction)
 
     @property

@@ -31,6 +31,7 @@ CAMERA_LINK = 9  # zed_camera_joint
 BRAKE_MAX_TORQUE_NM = 2.0  # [N m] per rear wheel at full brake
 ROLLING_DRAG_NM = 0.02  # [N m] coasting resistance per wheel
 ENCODER_COUNTS_PER_REV = 1024  # [counts]
+JOINT_SPEED_CAP_RAD_S = 100.0  # [rad/s] PyBullet's cap on every joint's speed unless told otherwise
 
 
 @dataclass(frozen=True)
@@ -72,7 +73,8 @@ class Racecar:
         self.client = c = self.world.client
         x, y, yaw = pose if pose is not None else self.world.start_pose()
         self.car = pb.loadURDF("racecar/racecar.urdf", [x, y, 0.05 * profile.scale],
-                               pb.getQuaternionFromEuler([0, 0, yaw]), globalScaling=profile.scale, physicsClientId=c)
+                               pb.getQuaternionFromEuler([0, 0, yaw]), physicsClientId=c,
+                               **({"globalScaling": profile.scale} if profile.scale != 1.0 else {}))
         if profile.mass_kg != URDF_MASS_KG:
             for link in range(-1, pb.getNumJoints(self.car, physicsClientId=c)):
                 mass, _, inertia = pb.getDynamicsInfo(self.car, link, physicsClientId=c)[:3]
@@ -82,9 +84,10 @@ class Racecar:
         for w in REAR_WHEELS + FRONT_WHEELS:
             pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL, targetVelocity=0, force=0, physicsClientId=c)
             pb.changeDynamics(self.car, w, lateralFriction=motor.tyre_friction, physicsClientId=c)
-            # PyBullet caps every joint at 100 rad/s unless told: a faster motor's wheels may spin
-            # faster (in a call of its own: given with lateralFriction, PyBullet 3.2.7 drops that)
-            pb.changeDynamics(self.car, w, maxJointVelocity=max(100.0, 2 * motor.max_speed_rad_s), physicsClientId=c)
+            if motor.max_speed_rad_s > JOINT_SPEED_CAP_RAD_S:
+                # a motor faster than PyBullet's cap: its wheels may spin beyond it (in a call of its own: given
+                # with lateralFriction, PyBullet 3.2.7 drops that)
+                pb.changeDynamics(self.car, w, maxJointVelocity=2 * motor.max_speed_rad_s, physicsClientId=c)
         self.walls = self.world.walls
         self.time_s = 0.0
         self.props: list = []  # things in the world that change with time: update(time_s) each step

@@ -37,9 +37,9 @@ class FloorImage:
     (origin_x + col * pixel_m, origin_y + (rows - 1 - row) * pixel_m)."""
 
     def __init__(self, track: Track) -> None:
-        lo, hi = np.reshape(track.region.bounds, (2, 2))
-        self.origin = lo - MARGIN_M  # [m] world (x, y) of the bottom-left pixel
-        self.extent = hi + MARGIN_M - self.origin  # [m]
+        corners = np.vstack([*track.edges(), np.reshape(track.region.bounds, (2, 2))])
+        self.origin = corners.min(axis=0) - MARGIN_M  # [m] world (x, y) of the bottom-left pixel
+        self.extent = corners.max(axis=0) + MARGIN_M - self.origin  # [m]
         self.pixel_m = max(PIXEL_M, float(self.extent.max()) / MAX_TEXTURE_PX)  # [m]
         cols, rows = np.minimum(np.ceil(self.extent / self.pixel_m), MAX_TEXTURE_PX).astype(int)
         self.rgb = np.empty((rows, cols, 3), np.uint8)
@@ -94,11 +94,21 @@ class FloorImage:
 
 
 def edge_lines(track: Track) -> list[np.ndarray]:
-    """The white edge lines: closed polylines EDGE_LINE_INSET_M inside every wall."""
-    inner = track.region.buffer(-EDGE_LINE_INSET_M, join_style="round")
-    parts = getattr(inner, "geoms", [inner])
-    return [np.asarray(ring.coords)[:-1] for part in parts if not part.is_empty
-            for ring in (part.exterior, *part.interiors)]
+    """The white edge lines, EDGE_LINE_INSET_M inside every wall: along each side of the centre
+    line, each point's half width less the inset from it (where that folds into a hairpin's
+    inner edge or runs past a wall midway, it stops); a map's walls, followed inwards."""
+    import shapely
+
+    if track.area is not None or track.extra_area:
+        inner = track.region.buffer(-EDGE_LINE_INSET_M, join_style="round")
+        parts = getattr(inner, "geoms", [inner])
+        return [np.asarray(ring.coords)[:-1] for part in parts if not part.is_empty
+                for ring in (part.exterior, *part.interiors)]
+    inset = np.clip(track.half_widths - EDGE_LINE_INSET_M, 0.0, None)
+    lines = [track.centerline + inset[:, :1] * track.normals, track.centerline - inset[:, 1:] * track.normals]
+    keep = track.region.buffer(-EDGE_LINE_INSET_M / 2)
+    return [line if shapely.contains_xy(keep, line[:, 0], line[:, 1]).all() else
+            line[shapely.contains_xy(keep, line[:, 0], line[:, 1])] for line in lines]
 
 
 def add_floor(track: Track, client: int) -> int:

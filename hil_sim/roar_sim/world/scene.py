@@ -20,6 +20,7 @@ from roar.tracks import Track
 from roar_sim.world.cache import per_shape
 
 WALL_HEIGHT_M, WALL_THICKNESS_M = 0.3, 0.05  # [m] higher than the lidar (0.17 m)
+WALL_PIECE_M = 0.15  # [m] longest wall box: the camera's renderer drops whole triangles that cross its near plane
 GROUND_HALF_M = 25.0  # [m] asphalt shown beyond the track (or around the origin without one)
 SOLVER_ITERATIONS = 10  # contact solver iterations per step (PyBullet default 50): a car on a plane settles in few
 
@@ -187,7 +188,9 @@ def _build_wall_mesh(track: Track) -> tuple[list[list[float]], list[int]]:
     indices: list[int] = []
     for wall in track.walls:
         for a, b in zip(wall, np.roll(wall, -1, axis=0)):
-            _add_box(vertices, indices, a, b)
+            pieces = max(1, int(np.ceil(np.linalg.norm(b - a) / WALL_PIECE_M)))
+            for k in range(pieces):  # short boxes: TinyRenderer drops a triangle crossing its near plane
+                _add_box(vertices, indices, a + (b - a) * k / pieces, a + (b - a) * (k + 1) / pieces)
     return vertices, indices
 
 

@@ -7,9 +7,10 @@ within the walls less the car's clearance (its half width and a margin):
 
 and the line is the one whose summed squared second differences (P_{i-1} - 2 P_i + P_{i+1}),
 which for evenly spaced points are its curvature times the spacing squared, are least: a convex
-QP in the offsets (|A a + b|^2 with box bounds), solved sparse by OSQP. As the
-line moves its points spread unevenly, so it is solved again about the line found (offsets along
-the same normals, bounds unchanged) until it settles. Its speed profile is speed_profile()'s,
+QP in the offsets (|A a + b|^2 with box bounds), solved sparse by OSQP. As the line moves its
+points spread unevenly, so the line found is spaced evenly again and the QP solved about it
+(along its own normals, within the walls as they lie from its points) until it settles: the
+iterated QP TUM's own pipeline runs. Its speed profile is speed_profile()'s,
 under the same limits as the centre line's, so the two lap limits compare like with like.
 
     line = racing_line(track, clearance_m=0.33)
@@ -25,7 +26,7 @@ import numpy as np
 from roar.autopilot.speed_profile import CarLimits, curvature, lap_time, speed_profile
 
 SPACING_M = 0.25  # [m] between the line's points
-ITERATIONS = 3  # solves, each about the line the one before found
+ITERATIONS = 12  # solves at most, each about the line the one before found (evenly spaced again)
 MIN_CORRIDOR_M = 0.02  # [m] the narrowest band a point may move in, where the walls leave less
 
 
@@ -77,39 +78,64 @@ def racing_line(track, clearance_m: float, spacing_m: float = SPACING_M) -> Raci
     import osqp
     import scipy.sparse as sp
 
-    centre, normals, halves = _resample(track, spacing_m)
-    n = len(centre)
-    upper = halves[:, 0] - clearance_m
-    lower = -(halves[:, 1] - clearance_m)
-    narrow = upper - lower < MIN_CORRIDOR_M
-    middle = (upper + lower) / 2
-    upper = np.where(narrow, middle + MIN_CORRIDOR_M / 2, upper)
-    lower = np.where(narrow, middle - MIN_CORRIDOR_M / 2, lower)
-    d2 = _second_difference(n)
-    offsets = np.clip(np.zeros(n), lower, upper)
+    centre, _, _ = _resample(track, spacing_m)
+    line, segments = centre, None
+    d2 = _second_difference(len(centre))
     for _ in range(ITERATIONS):
-        base = centre + offsets[:, None] * normals
-        # evenly spaced again: weight each point's second difference by the spacing it has now
-        gaps = np.linalg.norm(np.roll(base, -1, axis=0) - base, axis=1)
-        spacing = (gaps + np.roll(gaps, 1)) / 2
-        weight = sp.diags((spacing.mean() / np.maximum(spacing, 1e-6)) ** 2)
-        a = sp.vstack([weight @ d2 @ sp.diags(normals[:, 0]), weight @ d2 @ sp.diags(normals[:, 1])]).tocsr()
-        b = np.concatenate([weight @ (d2 @ centre[:, 0]), weight @ (d2 @ centre[:, 1])])
-        found = _solve(osqp, sp, (a.T @ a).tocsc(), a.T @ b, lower, upper)
-        settled = np.max(np.abs(found - offsets)) < 1e-4
-        offsets = found
-        if settled:
+        normals = _normals(line)
+        segments, lower, upper = _bounds(track, line, clearance_m, segments)
+        a = sp.vstack([d2 @ sp.diags(normals[:, 0]), d2 @ sp.diags(normals[:, 1])]).tocsr()
+        b = np.concatenate([d2 @ line[:, 0], d2 @ line[:, 1]])
+        moved = _solve(osqp, sp, (a.T @ a).tocsc(), a.T @ b, lower, upper)
+        line = _even(line + moved[:, None] * normals, len(centre))
+        if np.max(np.abs(moved)) < 1e-3:
             break
-    offsets = np.clip(offsets, lower, upper)
-    return RacingLine(centre + offsets[:, None] * normals, offsets, centre)
+    segments, lower, upper = _bounds(track, line, clearance_m, segments)
+    offsets = np.array([track.project(p, seg, window=20)[2] for p, seg in zip(line, segments)])
+    return RacingLine(line, offsets, centre)
+
+
+def _normals(points: np.ndarray) -> np.ndarray:
+    tangent = np.roll(points, -1, axis=0) - np.roll(points, 1, axis=0)
+    tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
+    return np.stack([-tangent[:, 1], tangent[:, 0]], axis=1)
+
+
+def _even(points: np.ndarray, n: int) -> np.ndarray:
+    """n points evenly spaced along a closed polyline, from its first."""
+    closed = np.vstack([points, points[:1]])
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(closed, axis=0), axis=1))])
+    at = np.linspace(0.0, s[-1], n, endpoint=False)
+    return np.stack([np.interp(at, s, closed[:, 0]), np.interp(at, s, closed[:, 1])], axis=1)
+
+
+def _bounds(track, line: np.ndarray, clearance_m: float, segments) -> tuple[list, np.ndarray, np.ndarray]:
+    """(centre-line segment of each point, how far each point of the line may move along its normal
+    to the left (upper) and right (lower, negative)): its walls, less the clearance, less where it
+    already is. Where the walls leave less than MIN_CORRIDOR_M, it keeps to the middle."""
+    found, lower, upper = [], [], []
+    n = len(track.centerline)
+    for i, point in enumerate(line):
+        hint = None if segments is None else segments[i]
+        if hint is None:  # the first time: the resampled centre line's own segment
+            hint = int(np.searchsorted(track.arc_start, i * track.length_m / len(line), side="right") - 1) % n
+        seg, _, offset = track.project(point, hint, window=20)
+        left, right = track.half_widths_at(seg)
+        hi, lo = left - clearance_m, -(right - clearance_m)
+        if hi - lo < MIN_CORRIDOR_M:
+            hi, lo = (hi + lo) / 2 + MIN_CORRIDOR_M / 2, (hi + lo) / 2 - MIN_CORRIDOR_M / 2
+        found.append(seg)
+        upper.append(hi - offset)
+        lower.append(lo - offset)
+    return found, np.minimum(np.array(lower), 0.0), np.maximum(np.array(upper), 0.0)
 
 
 def _solve(osqp, sp, p, q, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     """argmin 1/2 x'Px + q'x with lower <= x <= upper."""
     problem = osqp.OSQP()
     problem.setup(sp.triu(p, format="csc"), q, sp.identity(len(q), format="csc"), lower, upper, verbose=False,
-                  eps_abs=1e-9, eps_rel=1e-9, max_iter=200_000, polishing=True)
-    result = problem.solve()
+                  eps_abs=1e-6, eps_rel=1e-6, max_iter=200_000, polishing=False)
+    result = problem.solve(raise_error=False)  # its status is checked here
     if result.x is None or not np.all(np.isfinite(result.x)):
         raise ValueError(f"the racing line's QP was not solved: {result.info.status}")
     return np.clip(result.x, lower, upper)

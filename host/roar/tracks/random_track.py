@@ -60,14 +60,14 @@ def parse(name: str) -> RandomTrackSpec:
     for option in options:
         key, _, text = option.partition("=")
         key = key.strip()
+        if key not in ("length", "width", "radius", "straightness"):
+            raise TrackError(f"{printable(name)!r}: unknown parameter {printable(key)!r} ({usage})")
         try:
             if key == "length":
                 low, _, high = text.partition("-")
                 values["length_m"] = (float(low), float(high or low))
-            elif key in ("width", "radius", "straightness"):
-                values[key if key == "straightness" else f"{key}_m"] = float(text)
             else:
-                raise TrackError(f"{printable(name)!r}: unknown parameter {printable(key)!r} ({usage})")
+                values[key if key == "straightness" else f"{key}_m"] = float(text)
         except ValueError:
             raise TrackError(f"{printable(name)!r}: {printable(key)} needs a number, got {printable(text)!r} "
                              f"({usage})") from None

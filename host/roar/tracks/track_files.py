@@ -160,8 +160,9 @@ def raceline_csv(points: np.ndarray, speeds: np.ndarray, accelerations: np.ndarr
     v = np.append(speeds, speeds[0])
     ds = np.linalg.norm(np.diff(pts, axis=0), axis=1)
     s = np.concatenate([[0.0], np.cumsum(ds)])
-    d = np.gradient(pts, axis=0)
-    dd = np.gradient(d, axis=0)
+    d = (np.roll(points, -1, axis=0) - np.roll(points, 1, axis=0)) / 2  # round the closed line
+    dd = np.roll(points, -1, axis=0) - 2 * points + np.roll(points, 1, axis=0)
+    d, dd = np.vstack([d, d[:1]]), np.vstack([dd, dd[:1]])
     kappa = (d[:, 0] * dd[:, 1] - d[:, 1] * dd[:, 0]) / np.maximum(np.hypot(d[:, 0], d[:, 1]) ** 3, 1e-12)
     psi = np.arctan2(d[:, 1], d[:, 0]) - math.pi / 2
     psi = (psi + math.pi) % (2 * math.pi) - math.pi
