@@ -52,16 +52,12 @@ class RandomTrackSpec:
 
 def parse(name: str) -> RandomTrackSpec:
     """`random:SEED[,key=value...]` -> its spec; TrackError (one line) for anything else."""
+    from roar.tracks.names import seeded
+
     usage = "random:SEED[,length=MIN-MAX][,width=M][,radius=M][,straightness=0..1]"
-    seed_text, *options = name[len(PREFIX):].split(",")
-    if not seed_text.strip().isdigit() or len(seed_text.strip()) > 18:
-        raise TrackError(f"{printable(name)!r}: the seed must be a whole number 0..10^18 ({usage})")
-    values: dict = {"seed": int(seed_text)}
-    for option in options:
-        key, _, text = option.partition("=")
-        key = key.strip()
-        if key not in ("length", "width", "radius", "straightness"):
-            raise TrackError(f"{printable(name)!r}: unknown parameter {printable(key)!r} ({usage})")
+    seed, options = seeded(name, PREFIX, usage, ("length", "width", "radius", "straightness"))
+    values: dict = {"seed": seed}
+    for key, text in options.items():
         try:
             if key == "length":
                 low, _, high = text.partition("-")

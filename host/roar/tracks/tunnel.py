@@ -71,14 +71,12 @@ class TunnelSpec:
 
 
 def parse(name: str) -> TunnelSpec:
+    from roar.tracks.names import seeded
+
     usage = "tunnel:SEED[,width=M][,cones=N][,markers=N][,people=N]"
-    seed_text, *options = name[len(PREFIX):].split(",")
-    if not seed_text.strip().isdigit() or len(seed_text.strip()) > 18:
-        raise TrackError(f"{printable(name)!r}: the seed must be a whole number 0..10^18 ({usage})")
-    values: dict = {"seed": int(seed_text)}
-    for option in options:
-        key, _, text = option.partition("=")
-        key = key.strip()
+    seed, options = seeded(name, PREFIX, usage, ("width", "cones", "markers", "people"))
+    values: dict = {"seed": seed}
+    for key, text in options.items():
         if key == "width":
             try:
                 values["width_m"] = float(text)
@@ -86,13 +84,11 @@ def parse(name: str) -> TunnelSpec:
                 raise TrackError(f"{printable(name)!r}: width needs a number, got {printable(text)!r}") from None
             if not WIDTH_RANGE_M[0] <= values["width_m"] <= WIDTH_RANGE_M[1]:
                 raise TrackError(f"{printable(name)!r}: width must be {WIDTH_RANGE_M[0]:g}..{WIDTH_RANGE_M[1]:g} m")
-        elif key in ("cones", "markers", "people"):
+        else:
             if not text.strip().isdigit() or int(text) > MAX_COUNT:
                 raise TrackError(f"{printable(name)!r}: {key} must be a whole number 0..{MAX_COUNT}, got "
                                  f"{printable(text)!r}")
             values[key] = int(text)
-        else:
-            raise TrackError(f"{printable(name)!r}: unknown parameter {printable(key)!r} ({usage})")
     return TunnelSpec(**values)
 
 

@@ -1,0 +1,75 @@
+"""A car's own numbers in one profile file: the default is the ROAR car (its physics unchanged, its
+limits the measured table), `f1tenth` a faster car whose limits are measured from the profile on
+first use and kept in the user's cache; bad profiles are refused in one line."""
+
+import json
+
+import pytest
+
+pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
+
+from roar.protocol import encode  # noqa: E402
+from roar_sim.plants import car_profile  # noqa: E402
+from roar_sim.plants.car_profile import ProfileError  # noqa: E402
+from roar_sim.robots import esc  # noqa: E402
+
+
+def top_speed(profile) -> float:
+    """[m/s] after 4 s at full throttle on an open floor."""
+    with esc.EscCar(profile=profile) as car:
+        for i in range(200):
+            car.write(encode(1500 if i < 5 else 2000, 1500))
+            car.run(0.02)
+        return car.state().speed
+
+
+def test_the_shipped_profiles_and_the_default():
+    assert {"roar", "f1tenth"} <= set(car_profile.names())
+    roar = car_profile.load()
+    assert roar.name == "roar" and roar.motor.max_speed_rad_s == 60.0 and roar.scale == 1.0
+    f1 = car_profile.load("f1tenth")
+    assert f1.wheelbase_m == 0.33 and f1.mass_kg == 3.47 and f1.fingerprint != roar.fingerprint
+    with esc.EscCar() as car:
+        assert car.limits == esc.LIMITS and car.model.wheelbase_m == 0.325
+
+
+def test_the_f1tenth_car_is_much_faster_and_its_limits_are_measured_once(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    monkeypatch.setattr(esc, "_MEASURED", {})
+    with esc.EscCar(profile="f1tenth") as car:
+        limits = car.limits
+    assert "measuring the F1TENTH-like" in capsys.readouterr().err
+    assert top_speed("f1tenth") > 2 * top_speed("roar") > 5.5
+    kept = list((tmp_path / "roar" / "limits").glob("esc-*.json"))
+    assert len(kept) == 1 and json.loads(kept[0].read_text())["max_speed_m_s"] == limits.max_speed_m_s
+    assert limits.max_speed_m_s > 7.0 and limits.max_lateral_m_s2 > 2 * esc.LIMITS.max_lateral_m_s2
+    monkeypatch.setattr(esc, "_MEASURED", {})
+    with esc.EscCar(profile="f1tenth") as car:  # read back from the cache, not measured again
+        assert car.limits == limits
+    assert "measuring" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("text, fragment", [
+    ("title = 'x'\n", "missing"),
+    ("title = 'x'\nwheelbase_m = 0.3\ncolour = 1\n", "unknown keys colour"),
+    ("title = 'x'\nwheelbase_m = 9\nmass_kg = 3\nmotor_speed_rad_s = 600\ngear_ratio = 10\nmotor_torque_nm = 0.1\n"
+     "tyre_friction = 1\nmax_steer_rad = 0.4\nsteer_rate_rad_s = 3\n", "wheelbase_m must be a number 0.15..0.6 m"),
+    ("title = 'x'\nwheelbase_m = nan\nmass_kg = 3\nmotor_speed_rad_s = 600\ngear_ratio = 10\nmotor_torque_nm = 0.1\n"
+     "tyre_friction = 1\nmax_steer_rad = 0.4\nsteer_rate_rad_s = 3\n", "wheelbase_m must be"),
+    ("title = [\n", "not valid TOML"),
+])
+def test_a_bad_profile_is_refused_in_one_line(tmp_path, text, fragment):
+    path = tmp_path / "car.toml"
+    path.write_text(text)
+    with pytest.raises(ProfileError) as e:
+        car_profile.load(str(path))
+    assert fragment in str(e.value) and str(path) in str(e.value) and "\n" not in str(e.value)
+    with pytest.raises(ProfileError, match="no car profile 'lorry': use"):
+        car_profile.load("lorry")
+
+
+def test_roar_race_takes_a_car_profile(tmp_path):
+    from roar.cli import main as roar
+
+    assert roar(["race", "--car-profile", "nope", "--laps", "1"]) == 1
+    assert roar(["race", "--robot", "junior", "--car-profile", "f1tenth"]) == 1
