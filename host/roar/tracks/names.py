@@ -13,21 +13,6 @@ from roar.tracks.track import BUILTIN, Track, TrackError
 FORMS = "oval, figure-eight, course, random:SEED, tunnel:SEED, or a .json, .csv or .yaml file"
 
 
-def seeded(name: str, prefix: str, usage: str, keys: tuple[str, ...]) -> tuple[int, dict[str, str]]:
-    """(seed, {key: its text}) of a name `PREFIX SEED[,key=value...]`; TrackError (one line, with
-    the usage) for a seed that is not a whole number or a key not among `keys`."""
-    seed_text, *options = name[len(prefix):].split(",")
-    if not seed_text.strip().isdigit() or len(seed_text.strip()) > 18:
-        raise TrackError(f"{printable(name)!r}: the seed must be a whole number 0..10^18 ({usage})")
-    values = {}
-    for option in options:
-        key, _, text = option.partition("=")
-        if key.strip() not in keys:
-            raise TrackError(f"{printable(name)!r}: unknown parameter {printable(key.strip())!r} ({usage})")
-        values[key.strip()] = text
-    return int(seed_text), values
-
-
 def split_names(text: str) -> list[str]:
     """Track names from a comma-separated list, each once: `oval,random:3,width=2.2,tunnel:1` is
     oval, random:3,width=2.2 and tunnel:1 (a key=value part belongs to the name before it)."""

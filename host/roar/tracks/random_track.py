@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from roar.checks import printable
+from roar.tracks.seeds import seeded
 from roar.tracks.track import MAX_WIDTH_M, MIN_BEND_RADIUS_M, MIN_WIDTH_M, Track, TrackError
 
 PREFIX = "random:"
@@ -52,8 +53,6 @@ class RandomTrackSpec:
 
 def parse(name: str) -> RandomTrackSpec:
     """`random:SEED[,key=value...]` -> its spec; TrackError (one line) for anything else."""
-    from roar.tracks.names import seeded
-
     usage = "random:SEED[,length=MIN-MAX][,width=M][,radius=M][,straightness=0..1]"
     seed, options = seeded(name, PREFIX, usage, ("length", "width", "radius", "straightness"))
     values: dict = {"seed": seed}

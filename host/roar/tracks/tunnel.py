@@ -21,6 +21,7 @@ import numpy as np
 
 from roar.checks import printable
 from roar.tracks.random_track import rounded_polygon
+from roar.tracks.seeds import seeded
 from roar.tracks.track import Track, TrackError
 
 PREFIX = "tunnel:"
@@ -71,8 +72,6 @@ class TunnelSpec:
 
 
 def parse(name: str) -> TunnelSpec:
-    from roar.tracks.names import seeded
-
     usage = "tunnel:SEED[,width=M][,cones=N][,markers=N][,people=N]"
     seed, options = seeded(name, PREFIX, usage, ("width", "cones", "markers", "people"))
     values: dict = {"seed": seed}
