@@ -140,7 +140,8 @@ class LanePlanner(Module[Seen, LanePlan]):
         path, reach = self._path(value.lanes)
         if half_width_m is None:
             half_width_m = LANE_PATH_HALF_M if self.keep_lane else PATH_HALF_WIDTH_M
-        return value.grid.nearest_ahead(half_width_m, path, reach)
+        # things in the road, not the walls beside it (across a bend the outer wall fills the view)
+        return value.grid.nearest_ahead(half_width_m, path, reach, things_only=True)
 
     def _switch_lanes(self, value: Seen) -> None:
         """The IARRC rule: something ahead within SWITCH_M in the lane the car keeps to sends it

@@ -23,6 +23,7 @@ Y_HALF_M = 2.0  # [m] either side
 MIN_HEIGHT_M = 0.04  # [m] above the floor: an obstacle, not the floor's noise
 MAX_HEIGHT_M = 0.6  # [m] above the car: not in its way
 MIN_POINTS = 3  # points a cell needs to be occupied
+MAX_THING_M = 0.7  # [m] longest and widest a thing in the road is (a box, a cone, a car); a wall is longer
 STRIDE = 2  # use every STRIDE-th pixel each way
 RANSAC_ROUNDS = 40
 RANSAC_TOLERANCE_M = 0.02  # [m]
@@ -41,11 +42,24 @@ class Occupancy:
         """[m] the centre of a cell in the car's frame."""
         return self.x0 + (row + 0.5) * self.cell_m, self.y_left - (col + 0.5) * self.cell_m
 
-    def nearest_ahead(self, half_width_m: float, path=None, reach_m: float = math.inf) -> float | None:
+    def things(self, max_extent_m: float = MAX_THING_M) -> np.ndarray:
+        """The occupied cells of compact things standing on the floor (a box, a cone, a car): each
+        group of touching cells no longer nor wider than max_extent_m. A wall is a long group
+        (seen across a bend it runs right across the view): not a thing in the road."""
+        import cv2
+
+        count, labels, stats, _ = cv2.connectedComponentsWithStats(self.occupied.astype(np.uint8), connectivity=8)
+        limit = max_extent_m / self.cell_m
+        compact = (stats[:, cv2.CC_STAT_WIDTH] <= limit) & (stats[:, cv2.CC_STAT_HEIGHT] <= limit)
+        compact[0] = False  # the background
+        return compact[labels]
+
+    def nearest_ahead(self, half_width_m: float, path=None, reach_m: float = math.inf,
+                      things_only: bool = False) -> float | None:
         """[m] ahead to the nearest occupied cell within half_width_m of the path the car will
         drive -- path(x) -> y [m] (a lane's centre line), or straight ahead -- up to reach_m
-        (as far as the path is known)."""
-        rows, cols = np.nonzero(self.occupied)
+        (as far as the path is known); with things_only, only cells of things(), not walls."""
+        rows, cols = np.nonzero(self.things() if things_only else self.occupied)
         best = None
         for r, c in zip(rows, cols):
             x, y = self.cell_xy(int(r), int(c))
