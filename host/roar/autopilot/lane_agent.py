@@ -194,6 +194,9 @@ class LanePlanner(Module[Seen, LanePlan]):
             return LanePlan(LaneState.SEARCHING, self._last_goal, SEARCH_SPEED_M_S)
         self.lost_s = 0.0
         lookahead = min(self.max_lookahead_m, max(self.min_lookahead_m, self.lookahead_s * value.speed))
+        seen_from = _nearest_seen(lanes)
+        if seen_from is not None:  # not nearer than the line was seen: a fit holds where its points are
+            lookahead = max(lookahead, min(seen_from, 2 * self.max_lookahead_m))
         goal = (lookahead, float(lanes.centre.y(lookahead)) + self.offset_m)
         self._last_goal = goal
         xs = np.linspace(0.5, 2.0, 7)
@@ -208,6 +211,15 @@ class LanePlanner(Module[Seen, LanePlan]):
             room = max(0.0, obstacle_m - FRONT_M - STOP_MARGIN_M)
             speed = min(speed, math.sqrt(2 * BRAKING_SHARE * limits.max_brake_m_s2 * room))
         return LanePlan(state, goal, speed)
+
+
+def _nearest_seen(lanes: Lanes) -> float | None:
+    """[m] ahead where the line the centre came from was first seen (a wide road's edges come
+    into view only a metre or more ahead)."""
+    line = {"yellow": lanes.yellow, "left": lanes.left, "right": lanes.right}.get(lanes.source)
+    if line is None or not len(line.points):
+        return None
+    return float(line.points[:, 0].min())
 
 
 class LaneController(Module[tuple[Seen, LanePlan], Command]):

@@ -24,7 +24,12 @@ BLOCK_PX = 21  # [px] the adaptive threshold's block (about 20 x 20 as in the se
 BANDS = 8  # row bands, near to far
 WINDOW_M = 0.24  # [m] a window's width
 MIN_PIXELS = 6  # mask pixels a window needs to count
-HALF_WIDTH_M = 0.5  # [m] from the road's centre to an edge line (the simulator's tracks)
+HALF_WIDTH_M = 0.5  # [m] from the road's centre to an edge line, until a frame measures it
+MEASURE_CONFIDENCE = 0.45  # all three lines found in this share of the bands: a frame that measures the width
+# (on a wide road the edges come into view only in the farther half of the bands)
+SYMMETRY = 0.2  # the edges' distances from the yellow line may differ by this share, in such a frame
+MEASURE_WEIGHT = 0.2  # of a new measurement in the half width kept
+HALF_WIDTH_RANGE_M = (0.2, 2.4)  # [m] half widths a measurement may give
 MIN_CONFIDENCE = 0.35  # share of bands a line must be found in to be used
 NEAR_M = 1.0  # [m] of road beyond the nearest visible row that offset and heading are read from
 PEAK_FRACTION = 0.3  # a histogram peak must reach this share of the strongest to be a line
@@ -89,12 +94,15 @@ class LaneDetector:
     """Keeps each line's fit from frame to frame (the moving ROIs); detect() one frame at a time."""
 
     def __init__(self, birds_eye: BirdsEye, half_width_m: float = HALF_WIDTH_M) -> None:
-        self.bev, self.half_width_m = birds_eye, half_width_m
+        self.bev, self.initial_half_width_m = birds_eye, half_width_m
         self._last: dict[str, Line | None] = {"left": None, "right": None, "yellow": None}
         self.debug: dict = {}  # the last frame's bird's-eye image, masks and windows
+        self.reset()
 
     def reset(self) -> None:
         self._last = dict.fromkeys(self._last)
+        self.half_width_m = self.initial_half_width_m  # [m] the road's centre to an edge, as measured
+        self.measured = False  # whether a frame has measured it yet
 
     def detect(self, rgb: np.ndarray) -> Lanes:
         top = self.bev.warp(rgb)
@@ -103,10 +111,28 @@ class LaneDetector:
         found = {"yellow": self._follow(yellow, guesses["yellow"])}
         found["left"] = self._follow(white, guesses["left"])
         found["right"] = self._follow(white, guesses["right"])
+        self._measure(found)
         self._check(found)
         self._last = found
         self.debug = {"birds_eye": top, "white": white, "yellow": yellow, "lines": found}
         return self._lanes(found)
+
+    def _measure(self, found: dict[str, Line | None]) -> None:
+        """The road's half width from a frame that shows all three lines clearly, the two edges
+        as far either side of the yellow line (a road of any width: the F1TENTH circuits' 2.2 m,
+        the simulator's 1.2 m); kept as a running mean, so one odd frame moves it little."""
+        if any(line is None or line.confidence < MEASURE_CONFIDENCE for line in found.values()):
+            return
+        x = self.bev.grid.x_near + 0.5
+        left, right = float(found["left"].y(x) - found["yellow"].y(x)), float(found["yellow"].y(x) - found["right"].y(x))
+        if min(left, right) <= 0 or abs(left - right) > SYMMETRY * max(left, right):
+            return
+        half = (left + right) / 2
+        if not HALF_WIDTH_RANGE_M[0] <= half <= HALF_WIDTH_RANGE_M[1]:
+            return
+        self.half_width_m = half if not self.measured else \
+            (1 - MEASURE_WEIGHT) * self.half_width_m + MEASURE_WEIGHT * half
+        self.measured = True
 
     def _check(self, found: dict[str, Line | None]) -> None:
         """The seed's consistency check: the edges lie either side of the yellow line about a
@@ -135,18 +161,20 @@ class LaneDetector:
             peaks = self._peaks(yellow)
             out["yellow"] = max(peaks, key=lambda p: p[1])[0] if peaks else 0.0
         if "left" not in out or "right" not in out:
-            peaks = [y for y, _ in self._peaks(white)]
+            # the whole view until the width is measured: on a wide road the edges come into
+            # view only further ahead
+            peaks = [y for y, _ in self._peaks(white, near_half=self.measured)]
             left = [y for y in peaks if y > out["yellow"]]
             right = [y for y in peaks if y < out["yellow"]]
             out.setdefault("left", max(left) if left else out["yellow"] + self.half_width_m)
             out.setdefault("right", min(right) if right else out["yellow"] - self.half_width_m)
         return out
 
-    def _peaks(self, mask: np.ndarray) -> list[tuple[float, float]]:
-        """[(y [m] at the near edge, strength)] of the column histogram's peaks over the near
-        half, each traced back to the near edge along its own columns (a line may lean)."""
+    def _peaks(self, mask: np.ndarray, near_half: bool = True) -> list[tuple[float, float]]:
+        """[(y [m], strength)] of the column histogram's peaks over the near half (or the whole
+        view)."""
         rows = mask.shape[0]
-        histogram = mask[rows // 2:].sum(axis=0).astype(float)
+        histogram = mask[rows // 2 if near_half else 0:].sum(axis=0).astype(float)
         if histogram.max() <= 0:
             return []
         smooth = np.convolve(histogram, np.ones(9) / 9, mode="same")
@@ -193,12 +221,12 @@ class LaneDetector:
         elif left is not None and right is not None:
             a = [(l + r) / 2 for l, r in zip(left.coeffs, right.coeffs)]
             centre, source = Line(tuple(a), min(left.confidence, right.confidence)), "edges"
+        elif yellow is not None:  # seen in fewer bands (its dashes), but on the centre itself
+            centre, source = yellow, "yellow"
         elif left is not None:
             centre, source = left.shifted(-self.half_width_m), "left"
         elif right is not None:
             centre, source = right.shifted(self.half_width_m), "right"
-        elif yellow is not None:
-            centre, source = yellow, "yellow"
         else:
             centre, source = None, "none"
         near = None
