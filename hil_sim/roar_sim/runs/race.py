@@ -48,6 +48,7 @@ MARGIN_RANGE = (0.3, 1.0)  # fraction of the robot's limits a race may be driven
 K_DD_RANGE_S = (0.05, 2.0)  # [s] pure pursuit's look-ahead per m/s a race may use
 LANE_CAMERA = (320, 240)  # [px] the camera the lane driver sees through
 STEERING = {"pursuit": "pure pursuit", "pid": "the heading PID"}  # a robot's laterals, in words
+STILL_M_S = 0.05  # [m/s] slower than this, a stopped car stands where it is
 
 
 class LaneCourse:
@@ -98,6 +99,22 @@ class LaneCourse:
 
 
 @dataclass
+class Stop:
+    """The lane driver standing still: why (its state), where [m along the lap], from when [s],
+    until when [s] (None: still stopped when the race ended)."""
+
+    why: str
+    at_m: float
+    from_s: float
+    until_s: float | None = None
+
+    def line(self, end_s: float) -> str:
+        how_long = (self.until_s if self.until_s is not None else end_s) - self.from_s
+        then = "then went on" if self.until_s is not None else "until the race ended"
+        return f"stopped ({self.why}) {self.at_m:.1f} m into the lap at {self.from_s:.2f} s, for {how_long:.2f} s, {then}"
+
+
+@dataclass
 class RaceResult:
     track: Track
     limit_speeds: np.ndarray  # [m/s] the physical-limit speed at each centre-line point
@@ -115,6 +132,7 @@ class RaceResult:
     green_frames: int = 0  # camera frames that showed green up to and including the one it moved on
     boxes: int = 0  # boxes on the track
     box_contacts: int = 0  # control periods with the car touching a box
+    stops: list[Stop] = field(default_factory=list)  # the lane driver's stops, each explained
     cone_contacts: int = 0  # control periods with the car touching a tunnel's cone
     people_contacts: int = 0  # control periods with the car touching a person
 
@@ -141,6 +159,8 @@ class RaceResult:
         if done >= laps:
             return None
         reasons = [f"it touched a wall in {self.wall_contacts} control periods"] if self.wall_contacts else []
+        if self.stops and self.stops[-1].until_s is None:
+            reasons.append(self.stops[-1].line(self.path[-1][4] if self.path else 0.0))
         if self.travelled_m < 0:
             reasons.append("it drove against the track's direction")
         return (f"{done} of {laps} laps within the {timeout_s:.0f} s time limit ({'; '.join(reasons) or 'too slow'}): "
@@ -237,8 +257,22 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
         bar = _progress_bar(laps, track.name) if progress else None  # once the simulator is up
         car.arm()
         agent = course.agent(margin) if course else car.agent(line, margin, lateral, k_dd_s)
+        if course:
+            planner = agent.planner
+
+            def on_lane_step(obs: Observation, command: Command) -> None:
+                on_step(obs, command)
+                stopped = planner.state.name in ("STOPPED", "OBSTACLE")
+                open_stop = result.stops and result.stops[-1].until_s is None
+                if stopped and not open_stop:
+                    result.stops.append(Stop(planner.state.value, lap["s"], obs.t_s))
+                elif open_stop and not stopped:
+                    result.stops[-1].until_s = obs.t_s
+                elif open_stop and abs(obs.speed) > STILL_M_S:  # still rolling to a stop: it stands further on
+                    result.stops[-1].at_m = lap["s"]
         Runner(car, agent, PERIOD_S).run(
-            until=lambda obs: len(result.lap_times_s) >= laps or obs.t_s >= timeout_s, on_step=on_step)
+            until=lambda obs: len(result.lap_times_s) >= laps or obs.t_s >= timeout_s,
+            on_step=on_lane_step if course else on_step)
         car.wait(PERIOD_S)
     if bar:
         bar.close()
@@ -286,6 +320,8 @@ def report(result: RaceResult) -> str:
     lines.append(f"laps completed: {len(result.lap_times_s)}, total {sum(result.lap_times_s):.2f} s (simulated)")
     lines.append(f"cross-track error: max {result.max_cross_track_m:.3f} m, RMS {result.rms_cross_track_m:.3f} m")
     lines.append(f"wall contacts: {result.wall_contacts}")
+    end_s = result.path[-1][4] if result.path else 0.0
+    lines += [stop.line(end_s) for stop in result.stops]
     if result.boxes:
         lines.append(f"box contacts: {result.box_contacts} (control periods touching one of the {result.boxes} boxes)")
     if tr.course is not None:

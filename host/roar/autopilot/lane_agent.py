@@ -60,7 +60,7 @@ class LaneState(Enum):
     FOLLOWING = "following"
     ONE_LINE = "one line lost"
     SEARCHING = "both lost"
-    STOPPED = "stopped"
+    STOPPED = "lines lost too long"
     OBSTACLE = "obstacle ahead"
 
 
@@ -115,6 +115,7 @@ class LanePlanner(Module[Seen, LanePlan]):
         self.setup()
 
     def setup(self) -> None:
+        self.state = LaneState.FOLLOWING
         self.lost_s = 0.0
         self._last_goal: tuple[float, float] | None = None
         self._clear_s: float | None = None  # stopped for an obstacle: how long the path has been clear
@@ -178,6 +179,11 @@ class LanePlanner(Module[Seen, LanePlan]):
         return False
 
     def step(self, value: Seen) -> LanePlan:
+        plan = self._plan(value)
+        self.state = plan.state  # what the driver does now, for whoever reports the run
+        return plan
+
+    def _plan(self, value: Seen) -> LanePlan:
         lanes, limits = value.lanes, self.car.limits.with_margin(self.margin)
         if not value.go:
             return LanePlan(LaneState.WAITING, None, 0.0)
