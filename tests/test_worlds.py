@@ -13,7 +13,7 @@ pytest.importorskip("shapely", reason="pip install 'roar-platform[tracks]' (make
 
 from roar.tracks import Track, TrackError, get  # noqa: E402
 from roar.tracks.names import split_names  # noqa: E402
-from roar.tracks.occupancy_map import OccupancyMap, load_map, save_map, track_map  # noqa: E402
+from roar.tracks.occupancy_map import load_map, save_map, track_map  # noqa: E402
 from roar.tracks.random_track import rounded_polygon  # noqa: E402
 from roar.tracks.track_files import (centreline_csv, load_centreline_csv, load_raceline_csv,  # noqa: E402
                                      raceline_csv)
