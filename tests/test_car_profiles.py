@@ -53,7 +53,7 @@ def test_the_f1tenth_car_is_much_faster_and_its_limits_are_measured_once(tmp_pat
     ("title = 'x'\n", "missing"),
     ("title = 'x'\nwheelbase_m = 0.3\ncolour = 1\n", "unknown keys colour"),
     ("title = 'x'\nwheelbase_m = 9\nmass_kg = 3\nmotor_speed_rad_s = 600\ngear_ratio = 10\nmotor_torque_nm = 0.1\n"
-     "tyre_friction = 1\nmax_steer_rad = 0.4\nsteer_rate_rad_s = 3\n", "wheelbase_m must be a number 0.15..0.6 m"),
+     "tyre_friction = 1\nmax_steer_rad = 0.4\nsteer_rate_rad_s = 3\n", "wheelbase_m must be a finite number 0.15..0.6 m, got 9"),
     ("title = 'x'\nwheelbase_m = nan\nmass_kg = 3\nmotor_speed_rad_s = 600\ngear_ratio = 10\nmotor_torque_nm = 0.1\n"
      "tyre_friction = 1\nmax_steer_rad = 0.4\nsteer_rate_rad_s = 3\n", "wheelbase_m must be"),
     ("title = [\n", "not valid TOML"),

@@ -14,7 +14,7 @@ import tomllib
 from dataclasses import dataclass, fields
 from pathlib import Path
 
-from roar.checks import printable
+from roar.checks import number, printable
 from roar.errors import RoarError
 from roar.user_files import read_parsed
 
@@ -90,9 +90,8 @@ def load(name_or_path: str = DEFAULT) -> CarProfile:
             ([f"unknown keys {', '.join(sorted(unknown))}"] if unknown else [])))
     if not isinstance(data["title"], str):
         raise ProfileError(f"{path}: title must be a string")
-    for key, (low, high, unit) in RANGES.items():
-        value = data[key]
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not low <= value <= high:
-            raise ProfileError(f"{path}: {key} must be a number {low:g}..{high:g} {unit}".rstrip() +
-                               f", got {printable(repr(value), 40)}")
-    return CarProfile(path.stem, printable(data["title"], 60), **{k: float(data[k]) for k in RANGES})
+    try:
+        values = {key: number(key, data[key], low, high, unit) for key, (low, high, unit) in RANGES.items()}
+    except ValueError as e:
+        raise ProfileError(f"{path}: {e}") from None
+    return CarProfile(path.stem, printable(data["title"], 60), **values)

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from roar.checks import printable
+from roar.checks import number, printable
 from roar.tracks.track import MAX_DISTANCE_M, Track, TrackError
 
 FREE, UNKNOWN, OCCUPIED = 254, 205, 0  # pixel values map_saver writes
@@ -71,11 +71,11 @@ class OccupancyMap:
 
 
 def _number(path: Path, data: dict, key: str, low: float, high: float) -> float:
-    value = data[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or \
-            not low <= value <= high:
-        raise TrackError(f"{path}: {key} must be a number {low:g}..{high:g}, got {printable(repr(value), 40)}")
-    return float(value)
+    """data[key] checked by roar.checks.number, its error naming the file."""
+    try:
+        return number(key, data[key], low, high)
+    except ValueError as e:
+        raise TrackError(f"{path}: {e}") from None
 
 
 def load_map(path: str | Path) -> OccupancyMap:
