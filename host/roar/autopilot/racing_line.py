@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from roar.autopilot.speed_profile import CarLimits, curvature, lap_time, speed_profile
+from roar.tracks.track import evenly_spaced
 
 SPACING_M = 0.25  # [m] between the line's points
 ITERATIONS = 12  # solves at most, each about the line the one before found (evenly spaced again)
@@ -87,7 +88,7 @@ def racing_line(track, clearance_m: float, spacing_m: float = SPACING_M) -> Raci
         a = sp.vstack([d2 @ sp.diags(normals[:, 0]), d2 @ sp.diags(normals[:, 1])]).tocsr()
         b = np.concatenate([d2 @ line[:, 0], d2 @ line[:, 1]])
         moved = _solve(osqp, sp, (a.T @ a).tocsc(), a.T @ b, lower, upper)
-        line = _even(line + moved[:, None] * normals, len(centre))
+        line = evenly_spaced(line + moved[:, None] * normals, len(centre))
         if np.max(np.abs(moved)) < 1e-3:
             break
     segments, lower, upper = _bounds(track, line, clearance_m, segments)
@@ -99,14 +100,6 @@ def _normals(points: np.ndarray) -> np.ndarray:
     tangent = np.roll(points, -1, axis=0) - np.roll(points, 1, axis=0)
     tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
     return np.stack([-tangent[:, 1], tangent[:, 0]], axis=1)
-
-
-def _even(points: np.ndarray, n: int) -> np.ndarray:
-    """n points evenly spaced along a closed polyline, from its first."""
-    closed = np.vstack([points, points[:1]])
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(closed, axis=0), axis=1))])
-    at = np.linspace(0.0, s[-1], n, endpoint=False)
-    return np.stack([np.interp(at, s, closed[:, 0]), np.interp(at, s, closed[:, 1])], axis=1)
 
 
 def _bounds(track, line: np.ndarray, clearance_m: float, segments) -> tuple[list, np.ndarray, np.ndarray]:

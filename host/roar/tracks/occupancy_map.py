@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from roar.checks import number, printable
-from roar.tracks.track import MAX_DISTANCE_M, Track, TrackError
+from roar.tracks.track import MAX_DISTANCE_M, Track, TrackError, evenly_spaced
 
 FREE, UNKNOWN, OCCUPIED = 254, 205, 0  # pixel values map_saver writes
 MAX_PIXELS = 50_000_000  # an image beyond this is a mistake (a 50 m x 50 m map at 1 cm is 25 M)
@@ -61,6 +61,12 @@ class OccupancyMap:
         c, s = math.cos(yaw), math.sin(yaw)
         u, v = c * p[..., 0] + s * p[..., 1], -s * p[..., 0] + c * p[..., 1]
         return np.stack([u / self.resolution_m - 0.5, self.free.shape[0] - 0.5 - v / self.resolution_m], axis=-1)
+
+    def cell_centres(self) -> np.ndarray:
+        """(rows * cols, 2) world points [m] of every cell's centre, row by row."""
+        rows, cols = self.free.shape
+        r, c = np.mgrid[0:rows, 0:cols]
+        return self.to_world(c.ravel(), r.ravel())
 
     def image(self) -> np.ndarray:
         """The uint8 image map_saver would write: free white, walls black, unknown grey."""
@@ -164,8 +170,7 @@ def track_map(track: Track, resolution_m: float = 0.05, margin_m: float = 0.5) -
     cols, rows = np.ceil((hi - lo) / resolution_m).astype(int)
     grid = OccupancyMap(np.zeros((rows, cols), bool), np.zeros((rows, cols), bool), resolution_m,
                         (float(lo[0]), float(lo[1]), 0.0))
-    r, c = np.mgrid[0:rows, 0:cols]
-    centres = grid.to_world(c.ravel(), r.ravel())
+    centres = grid.cell_centres()
     free = shapely.contains_xy(track.region, centres[:, 0], centres[:, 1]).reshape(rows, cols)
     wall = ndimage.binary_dilation(free, iterations=WALL_CELLS) & ~free
     return OccupancyMap(wall, free, resolution_m, grid.origin)
@@ -205,8 +210,7 @@ def centreline_of(grid: OccupancyMap, area) -> tuple[np.ndarray, np.ndarray]:
     if not area.interiors:
         raise TrackError("the free space has no infield: no loop to drive (give its centre line as a CSV beside it)")
     rows, cols = grid.free.shape
-    r, c = np.mgrid[0:rows, 0:cols]
-    centres = grid.to_world(c.ravel(), r.ravel())
+    centres = grid.cell_centres()
     hole = max(area.interiors, key=lambda ring: shapely.Polygon(ring).area)
     outside = ~shapely.contains_xy(shapely.Polygon(area.exterior), centres[:, 0], centres[:, 1]).reshape(rows, cols)
     infield = shapely.contains_xy(shapely.Polygon(hole), centres[:, 0], centres[:, 1]).reshape(rows, cols)
@@ -229,11 +233,8 @@ def centreline_of(grid: OccupancyMap, area) -> tuple[np.ndarray, np.ndarray]:
 
 def _resampled(points: np.ndarray, spacing_m: float) -> np.ndarray:
     """A closed polyline smoothed over a few cells and resampled every spacing_m."""
-    closed = np.vstack([points, points[:1]])
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(closed, axis=0), axis=1))])
-    n = max(8, int(s[-1] / spacing_m))
-    at = np.linspace(0, s[-1], n, endpoint=False)
-    even = np.stack([np.interp(at, s, closed[:, 0]), np.interp(at, s, closed[:, 1])], axis=1)
+    length = float(np.linalg.norm(np.roll(points, -1, axis=0) - points, axis=1).sum())
+    even = evenly_spaced(points, max(8, int(length / spacing_m)))
     k = 5  # a moving average over +-k points takes out the contour's cell steps
     return sum(np.roll(even, j, axis=0) for j in range(-k, k + 1)) / (2 * k + 1)
 

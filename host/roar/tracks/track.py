@@ -285,6 +285,14 @@ def _resample(pts: np.ndarray, step_m: float) -> tuple[np.ndarray, np.ndarray]:
     return pts[owner] + frac[:, None] * seg[owner], owner
 
 
+def evenly_spaced(points: np.ndarray, n: int) -> np.ndarray:
+    """n points evenly spaced along a closed polyline, from its first."""
+    closed = np.vstack([points, points[:1]])
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(closed, axis=0), axis=1))])
+    at = np.linspace(0.0, s[-1], n, endpoint=False)
+    return np.stack([np.interp(at, s, closed[:, 0]), np.interp(at, s, closed[:, 1])], axis=1)
+
+
 def _widths_problem(halves: np.ndarray, n: int) -> str | None:
     """Why these half widths do not fit a centre line of n points (one line), or None."""
     if halves.shape != (n, 2) or not np.all(np.isfinite(halves)):
