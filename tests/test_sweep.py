@@ -274,3 +274,30 @@ def test_a_malformed_result_becomes_a_failed_row():
     table.add(row)
     (kept,) = table.rows.values()
     assert kept["status"] == "failed" and "limit_lap_s 'inf' is not a finite number" in kept["error"]
+
+
+class _Stuck:
+    """A stand-in for the `ray` module whose shutdown, like the driver's goodbye on a busy machine,
+    lasts until the local Ray's processes are gone (here: one process, `sleep`)."""
+
+    def __init__(self):
+        self.server = subprocess.Popen(["sleep", "60"])
+        info = type("Info", (), {"process": self.server})
+        node = type("Node", (), {"all_processes": {"raylet": [info]}})
+        worker = type("Worker", (), {"_global_node": node})
+        self._private = type("Private", (), {"worker": worker})
+        self.ended = False
+
+    def shutdown(self):
+        self.server.wait()
+        self.ended = True
+
+
+def test_after_ctrl_c_a_slow_ray_goodbye_is_cut_short():
+    import time
+
+    ray = _Stuck()
+    t0 = time.monotonic()
+    sweep_module._shutdown_at_once(ray)
+    assert time.monotonic() - t0 < 3 * sweep_module.RAY_GOODBYE_S
+    assert ray.server.poll() == -9 and ray.ended  # killed, and so the goodbye ended

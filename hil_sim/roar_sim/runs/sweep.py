@@ -27,6 +27,7 @@ Exit status: 0 when every run finished (a race with fewer laps than asked is a r
 from __future__ import annotations
 
 import argparse
+import atexit
 import csv
 import logging
 import math
@@ -35,6 +36,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
 from contextlib import closing, contextmanager, suppress
@@ -57,6 +59,7 @@ DEFAULT_TRACKS = "figure-eight"
 MAX_RUNS = 10_000  # a grid larger than this is a typo
 MAX_DAMAGED_SHOWN = 5  # damaged table rows reported one per line; the rest counted
 RAY_STOP_S = 0.1  # [s] for the local Ray's processes to end after SIGTERM, before SIGKILL
+RAY_GOODBYE_S = 0.3  # [s] for the driver's goodbye to the local Ray after Ctrl-C, before it is killed
 WAIT_SLICE_S = 0.1  # [s] longest wait for Ray results without looking for Ctrl-C
 CONNECT_TIMEOUT_S = 5.0  # [s] for a Ray cluster's address to answer
 
@@ -291,6 +294,7 @@ def _on_ray(todo: Sequence[Run], fn: Callable[[Run], dict], address: str | None,
     ours = not ray.is_initialized()  # else: the caller's Ray session, left running
     if ours:
         start_ray(address, workers)
+    interrupted = False
     try:
         task = ray.remote(num_cpus=1, max_retries=0)(attempt)
         pending = {task.remote(fn, run): run for run in todo}
@@ -303,11 +307,49 @@ def _on_ray(todo: Sequence[Run], fn: Callable[[Run], dict], address: str | None,
                     yield ray.get(ref)
                 except ray.exceptions.RayError as e:  # the worker died: no row from it
                     yield failed_row(run, f"{type(e).__name__}: the Ray worker running it died")
+    except KeyboardInterrupt:
+        interrupted = True
+        raise
     finally:
         if ours:
             if address is None:
                 _without_grace(ray)
-            ray.shutdown()
+            if address is None and interrupted:
+                _shutdown_at_once(ray)
+            else:
+                ray.shutdown()
+
+
+def _shutdown_at_once(ray) -> None:
+    """ray.shutdown() after Ctrl-C, ended within about 2 x RAY_GOODBYE_S however busy the machine:
+    the driver's goodbye to its raylet (which stops the workers of the job) takes 0.25 s on an
+    idle machine and was seen to take seconds on a busy one. If it has not ended by then, the
+    local Ray's processes are killed, which ends it; should it still hang, the process leaves it
+    behind (and Ray's own shutdown at exit, which would wait for it again)."""
+    goodbye = threading.Thread(target=ray.shutdown, name="ray-shutdown", daemon=True)
+    goodbye.start()
+    goodbye.join(RAY_GOODBYE_S)
+    if goodbye.is_alive():
+        _kill_local_ray(ray)
+        goodbye.join(RAY_GOODBYE_S)
+    if goodbye.is_alive():
+        atexit.unregister(ray.shutdown)
+
+
+def _node(ray):
+    """The local Ray's node handle (not public API: None where it is not as expected)."""
+    node = getattr(getattr(getattr(ray, "_private", None), "worker", None), "_global_node", None)
+    return node if isinstance(getattr(node, "all_processes", None), dict) else None
+
+
+def _kill_local_ray(ray) -> None:
+    """SIGKILL to the local Ray's processes and all they started."""
+    node = _node(ray)
+    for infos in node.all_processes.values() if node else ():
+        for info in infos:
+            for pid in [*_descendants(info.process.pid), info.process.pid]:
+                with suppress(OSError):
+                    os.kill(pid, signal.SIGKILL)
 
 
 def _without_grace(ray) -> None:
@@ -315,8 +357,8 @@ def _without_grace(ray) -> None:
     SIGTERM to all (each ends what it started), killed if not gone within RAY_STOP_S. By default
     shutdown gives each a second, one after another -- seconds after a Ctrl-C. (The driver still
     says goodbye to them first. Ray's node handle is not public API: without it, the default.)"""
-    node = getattr(getattr(getattr(ray, "_private", None), "worker", None), "_global_node", None)
-    if node is None or not isinstance(getattr(node, "all_processes", None), dict):
+    node = _node(ray)
+    if node is None:
         return
     kill = node.kill_all_processes
 
