@@ -96,22 +96,19 @@ def fit_floor(points: np.ndarray, rng: np.random.Generator | None = None) -> tup
     low = points[points[:, 2] < 0.1]
     if len(low) < 20:
         return 0.0, 0.0, 1.0, 0.0
-    best, best_count = None, -1
-    for _ in range(RANSAC_ROUNDS):
-        a, b, c = low[rng.choice(len(low), 3, replace=False)]
-        n = np.cross(b - a, c - a)
-        norm = np.linalg.norm(n)
-        if norm < 1e-9:
-            continue
-        n /= norm
-        if abs(n[2]) < 0.8:  # the floor is roughly level
-            continue
-        count = int(np.sum(np.abs((low - a) @ n) < RANSAC_TOLERANCE_M))
-        if count > best_count:
-            best, best_count = (n, a), count
-    if best is None:
+    # all rounds at once: three points each (a repeated point makes no plane and is skipped)
+    a, b, c = np.moveaxis(low[rng.integers(0, len(low), (RANSAC_ROUNDS, 3))], 1, 0)
+    n = np.cross(b - a, c - a)
+    norm = np.linalg.norm(n, axis=1)
+    usable = norm > 1e-9
+    n[usable] /= norm[usable, None]
+    usable &= np.abs(n[:, 2]) >= 0.8  # the floor is roughly level
+    if not usable.any():
         return 0.0, 0.0, 1.0, 0.0
-    n, a = best
+    a, n = a[usable], n[usable]
+    counts = (np.abs(low @ n.T - np.sum(a * n, axis=1)) < RANSAC_TOLERANCE_M).sum(axis=0)
+    best = int(np.argmax(counts))  # the first of the best, as rounds one by one would keep it
+    n, a = n[best], a[best]
     inliers = low[np.abs((low - a) @ n) < RANSAC_TOLERANCE_M]
     # least squares z = p x + q y + r on the inliers
     A = np.column_stack([inliers[:, 0], inliers[:, 1], np.ones(len(inliers))])
