@@ -91,41 +91,6 @@ async def end_to_end(width: int, height: int) -> tuple[float, float, float]:
     return delivered / wall, phone.frames_rendered / wall, phone.render_s / max(1, phone.frames_rendered) * 1000
 
 
-def renderers(width: int = 640, height: int = 480, frames: int = 5) -> dict[str, str]:
-    """Per RGB + depth frame from the simulated car's camera on the oval: TinyRenderer, and
-    PyBullet's EGL plugin (Mesa's software OpenGL here), each in its own world: "NN ms", and
-    "blank" when the image is one colour."""
-    import pkgutil
-
-    import numpy as np
-
-    from roar_sim.plants.racecar import Racecar
-    from roar_sim.world.bullet import pb, silenced
-    from roar.tracks import get
-
-    out = {}
-    with silenced((1, 2)):  # the EGL plugin prints its GL vendor from C
-        for name, renderer in (("TinyRenderer", pb.ER_TINY_RENDERER), ("EGL", pb.ER_BULLET_HARDWARE_OPENGL)):
-            plant = Racecar(get("oval"))
-            world = plant.world
-            if renderer == pb.ER_BULLET_HARDWARE_OPENGL:
-                egl = pkgutil.get_loader("eglRenderer")
-                if egl is None or pb.loadPlugin(egl.get_filename(), "_eglRendererPlugin",
-                                                physicsClientId=world.client) < 0:
-                    plant.close()
-                    continue
-            world.renderer = renderer
-            plant.camera(width, height)  # warm up
-            start = time.perf_counter()
-            for _ in range(frames):
-                rgb, _ = plant.camera(width, height)
-            ms = (time.perf_counter() - start) / frames * 1000
-            blank = len(np.unique(rgb.reshape(-1, 3), axis=0)) == 1
-            out[name] = f"{ms:.0f} ms" + (", blank image" if blank else "")
-            plant.close()
-    return out
-
-
 def roar_style(arrivals) -> tuple[int, int]:
     """ROAR's original receive loop on the arrivals: (intact frames, frames glued from two)."""
     log, intact, glued = {}, 0, 0
@@ -176,9 +141,6 @@ def run() -> None:
         delivered, rendered, ms = asyncio.run(end_to_end(w, h))
         print(f"  end to end from the simulator, {w}x{h}: {delivered:.1f} frames/s delivered; "
               f"the renderer {rendered:.1f} frames/s ({ms:.0f} ms a frame, TinyRenderer + JPEG)")
-    costs = renderers()
-    print("  renderers at 640x480, RGB + depth: " + ", ".join(f"{k} {v}" for k, v in costs.items())
-          + " (the simulator renders with TinyRenderer)")
     ours, theirs, glued = compare(frames)
     print(f"  {COMPARE_FRAMES} frames, 5 % loss + 2 % duplicates + 5 % reordered: ours {ours} intact (0 corrupt), "
           f"ROAR's original {theirs} intact + {glued} glued from two frames; ratio {ours / max(1, theirs):.2f} "

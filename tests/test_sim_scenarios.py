@@ -188,16 +188,20 @@ def test_no_track_no_lane_lines():
     assert not _colour_pixels(rgb, floor.CENTRE_LINE_RGB).any()
 
 
-def test_floor_image_paints_lines_where_the_track_is():
+def test_the_floor_is_painted_where_the_track_is():
     track = oval()
-    image = floor.FloorImage(track)
     left, right = track.edges()
     start = track.centerline[0]
-    assert tuple(image.rgb[image.pixel(track.centerline[0])]) == floor.CENTRE_LINE_RGB
+    assert floor.colour_at(track, start) == floor.CENTRE_LINE_RGB
     inset = floor.EDGE_LINE_INSET_M / (track.width_m / 2)
     for edge in (left, right):
-        assert tuple(image.rgb[image.pixel(edge[0] + inset * (start - edge[0]))]) == floor.EDGE_LINE_RGB
-        assert tuple(image.rgb[image.pixel((start + edge[0]) / 2)]) == floor.ASPHALT_RGB
+        assert floor.colour_at(track, edge[0] + inset * (start - edge[0])) == floor.EDGE_LINE_RGB
+        assert floor.colour_at(track, (start + edge[0]) / 2) == floor.ASPHALT_RGB
     # The dashes leave gaps: half of one dash period after a dash starts is asphalt.
-    gap = image.pixel(track.centerline[0] + [0.3, 0.0])  # the oval starts on a straight along +x
-    assert tuple(image.rgb[gap]) == floor.ASPHALT_RGB
+    assert floor.colour_at(track, start + [0.3, 0.0]) == floor.ASPHALT_RGB  # the oval starts on a straight along +x
+    # the lines are as wide as painted: 1 mm inside an edge line's border is paint, 1 mm outside is not
+    across = (start - left[0]) / np.linalg.norm(start - left[0])
+    middle = left[0] + floor.EDGE_LINE_INSET_M * across
+    for d, rgb in ((floor.EDGE_LINE_WIDTH_M / 2 - 0.001, floor.EDGE_LINE_RGB),
+                   (floor.EDGE_LINE_WIDTH_M / 2 + 0.001, floor.ASPHALT_RGB)):
+        assert floor.colour_at(track, middle + d * across) == rgb and floor.colour_at(track, middle - d * across) == rgb

@@ -287,10 +287,9 @@ def test_a_tunnel_world_stands_its_cones_and_people_in_the_simulator():
         assert len(world.cones) == len(track.course.cones) and len(world.people) == len(track.course.people)
         scan = car.plant.lidar()
         assert np.isfinite(scan).any()
-    image = floor.FloorImage(track)
     x, y, _ = track.course.markers[0]
-    assert tuple(image.rgb[image.pixel((x, y))]) == floor.MARKER_RGB
-    assert not (image.rgb == floor.CENTRE_LINE_RGB).all(axis=2).any()  # no lane paint in a tunnel
+    assert floor.colour_at(track, (x, y)) == floor.MARKER_RGB
+    assert [p.rgb for p in floor.paints(track)] == [floor.MARKER_RGB]  # no lane paint in a tunnel
 
 
 # --- the autopilot on tracks no one tuned for ---------------------------------------------------------

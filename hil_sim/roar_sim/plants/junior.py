@@ -140,7 +140,7 @@ class JuniorPlant:
     def ultrasonic_cm(self) -> int:
         """What the HC-SR04 on the front reports, as the firmware reads it: whole cm, 0 for no echo."""
         origin, yaw = self._mount(ULTRASONIC_POS_M)
-        return ultrasonic.reading_cm(self.world, origin, yaw, {self.robot, self.world.ground, self.world.floor})
+        return ultrasonic.reading_cm(self.world, origin, yaw, {self.robot, self.world.ground, *self.world.floor})
 
     def camera(self, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
         """(RGB uint8 HxWx3, depth float32 HxW [m]) from the ESP32-CAM on the front."""

@@ -4,8 +4,11 @@ at import, which would otherwise land in every command's output (even `roar race
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import os
 import sys
+
+_LIBC = ctypes.CDLL(None)
 
 
 @contextlib.contextmanager
@@ -20,6 +23,7 @@ def silenced(fds: tuple[int, ...] = (2,)):
     try:
         yield
     finally:
+        _LIBC.fflush(None)  # what C code wrote meanwhile and its stdio still holds goes nowhere too
         for fd, copy in zip(fds, saved):
             os.dup2(copy, fd)
             os.close(copy)

@@ -1,102 +1,83 @@
-"""The track's floor as the camera sees it: asphalt with white edge lines (inside every wall) and a
-dashed yellow centre line, painted into a texture and laid on a tessellated quad over the track.
+"""The track's floor as the camera sees it: the asphalt ground with white edge lines (inside every
+wall) and a dashed yellow centre line on it -- or, in a tunnel, green markers and no lane paint.
 
-TinyRenderer (the headless renderer) drops whole triangles that cross the camera's near plane,
-so the floor is a grid of small cells rather than two huge triangles.
+The paint is geometry, thin strips of triangles just above the ground, not a texture: OpenGL
+(the EGL renderer) filters a texture seen at a grazing angle through its mipmaps, which wiped out
+a 5 cm line a few metres ahead, while TinyRenderer samples texels as they are; triangles look the
+same to both. TinyRenderer drops whole triangles that cross the camera's near plane, so no strip
+piece is longer than PIECE_M.
 """
 
 from __future__ import annotations
 
-import tempfile
-from pathlib import Path
+from dataclasses import dataclass
 
 import numpy as np
-from roar_sim.world.bullet import pb
 
 from roar.tracks import Track
+from roar_sim.world.bullet import pb
 from roar_sim.world.cache import per_shape
+from roar_sim.world.renderer import mesh_file
 
-ASPHALT_RGB = (64, 64, 69)
+ASPHALT_RGB = (64, 64, 69)  # the ground's colour (roar_sim.world.scene)
 EDGE_LINE_RGB = (240, 240, 240)
 CENTRE_LINE_RGB = (230, 200, 40)
 MARKER_RGB = (40, 180, 60)  # a tunnel's floor markers: green
-PIXEL_M = 0.01  # [m] texture resolution, coarser on tracks too big for MAX_TEXTURE_PX
-MAX_TEXTURE_PX = 4096  # [px] per side: at most 48 MiB of RGB, whatever the track's size
-MARGIN_M = 0.5  # [m] floor beyond the walls
 EDGE_LINE_INSET_M = 0.1  # [m] from the wall to the middle of the edge line
 EDGE_LINE_WIDTH_M = 0.05  # [m]
 CENTRE_LINE_WIDTH_M = 0.03  # [m]
 CENTRE_DASH_M = 0.4  # [m] one dash plus one gap
-CELL_M = 0.25  # [m] floor mesh cell, larger on tracks too big for MAX_CELLS
-MAX_CELLS = 256  # per side of the floor mesh
-FLOOR_Z_M = 0.001  # [m] above the collision plane, so it is drawn on top of it
+PIECE_M = 0.1  # [m] longest piece of a strip along its line
+FLOOR_Z_M = 0.001  # [m] the paint above the ground
 
 
-class FloorImage:
-    """The painted floor: an RGB image whose pixel (row, col) covers world point
-    (origin_x + col * pixel_m, origin_y + (rows - 1 - row) * pixel_m)."""
+@dataclass(frozen=True)
+class Paint:
+    """One colour of paint on the floor: triangles (vertices (N, 3) [m], indices (M, 3))."""
 
-    def __init__(self, track: Track) -> None:
-        corners = np.vstack([*track.edges(), np.reshape(track.region.bounds, (2, 2))])
-        self.origin = corners.min(axis=0) - MARGIN_M  # [m] world (x, y) of the bottom-left pixel
-        self.extent = corners.max(axis=0) + MARGIN_M - self.origin  # [m]
-        self.pixel_m = max(PIXEL_M, float(self.extent.max()) / MAX_TEXTURE_PX)  # [m]
-        cols, rows = np.minimum(np.ceil(self.extent / self.pixel_m), MAX_TEXTURE_PX).astype(int)
-        self.rgb = np.empty((rows, cols, 3), np.uint8)
-        self.rgb[:] = ASPHALT_RGB
-        if track.course is not None:  # a tunnel: a bare floor with its green markers
-            for x, y, yaw in track.course.markers:
-                self._rectangle(x, y, yaw, MARKER_RGB)
-            return
-        for line in edge_lines(track):
-            self._paint(line, EDGE_LINE_RGB, EDGE_LINE_WIDTH_M)
-        self._paint(track.centerline, CENTRE_LINE_RGB, CENTRE_LINE_WIDTH_M, dash_m=CENTRE_DASH_M)
+    rgb: tuple[int, int, int]
+    vertices: np.ndarray
+    triangles: np.ndarray
 
-    def pixel(self, xy) -> tuple[int, int]:
-        """(row, col) of a world point."""
-        col, up = ((np.asarray(xy, dtype=float) - self.origin) / self.pixel_m).astype(int)
-        return int(self.rgb.shape[0] - 1 - up), int(col)
+    def covers(self, xy) -> np.ndarray:
+        """Whether each point (x, y) [m] of an (K, 2) array lies on this paint."""
+        p = np.atleast_2d(np.asarray(xy, dtype=float))[:, None, :]  # (K, 1, 2)
+        a, b, c = (self.vertices[self.triangles[:, k], :2][None] for k in range(3))  # (1, M, 2)
 
-    def _rectangle(self, x: float, y: float, yaw: float, rgb: tuple[int, int, int]) -> None:
-        """Fill a marker's rectangle (MARKER_SIZE_M, long side along yaw) centred on (x, y)."""
-        from roar.tracks.tunnel import MARKER_SIZE_M
+        def side(u, v, w):
+            return (v[..., 0] - u[..., 0]) * (w[..., 1] - u[..., 1]) - (v[..., 1] - u[..., 1]) * (w[..., 0] - u[..., 0])
 
-        rows, cols = self.rgb.shape[:2]
-        reach = float(np.hypot(*MARKER_SIZE_M)) / 2
-        r0, c0 = self.pixel((x - reach, y + reach))
-        r1, c1 = self.pixel((x + reach, y - reach))
-        rr, cc = np.mgrid[max(0, r0):min(rows, r1 + 1), max(0, c0):min(cols, c1 + 1)]
-        px = self.origin[0] + (cc + 0.5) * self.pixel_m - x
-        py = self.origin[1] + (rows - 1 - rr + 0.5) * self.pixel_m - y
-        along, across = px * np.cos(yaw) + py * np.sin(yaw), -px * np.sin(yaw) + py * np.cos(yaw)
-        inside = (np.abs(along) <= MARKER_SIZE_M[0] / 2) & (np.abs(across) <= MARKER_SIZE_M[1] / 2)
-        self.rgb[rr[inside], cc[inside]] = rgb
+        d1, d2, d3 = side(a, b, p), side(b, c, p), side(c, a, p)
+        inside = ~(((d1 < 0) | (d2 < 0) | (d3 < 0)) & ((d1 > 0) | (d2 > 0) | (d3 > 0)))
+        return inside.any(axis=1)
 
-    def _paint(self, polyline: np.ndarray, rgb: tuple[int, int, int], width_m: float,
-               dash_m: float | None = None) -> None:
-        """Stamp a closed polyline, sampled every half pixel, with a square brush."""
-        a, b = polyline, np.roll(polyline, -1, axis=0)
-        samples = []
-        for p, q in zip(a, b):
-            k = max(1, int(np.linalg.norm(q - p) / (self.pixel_m / 2)))
-            samples.append(p + (np.arange(k) / k)[:, None] * (q - p))
-        pts = np.vstack(samples)
-        if dash_m:
-            s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
-            pts = pts[(s % dash_m) < dash_m / 2]
-        rows, cols = self.rgb.shape[:2]
-        col = ((pts[:, 0] - self.origin[0]) / self.pixel_m).astype(int)
-        row = rows - 1 - ((pts[:, 1] - self.origin[1]) / self.pixel_m).astype(int)
-        r = max(0, int(round(width_m / self.pixel_m / 2)))
-        for dr in range(-r, r + 1):
-            for dc in range(-r, r + 1):
-                self.rgb[np.clip(row + dr, 0, rows - 1), np.clip(col + dc, 0, cols - 1)] = rgb
+
+def colour_at(track: Track, xy) -> tuple[int, int, int]:
+    """The floor's colour at one point (x, y) [m]: a paint's, else the asphalt's."""
+    for paint in paints(track):
+        if paint.covers(xy)[0]:
+            return paint.rgb
+    return ASPHALT_RGB
+
+
+def paints(track: Track) -> list[Paint]:
+    """The track's paint, one Paint a colour, made once per track shape."""
+    return per_shape("floor paint", track, lambda: _make_paints(track))
+
+
+def _make_paints(track: Track) -> list[Paint]:
+    if track.course is not None:  # a tunnel: a bare floor with its green markers
+        return [_joined(MARKER_RGB, [_rectangle(x, y, yaw) for x, y, yaw in track.course.markers])]
+    edges = [_strip(run, EDGE_LINE_WIDTH_M, closed) for line in edge_lines(track) for run, closed in _runs(line)]
+    dashes = [_strip(dash, CENTRE_LINE_WIDTH_M, False) for dash in _dashes(track.centerline)]
+    return [_joined(EDGE_LINE_RGB, edges), _joined(CENTRE_LINE_RGB, dashes)]
 
 
 def edge_lines(track: Track) -> list[np.ndarray]:
     """The white edge lines, EDGE_LINE_INSET_M inside every wall: along each side of the centre
     line, each point's half width less the inset from it (where that folds into a hairpin's
-    inner edge or runs past a wall midway, it stops); a map's walls, followed inwards."""
+    inner edge or runs past a wall midway, it stops: its points there are NaN); a map's walls,
+    followed inwards."""
     import shapely
 
     if track.area is not None or track.extra_area:
@@ -107,49 +88,103 @@ def edge_lines(track: Track) -> list[np.ndarray]:
     inset = np.clip(track.half_widths - EDGE_LINE_INSET_M, 0.0, None)
     lines = [track.centerline + inset[:, :1] * track.normals, track.centerline - inset[:, 1:] * track.normals]
     keep = track.region.buffer(-EDGE_LINE_INSET_M / 2)
-    return [line if shapely.contains_xy(keep, line[:, 0], line[:, 1]).all() else
-            line[shapely.contains_xy(keep, line[:, 0], line[:, 1])] for line in lines]
+    return [np.where(shapely.contains_xy(keep, line[:, 0], line[:, 1])[:, None], line, np.nan) for line in lines]
 
 
-def add_floor(track: Track, client: int) -> int:
-    """Add the painted floor (visual only: the car drives on the plane below) and return its body."""
-    vertices, uvs, indices, png = _floor_kit(track)
-    visual = pb.createVisualShape(pb.GEOM_MESH, vertices=vertices, indices=indices, uvs=uvs,
-                                  normals=[[0, 0, 1]] * len(vertices), physicsClientId=client)
-    body = pb.createMultiBody(0, -1, visual, [0, 0, 0], physicsClientId=client)
-    texture = pb.loadTexture(str(png), physicsClientId=client)  # PyBullet loads textures from files
-    pb.changeVisualShape(body, -1, textureUniqueId=texture, physicsClientId=client)
-    return body
+def _runs(line: np.ndarray) -> list[tuple[np.ndarray, bool]]:
+    """(points, closed) of each unbroken run of a closed line whose missing points are NaN."""
+    ok = np.isfinite(line).all(axis=1)
+    if ok.all():
+        return [(line, True)]
+    start = int(np.argmin(ok))  # a missing point: runs are cut there, none wraps round
+    ordered, good = np.roll(line, -start, axis=0), np.roll(ok, -start)
+    cuts = np.flatnonzero(np.diff(good.astype(int)) != 0) + 1
+    return [(part, False) for part, flags in zip(np.split(ordered, cuts), np.split(good, cuts))
+            if flags[0] and len(part) >= 2]
 
 
-_TEXTURES: tempfile.TemporaryDirectory | None = None  # removed when the process ends
+def _dashes(centreline: np.ndarray) -> list[np.ndarray]:
+    """The dashes of the centre line: its first half of every CENTRE_DASH_M along it."""
+    closed = np.vstack([centreline, centreline[:1]])
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(closed, axis=0), axis=1))])
+    starts = np.arange(0.0, s[-1] - CENTRE_DASH_M / 4, CENTRE_DASH_M)
+    dashes = []
+    for s0 in starts:
+        along = np.linspace(s0, min(s0 + CENTRE_DASH_M / 2, s[-1]), 3)
+        dashes.append(np.column_stack([np.interp(along, s, closed[:, 0]), np.interp(along, s, closed[:, 1])]))
+    return dashes
 
 
-def _floor_kit(track: Track) -> tuple[list, list, list, Path]:
-    """(vertices, uvs, indices, texture PNG) of a track's floor, made once per track shape: a
-    new world of the same track (every Gym reset) only loads them."""
-    return per_shape("floor", track, lambda: _make_floor_kit(track))
+def _strip(points: np.ndarray, width_m: float, closed: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices, triangles) of a band width_m wide along a polyline, in pieces of at most PIECE_M."""
+    points = _refined(points, closed)
+    ahead = np.roll(points, -1, axis=0) - np.roll(points, 1, axis=0)  # central differences
+    if not closed:
+        ahead[0], ahead[-1] = points[1] - points[0], points[-1] - points[-2]
+    normals = np.column_stack([-ahead[:, 1], ahead[:, 0]]) / np.maximum(np.linalg.norm(ahead, axis=1), 1e-12)[:, None]
+    half = normals * width_m / 2
+    n = len(points)
+    vertices = np.vstack([np.column_stack([points + half, np.full(n, FLOOR_Z_M)]),
+                          np.column_stack([points - half, np.full(n, FLOOR_Z_M)])])
+    i = np.arange(n if closed else n - 1)
+    j = (i + 1) % n
+    triangles = np.vstack([np.column_stack([i + n, j + n, j]), np.column_stack([i + n, j, i])])  # facing up
+    return vertices, triangles
 
 
-def _make_floor_kit(track: Track) -> tuple[list, list, list, Path]:
-    global _TEXTURES
-    image = FloorImage(track)
-    cell_m = max(CELL_M, float(image.extent.max()) / MAX_CELLS)  # [m]
-    nx, ny = (np.ceil(image.extent / cell_m)).astype(int)
-    x0, y0 = image.origin
-    w, h = image.extent
-    vertices, uvs, indices = [], [], []
-    for j in range(ny + 1):
-        for i in range(nx + 1):
-            vertices.append([x0 + w * i / nx, y0 + h * j / ny, FLOOR_Z_M])
-            uvs.append([i / nx, j / ny])
-    for j in range(ny):
-        for i in range(nx):
-            a = j * (nx + 1) + i
-            indices += [a, a + 1, a + nx + 2, a, a + nx + 2, a + nx + 1]
-    from PIL import Image  # here: only a car with a camera needs the floor's paint
+def _refined(points: np.ndarray, closed: bool) -> np.ndarray:
+    """The polyline with points added so that no segment is longer than PIECE_M."""
+    ends = np.roll(points, -1, axis=0) if closed else points[1:]
+    starts = points if closed else points[:-1]
+    out = []
+    for a, b in zip(starts, ends):
+        k = max(1, int(np.ceil(np.linalg.norm(b - a) / PIECE_M)))
+        out.append(a + (np.arange(k) / k)[:, None] * (b - a))
+    if not closed:
+        out.append(points[-1:])
+    return np.vstack(out)
 
-    _TEXTURES = _TEXTURES or tempfile.TemporaryDirectory(prefix="roar-floor-")
-    png = Path(_TEXTURES.name) / f"{track.fingerprint.hex()[:16]}.png"
-    Image.fromarray(image.rgb).save(png)
-    return vertices, uvs, indices, png
+
+def _rectangle(x: float, y: float, yaw: float) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices, triangles) of a marker: MARKER_SIZE_M, its long side along yaw, centred on (x, y),
+    as a grid of pieces no longer than PIECE_M."""
+    from roar.tracks.tunnel import MARKER_SIZE_M
+
+    length, width = MARKER_SIZE_M
+    nu, nv = int(np.ceil(length / PIECE_M)), int(np.ceil(width / PIECE_M))
+    u, v = np.meshgrid(np.linspace(-length / 2, length / 2, nu + 1), np.linspace(-width / 2, width / 2, nv + 1))
+    c, s = np.cos(yaw), np.sin(yaw)
+    vertices = np.column_stack([x + u.ravel() * c - v.ravel() * s, y + u.ravel() * s + v.ravel() * c,
+                                np.full(u.size, FLOOR_Z_M)])
+    k = (np.arange(nv)[:, None] * (nu + 1) + np.arange(nu)[None, :]).ravel()
+    triangles = np.vstack([np.column_stack([k, k + 1, k + nu + 2]), np.column_stack([k, k + nu + 2, k + nu + 1])])
+    return vertices, triangles
+
+
+def _joined(rgb: tuple[int, int, int], meshes: list[tuple[np.ndarray, np.ndarray]]) -> Paint:
+    vertices, triangles, base = [], [], 0
+    for v, t in meshes:
+        vertices.append(v)
+        triangles.append(t + base)
+        base += len(v)
+    return Paint(rgb, np.vstack(vertices) if vertices else np.empty((0, 3)),
+                 np.vstack(triangles).astype(int) if triangles else np.empty((0, 3), int))
+
+
+def add_floor(track: Track, client: int) -> list[int]:
+    """Add the track's paint (visual only: the car drives on the ground below) and return its
+    bodies, one a colour."""
+    bodies = []
+    for paint, path in _paint_files(track):
+        visual = pb.createVisualShape(pb.GEOM_MESH, fileName=path, rgbaColor=[*(k / 255 for k in paint.rgb), 1],
+                                      physicsClientId=client)
+        bodies.append(pb.createMultiBody(0, -1, visual, [0, 0, 0], physicsClientId=client))
+    return bodies
+
+
+def _paint_files(track: Track) -> list[tuple[Paint, str]]:
+    """Each paint with its OBJ file, written once per track shape: a new world of the same track
+    (every Gym reset) only loads them."""
+    return per_shape("floor paint files", track, lambda: [
+        (paint, mesh_file(paint.vertices.tolist(), paint.triangles.ravel().tolist()))
+        for paint in paints(track) if len(paint.triangles)])

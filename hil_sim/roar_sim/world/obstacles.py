@@ -12,6 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from roar_sim.world.bullet import pb
+from roar_sim.world.renderer import mesh_visual
 from roar.tracks.track import Track
 
 BOX_HALF_M = 0.1  # [m] half a box's side
@@ -44,8 +45,7 @@ def add_cone(world, x: float, y: float) -> int:
         j = (i + 1) % CONE_SIDES
         indices += [i, j, apex, j, i, base]
     shape = pb.createCollisionShape(pb.GEOM_MESH, vertices=vertices, physicsClientId=c)  # its convex hull
-    visual = pb.createVisualShape(pb.GEOM_MESH, vertices=vertices, indices=indices, rgbaColor=list(CONE_RGBA),
-                                  physicsClientId=c)
+    visual = mesh_visual(c, vertices, indices, rgba=CONE_RGBA)
     return pb.createMultiBody(0, shape, visual, [x, y, 0.0], physicsClientId=c)
 
 

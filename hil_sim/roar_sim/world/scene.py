@@ -8,20 +8,23 @@ import ctypes
 import math
 import os
 import threading
+from contextlib import nullcontext
 
 import numpy as np
 import pybullet_data
 
 from roar.errors import RoarError
+from roar_sim.world import renderer as renderers
 from roar_sim.world.floor import add_floor
 from roar_sim.world.obstacles import add_cone, add_person
-from roar_sim.world.bullet import pb
+from roar_sim.world.bullet import pb, silenced
 from roar.tracks import Track
 from roar_sim.world.cache import per_shape
 
 WALL_HEIGHT_M, WALL_THICKNESS_M = 0.3, 0.05  # [m] higher than the lidar (0.17 m)
 WALL_PIECE_M = 0.15  # [m] longest wall box: the camera's renderer drops whole triangles that cross its near plane
 GROUND_HALF_M = 25.0  # [m] asphalt shown beyond the track (or around the origin without one)
+EGL_CHATTY_FRAMES = 2  # EGL prints its vendor on stdout within its first frames
 SOLVER_ITERATIONS = 10  # contact solver iterations per step (PyBullet default 50): a car on a plane settles in few
 
 
@@ -50,9 +53,10 @@ def display_problem() -> str | None:
 
 class World:
     """A PyBullet client (DIRECT, or GUI when gui=True) with gravity, the ground and, with a
-    track, its walls and painted floor. Robots add their own bodies to `client`."""
+    track, its walls and painted floor. Robots add their own bodies to `client`. Camera frames
+    come from `renderer` ("egl" or "tiny"; default: roar_sim.world.renderer.wanted())."""
 
-    def __init__(self, track: Track | None, dt_s: float, gui: bool = False) -> None:
+    def __init__(self, track: Track | None, dt_s: float, gui: bool = False, renderer: str | None = None) -> None:
         problem = display_problem() if gui else None
         if problem:
             raise SimError(problem)
@@ -60,6 +64,10 @@ class World:
         self._rays: tuple[int, int, threading.Lock] | None = None  # ray_test's walls-only client
         self.client = pb.connect(pb.GUI if gui else pb.DIRECT)
         c = self.client
+        # before any body: the EGL plugin never sees the shapes made before it
+        # (with a window, TinyRenderer: the window's own OpenGL is not a second EGL context's)
+        self._rendered = 0  # frames drawn
+        self.renderer, self.renderer_name = renderers.start(c, "tiny" if gui else renderers.wanted(renderer))
         pb.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=c)
         pb.setGravity(0, 0, -9.81, physicsClientId=c)
         pb.setTimeStep(dt_s, physicsClientId=c)
@@ -70,7 +78,7 @@ class World:
         course = track.course if track else None  # a tunnel world's cones and people (not in its map)
         self.cones = [add_cone(self, x, y) for x, y in course.cones] if course else []
         self.people = [add_person(self, x, y) for x, y in course.people] if course else []
-        self.floor = add_floor(track, c) if track else None
+        self.floor = add_floor(track, c) if track else []  # the paint's bodies
         self.ground = self._add_ground(track)
         if gui:
             self._frame_gui(track)
@@ -89,8 +97,7 @@ class World:
         shape = pb.createCollisionShape(pb.GEOM_PLANE, planeNormal=[0, 0, 1], physicsClientId=c)
         # one quad, not a box: the camera's software renderer pays for every screen-sized triangle
         corners = [[-half, -half, 0.0], [half, -half, 0.0], [half, half, 0.0], [-half, half, 0.0]]
-        visual = pb.createVisualShape(pb.GEOM_MESH, vertices=corners, indices=[0, 1, 2, 0, 2, 3],
-                                      normals=[[0, 0, 1]] * 4, rgbaColor=[0.25, 0.25, 0.27, 1], physicsClientId=c)
+        visual = renderers.mesh_visual(c, corners, [0, 1, 2, 0, 2, 3], rgba=[0.25, 0.25, 0.27, 1])
         body = pb.createMultiBody(0, shape, visual, [float(centre[0]), float(centre[1]), 0], physicsClientId=c)
         pb.changeDynamics(body, -1, lateralFriction=1.0, physicsClientId=c)  # as PyBullet's plane.urdf
         return body
@@ -108,7 +115,7 @@ class World:
     def _build_walls(self, track: Track) -> list[int]:
         """One static triangle mesh of wall boxes along both edges (one body keeps the physics
         fast)."""
-        return [_mesh_body(self.client, *wall_mesh(track), visual=True)]
+        return [_mesh_body(self.client, *wall_mesh(track), visual=wall_mesh_file(track))]
 
     def ray_test(self, starts: list, ends: list) -> list:
         """pb.rayTestBatch for a sensor on a robot in this world. While the world holds nothing but
@@ -126,11 +133,7 @@ class World:
         return [(self.walls[0], *h[1:]) if h[0] == walls else h for h in hits]
 
     def _own_bodies(self) -> list[int]:
-        return [*self.walls, *([self.floor] if self.floor is not None else []), self.ground]
-
-    # TinyRenderer: PyBullet's CPU renderer. Its EGL plugin (pb.ER_BULLET_HARDWARE_OPENGL once
-    # loaded) draws this world blank with Mesa's software OpenGL (make bench measures both).
-    renderer = pb.ER_TINY_RENDERER
+        return [*self.walls, *self.floor, self.ground]
 
     def planar_motion(self, body: int) -> tuple[float, float, float, float, float]:
         """(x [m], y [m], yaw [rad], speed along the heading [m/s], yaw rate [rad/s]) of a body
@@ -153,8 +156,15 @@ class World:
         forward = np.array([math.cos(yaw), math.sin(yaw), -math.tan(pitch)])
         view = pb.computeViewMatrix(list(position), (np.array(position) + forward).tolist(), [0, 0, 1])
         proj = pb.computeProjectionMatrixFOV(fov_deg, width / height, near_m, far_m)
-        _, _, rgba, depth_buf, _ = pb.getCameraImage(width, height, view, proj, renderer=self.renderer,
-                                                     physicsClientId=self.client)
+        if self.renderer_name == "egl":  # OpenGL samples pixel centres, TinyRenderer their corners:
+            proj = list(proj)  # half a pixel up and left, and both draw the same image
+            proj[8] -= 1.0 / width  # (column-major: the clip x and y added per unit of depth)
+            proj[9] -= 1.0 / height
+        with silenced((1,)) if self._rendered < EGL_CHATTY_FRAMES and self.renderer_name == "egl" else nullcontext():
+            _, _, rgba, depth_buf, _ = pb.getCameraImage(width, height, view, proj, renderer=self.renderer,
+                                                         shadow=0, flags=pb.ER_NO_SEGMENTATION_MASK,
+                                                         physicsClientId=self.client)
+        self._rendered += 1
         rgb = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3]
         d = np.asarray(depth_buf, dtype=np.float32).reshape(height, width)
         return rgb, far_m * near_m / (far_m - (far_m - near_m) * d)
@@ -164,7 +174,8 @@ class World:
 
     def close(self) -> None:
         if pb.isConnected(self.client):
-            pb.disconnect(self.client)
+            with silenced((1,)) if self.renderer_name == "egl" else nullcontext():  # EGL says goodbye on stdout
+                pb.disconnect(self.client)
 
 
 def _walls_only(track: Track) -> tuple[int, int, threading.Lock]:
@@ -172,7 +183,7 @@ def _walls_only(track: Track) -> tuple[int, int, threading.Lock]:
     world of that track in this process (the walls never move)."""
     def make() -> tuple[int, int, threading.Lock]:
         client = pb.connect(pb.DIRECT)
-        return client, _mesh_body(client, *wall_mesh(track), visual=False), threading.Lock()
+        return client, _mesh_body(client, *wall_mesh(track), visual=None), threading.Lock()
 
     return per_shape("walls-only ray client", track, make)
 
@@ -181,6 +192,11 @@ def wall_mesh(track: Track) -> tuple[list[list[float]], list[int]]:
     """(vertices, indices) of the wall boxes along the edges of the track's driving area
     (Track.walls: folds trimmed, a figure-eight's crossing open), computed once per track shape."""
     return per_shape("wall mesh", track, lambda: _build_wall_mesh(track))
+
+
+def wall_mesh_file(track: Track) -> str:
+    """The wall mesh as an OBJ file (what the renderers draw), written once per track shape."""
+    return per_shape("wall mesh file", track, lambda: renderers.mesh_file(*wall_mesh(track)))
 
 
 def _build_wall_mesh(track: Track) -> tuple[list[list[float]], list[int]]:
@@ -194,11 +210,11 @@ def _build_wall_mesh(track: Track) -> tuple[list[list[float]], list[int]]:
     return vertices, indices
 
 
-def _mesh_body(client: int, vertices: list, indices: list, visual: bool) -> int:
-    """A static body of the triangle mesh (drawn in light grey when visual)."""
+def _mesh_body(client: int, vertices: list, indices: list, visual: str | None) -> int:
+    """A static body of the triangle mesh (drawn in light grey from the OBJ file `visual`, if given)."""
     shape = pb.createCollisionShape(pb.GEOM_MESH, vertices=vertices, indices=indices,
                                     flags=pb.GEOM_FORCE_CONCAVE_TRIMESH, physicsClientId=client)
-    look = pb.createVisualShape(pb.GEOM_MESH, vertices=vertices, indices=indices, rgbaColor=[0.8, 0.8, 0.8, 1],
+    look = pb.createVisualShape(pb.GEOM_MESH, fileName=visual, rgbaColor=[0.8, 0.8, 0.8, 1],
                                 physicsClientId=client) if visual else -1
     return pb.createMultiBody(0, shape, look, [0, 0, 0], physicsClientId=client)
 
