@@ -4,7 +4,8 @@ robot.
 
     roar race [--robot esc|iarrc|junior] [--track NAME|FILE] [--laps 2]
               [--line centre|optimal|RACELINE.csv] [--waypoints FILE] [--margin 0.9] [--k-dd S] [--steering pursuit|pid] [--driver line|lane]
-              [--start-lights SEED] [--boxes N] [--avoid] [--record DIR] [--plot out/race.png]
+              [--start-lights SEED] [--boxes N] [--avoid] [--record DIR] [--shaky-camera SEED]
+              [--renderer tiny|egl] [--plot out/race.png]
               [--realtime] [--gui]
 
 Every command reaches the robot as a host's does (roar_sim.robots): the ESC car hears control
@@ -32,7 +33,7 @@ import numpy as np
 
 from roar.autopilot import Agent, Command, Observation, Runner, WaypointError, lap_time, load_waypoints, speed_profile
 from roar.user_files import unusable_folder
-from roar.cli.errors import ArgumentParser, ExitStatus, path_option, run_command
+from roar.cli.errors import ArgumentParser, ExitStatus, number_option, path_option, run_command
 from roar.tracks.track_files import load_raceline_csv
 from roar.tracks.tunnel import describe
 from roar_sim import robots
@@ -42,12 +43,15 @@ from roar_sim.sensors.tfmini import Tfmini
 from roar_sim.world import plotting
 from roar_sim.world import renderer as renderers
 from roar_sim.world.obstacles import MIN_GAP_M, box_course, place_boxes, touching
-from roar_sim.world.start_lights import StartLights, green_moment
+from roar_sim.sensors.camera_noise import ShakyCamera
+from roar_sim.world.start_lights import GREEN_AFTER_S, StartLights, green_moment
 from roar.tracks import Track, TrackError, get
 
 MARGIN_RANGE = (0.3, 1.0)  # fraction of the robot's limits a race may be driven at
 K_DD_RANGE_S = (0.05, 2.0)  # [s] pure pursuit's look-ahead per m/s a race may use
 LANE_CAMERA = (320, 240)  # [px] the camera the lane driver sees through
+DRAG_TOP_SPEED_M_S = 4.0  # [m/s] the drag race's speed unless asked (the IARRC car's limit is 4.51)
+TOP_SPEED_RANGE_M_S = (0.5, 4.5)  # [m/s] what a drag race may ask for
 STEERING = {"pursuit": "pure pursuit", "pid": "the heading PID"}  # a robot's laterals, in words
 STILL_M_S = 0.05  # [m/s] slower than this, a stopped car stands where it is
 
@@ -57,12 +61,15 @@ class LaneCourse:
     TFmini on its nose, and a folder its frames are recorded to."""
 
     def __init__(self, robot: Robot, start_seed: int | None = None, boxes: Sequence[tuple[float, float]] = (),
-                 avoid: bool = False, record: Path | None = None) -> None:
+                 avoid: bool = False, record: Path | None = None, shaky_seed: int | None = None,
+                 green_span_s: tuple[float, float] = GREEN_AFTER_S) -> None:
         self.robot, self.record = robot, record
         world, track = robot.plant.world, robot.track
+        self._frame = (ShakyCamera(robot.plant, *LANE_CAMERA, shaky_seed) if shaky_seed is not None else
+                       lambda: robot.plant.camera(*LANE_CAMERA))
         self.lights = None
         if start_seed is not None:
-            self.lights = StartLights(world, track, green_moment(start_seed))
+            self.lights = StartLights(world, track, green_moment(start_seed, green_span_s))
             robot.plant.props.append(self.lights)
         self.boxes = place_boxes(world, track, boxes)
         self.laser = Tfmini(robot.plant) if avoid else None
@@ -73,7 +80,7 @@ class LaneCourse:
     def camera(self) -> tuple[np.ndarray, np.ndarray]:
         """The lane driver's frame (RGB, depth); with record, also written as NNNNNN.png and
         NNNNNN_depth.npy (metres), the folder `roar vision` reads."""
-        rgb, depth = self.robot.plant.camera(*LANE_CAMERA)
+        rgb, depth = self._frame()
         if self.record is not None:
             from roar.vision.geometry import cv2
 
@@ -198,7 +205,8 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
          realtime: bool = False, gui: bool = False, progress: bool = False, timeout_s: float | None = None,
          lateral: str = "pursuit", start_lights: int | None = None, boxes: Sequence[tuple[float, float]] = (),
          avoid: bool = False, record: Path | None = None, k_dd_s: float | None = None,
-         profile: str | None = None, renderer: str | None = None) -> RaceResult:
+         profile: str | None = None, renderer: str | None = None, shaky_camera: int | None = None,
+         green_span_s: tuple[float, float] = GREEN_AFTER_S) -> RaceResult:
     """Race `robot` (a name of roar_sim.robots) round `track`, its commands as a host sends them.
     lateral: its steering ("pursuit", "pid" where it has it), or "lane": the ESC car driving by
     its camera alone, and with it start_lights (a seed: start lights turn green at a moment drawn
@@ -207,16 +215,18 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
     boxes: (distance along the centre line, offset to its left) [m] of each box. k_dd_s: pure
     pursuit's look-ahead per m/s [s] (None: the robot's default). profile: the ESC car's profile
     (roar_sim.plants.car_profile: a name or a .toml; None: the ROAR car). renderer: what draws the
-    camera's frames ("egl", "tiny"; None: roar_sim.world.renderer.wanted())."""
+    camera's frames ("egl", "tiny"; None: roar_sim.world.renderer.wanted()). shaky_camera: a seed:
+    the lane driver's camera mount shakes and its sensor adds noise (roar_sim.sensors.camera_noise).
+    green_span_s: [s] the span the start lights' green moment is drawn from."""
     kind = robots.get(robot)
     if lateral == "lane" and not kind.lane_driving:
         raise ValueError(f"the {kind.title} does not drive by its camera: lane driving is the ESC car's")
     if lateral not in (*kind.laterals, "lane"):
         raise ValueError(f"the {kind.title} steers by {' or '.join(STEERING[k] for k in kind.laterals)} only, "
                          f"not {lateral!r}")
-    if (start_lights is not None or avoid or record) and lateral != "lane":
-        raise ValueError("start lights, the TFmini and recording are for the lane driver (the ESC car driving by "
-                         "its camera)")
+    if (start_lights is not None or avoid or record or shaky_camera is not None) and lateral != "lane":
+        raise ValueError("start lights, the TFmini, recording and a shaky camera are for the lane driver (the ESC car "
+                         "driving by its camera)")
     line = track.centerline if waypoints is None else np.asarray(waypoints)[:, :2]
     if waypoints is not None:
         check_line(track, line)
@@ -227,7 +237,8 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
         stack.enter_context(renderers.chosen(renderer))
         car = stack.enter_context(kind(track, realtime=realtime, gui=gui, **({"profile": profile} if profile else {})))
         world = car.plant.world
-        course = LaneCourse(car, start_lights, boxes, avoid, record) if lateral == "lane" else None
+        course = (LaneCourse(car, start_lights, boxes, avoid, record, shaky_camera, green_span_s)
+                  if lateral == "lane" else None)
         result = RaceResult(track, speed_profile(track.centerline, car.limits), robot=robot, boxes=len(boxes),
                             racing_limit_lap_s=optimal_line(track, robot).lap_time_s(car.limits))
         lights = course.lights if course else None
@@ -367,10 +378,16 @@ def parser() -> argparse.ArgumentParser:
                         "its HTTP control route)")
     p.add_argument("--seconds", type=float, default=None, metavar="S",
                    help="time limit in simulated seconds (default: 4 x the physical-limit laps + 10)")
-    p.add_argument("--track", default="oval",
+    p.add_argument("--track", default=None,
                    help="oval, figure-eight, course (long straights, for boxes), random:SEED[,length=MIN-MAX,width=M,radius=M,"
-                        "straightness=0..1], tunnel:SEED[,width=M,cones=N,markers=N,people=N], or a file: .json, an "
-                        "F1TENTH/TUM centre-line .csv, a map .yaml (default: oval)")
+                        "straightness=0..1], tunnel:SEED[,width=M,cones=N,markers=N,people=N], drag:LENGTH[,width=M,"
+                        "stop=M] (a drag strip), or a file: .json, an F1TENTH/TUM centre-line .csv, a map .yaml "
+                        "(default: oval; drag:40 for --event drag)")
+    p.add_argument("--event", choices=["circuit", "drag"], default="circuit",
+                   help="circuit: laps of the track (default); drag: the IARRC drag race, a straight lane flat out by "
+                        "camera and gyro, then a stop before the end wall by the TFmini (--robot iarrc)")
+    p.add_argument("--top-speed", type=number_option(*TOP_SPEED_RANGE_M_S, "m/s"), default=DRAG_TOP_SPEED_M_S,
+                   metavar="M/S", help=f"with --event drag: the run's speed (default {DRAG_TOP_SPEED_M_S:g} m/s)")
     p.add_argument("--laps", type=int, default=2, help="laps to drive (default: 2)")
     p.add_argument("--line", default="centre", metavar="centre|optimal|FILE",
                    help="the line the driver follows: the centre line (default), the minimum-curvature racing line "
@@ -402,6 +419,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--car-profile", metavar="NAME|FILE",
                    help="the ESC car's own numbers: roar (default), f1tenth (about 8 m/s), or a profile .toml "
                         "(roar_sim/plants/car_profiles/); its limits are measured on first use")
+    p.add_argument("--shaky-camera", type=int, metavar="SEED",
+                   help="with --driver lane: the camera's mount shakes (0.5 degrees a frame) and its sensor adds "
+                        "noise, drawn from SEED, as on a real car")
     p.add_argument("--renderer", choices=renderers.RENDERERS, default=None,
                    help="what draws the lane driver's camera frames: tiny (PyBullet's TinyRenderer, the default) or "
                         "egl (OpenGL without a window: 2.7x faster at 640x480, 1.1x at 320x240 here; TinyRenderer "
@@ -415,6 +435,11 @@ def parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     p = parser()
     args = p.parse_args(argv)
+    if args.event == "drag":
+        return _drag(p, args)
+    if args.top_speed != DRAG_TOP_SPEED_M_S:
+        p.error("--top-speed is the drag race's: it needs --event drag")
+    args.track = args.track or "oval"
     kind = robots.get(args.robot)
     if not 1 <= args.laps <= 100:
         p.error("--laps must be 1..100")
@@ -434,7 +459,9 @@ def main(argv: list[str] | None = None) -> int:
         p.error("--waypoints and --line both give the line to follow: choose one")
     if args.start_lights is not None and args.driver != "lane":
         p.error("--start-lights needs --driver lane (the car sees the lights through its camera)")
-    if args.renderer and args.driver != "lane":
+    if args.shaky_camera is not None and args.driver != "lane":
+        p.error("--shaky-camera shakes the lane driver's camera: it needs --driver lane")
+    if args.renderer and args.driver != "lane":  # (the drag race's camera is the IARRC car's)
         p.error("--renderer draws the lane driver's camera: it needs --driver lane")
     if (args.boxes or args.avoid or args.record) and args.driver != "lane":
         p.error("--boxes, --avoid and --record need --driver lane (the car drives by its camera and laser)")
@@ -473,13 +500,42 @@ def main(argv: list[str] | None = None) -> int:
     result = race(track, args.laps, waypoints, args.margin, args.robot, args.realtime, args.gui, progress=True,
                   timeout_s=args.seconds, lateral="lane" if args.driver == "lane" else args.steering,
                   start_lights=args.start_lights, boxes=boxes, avoid=args.avoid, record=args.record, k_dd_s=args.k_dd,
-                  profile=args.car_profile, renderer=args.renderer)
+                  profile=args.car_profile, renderer=args.renderer, shaky_camera=args.shaky_camera)
     print(report(result))
     if result.path and args.plot and not plotting.save(lambda: plot(result), args.plot):
         return ExitStatus.ERROR
     shortfall = result.shortfall(args.laps, args.seconds or race_timeout_s(result, args.laps))
     if shortfall:
         print(f"race incomplete: {shortfall}", file=sys.stderr)
+        return ExitStatus.SHORT
+    return ExitStatus.OK
+
+
+def _drag(p, args) -> int:
+    """roar race --event drag: one run of the IARRC car down a drag strip."""
+    from roar_sim.runs import drag
+
+    if args.robot != "iarrc":
+        p.error("--event drag is the IARRC car's (its speed PID, encoder, gyro and TFmini): add --robot iarrc")
+    lane_only = {"--driver lane": args.driver == "lane", "--start-lights": args.start_lights is not None,
+                 "--boxes": bool(args.boxes), "--avoid": args.avoid, "--record": args.record is not None,
+                 "--shaky-camera": args.shaky_camera is not None, "--waypoints": args.waypoints is not None,
+                 "--line": args.line != "centre", "--k-dd": args.k_dd is not None,
+                 "--car-profile": args.car_profile is not None}
+    given = [name for name, on in lane_only.items() if on]
+    if given:
+        p.error(f"{given[0]} is not for the drag race (--event drag drives the strip by its own driver)")
+    plotting.check_png_argument(p, args.plot)
+    track = get(args.track or "drag:40")
+    if not track.name.startswith("drag:"):
+        raise TrackError(f"--event drag runs on a drag strip: --track drag:LENGTH[,width=M,stop=M], not {track.name!r}")
+    result = drag.drag_race(track, args.top_speed, timeout_s=args.seconds, renderer=args.renderer)
+    print(drag.report(result))
+    if args.plot and result.x and not plotting.save(lambda: drag.plot(result), args.plot):
+        return ExitStatus.ERROR
+    if result.strip_time_s is None or not result.in_stop_zone:
+        print("drag race incomplete: " + ("no finish" if result.strip_time_s is None else "it did not stop in the "
+                                           "stop zone"), file=sys.stderr)
         return ExitStatus.SHORT
     return ExitStatus.OK
 

@@ -66,10 +66,13 @@ def paints(track: Track) -> list[Paint]:
 
 
 def _make_paints(track: Track) -> list[Paint]:
+    import shapely
+
     if track.course is not None:  # a tunnel: a bare floor with its green markers
         return [_joined(MARKER_RGB, [_rectangle(x, y, yaw) for x, y, yaw in track.course.markers])]
     edges = [_strip(run, EDGE_LINE_WIDTH_M, closed) for line in edge_lines(track) for run, closed in _runs(line)]
-    dashes = [_strip(dash, CENTRE_LINE_WIDTH_M, False) for dash in _dashes(track.centerline)]
+    dashes = [_strip(dash, CENTRE_LINE_WIDTH_M, False) for dash in _dashes(track.centerline)
+              if shapely.contains_xy(track.region, dash[:, 0], dash[:, 1]).all()]  # on the road only (a drag strip's)
     return [_joined(EDGE_LINE_RGB, edges), _joined(CENTRE_LINE_RGB, dashes)]
 
 

@@ -1,6 +1,6 @@
 """What a track's name may be, wherever one is taken (`roar race --track`, `sim://?track=`, the
 Gym environment, `roar sweep`, `roar track`): a built-in track, `random:SEED[,...]`,
-`tunnel:SEED[,...]`, or a file: .json (the project's), .csv (an F1TENTH/TUM centre line) or
+`tunnel:SEED[,...]`, `drag:LENGTH[,...]` (the IARRC drag race's strip), or a file: .json (the project's), .csv (an F1TENTH/TUM centre line) or
 .yaml (an F1TENTH/ROS map)."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from pathlib import Path
 from roar.checks import printable, shown
 from roar.tracks.track import BUILTIN, Track, TrackError
 
-FORMS = "oval, figure-eight, course, random:SEED, tunnel:SEED, or a .json, .csv or .yaml file"
+FORMS = "oval, figure-eight, course, random:SEED, tunnel:SEED, drag:LENGTH, or a .json, .csv or .yaml file"
 
 
 def split_names(text: str) -> list[str]:
@@ -42,6 +42,10 @@ def get(name_or_path: str) -> Track:
         from roar.tracks import tunnel
 
         return tunnel.generate(tunnel.parse(name))
+    if name.startswith("drag:"):
+        from roar.tracks import drag_strip
+
+        return drag_strip.generate(drag_strip.parse(name), name)
     suffix = Path(name).suffix.lower()
     if suffix == ".json":
         from roar.tracks.track_files import load_json

@@ -6,12 +6,13 @@ from roar.checks import printable
 from roar.tracks.track import TrackError
 
 
-def seeded(name: str, prefix: str, usage: str, keys: tuple[str, ...]) -> tuple[int, dict[str, str]]:
+def seeded(name: str, prefix: str, usage: str, keys: tuple[str, ...], what: str = "seed") -> tuple[int, dict[str, str]]:
     """(seed, {key: its text}) of a name `PREFIX SEED[,key=value...]`; TrackError (one line, with
-    the usage) for a seed that is not a whole number or a key not among `keys`."""
+    the usage) for a seed (or the `what` in its place) that is not a whole number or a key not
+    among `keys`."""
     seed_text, *options = name[len(prefix):].split(",")
     if not seed_text.strip().isdigit() or len(seed_text.strip()) > 18:
-        raise TrackError(f"{printable(name)!r}: the seed must be a whole number 0..10^18 ({usage})")
+        raise TrackError(f"{printable(name)!r}: the {what} must be a whole number 0..10^18 ({usage})")
     values = {}
     for option in options:
         key, _, text = option.partition("=")
