@@ -21,17 +21,18 @@ MAX_CARS = 8
 
 
 class Fleet(Lockstep):
-    """count cars on `track`, the first at its start and each next gap_m [m] behind the one
-    before, along the centre line."""
+    """count cars on `track`, the first start_m [m] along its centre line (at its start by
+    default) and each next gap_m [m] behind the one before, along the centre line."""
 
-    def __init__(self, track: Track, count: int = 2, gap_m: float = 1.5, gui: bool = False) -> None:
+    def __init__(self, track: Track, count: int = 2, gap_m: float = 1.5, gui: bool = False,
+                 start_m: float = 0.0) -> None:
         if not 1 <= count <= MAX_CARS:
             raise ValueError(f"a fleet is 1..{MAX_CARS} cars, got {count}")
         if not 0.6 <= gap_m <= track.length_m / count:
             raise ValueError(f"gap_m must be 0.6 m (a car's length) .. {track.length_m / count:.1f} m on this "
                              f"track, got {gap_m}")
         self.world = World(track, PHYSICS_US / 1e6, gui)
-        self.cars = [EscCar(track, pose=track.pose_at(-i * gap_m), world=self.world) for i in range(count)]
+        self.cars = [EscCar(track, pose=track.pose_at(start_m - i * gap_m), world=self.world) for i in range(count)]
         self.plant = self.cars[0].plant  # state() and the camera of the first car, as an EscCar's
         self.t_us = 0
 

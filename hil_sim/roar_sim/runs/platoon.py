@@ -13,6 +13,7 @@ import sys
 from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field
 
+import numpy as np
 from tqdm import tqdm
 
 from roar.tracks.names import FORMS
@@ -28,6 +29,7 @@ from roar.tracks.track import Track
 
 V2V_EVERY = round(spec.V2V_PERIOD_US / spec.TIMING_HOST_SEND_PERIOD_US)  # control periods per V2V message
 LEADER, FOLLOWER = 1, 2  # car ids on the V2V group
+MARKER_CAMERA = (320, 240)  # [px] the follower's camera looking for the leader's marker
 
 
 @dataclass
@@ -38,6 +40,8 @@ class PlatoonRun:
     leader_speeds: list[float] = field(default_factory=list)  # [m/s]
     follower_speeds: list[float] = field(default_factory=list)  # [m/s]
     contacts: int = 0  # control periods with the cars touching
+    marker_gaps_m: list[float | None] = field(default_factory=list)  # [m] by the follower's camera (None: not seen)
+    sources: list[str] = field(default_factory=list)  # where the follower's gap came from: "marker" or "v2v"
 
 
 @contextmanager
@@ -54,16 +58,32 @@ def _links(port: int, interface: str, across: VethPair | None):
 
 def platoon(track: Track, gap_m: float = 1.5, cruise_m_s: float = 1.0, seconds: float = 15.0,
             silence_from_s: float | None = None, port: int = spec.V2V_PORT, interface: str = "127.0.0.1",
-            across: VethPair | None = None, progress: bool = False) -> PlatoonRun:
+            across: VethPair | None = None, progress: bool = False, by_marker: bool = False) -> PlatoonRun:
     """across: the leader's V2V socket on this side of a veth link (roar_sim.links.netns), the
     follower's in the namespace at its other end, so the messages cross a kernel link.
-    progress: a bar of simulated seconds on stderr."""
+    progress: a bar of simulated seconds on stderr. by_marker: the leader carries an ArUco
+    marker on its rear and the follower keeps the gap its camera measures to it, falling back to
+    the V2V positions' gap whenever the marker is not found (too far, out of view in a bend)."""
     run = PlatoonRun(gap_m)
     line = track.centerline
     with _links(port, interface, across) as (lead_link, follow_link), Fleet(track, count=2, gap_m=gap_m) as fleet:
         lead, follow = fleet.cars
+        measured = None
+        if by_marker:
+            from roar.vision.aruco import MarkerRanger
+            from roar.vision.geometry import SIMULATED_CAR_CAMERA
+            from roar_sim.world.marker import RearMarker
+
+            lead.plant.props.append(RearMarker(lead.plant))
+            ranger = MarkerRanger(SIMULATED_CAR_CAMERA.model(*MARKER_CAMERA))
+
+            def measured() -> float | None:
+                gap = ranger.gap_m(follow.plant.camera(*MARKER_CAMERA)[0])
+                run.marker_gaps_m.append(gap)
+                return gap
         leader = cruise_agent(line, MODEL, PERIOD_S, cruise_m_s)
-        follower = follow_agent(line, MODEL, PERIOD_S, gap_m, leader=lambda: follow_link.latest.get(LEADER))
+        follower = follow_agent(line, MODEL, PERIOD_S, gap_m, leader=lambda: follow_link.latest.get(LEADER),
+                                measured=measured)
         for car in fleet.cars:  # arm: each car boots latched until it hears neutral
             car.drive(0.0, 0.0)
         fleet.run(PERIOD_S)
@@ -92,6 +112,9 @@ def platoon(track: Track, gap_m: float = 1.5, cruise_m_s: float = 1.0, seconds: 
             run.leader_speeds.append(speed["lead"])
             run.follower_speeds.append(speed["follow"])
             run.contacts += fleet.touching(0, 1)
+            run.sources.append(follower.planner.source)
+            if by_marker and len(run.marker_gaps_m) < len(run.times_s):  # the follower did not look (silent leader)
+                run.marker_gaps_m.append(None)
     return run
 
 
@@ -135,6 +158,16 @@ def report(run: PlatoonRun, summary: Summary, track: Track, cruise_m_s: float, h
                    f"stopped (below {STOPPED_M_S:g} m/s) at {summary.stopped_at_s:.2f} s")
         lines.append(f"leader silent from {silence_from_s:g} s: the follower {stopped} "
                      f"(V2V timeout {spec.V2V_TIMEOUT_US / 1e6:g} s)")
+    if run.marker_gaps_m:
+        import numpy as np
+
+        by_marker = np.asarray([src == "marker" for src in run.sources])
+        seen = np.array([np.nan if g is None else g for g in run.marker_gaps_m], dtype=float)
+        error = np.abs(seen - np.asarray(run.gaps_m))
+        switches = int(np.count_nonzero(np.diff(by_marker.astype(int)) < 0))
+        lines.append(f"gap by the leader's ArUco marker {by_marker.mean() * 100:.0f} % of the time (its error against "
+                     f"the gap along the track: mean {np.nanmean(error) * 100:.1f} cm, max {np.nanmax(error) * 100:.1f} cm); "
+                     f"marker lost {switches} times, the gap then from V2V")
     lines.append(f"contacts between the cars: {run.contacts} control periods")
     return "\n".join(lines)
 
@@ -159,6 +192,14 @@ def plot(run: PlatoonRun, silence_from_s: float | None):
     return fig
 
 
+def _marker_plot(track: Track, run: PlatoonRun):
+    """The camera's error by distance (straights, bends) on this track, and the run's gap by source."""
+    from roar_sim.runs.marker_gap import plot as marker_plot, sightings
+
+    places = np.linspace(0.0, track.length_m, 4, endpoint=False)
+    return marker_plot(sightings(track, [0.8, 1.2, 1.6, 2.0, 2.5, 3.0], places), run)
+
+
 def parser():
 
     p = ArgumentParser(
@@ -178,7 +219,12 @@ def parser():
                         "root); default: loopback")
     p.add_argument("--port", type=int, metavar="PORT",
                    help=f"V2V UDP port (default: a free one; ROAR's cars used {spec.V2V_PORT})")
-    p.add_argument("--plot", type=path_option, metavar="PNG", help="write gap and speeds over time to this PNG")
+    p.add_argument("--by-marker", action="store_true",
+                   help="ROAR's first platoon: the follower keeps the gap its camera measures to an ArUco marker on "
+                        "the leader's rear, and the V2V positions' gap while the marker is lost")
+    p.add_argument("--plot", type=path_option, metavar="PNG",
+                   help="write gap and speeds over time to this PNG (with --by-marker: the camera's error by distance "
+                        "and bend, and the gap by source)")
     return p
 
 
@@ -208,12 +254,13 @@ def main(argv: list[str] | None = None) -> int:
             how = (f"over a veth link {link.here_ip} -> {link.there_ip} into namespace {link.ns}" if link
                    else "over loopback") + f", group {spec.V2V_GROUP} port {port}"
             run = platoon(track, args.gap, args.speed, args.seconds, args.silence_at, port=port, across=link,
-                          progress=True)
+                          progress=True, by_marker=args.by_marker)
     except OSError as e:
         raise UserError(f"V2V port {port}: {e.strerror or e}") from None
     summary = summarise(run, args.silence_at)
     print(report(run, summary, track, args.speed, how, args.silence_at))
-    if args.plot and not plotting.save(lambda: plot(run, args.silence_at), args.plot):
+    if args.plot and not plotting.save(lambda: _marker_plot(track, run) if args.by_marker else plot(run, args.silence_at),
+                                       args.plot):
         return ExitStatus.ERROR
     failed = run.contacts or not summary.held or (args.silence_at is not None and summary.stopped_at_s is None)
     return ExitStatus.SHORT if failed else ExitStatus.OK

@@ -43,11 +43,16 @@ class CruisePlanner(Module[Observation, Plan]):
 
 class FollowPlanner(Module[Observation, Plan]):
     """leader() -> the leader's newest V2V state (with .x, .y, .speed, .received_s on the
-    follower's clock) or None."""
+    follower's clock) or None. With measured() -> [m] the gap as the follower's own sensor sees
+    it (an ArUco marker on the leader's rear by camera: roar.vision.aruco) or None, that gap is
+    kept while it is seen, and the V2V positions' gap when it is not (`source` says which)."""
 
     def __init__(self, base: RacePlanner, points: np.ndarray, gap_m: float, leader: Callable[[], object | None],
-                 gain_per_s: float = GAP_GAIN_PER_S, timeout_s: float = TIMEOUT_S) -> None:
+                 gain_per_s: float = GAP_GAIN_PER_S, timeout_s: float = TIMEOUT_S,
+                 measured: Callable[[], float | None] | None = None) -> None:
         self.base, self.gap_m, self.leader, self.gain, self.timeout_s = base, gap_m, leader, gain_per_s, timeout_s
+        self.measured = measured
+        self.source = "v2v"  # where the last gap came from: "marker" or "v2v"
         self.points = np.asarray(points, dtype=float)[:, :2]
         seg = np.linalg.norm(np.roll(self.points, -1, axis=0) - self.points, axis=1)
         self.arc = np.concatenate([[0.0], np.cumsum(seg)[:-1]])
@@ -68,7 +73,10 @@ class FollowPlanner(Module[Observation, Plan]):
         self.stale = heard is None or value.t_s - heard.received_s > self.timeout_s
         if self.stale:
             return Plan(plan.index, plan.goal, 0.0)
-        self.gap_now_m = (self._along(heard.x, heard.y) - self._along(value.x, value.y)) % self.length
+        seen = self.measured() if self.measured is not None else None
+        self.source = "v2v" if seen is None else "marker"
+        self.gap_now_m = seen if seen is not None else \
+            (self._along(heard.x, heard.y) - self._along(value.x, value.y)) % self.length
         target = heard.speed + self.gain * (self.gap_now_m - self.gap_m)
         return Plan(plan.index, plan.goal, max(0.0, min(plan.target_speed_m_s, target)))
 
@@ -88,8 +96,9 @@ def cruise_agent(points: np.ndarray, car: CarModel, period_s: float, cruise_m_s:
 
 
 def follow_agent(points: np.ndarray, car: CarModel, period_s: float, gap_m: float, leader: Callable[[], object | None],
-                 margin: float = 0.9) -> Agent:
-    """Follows `points` gap_m behind the car leader() reports; stops when it goes silent."""
+                 margin: float = 0.9, measured: Callable[[], float | None] | None = None) -> Agent:
+    """Follows `points` gap_m behind the car leader() reports, by the gap measured() sees while it
+    sees one; stops when the leader goes silent."""
     xy, planner, pursuit = _base(points, car, margin)
-    return Agent(Passthrough(), FollowPlanner(planner, xy, gap_m, leader),
+    return Agent(Passthrough(), FollowPlanner(planner, xy, gap_m, leader, measured=measured),
                  RaceController(car, pursuit, SpeedController(car.limits.max_speed_m_s), period_s))
