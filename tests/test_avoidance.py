@@ -134,7 +134,7 @@ def test_what_the_depth_camera_finds_in_its_lane_switches_where_the_laser_looks_
     p.step(Seen(road, 1.0, grid=grid_with(FRONT_M + SWITCH_M + 0.3, 0.0)))  # too far yet
     assert p.side == -1
     plan = p.step(Seen(road, 1.0, grid=grid_with(FRONT_M + SWITCH_M - 0.3, 0.0), laser_m=None))
-    assert p.side == 1 and plan.state is LaneState.FOLLOWING  # the other lane is clear: no stop
+    assert p.side == 1 and plan.state is LaneState.CHANGING  # the other lane is clear: no stop, it moves across
     p = planner()
     p.step(Seen(road, 1.0, grid=grid_with(FRONT_M + 1.0, 2 * LANE_OFFSET_M)))  # in the other lane
     assert p.side == -1

@@ -413,6 +413,11 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--avoid", action="store_true",
                    help="with --driver lane: the car carries a TFmini laser, keeps to the right lane and changes "
                         "lanes for what is ahead in it (IARRC's rule)")
+    p.add_argument("--follow", action="store_true",
+                   help="with --driver lane --avoid: ROAR's combined driver; a leader drives ahead (by its pose, "
+                        "round the boxes) and tells its position over V2V; the camera car keeps its lane, changes "
+                        "lanes round boxes, and keeps its gap to the leader while it is ahead in its lane; the "
+                        "states and their transitions are printed (and plotted with --plot)")
     p.add_argument("--record", type=path_option, metavar="DIR",
                    help="with --driver lane: write every frame the driver sees (PNG and depth .npy) to DIR, for "
                         "`roar vision DIR`")
@@ -439,7 +444,7 @@ def main(argv: list[str] | None = None) -> int:
         return _drag(p, args)
     if args.top_speed != DRAG_TOP_SPEED_M_S:
         p.error("--top-speed is the drag race's: it needs --event drag")
-    args.track = args.track or "oval"
+    args.track = "oval" if args.track is None else args.track
     kind = robots.get(args.robot)
     if not 1 <= args.laps <= 100:
         p.error("--laps must be 1..100")
@@ -459,6 +464,10 @@ def main(argv: list[str] | None = None) -> int:
         p.error("--waypoints and --line both give the line to follow: choose one")
     if args.start_lights is not None and args.driver != "lane":
         p.error("--start-lights needs --driver lane (the car sees the lights through its camera)")
+    if args.follow and (args.driver != "lane" or not args.avoid):
+        p.error("--follow is ROAR's combined driver: it needs --driver lane --avoid")
+    if args.follow and (args.start_lights is not None or args.record or args.shaky_camera is not None or args.renderer):
+        p.error("--follow runs two cars: not with --start-lights, --record, --shaky-camera or --renderer")
     if args.shaky_camera is not None and args.driver != "lane":
         p.error("--shaky-camera shakes the lane driver's camera: it needs --driver lane")
     if args.renderer and args.driver != "lane":  # (the drag race's camera is the IARRC car's)
@@ -497,6 +506,8 @@ def main(argv: list[str] | None = None) -> int:
     if len(boxes) < args.boxes:
         raise TrackError(f"track {track.name!r} has straight road for {len(boxes)} boxes (each needs {MIN_GAP_M:g} m "
                          f"from the next), not {args.boxes}: try --track course")
+    if args.follow:
+        return _combined(args, track, boxes)
     result = race(track, args.laps, waypoints, args.margin, args.robot, args.realtime, args.gui, progress=True,
                   timeout_s=args.seconds, lateral="lane" if args.driver == "lane" else args.steering,
                   start_lights=args.start_lights, boxes=boxes, avoid=args.avoid, record=args.record, k_dd_s=args.k_dd,
@@ -511,6 +522,22 @@ def main(argv: list[str] | None = None) -> int:
     return ExitStatus.OK
 
 
+def _combined(args, track: Track, boxes) -> int:
+    """roar race --driver lane --avoid --follow: the combined driver behind a leader."""
+    from roar_sim.runs import combined
+
+    result = combined.combined_race(track, args.laps, boxes, timeout_s=args.seconds, margin=args.margin, progress=True)
+    print(combined.report(result))
+    if args.plot and result.t and not plotting.save(lambda: combined.plot(result), args.plot):
+        return ExitStatus.ERROR
+    contacts = result.box_contacts + result.car_contacts + result.wall_contacts
+    if result.laps < args.laps or contacts:
+        print(f"combined run incomplete: {result.laps} of {args.laps} laps, {contacts} control periods in contact",
+              file=sys.stderr)
+        return ExitStatus.SHORT
+    return ExitStatus.OK
+
+
 def _drag(p, args) -> int:
     """roar race --event drag: one run of the IARRC car down a drag strip."""
     from roar_sim.runs import drag
@@ -521,12 +548,12 @@ def _drag(p, args) -> int:
                  "--boxes": bool(args.boxes), "--avoid": args.avoid, "--record": args.record is not None,
                  "--shaky-camera": args.shaky_camera is not None, "--waypoints": args.waypoints is not None,
                  "--line": args.line != "centre", "--k-dd": args.k_dd is not None,
-                 "--car-profile": args.car_profile is not None}
+                 "--car-profile": args.car_profile is not None, "--follow": args.follow}
     given = [name for name, on in lane_only.items() if on]
     if given:
         p.error(f"{given[0]} is not for the drag race (--event drag drives the strip by its own driver)")
     plotting.check_png_argument(p, args.plot)
-    track = get(args.track or "drag:40")
+    track = get("drag:40" if args.track is None else args.track)
     if not track.name.startswith("drag:"):
         raise TrackError(f"--event drag runs on a drag strip: --track drag:LENGTH[,width=M,stop=M], not {track.name!r}")
     result = drag.drag_race(track, args.top_speed, timeout_s=args.seconds, renderer=args.renderer)

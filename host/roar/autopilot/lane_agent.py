@@ -7,7 +7,9 @@
                 both lost (slow, keep the last steering to search), lost too long (stop); with a
                 depth camera, stop for an obstacle in the car's path (the ground-plane occupancy
                 grid); with a TFmini, the IARRC rule: keep to one lane, and switch to the other
-                when the laser finds something ahead in this one
+                when the laser finds something ahead in this one; with a leader (ROAR's combined
+                driver), keep the gap to it while it is ahead in the lane kept, instead of
+                passing it
     control     LaneController: pure pursuit to the goal in the car's frame; the speed controller
 """
 
@@ -53,11 +55,17 @@ LANE_PATH_HALF_M = 0.18  # [m] keeping to a lane, obstacles this close to its mi
 AVOID_MAX_SPEED_M_S = 1.3  # [m/s] keeping to a lane, with lane changes to make
 SWITCH_HOLD_S = 1.0  # [s] after a lane change, no other for this long
 LANE_SHIFT_M_S = 0.4  # [m/s] how fast the followed line moves across in a lane change (a smooth swerve)
+FOLLOW_RANGE_M = 4.0  # [m] a leader ahead in the lane kept, this close (reference points, along the road), is followed
+FOLLOW_GAP_M = 2.0  # [m] kept to a leader (its rear 1.5 m from the camera: the lines beside it stay in view)
+FOLLOW_GAIN_PER_S = 1.0  # [1/s] m/s of speed per metre of gap error
+IN_LANE_M = 0.15  # [m] a leader this close to the middle of the lane kept is in it
 
 
 class LaneState(Enum):
     WAITING = "waiting for green"
     FOLLOWING = "following"
+    CHANGING = "changing lanes"
+    BEHIND_LEADER = "keeping the gap to the leader"
     ONE_LINE = "one line lost"
     SEARCHING = "both lost"
     STOPPED = "lines lost too long"
@@ -71,6 +79,17 @@ class Seen:
     grid: Occupancy | None = None  # from the depth image, when there is one
     go: bool = True  # False while start lights have not turned green
     laser_m: float | None = None  # [m] the TFmini's reading from the car's nose (None: nothing in range)
+    leader: Leader | None = None  # where the leader is (None: none heard)
+
+
+@dataclass(frozen=True)
+class Leader:
+    """A lead car as the follower knows it (V2V positions on a map): how far ahead along the road,
+    how far left of the road's centre, and how fast."""
+
+    ahead_m: float  # [m] reference point to reference point, along the road
+    left_m: float  # [m] of the road's centre line
+    speed: float  # [m/s]
 
 
 @dataclass(frozen=True)
@@ -87,9 +106,10 @@ class LanePerception(Module[Observation, Seen]):
     reading [m] or None."""
 
     def __init__(self, camera: Callable[[], tuple], detector: LaneDetector, depth_camera=None,
-                 start: StartLightDetector | None = None, laser: Callable[[], float | None] | None = None) -> None:
+                 start: StartLightDetector | None = None, laser: Callable[[], float | None] | None = None,
+                 leader: Callable[[Observation], Leader | None] | None = None) -> None:
         self.camera, self.detector, self.depth_camera, self.start = camera, detector, depth_camera, start
-        self.laser = laser
+        self.laser, self.leader = laser, leader
 
     def setup(self) -> None:
         self.detector.reset()
@@ -101,7 +121,8 @@ class LanePerception(Module[Observation, Seen]):
         go = self.start is None or self.start.update(rgb)
         lanes = self.detector.detect(rgb)
         grid = occupancy(depth, self.depth_camera) if depth is not None and self.depth_camera is not None else None
-        return Seen(lanes, value.speed, grid, go, self.laser() if self.laser is not None else None)
+        return Seen(lanes, value.speed, grid, go, self.laser() if self.laser is not None else None,
+                    self.leader(value) if self.leader is not None else None)
 
 
 class LanePlanner(Module[Seen, LanePlan]):
@@ -144,6 +165,13 @@ class LanePlanner(Module[Seen, LanePlan]):
         # things in the road, not the walls beside it (across a bend the outer wall fills the view)
         return value.grid.nearest_ahead(half_width_m, path, reach, things_only=True)
 
+    def _leader_ahead(self, value: Seen) -> Leader | None:
+        """The leader, when it is ahead in the lane kept within FOLLOW_RANGE_M."""
+        leader = value.leader
+        if leader is None or not 0.0 < leader.ahead_m <= FOLLOW_RANGE_M:
+            return None
+        return leader if abs(leader.left_m - self.side * LANE_OFFSET_M) <= IN_LANE_M else None
+
     def _switch_lanes(self, value: Seen) -> None:
         """The IARRC rule: something ahead within SWITCH_M in the lane the car keeps to sends it
         to the other lane -- what the laser hits within LANE_BAND_M of the lane's middle (as the
@@ -153,6 +181,8 @@ class LanePlanner(Module[Seen, LanePlan]):
         self._since_switch_s += self.period_s
         centre = value.lanes.centre
         if not self.keep_lane or centre is None or self._since_switch_s < SWITCH_HOLD_S:
+            return
+        if self._leader_ahead(value) is not None:  # what is ahead is the leader: follow it, do not pass it
             return
         by_laser = False
         if value.laser_m is not None and value.laser_m <= SWITCH_M:
@@ -213,6 +243,12 @@ class LanePlanner(Module[Seen, LanePlan]):
         state = LaneState.FOLLOWING if lanes.source in ("yellow", "edges") else LaneState.ONE_LINE
         if state is LaneState.ONE_LINE:
             speed *= ONE_LINE_FACTOR
+        elif abs(self.offset_m - self.side * LANE_OFFSET_M) > step_m:
+            state = LaneState.CHANGING
+        leader = self._leader_ahead(value)
+        if leader is not None:
+            state = LaneState.BEHIND_LEADER
+            speed = max(0.0, min(speed, leader.speed + FOLLOW_GAIN_PER_S * (leader.ahead_m - FOLLOW_GAP_M)))
         if obstacle_m is not None:  # no faster than it can still stop short of it
             room = max(0.0, obstacle_m - FRONT_M - STOP_MARGIN_M)
             speed = min(speed, math.sqrt(2 * BRAKING_SHARE * limits.max_brake_m_s2 * room))
@@ -253,11 +289,14 @@ class LaneController(Module[tuple[Seen, LanePlan], Command]):
 
 def lane_agent(camera: Callable[[], tuple], detector: LaneDetector, car: CarModel, period_s: float,
                margin: float = 0.9, depth_camera=None, start: StartLightDetector | None = None,
-               laser: Callable[[], float | None] | None = None) -> Agent:
+               laser: Callable[[], float | None] | None = None,
+               leader: Callable[[Observation], Leader | None] | None = None) -> Agent:
     """An agent that follows the road's centre by camera at `margin` of the car's grip; camera()
     gives (RGB, depth or None); with depth_camera it stops for obstacles in its path, with start
     it waits for the start lights' green; with laser (the TFmini's reading) it keeps to the right
-    lane and changes lanes for what the laser finds ahead."""
-    return Agent(LanePerception(camera, detector, depth_camera, start, laser),
+    lane and changes lanes for what the laser finds ahead; with leader(observation) -> Leader or
+    None, it keeps FOLLOW_GAP_M behind a leader ahead in its lane rather than changing lanes
+    for it (ROAR's combined driver: lane following, avoidance, platooning)."""
+    return Agent(LanePerception(camera, detector, depth_camera, start, laser, leader),
                  LanePlanner(car, period_s, margin, keep_lane=laser is not None),
                  LaneController(car, SpeedController(car.limits.max_speed_m_s), period_s))
