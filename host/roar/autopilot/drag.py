@@ -9,7 +9,9 @@ vision system, and the laser distance sensor for braking hard before the end.
                 the strip's direction in the gyro's frame (heading less the car's angle to the
                 lane); while it is not (a blanked or glaring frame, a line out of view), hold that
                 heading by the gyro alone. Flat out until the laser's range is what stopping from
-                this speed needs, then brake to a stop and stay stopped.
+                this speed needs, then brake to a stop and stay stopped; a reading taken while
+                the car points so far off the strip's direction that the beam would meet a side
+                wall first is not the end.
     control     DragController: pure pursuit to the goal, plus the steering that keeps the car
                 straight, learnt while the lane is sure (its integral: a servo is never quite
                 centred, and the heading hold must not drift by its offset); the speed as a
@@ -34,6 +36,9 @@ AXIS_WEIGHT = 0.05  # of a sure frame's strip direction in the one kept (the gyr
 LATENCY_S = 0.1  # [s] from a range reading to the car braking: a control period, the PID's reaction
 STOP_MARGIN_M = 0.6  # [m] planned between the nose and the end wall when stopped
 STILL_M_S = 0.05  # [m/s] braking ends (stopped) below this
+BEAM_HALF_RAD = math.radians(2.3) / 2  # [rad] half the TFmini's cone: its edge meets a side wall first
+SIDE_MARGIN_M = 0.2  # [m] kept off the edge line by the beam, for a reading to be the end (the car drifts unseen meanwhile)
+CONFIRM = 3  # control periods in a row the laser must say "stop now" (a glimpse of a side wall in a swerve does not)
 TRIM_GAIN = 1.0  # [1/s] the straight-ahead steering learnt per second per rad of pure pursuit's correction
 MAX_TRIM_RAD = 0.1  # [rad] the most steering that may be learnt as straight ahead
 LEARN_SPEED_M_S = 0.5  # [m/s] slower than this, nothing is learnt
@@ -52,6 +57,7 @@ class DragSeen:
     speed: float  # [m/s] the encoder's
     heading_rad: float  # [rad] the gyro's yaw rate integrated since the start
     range_m: float | None  # [m] the laser's reading from the nose (None: nothing in range)
+    half_width_m: float  # [m] the lane's centre to an edge line, as the detector measured it
 
 
 @dataclass(frozen=True)
@@ -83,24 +89,40 @@ class DragPerception(Module[Observation, DragSeen]):
     def step(self, value: Observation) -> DragSeen:
         rgb, _ = self.camera()
         self.heading_rad += value.yaw_rate * self.period_s
-        return DragSeen(self.detector.detect(rgb), value.speed, self.heading_rad, self.laser())
+        lanes = self.detector.detect(rgb)
+        return DragSeen(lanes, value.speed, self.heading_rad, self.laser(), self.detector.half_width_m)
 
 
 class DragPlanner(Module[DragSeen, DragPlan]):
-    """top_speed_m_s: the run's speed; brake_m_s2: the deceleration it plans the stop with."""
+    """top_speed_m_s: the run's speed; brake_m_s2: the deceleration it plans the stop with;
+    period_s: the control period."""
 
-    def __init__(self, top_speed_m_s: float, brake_m_s2: float) -> None:
-        self.top_speed_m_s, self.brake_m_s2 = top_speed_m_s, brake_m_s2
+    def __init__(self, top_speed_m_s: float, brake_m_s2: float, period_s: float) -> None:
+        self.top_speed_m_s, self.brake_m_s2, self.period_s = top_speed_m_s, brake_m_s2, period_s
         self.state = DragState.LANE
         self.axis_rad: float | None = None  # [rad] the strip's direction in the gyro's frame
         self.brake_at_m: float | None = None  # [m] the laser's range when braking began
+        self._stop_calls = 0  # control periods in a row the laser has said "stop now"
+        self.offset_m = 0.0  # [m] the car left of the lane's centre, when the lane was last sure
 
     def setup(self) -> None:
-        self.state, self.axis_rad, self.brake_at_m = DragState.LANE, None, None
+        self.state, self.axis_rad, self.brake_at_m, self._stop_calls, self.offset_m = DragState.LANE, None, None, 0, 0.0
 
     def stopping_m(self, speed: float) -> float:
-        """[m] of range the car needs to stop from `speed` with STOP_MARGIN_M to spare."""
-        return speed * LATENCY_S + speed * speed / (2 * self.brake_m_s2) + STOP_MARGIN_M
+        """[m] of range the car needs to stop from `speed` with STOP_MARGIN_M to spare (the
+        reading confirmed CONFIRM times first)."""
+        delay_s = LATENCY_S + (CONFIRM - 1) * self.period_s
+        return speed * delay_s + speed * speed / (2 * self.brake_m_s2) + STOP_MARGIN_M
+
+    def _end_ahead(self, value: DragSeen) -> bool:
+        """Whether the laser's reading can be the end of the strip: turned from the strip's
+        direction (a bump, a swerve), its beam meets a side wall, nearer than the end; it is
+        the end only where the beam is still inside the lane at that range."""
+        if value.range_m is None:
+            return False
+        turned = 0.0 if self.axis_rad is None else abs(_wrapped(value.heading_rad - self.axis_rad))
+        offset = abs(value.lanes.offset_m) if value.lanes.offset_m is not None else abs(self.offset_m)
+        return value.range_m * math.sin(turned + BEAM_HALF_RAD) < value.half_width_m - offset - SIDE_MARGIN_M
 
     def step(self, value: DragSeen) -> DragPlan:
         ahead = min(MAX_LOOKAHEAD_M, max(MIN_LOOKAHEAD_M, LOOKAHEAD_S * value.speed))
@@ -110,6 +132,7 @@ class DragPlanner(Module[DragSeen, DragPlan]):
             self.axis_rad = direction if self.axis_rad is None else \
                 self.axis_rad + AXIS_WEIGHT * _wrapped(direction - self.axis_rad)
             goal = (ahead, float(value.lanes.centre.y(ahead)))
+            self.offset_m = value.lanes.offset_m
         else:  # along the strip's direction, as the gyro knows it (straight ahead before any)
             error = 0.0 if self.axis_rad is None else _wrapped(self.axis_rad - value.heading_rad)
             goal = (ahead * math.cos(error), ahead * math.sin(error))
@@ -117,7 +140,9 @@ class DragPlanner(Module[DragSeen, DragPlan]):
             if value.speed < STILL_M_S:
                 self.state = DragState.STOPPED
             return DragPlan(self.state, goal, 0.0)
-        if value.range_m is not None and value.range_m <= self.stopping_m(value.speed):
+        stop_now = self._end_ahead(value) and value.range_m <= self.stopping_m(value.speed)
+        self._stop_calls = self._stop_calls + 1 if stop_now else 0
+        if self._stop_calls >= CONFIRM:
             self.state, self.brake_at_m = DragState.BRAKE, value.range_m
             return DragPlan(self.state, goal, 0.0)
         self.state = DragState.LANE if sure else DragState.HOLD
@@ -153,7 +178,7 @@ def drag_agent(camera: Callable[[], tuple], detector: LaneDetector, laser: Calla
     camera() -> (RGB, depth or None), laser() -> [m] ahead of the nose or None; it plans its stop
     with brake_m_s2 (default: the car's measured braking)."""
     brake = brake_m_s2 if brake_m_s2 is not None else car.limits.max_brake_m_s2
-    return Agent(DragPerception(camera, detector, laser, period_s), DragPlanner(top_speed_m_s, brake),
+    return Agent(DragPerception(camera, detector, laser, period_s), DragPlanner(top_speed_m_s, brake, period_s),
                  DragController(car, full_scale_m_s, period_s))
 
 
