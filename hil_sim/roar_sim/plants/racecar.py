@@ -26,6 +26,7 @@ FRONT_WHEELS = (5, 7)
 LEFT_HINGE, RIGHT_HINGE = 4, 6
 LIDAR_LINK = 8  # hokuyo_joint
 CAMERA_LINK = 9  # zed_camera_joint
+LANE_CAMERA = (320, 240)  # [px] the frames the camera drivers see (lanes, the drag race, the leader's marker)
 
 
 BRAKE_MAX_TORQUE_NM = 2.0  # [N m] per rear wheel at full brake

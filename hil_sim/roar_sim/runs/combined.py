@@ -23,18 +23,18 @@ from roar.protocol import spec
 from roar.tracks import Track
 from roar.v2v import V2VLink, free_port
 from roar_sim.clock.lockstep import CONTROL_PERIOD_S as PERIOD_S
+from roar_sim.plants.racecar import LANE_CAMERA
 from roar_sim.robots.esc import MODEL
 from roar_sim.runs.fleet import Fleet
+from roar_sim.runs.platoon import FOLLOWER as FOLLOWER_ID, LEADER as LEADER_ID, V2V_EVERY
+from roar_sim.runs.progress import laps_bar
 from roar_sim.sensors.tfmini import Tfmini
 from roar_sim.world.obstacles import place_boxes, touching
 
-CAMERA = (320, 240)  # [px] the follower's camera
 LEADER_SPEED_M_S = 0.8  # [m/s] slower than the follower keeping a lane (1.3 m/s): it catches up
 START_GAP_M = 3.0  # [m] the follower starts this far behind the leader
 SWERVE_BEFORE_M, SWERVE_AFTER_M = 2.0, 1.0  # [m] the leader is in the other lane from before a box to after it
 RAMP_M = 1.0  # [m] over which the leader's line moves across
-V2V_EVERY = round(spec.V2V_PERIOD_US / spec.TIMING_HOST_SEND_PERIOD_US)  # control periods per V2V message
-LEADER_ID, FOLLOWER_ID = 1, 2
 
 
 @dataclass
@@ -87,7 +87,7 @@ def combined_race(track: Track, laps: int = 1, boxes: Sequence[tuple[float, floa
         lead, follow = fleet.cars
         bodies = place_boxes(fleet.world, track, boxes)
         laser = Tfmini(follow.plant)
-        camera_model = SIMULATED_CAR_CAMERA.model(*CAMERA)
+        camera_model = SIMULATED_CAR_CAMERA.model(*LANE_CAMERA)
         hint: dict[str, int | None] = {"lead": None, "follow": None, "heard": None}
 
         def where(name: str, x: float, y: float) -> tuple[float, float]:
@@ -102,7 +102,7 @@ def combined_race(track: Track, laps: int = 1, boxes: Sequence[tuple[float, floa
             s_self, _ = where("follow", obs.x, obs.y)
             return Leader(track.arc_delta(s_self, s_lead), left, heard.speed)
 
-        follower = lane_agent(lambda: follow.plant.camera(*CAMERA), LaneDetector(BirdsEye(camera_model)), MODEL,
+        follower = lane_agent(lambda: follow.plant.camera(*LANE_CAMERA), LaneDetector(BirdsEye(camera_model)), MODEL,
                               PERIOD_S, margin, depth_camera=camera_model, laser=laser.read, leader=leader)
         leader_agent = cruise_agent(leader_line(track, boxes), MODEL, PERIOD_S, LEADER_SPEED_M_S)
         for car in fleet.cars:  # each boots latched until it hears neutral
@@ -112,7 +112,7 @@ def combined_race(track: Track, laps: int = 1, boxes: Sequence[tuple[float, floa
         leader_agent.setup()
         planner = follower.planner
         travelled, last_s, step = 0.0, None, 0
-        bar = _bar(laps, track.name) if progress else None
+        bar = laps_bar(laps, f"combined driver on {track.name}") if progress else None
         goal_m = distance_m if distance_m is not None else laps * track.length_m
         while fleet.time_s < timeout_s and travelled < goal_m:
             t = fleet.time_s
@@ -148,15 +148,6 @@ def combined_race(track: Track, laps: int = 1, boxes: Sequence[tuple[float, floa
         result.laps = int(travelled // track.length_m)
         result.travelled_m = travelled
     return result
-
-
-def _bar(laps: int, name: str):
-    import sys
-
-    from tqdm import tqdm
-
-    return tqdm(total=laps, desc=f"combined driver on {name}", unit="lap", mininterval=0.5, file=sys.stderr,
-                bar_format="{desc}: {bar} {n:.2f}/{total} laps [{elapsed}]")
 
 
 def report(result: CombinedResult) -> str:

@@ -21,10 +21,10 @@ from roar.tracks.drag_strip import parse
 from roar_sim.clock.lockstep import CONTROL_PERIOD_S as PERIOD_S
 from roar_sim.plants.esc_servo import SteeringServo
 from roar_sim.robots.iarrc import FULL_SCALE_M_S, MODEL, IarrcCar
+from roar_sim.plants.racecar import LANE_CAMERA
 from roar_sim.sensors.tfmini import MOUNT_X_M, Tfmini
 from roar_sim.world import renderer as renderers
 
-CAMERA = (320, 240)  # [px] the lane camera
 BUMP_S = 0.05  # [s] a bump's knock lasts this long
 FRONT_M = MOUNT_X_M  # [m] from the car's reference point to its nose, where the laser sits
 
@@ -98,7 +98,7 @@ def drag_race(track: Track, top_speed_m_s: float = 4.0, blank_s: tuple[float, fl
         bumped = [False]
 
         def camera():
-            rgb, depth = car.plant.camera(*CAMERA)
+            rgb, depth = car.plant.camera(*LANE_CAMERA)
             if blank_s is not None and result.started_s is not None and \
                     blank_s[0] <= car.time_s - result.started_s < blank_s[1]:
                 rgb = np.zeros_like(rgb)
@@ -107,7 +107,7 @@ def drag_race(track: Track, top_speed_m_s: float = 4.0, blank_s: tuple[float, fl
                     bumped[0] = True
             return rgb, depth
 
-        detector = LaneDetector(BirdsEye(SIMULATED_CAR_CAMERA.model(*CAMERA)))
+        detector = LaneDetector(BirdsEye(SIMULATED_CAR_CAMERA.model(*LANE_CAMERA)))
         agent = drag_agent(camera, detector, laser.read, MODEL, PERIOD_S, top_speed_m_s, FULL_SCALE_M_S)
         planner = agent.planner
 

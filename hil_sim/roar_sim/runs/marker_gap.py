@@ -16,7 +16,6 @@ import numpy as np
 
 from roar.tracks import Track
 
-CAMERA = (320, 240)  # [px] the lane driver's camera
 SETTLE_S = 0.3  # [s] for the cars to settle on their wheels before the frame
 BEND_CURVATURE = 0.2  # [1/m] tighter than 5 m radius between the cars: a bend
 DISTANCE_BINS_M = (0.0, 1.0, 2.0, 3.0, 5.0)  # [m] of the table's rows
@@ -45,10 +44,11 @@ def sightings(track: Track, distances_m, starts_m) -> list[Sighting]:
     from roar.vision.geometry import SIMULATED_CAR_CAMERA
     from roar_sim.plants.racecar import CAMERA_LINK
     from roar_sim.runs.fleet import Fleet
+    from roar_sim.plants.racecar import LANE_CAMERA
     from roar_sim.world.bullet import pb
     from roar_sim.world.marker import RearMarker
 
-    ranger = MarkerRanger(SIMULATED_CAR_CAMERA.model(*CAMERA))
+    ranger = MarkerRanger(SIMULATED_CAR_CAMERA.model(*LANE_CAMERA))
     out = []
     for start in starts_m:
         for distance in distances_m:
@@ -57,7 +57,7 @@ def sightings(track: Track, distances_m, starts_m) -> list[Sighting]:
                 marker = RearMarker(lead.plant)
                 lead.plant.props.append(marker)
                 fleet.run(SETTLE_S)
-                seen = ranger.find(follow.plant.camera(*CAMERA)[0])
+                seen = ranger.find(follow.plant.camera(*LANE_CAMERA)[0])
                 camera = pb.getLinkState(follow.plant.car, CAMERA_LINK, physicsClientId=fleet.world.client)[0]
                 centre = marker.pose()[0]
                 true = math.hypot(centre[0] - camera[0], centre[1] - camera[1])

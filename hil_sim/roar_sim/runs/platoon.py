@@ -29,7 +29,6 @@ from roar.tracks.track import Track
 
 V2V_EVERY = round(spec.V2V_PERIOD_US / spec.TIMING_HOST_SEND_PERIOD_US)  # control periods per V2V message
 LEADER, FOLLOWER = 1, 2  # car ids on the V2V group
-MARKER_CAMERA = (320, 240)  # [px] the follower's camera looking for the leader's marker
 
 
 @dataclass
@@ -72,13 +71,14 @@ def platoon(track: Track, gap_m: float = 1.5, cruise_m_s: float = 1.0, seconds: 
         if by_marker:
             from roar.vision.aruco import MarkerRanger
             from roar.vision.geometry import SIMULATED_CAR_CAMERA
+            from roar_sim.plants.racecar import LANE_CAMERA
             from roar_sim.world.marker import RearMarker
 
             lead.plant.props.append(RearMarker(lead.plant))
-            ranger = MarkerRanger(SIMULATED_CAR_CAMERA.model(*MARKER_CAMERA))
+            ranger = MarkerRanger(SIMULATED_CAR_CAMERA.model(*LANE_CAMERA))
 
             def measured() -> float | None:
-                gap = ranger.gap_m(follow.plant.camera(*MARKER_CAMERA)[0])
+                gap = ranger.gap_m(follow.plant.camera(*LANE_CAMERA)[0])
                 run.marker_gaps_m.append(gap)
                 return gap
         leader = cruise_agent(line, MODEL, PERIOD_S, cruise_m_s)

@@ -38,7 +38,9 @@ from roar.tracks.track_files import load_raceline_csv
 from roar.tracks.tunnel import describe
 from roar_sim import robots
 from roar_sim.clock.lockstep import CONTROL_PERIOD_S as PERIOD_S
+from roar_sim.plants.racecar import LANE_CAMERA
 from roar_sim.robots import Robot
+from roar_sim.runs.progress import laps_bar
 from roar_sim.sensors.tfmini import Tfmini
 from roar_sim.world import plotting
 from roar_sim.world import renderer as renderers
@@ -49,7 +51,6 @@ from roar.tracks import Track, TrackError, get
 
 MARGIN_RANGE = (0.3, 1.0)  # fraction of the robot's limits a race may be driven at
 K_DD_RANGE_S = (0.05, 2.0)  # [s] pure pursuit's look-ahead per m/s a race may use
-LANE_CAMERA = (320, 240)  # [px] the camera the lane driver sees through
 DRAG_TOP_SPEED_M_S = 4.0  # [m/s] the drag race's speed unless asked (the IARRC car's limit is 4.51)
 TOP_SPEED_RANGE_M_S = (0.5, 4.5)  # [m/s] what a drag race may ask for
 STEERING = {"pursuit": "pure pursuit", "pid": "the heading PID"}  # a robot's laterals, in words
@@ -268,7 +269,7 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
             if bar:
                 bar.update(max(0.0, min(laps, lap["travelled"] / track.length_m) - bar.n))
 
-        bar = _progress_bar(laps, track.name) if progress else None  # once the simulator is up
+        bar = laps_bar(laps, f"racing {track.name}") if progress else None  # once the simulator is up
         car.arm()
         agent = course.agent(margin) if course else car.agent(line, margin, lateral, k_dd_s)
         if course:
@@ -311,13 +312,6 @@ def optimal_line(track: Track, robot: str = "esc"):
 def race_timeout_s(result: RaceResult, laps: int) -> float:
     """[s] how long a race may take: four times the physical-limit laps, plus 10 s."""
     return 4 * laps * result.limit_lap_s + 10
-
-
-def _progress_bar(laps: int, name: str):
-    from tqdm import tqdm
-
-    return tqdm(total=laps, desc=f"racing {name}", unit="lap", mininterval=0.5, file=sys.stderr,
-                bar_format="{desc}: {bar} {n:.2f}/{total} laps [{elapsed}]")
 
 
 def report(result: RaceResult) -> str:
