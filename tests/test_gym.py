@@ -10,6 +10,8 @@ import sys
 import numpy as np
 import pytest
 
+from roar.tracks.names import FORMS
+
 gym = pytest.importorskip("gymnasium", reason="pip install gymnasium (make setup installs it)")
 pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
 
@@ -70,7 +72,7 @@ def test_actions_drive_the_car_through_the_firmware_and_progress_is_the_reward()
     ({"camera": (10000, 10000)}, "camera width must be a finite number 16..1280 px, got 10000; camera height"),
     ({"camera": (32.5, 24)}, "camera must be (width, height) in whole pixels"),
     ({"camera": "320x240"}, "camera must be (width, height) in whole pixels"),
-    ({"track": 42}, "track must be a Track or a track's name (oval, figure-eight, course, random:SEED, tunnel:SEED, or a .json, .csv or .yaml file), got 42"),
+    ({"track": 42}, f"track must be a Track or a track's name ({FORMS}), got 42"),
     ({"max_seconds": float("nan")}, "max_seconds must be a finite number more than 0 and at most 86400 s, got nan"),
     ({"max_seconds": float("inf")}, "max_seconds must be a finite number"),
     ({"max_seconds": 0}, "max_seconds must be a finite number more than 0"),
