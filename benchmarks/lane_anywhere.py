@@ -11,6 +11,7 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
+from roar.autopilot import curvature
 from roar.tracks import get
 from roar_sim.runs.race import race, race_timeout_s
 from roar_sim.world.start_lights import green_moment
@@ -44,14 +45,12 @@ def one(name: str) -> str:
 
 def first_bend_exit_m(track) -> float:
     """[m] along the centre line from the start to where its first bend ends."""
-    pts = track.centerline
-    heading = np.unwrap(np.arctan2(*np.diff(np.vstack([pts, pts[:1]]), axis=0).T[::-1]))
-    s = np.cumsum(track.segment_lengths)
-    curvature = np.abs(np.gradient(heading, s))
+    s = np.concatenate([[0.0], np.cumsum(track.segment_lengths)[:-1]])
+    bend = curvature(track.centerline)
     window = max(1, int(0.5 / float(np.median(track.segment_lengths))))
-    curvature = np.convolve(curvature, np.ones(window) / window, mode="same")  # over 0.5 m
-    start = int(np.argmax(curvature > BEND_CURVATURE))
-    end = start + int(np.argmax(curvature[start:] < BEND_CURVATURE / 2))
+    bend = np.convolve(bend, np.ones(window) / window, mode="same")  # over 0.5 m
+    start = int(np.argmax(bend > BEND_CURVATURE))
+    end = start + int(np.argmax(bend[start:] < BEND_CURVATURE / 2))
     return float(s[end])
 
 

@@ -67,12 +67,12 @@ def sightings(track: Track, distances_m, starts_m) -> list[Sighting]:
 
 
 def _curvature(track: Track, from_m: float, to_m: float) -> float:
-    """[1/m] the largest curvature of the centre line between two places along it (over 0.3 m)."""
-    s = np.arange(from_m, to_m + 1e-9, 0.1)
-    yaw = np.unwrap([track.pose_at(v)[2] for v in s])
-    if len(s) < 4:
-        return 0.0
-    return float(np.max(np.abs(yaw[3:] - yaw[:-3])) / 0.3)
+    """[1/m] the largest curvature of the centre line between two places along it."""
+    from roar.autopilot import curvature
+
+    along = track.arc_delta(from_m, track.arc_start)  # [m] of each point past from_m
+    between = (along >= 0) & (along <= track.arc_delta(from_m, to_m) % track.length_m)
+    return float(curvature(track.centerline)[between].max(initial=0.0))
 
 
 def table(samples: list[Sighting]) -> list[str]:

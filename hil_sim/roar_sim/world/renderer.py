@@ -90,15 +90,13 @@ def _one_blas_thread() -> None:
     threadpool_limits(1, user_api="blas")
 
 
-def mesh_file(vertices: Sequence, indices: Sequence[int], uvs: Sequence | None = None) -> str:
-    """A Wavefront OBJ file of a triangle mesh (texture coordinates with uvs), written once per
-    mesh in this process, for pb.createVisualShape(pb.GEOM_MESH, fileName=...)."""
+def mesh_file(vertices: Sequence, indices: Sequence[int]) -> str:
+    """A Wavefront OBJ file of a triangle mesh, written once per mesh in this process, for
+    pb.createVisualShape(pb.GEOM_MESH, fileName=...)."""
     global _MESHES
     v = [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in vertices]
-    t = [f"vt {u:.6f} {w:.6f}" for u, w in uvs] if uvs is not None else []
-    corner = "{0}/{0}" if uvs is not None else "{0}"
-    f = [" ".join(["f", *(corner.format(k + 1) for k in indices[i:i + 3])]) for i in range(0, len(indices), 3)]
-    text = "\n".join([*v, *t, *f, ""])
+    f = [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in zip(indices[0::3], indices[1::3], indices[2::3])]
+    text = "\n".join([*v, *f, ""])
     _MESHES = _MESHES or tempfile.TemporaryDirectory(prefix="roar-meshes-")
     path = Path(_MESHES.name) / f"{hashlib.sha1(text.encode()).hexdigest()[:20]}.obj"
     if not path.exists():
@@ -108,9 +106,7 @@ def mesh_file(vertices: Sequence, indices: Sequence[int], uvs: Sequence | None =
     return str(path)
 
 
-def mesh_visual(client: int, vertices: Sequence, indices: Sequence[int], rgba: Sequence[float] | None = None,
-                uvs: Sequence | None = None) -> int:
-    """A visual shape of a triangle mesh that both renderers draw (from its OBJ file)."""
-    extra = {"rgbaColor": list(rgba)} if rgba is not None else {}
-    return pb.createVisualShape(pb.GEOM_MESH, fileName=mesh_file(vertices, indices, uvs), physicsClientId=client,
-                                **extra)
+def mesh_visual(client: int, vertices: Sequence, indices: Sequence[int], rgba: Sequence[float]) -> int:
+    """A visual shape of a triangle mesh in one colour that both renderers draw (from its OBJ file)."""
+    return pb.createVisualShape(pb.GEOM_MESH, fileName=mesh_file(vertices, indices), rgbaColor=list(rgba),
+                                physicsClientId=client)

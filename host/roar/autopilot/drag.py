@@ -101,12 +101,11 @@ class DragPlanner(Module[DragSeen, DragPlan]):
         self.top_speed_m_s, self.brake_m_s2, self.period_s = top_speed_m_s, brake_m_s2, period_s
         self.state = DragState.LANE
         self.axis_rad: float | None = None  # [rad] the strip's direction in the gyro's frame
-        self.brake_at_m: float | None = None  # [m] the laser's range when braking began
         self._stop_calls = 0  # control periods in a row the laser has said "stop now"
         self.offset_m = 0.0  # [m] the car left of the lane's centre, when the lane was last sure
 
     def setup(self) -> None:
-        self.state, self.axis_rad, self.brake_at_m, self._stop_calls, self.offset_m = DragState.LANE, None, None, 0, 0.0
+        self.state, self.axis_rad, self._stop_calls, self.offset_m = DragState.LANE, None, 0, 0.0
 
     def stopping_m(self, speed: float) -> float:
         """[m] of range the car needs to stop from `speed` with STOP_MARGIN_M to spare (the
@@ -143,7 +142,7 @@ class DragPlanner(Module[DragSeen, DragPlan]):
         stop_now = self._end_ahead(value) and value.range_m <= self.stopping_m(value.speed)
         self._stop_calls = self._stop_calls + 1 if stop_now else 0
         if self._stop_calls >= CONFIRM:
-            self.state, self.brake_at_m = DragState.BRAKE, value.range_m
+            self.state = DragState.BRAKE
             return DragPlan(self.state, goal, 0.0)
         self.state = DragState.LANE if sure else DragState.HOLD
         return DragPlan(self.state, goal, self.top_speed_m_s)
