@@ -74,6 +74,26 @@ def test_recorded_frames_give_the_same_lanes_and_a_debug_view(oval, tmp_path):
     assert (tmp_path / "debug.png").stat().st_size > 20_000
 
 
+def test_the_birds_eye_view_is_metric_near_and_far():
+    """The camera model is the simulated camera: where its link is, and a pinhole's pixel centres
+    (OpenCV's) in the renderer's frames -- a straight's edge lines, painted 0.5 m either side of
+    its centre, read there from 1 m to 2.3 m ahead, within a centimetre and a half."""
+    from roar_sim.plants.racecar import CAMERA_LINK
+    from roar_sim.robots.esc import EscCar
+
+    with EscCar(get("random:31")) as car:  # it starts on a straight
+        car.run(0.1)
+        link_z = pb.getLinkState(car.plant.car, CAMERA_LINK, physicsClientId=car.plant.client)[0][2]
+        rgb, _ = car.plant.camera(*LANE_CAMERA)
+    assert link_z == pytest.approx(SIMULATED_CAR_CAMERA.z_m, abs=0.001)
+    detector = LaneDetector(BirdsEye(SIMULATED_CAR_CAMERA.model(*LANE_CAMERA)))
+    for _ in range(3):
+        lanes = detector.detect(rgb)
+    for edge, side in ((lanes.left, 1), (lanes.right, -1)):
+        near = edge.points[edge.points[:, 0] <= 2.3]
+        assert len(near) >= 4 and np.abs(near[:, 1] - side * 0.5).max() <= 0.015, near
+
+
 def test_nothing_on_the_road_means_no_lanes(oval):
     rgb = np.full((H, W, 3), 64, np.uint8)  # bare asphalt
     lanes = LaneDetector(BirdsEye(SIMULATED_CAR_CAMERA.model(W, H))).detect(rgb)

@@ -6,9 +6,10 @@
           (make bench). It must be loaded into a client before any body is added (it never sees
           the shapes made before it), and it cannot draw a mesh given as a list of vertices (the
           plugin crashes on one): every mesh of the scene is written as an OBJ file (`mesh_file`)
-          and drawn from there, by either renderer. Its frames are moved by half a pixel to
-          match TinyRenderer's (World.render); tests/test_renderers.py checks that the lane
-          detector finds the same lines in both.
+          and drawn from there, by either renderer. TinyRenderer's frames are moved by half a
+          pixel to sample pixel centres as OpenGL does (World.render), so both draw the pinhole
+          camera roar.vision models; tests/test_renderers.py checks that the lane detector
+          finds the same lines in both.
 
 A world takes the renderer of its `renderer=` argument, else the one `chosen()` names where it is
 made, else ROAR_RENDERER from the environment, else tiny (loading EGL costs ~0.12 s a world,

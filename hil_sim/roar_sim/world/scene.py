@@ -156,10 +156,10 @@ class World:
         forward = np.array([math.cos(yaw), math.sin(yaw), -math.tan(pitch)])
         view = pb.computeViewMatrix(list(position), (np.array(position) + forward).tolist(), [0, 0, 1])
         proj = pb.computeProjectionMatrixFOV(fov_deg, width / height, near_m, far_m)
-        if self.renderer_name == "egl":  # OpenGL samples pixel centres, TinyRenderer their corners:
-            proj = list(proj)  # half a pixel up and left, and both draw the same image
-            proj[8] -= 1.0 / width  # (column-major: the clip x and y added per unit of depth)
-            proj[9] -= 1.0 / height
+        if self.renderer_name == "tiny":  # OpenGL samples pixel centres, TinyRenderer their corners:
+            proj = list(proj)  # half a pixel down and right, and both draw a pinhole camera's image with
+            proj[8] += 1.0 / width  # its centre between the middle pixels (roar.vision's CameraModel)
+            proj[9] += 1.0 / height  # (column-major: the clip x and y added per unit of depth)
         with silenced((1,)) if self._rendered < EGL_CHATTY_FRAMES and self.renderer_name == "egl" else nullcontext():
             _, _, rgba, depth_buf, _ = pb.getCameraImage(width, height, view, proj, renderer=self.renderer,
                                                          shadow=0, flags=pb.ER_NO_SEGMENTATION_MASK,

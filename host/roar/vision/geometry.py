@@ -2,7 +2,7 @@
 bird's-eye view -- the image warped onto a metric grid of the floor in the car's frame (x ahead,
 y to the left, metres from the car's reference point).
 
-    cam = CameraModel.from_fov(320, 240, fov_deg=70, x_m=0.39, z_m=0.09, pitch_rad=0.245)
+    cam = CameraModel.from_fov(320, 240, fov_deg=70, x_m=0.39, z_m=0.0935, pitch_rad=0.245)
     cam = SIMULATED_CAR_CAMERA.model(320, 240)       # the same: the simulated ESC car's camera
     bev = BirdsEye(cam)                      # 0.45..2.5 m ahead, +-1.6 m, 1 cm a pixel
     top = bev.warp(rgb)                      # row 0 is the far edge, column 0 the left edge
@@ -41,10 +41,11 @@ class CameraModel:
     @classmethod
     def from_fov(cls, width: int, height: int, fov_deg: float, x_m: float, z_m: float, pitch_rad: float,
                  y_m: float = 0.0) -> CameraModel:
-        """A pinhole camera with square pixels, the principal point at the centre, and a
-        vertical field of view fov_deg."""
+        """A pinhole camera with square pixels, the principal point at the image's centre, and a
+        vertical field of view fov_deg. Pixel (0, 0)'s centre is at (0, 0), as OpenCV counts:
+        the centre of a 320 x 240 image is at (159.5, 119.5)."""
         f = (height / 2) / math.tan(math.radians(fov_deg) / 2)
-        return cls(width, height, f, f, width / 2, height / 2, x_m, y_m, z_m, pitch_rad)
+        return cls(width, height, f, f, (width - 1) / 2, (height - 1) / 2, x_m, y_m, z_m, pitch_rad)
 
     def project(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(u, v) [px] of floor points (x, y) in the car's frame (points behind the camera give
@@ -71,8 +72,9 @@ class CameraPreset:
         return CameraModel.from_fov(width, height, self.fov_deg, self.x_m, self.z_m, self.pitch_rad, self.y_m)
 
 
-# The simulated ESC car's camera: the ZED link of PyBullet's racecar.urdf, tilted down a quarter.
-SIMULATED_CAR_CAMERA = CameraPreset(fov_deg=70.0, x_m=0.39, z_m=0.09, pitch_rad=math.atan(0.25))
+# The simulated ESC car's camera: the ZED link of PyBullet's racecar.urdf (9.35 cm up with the car
+# standing on its wheels), tilted down a quarter.
+SIMULATED_CAR_CAMERA = CameraPreset(fov_deg=70.0, x_m=0.39, z_m=0.0935, pitch_rad=math.atan(0.25))
 
 
 @dataclass(frozen=True)
