@@ -17,6 +17,8 @@ write()), its measured limits, and its default agent.
 
 from __future__ import annotations
 
+import math
+
 import importlib
 import pkgutil
 from collections.abc import Callable
@@ -89,6 +91,7 @@ class Robot(Lockstep):
     def __init__(self, track: Track | None, realtime: bool = False, speedup: float = 1.0) -> None:
         self.track, self.realtime, self.speedup = track, realtime, speedup
         self.t_us = 0
+        self._last_yaw: tuple[float, float, float] | None = None  # (t [s], yaw [rad], rate [rad/s]) last reported
 
     # --- how a command reaches the firmware ------------------------------------------------------
 
@@ -118,8 +121,17 @@ class Robot(Lockstep):
         raise NotImplementedError
 
     def observe(self) -> Observation:
-        s = self.state()
-        return Observation(self.time_s, s.x, s.y, s.yaw, abs(s.speed), s.yaw_rate)
+        """The car's report; its yaw rate is the gyro's over the time since the last report (a
+        MEMS gyro low-passes its rate: a knock shorter than a control period is felt whole, not
+        as whatever the rate happens to be at the instant of the report)."""
+        s, t = self.state(), self.time_s
+        last, rate = self._last_yaw, s.yaw_rate
+        if last is not None and t > last[0]:
+            rate = math.remainder(s.yaw - last[1], math.tau) / (t - last[0])
+        elif last is not None:
+            rate = last[2]
+        self._last_yaw = (t, s.yaw, rate)
+        return Observation(t, s.x, s.y, s.yaw, abs(s.speed), rate)
 
     def send(self, command: Command) -> None:
         self.drive(command.throttle, command.steering)
