@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+import shapely
 
 pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
 pytest.importorskip("cv2", reason="pip install opencv-python-headless (make setup installs it)")
@@ -71,13 +72,15 @@ def test_both_renderers_show_the_same_lane_lines(egl_works, name):
                 if a is None or b is None:  # only a line seen in few bands may be missed by the other
                     assert (a or b) is None or (a or b).confidence < SURE, f"{name} at {pose}: {side} seen by one only"
                     continue
-                common = set(np.round(a.points[:, 0], 3)) & set(np.round(b.points[:, 0], 3))  # the same bands
-                windows += [abs(p[1] - q[1]) for p in a.points for q in b.points
-                            if round(p[0], 3) == round(q[0], 3) and round(p[0], 3) in common]
+                for one, other in ((a, b), (b, a)):  # each window's centre from the other's windows' polyline
+                    polyline = shapely.LineString(other.points)
+                    for point in map(shapely.Point, one.points):
+                        if 0.0 < polyline.project(point) < polyline.length:  # beside it, not beyond its ends
+                            windows.append(polyline.distance(point))
                 if min(a.confidence, b.confidence) >= SURE:  # fits through enough windows to compare
                     x = np.linspace(max(a.points[:, 0].min(), b.points[:, 0].min()),  # where both saw it, up
                                     min(a.points[:, 0].max(), b.points[:, 0].max(), STEER_M), 10)  # to STEER_M
-                    gap = np.abs(a.y(x) - b.y(x)).max()
+                    gap = (np.abs(a.y(x) - b.y(x)) / np.sqrt(1 + a.slope(x) ** 2)).max()  # square to the line
                     assert gap <= AGREE_M, f"{name} at {pose}: {side} lines {gap * 100:.1f} cm apart"
                     compared += 1
     finally:

@@ -20,8 +20,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
 
-import numpy as np
-
 from roar.autopilot.agent import Agent, Command, Module, Observation
 from roar.autopilot.longitudinal import SpeedController
 from roar.autopilot.race_agent import CarModel
@@ -58,7 +56,7 @@ LANE_SHIFT_M_S = 0.4  # [m/s] how fast the followed line moves across in a lane 
 FOLLOW_RANGE_M = 4.0  # [m] a leader ahead in the lane kept, this close (reference points, along the road), is followed
 FOLLOW_GAP_M = 2.0  # [m] kept to a leader (its rear 1.5 m from the camera: the lines beside it stay in view)
 FOLLOW_GAIN_PER_S = 1.0  # [1/s] m/s of speed per metre of gap error
-IN_LANE_M = 0.15  # [m] a leader this close to the middle of the lane kept is in it
+IN_LANE_M = LANE_OFFSET_M  # [m] a leader nearer the middle of the lane kept than the other lane's is in it
 
 
 class LaneState(Enum):
@@ -140,6 +138,7 @@ class LanePlanner(Module[Seen, LanePlan]):
         self.lost_s = 0.0
         self._last_goal: tuple[float, float] | None = None
         self._clear_s: float | None = None  # stopped for an obstacle: how long the path has been clear
+        self._stopped_for_m: float | None = None  # [m] stopped for an obstacle: how far ahead it was
         self.side = -1 if self.keep_lane else 0  # the lane kept: -1 right, +1 left, 0 the road's centre
         self.offset_m = self.side * LANE_OFFSET_M  # [m] the followed line from the road's centre, moving to side's
         self.switches = 0  # lane changes for obstacles
@@ -156,10 +155,13 @@ class LanePlanner(Module[Seen, LanePlan]):
 
     def _obstacle_m(self, value: Seen, half_width_m: float | None = None) -> float | None:
         """[m] to the nearest occupied cell on the car's path, as far as the lane was seen (with
-        no lane seen, in a bend mostly, only what is right ahead of the front counts)."""
+        no lane seen, in a bend mostly, only what is right ahead of the front counts); stopped
+        for an obstacle, at least as far as it was (it may hide the lines beyond it)."""
         if value.grid is None:
             return None
         path, reach = self._path(value.lanes)
+        if self._stopped_for_m is not None:
+            reach = max(reach, self._stopped_for_m + STOP_MARGIN_M)
         if half_width_m is None:
             half_width_m = LANE_PATH_HALF_M if self.keep_lane else PATH_HALF_WIDTH_M
         # things in the road, not the walls beside it (across a bend the outer wall fills the view)
@@ -199,12 +201,12 @@ class LanePlanner(Module[Seen, LanePlan]):
             self._clear_s = 0.0 if obstacle_m is not None else self._clear_s + self.period_s
             if self._clear_s < CLEAR_S:
                 return True
-            self._clear_s = None
+            self._clear_s = self._stopped_for_m = None
         if obstacle_m is None:
             return False
         braking_m = speed ** 2 / (2 * BRAKING_SHARE * limits.max_brake_m_s2)
         if obstacle_m - FRONT_M < braking_m + STOP_MARGIN_M:
-            self._clear_s = 0.0
+            self._clear_s, self._stopped_for_m = 0.0, obstacle_m
             return True
         return False
 
@@ -220,25 +222,25 @@ class LanePlanner(Module[Seen, LanePlan]):
         self._switch_lanes(value)
         step_m = LANE_SHIFT_M_S * self.period_s
         self.offset_m += max(-step_m, min(step_m, self.side * LANE_OFFSET_M - self.offset_m))
+        if lanes.centre is not None:
+            lookahead = min(self.max_lookahead_m, max(self.min_lookahead_m, self.lookahead_s * value.speed))
+            seen_from = _nearest_seen(lanes)
+            if seen_from is not None:  # not nearer than the line was seen: a fit holds where its points are
+                lookahead = max(lookahead, min(seen_from, 2 * self.max_lookahead_m))
+            self._last_goal = (lookahead, float(lanes.centre.y(lookahead)) + self.offset_m)
+        goal = self._last_goal
         obstacle_m = self._obstacle_m(value)
         if self._blocked(obstacle_m, value.speed, limits):  # before anything else: it may hide the lines
-            return LanePlan(LaneState.OBSTACLE, self._last_goal, 0.0)
+            return LanePlan(LaneState.OBSTACLE, goal, 0.0)
         if lanes.centre is None:
             self.lost_s += self.period_s
             if self.lost_s > SEARCH_S:
                 return LanePlan(LaneState.STOPPED, None, 0.0)
-            return LanePlan(LaneState.SEARCHING, self._last_goal, SEARCH_SPEED_M_S)
+            return LanePlan(LaneState.SEARCHING, goal, SEARCH_SPEED_M_S)
         self.lost_s = 0.0
-        lookahead = min(self.max_lookahead_m, max(self.min_lookahead_m, self.lookahead_s * value.speed))
-        seen_from = _nearest_seen(lanes)
-        if seen_from is not None:  # not nearer than the line was seen: a fit holds where its points are
-            lookahead = max(lookahead, min(seen_from, 2 * self.max_lookahead_m))
-        goal = (lookahead, float(lanes.centre.y(lookahead)) + self.offset_m)
-        self._last_goal = goal
-        xs = np.linspace(0.5, 2.0, 7)
-        a, b, _ = lanes.centre.coeffs
-        slope = 2 * a * xs + b
-        curvature = float(np.max(np.abs(2 * a) / (1 + slope ** 2) ** 1.5))
+        # the bend ahead, or the arc to the goal where the line is seen too little to show its bend
+        gx, gy = goal
+        curvature = max(lanes.centre.curvature(), abs(2 * gy) / (gx * gx + gy * gy))
         speed = min(self.max_speed_m_s, limits.max_speed_m_s, math.sqrt(limits.max_lateral_m_s2 / max(curvature, 1e-3)))
         state = LaneState.FOLLOWING if lanes.source in ("yellow", "edges") else LaneState.ONE_LINE
         if state is LaneState.ONE_LINE:
@@ -246,8 +248,8 @@ class LanePlanner(Module[Seen, LanePlan]):
         elif abs(self.offset_m - self.side * LANE_OFFSET_M) > step_m:
             state = LaneState.CHANGING
         leader = self._leader_ahead(value)
-        if leader is not None:
-            state = LaneState.BEHIND_LEADER
+        if leader is not None:  # its speed, in any state; changing lanes behind it is still changing lanes
+            state = LaneState.BEHIND_LEADER if state is LaneState.FOLLOWING else state
             speed = max(0.0, min(speed, leader.speed + FOLLOW_GAIN_PER_S * (leader.ahead_m - FOLLOW_GAP_M)))
         if obstacle_m is not None:  # no faster than it can still stop short of it
             room = max(0.0, obstacle_m - FRONT_M - STOP_MARGIN_M)
@@ -273,18 +275,23 @@ class LaneController(Module[tuple[Seen, LanePlan], Command]):
 
     def step(self, value: tuple[Seen, LanePlan]) -> Command:
         seen, plan = value
-        if plan.state is LaneState.OBSTACLE:  # full brake (reverse torque) until nearly still, then neutral
-            self.speed.reset()
-            return Command(-1.0 if seen.speed > HOLD_SPEED_M_S else 0.0, 0.0)
+        if plan.state is LaneState.OBSTACLE:  # full brake (reverse torque) until nearly still, then neutral,
+            self.speed.reset()  # steering on along the road (straightened in a bend, it would lose the obstacle)
+            return Command(-1.0 if seen.speed > HOLD_SPEED_M_S else 0.0, self._steering(plan.goal))
         if plan.state is LaneState.WAITING:  # at neutral: the ESC car stays armed, nothing rolls
             self.speed.reset()
             return Command(0.0, 0.0)
         if plan.state is LaneState.STOPPED or plan.goal is None:
             return Command(self.speed.step(0.0, seen.speed, self.period_s), 0.0)
-        gx, gy = plan.goal
-        angle = math.atan2(2 * self.car.wheelbase_m * gy, gx * gx + gy * gy)  # pure pursuit, car frame
-        steering = max(-1.0, min(1.0, -angle / self.car.max_steer_rad))  # left angle = negative command
-        return Command(self.speed.step(plan.target_speed_m_s, seen.speed, self.period_s), steering)
+        return Command(self.speed.step(plan.target_speed_m_s, seen.speed, self.period_s), self._steering(plan.goal))
+
+    def _steering(self, goal: tuple[float, float] | None) -> float:
+        """Pure pursuit to the goal in the car's frame (straight ahead without one)."""
+        if goal is None:
+            return 0.0
+        gx, gy = goal
+        angle = math.atan2(2 * self.car.wheelbase_m * gy, gx * gx + gy * gy)
+        return max(-1.0, min(1.0, -angle / self.car.max_steer_rad))  # left angle = negative command
 
 
 def lane_agent(camera: Callable[[], tuple], detector: LaneDetector, car: CarModel, period_s: float,

@@ -1,10 +1,12 @@
 """Lane lines from a camera frame, the IARRC car's way ("moving ROIs"): blur, bird's-eye view on
 a metric grid, HLS, a threshold adapted per 20 x 20 block (saturation and hue for yellow,
-lightness for white) and dilation; then, for each line, windows scanned row band by row band
-from near to far, each centred by the histogram of the band around where the line was in the
-band before (or in the frame before); a quadratic through the window centres, in metres in the
-car's frame. The road's centre is the yellow line, or midway between the white edges, or a
-half-width from the one edge seen.
+lightness for white) and dilation; then each line is walked from near to far: a window a step
+long ahead of the last point found, turned to the line's direction (so a line that bends across
+the view in a tight bend is followed, not lost), starting where the line began in the frame
+before, or for a line found anew at its nearest pixels; a quadratic through the window centres,
+in metres in the car's frame, near ones weighed more. The road's centre is the yellow line, or
+the white edges each moved a half width in square to themselves, or the one edge seen so moved;
+the half width is measured, across from the yellow line, never assumed.
 
     detector = LaneDetector(BirdsEye(camera))
     lanes = detector.detect(rgb)          # Lanes: left, right, centre as y = a x^2 + b x + c
@@ -33,6 +35,10 @@ HALF_WIDTH_RANGE_M = (0.2, 2.4)  # [m] half widths a measurement may give
 MIN_CONFIDENCE = 0.35  # share of bands a line must be found in to be used
 NEAR_M = 1.0  # [m] of road beyond the nearest visible row that offset and heading are read from
 PEAK_FRACTION = 0.3  # a histogram peak must reach this share of the strongest to be a line
+MAX_TURN_RAD_PER_M = 2.0  # [rad/m] a painted line bends no tighter than 0.5 m radius: a walk turning more
+# has run onto something else (a box's side, a wall's foot)
+ELONGATED = 3.0  # a pixel cloud this many times longer than wide has a direction
+MIN_AHEAD = 0.5  # a walk along a line stops where it turns more than 60 degrees from ahead (cos 60)
 
 
 @dataclass(frozen=True)
@@ -47,13 +53,30 @@ class Line:
         a, b, c = self.coeffs
         return a * np.asarray(x) ** 2 + b * np.asarray(x) + c
 
-    def slope(self, x: float) -> float:
+    def slope(self, x):
         a, b, _ = self.coeffs
-        return 2 * a * x + b
+        return 2 * a * np.asarray(x) + b
 
-    def shifted(self, dy: float, confidence: float | None = None) -> Line:
-        a, b, c = self.coeffs
-        return Line((a, b, c + dy), self.confidence if confidence is None else confidence, self.points + [0, dy])
+    def curvature(self) -> float:
+        """[1/m] the line's sharpest bend where it was seen: a quadratic through its points in
+        the frame of their chord (fitted in the car's frame, an arc that turns across the view
+        reads up to 1.6 times too sharp)."""
+        p = self.points
+        chord = p[-1] - p[0]
+        if len(p) < 3 or np.linalg.norm(chord) < 1e-6:
+            return 0.0
+        along = chord / np.linalg.norm(chord)
+        u, v = (p - p[0]) @ along, (p - p[0]) @ np.array([-along[1], along[0]])
+        a, b, _ = np.polyfit(u, v, 2)
+        slope = 2 * a * np.linspace(u.min(), u.max(), 9) + b
+        return float(np.max(np.abs(2 * a) / (1 + slope ** 2) ** 1.5))
+
+    def offset(self, left_m: float) -> Line:
+        """The parallel line left_m [m] to the left (right if negative): the points moved square
+        to the fit, and fitted again."""
+        x = self.points[:, 0]
+        normal = np.column_stack([-self.slope(x), np.ones_like(x)]) / np.sqrt(1 + self.slope(x) ** 2)[:, None]
+        return _fit(self.points + left_m * normal, self.confidence)
 
 
 @dataclass(frozen=True)
@@ -107,10 +130,10 @@ class LaneDetector:
     def detect(self, rgb: np.ndarray) -> Lanes:
         top = self.bev.warp(rgb)
         white, yellow = masks(top)
-        guesses = self._guesses(white, yellow)
-        found = {"yellow": self._follow(yellow, guesses["yellow"])}
-        found["left"] = self._follow(white, guesses["left"])
-        found["right"] = self._follow(white, guesses["right"])
+        starts = self._starts(white, yellow)
+        found = {"yellow": self._follow(yellow, starts["yellow"])}
+        found["left"] = self._follow(white, starts["left"])
+        found["right"] = self._follow(white, starts["right"])
         self._measure(found)
         self._check(found)
         self._last = found
@@ -118,16 +141,19 @@ class LaneDetector:
         return self._lanes(found)
 
     def _measure(self, found: dict[str, Line | None]) -> None:
-        """The road's half width from a frame that shows all three lines clearly, the two edges
-        as far either side of the yellow line (a road of any width: the F1TENTH circuits' 2.2 m,
-        the simulator's 1.2 m); kept as a running mean, so one odd frame moves it little."""
-        if any(line is None or line.confidence < MEASURE_CONFIDENCE for line in found.values()):
+        """The road's half width from a frame that shows the yellow line and an edge clearly: the
+        edge's distance across from the yellow line, square to it (a road of any width: the
+        F1TENTH circuits' 2.2 m, where one edge at a time is in view, the simulator's 1.2 m);
+        with both edges, only if they lie about as far either side. Kept as a running mean, so
+        one odd frame moves it little."""
+        yellow = found["yellow"]
+        if yellow is None or yellow.confidence < MEASURE_CONFIDENCE:
             return
-        x = self.bev.grid.x_near + 0.5
-        left, right = float(found["left"].y(x) - found["yellow"].y(x)), float(found["yellow"].y(x) - found["right"].y(x))
-        if min(left, right) <= 0 or abs(left - right) > SYMMETRY * max(left, right):
+        halves = [sign * across(found[name], yellow) for name, sign in (("left", 1), ("right", -1))
+                  if found[name] is not None and found[name].confidence >= MEASURE_CONFIDENCE]
+        if not halves or min(halves) <= 0 or max(halves) - min(halves) > SYMMETRY * max(halves):
             return
-        half = (left + right) / 2
+        half = sum(halves) / len(halves)
         if not HALF_WIDTH_RANGE_M[0] <= half <= HALF_WIDTH_RANGE_M[1]:
             return
         self.half_width_m = half if not self.measured else \
@@ -137,38 +163,61 @@ class LaneDetector:
     def _check(self, found: dict[str, Line | None]) -> None:
         """The seed's consistency check: the edges lie either side of the yellow line about a
         half-width away, and a road's width apart; a line that breaks the layout is dropped."""
-        x = self.bev.grid.x_near + 0.5
-        y = {name: None if line is None else float(line.y(x)) for name, line in found.items()}
         tolerance = 0.6 * self.half_width_m
-        if y["yellow"] is not None:
+        if found["yellow"] is not None:
             for name, sign in (("left", 1), ("right", -1)):
-                if y[name] is not None and abs(y[name] - y["yellow"] - sign * self.half_width_m) > tolerance:
+                if found[name] is not None and \
+                        abs(across(found[name], found["yellow"]) - sign * self.half_width_m) > tolerance:
                     found[name] = None
-        elif y["left"] is not None and y["right"] is not None and \
-                abs(y["left"] - y["right"] - 2 * self.half_width_m) > tolerance:
+        elif found["left"] is not None and found["right"] is not None and \
+                abs(across(found["left"], found["right"]) - 2 * self.half_width_m) > tolerance:
             weaker = "left" if found["left"].confidence < found["right"].confidence else "right"
             found[weaker] = None
 
-    def _guesses(self, white: np.ndarray, yellow: np.ndarray) -> dict[str, float]:
-        """Where each line starts at the near edge [m]: last frame's fit; for a line without one,
-        a peak of its mask's column histogram over the near half (the yellow line's strongest,
-        the white edges' outermost either side of it)."""
+    def _starts(self, white: np.ndarray, yellow: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray | None]]:
+        """Where each line's walk starts and its direction there, in metres: for a line found in
+        the last frame, where and how it began there; for a line without one, at the nearest pixels of a peak of
+        its mask's column histogram over the near half (the yellow line's strongest, the white
+        edges' outermost either side of it), its direction not known (None)."""
         out = {}
         for name, line in self._last.items():
-            if line is not None:
-                out[name] = float(line.y(self.bev.grid.x_near))
+            if line is not None:  # half a step before its first point, along its first two
+                first, second = line.points[0], line.points[1]
+                d = (second - first) / max(float(np.linalg.norm(second - first)), 1e-6)
+                out[name] = (first - d * self._step_m / 2, d)
+        mask = {"yellow": yellow, "left": white, "right": white}
         if "yellow" not in out:
             peaks = self._peaks(yellow)
-            out["yellow"] = max(peaks, key=lambda p: p[1])[0] if peaks else 0.0
+            y = max(peaks, key=lambda p: p[1])[0] if peaks else 0.0
+            out["yellow"] = (self._nearest(yellow, y), None)
         if "left" not in out or "right" not in out:
             # the whole view until the width is measured: on a wide road the edges come into
             # view only further ahead
+            y_yellow = float(out["yellow"][0][1])
             peaks = [y for y, _ in self._peaks(white, near_half=self.measured)]
-            left = [y for y in peaks if y > out["yellow"]]
-            right = [y for y in peaks if y < out["yellow"]]
-            out.setdefault("left", max(left) if left else out["yellow"] + self.half_width_m)
-            out.setdefault("right", min(right) if right else out["yellow"] - self.half_width_m)
+            for name, side, pick in (("left", 1, max), ("right", -1, min)):
+                if name in out:
+                    continue
+                ys = [y for y in peaks if side * (y - y_yellow) > 0]
+                y = pick(ys) if ys else y_yellow + side * self.half_width_m
+                out[name] = (self._nearest(mask[name], y), None)
         return out
+
+    def _nearest(self, mask: np.ndarray, y: float) -> np.ndarray:
+        """(x, y) [m]: where the walk for a line seen at y starts -- half a step before its
+        nearest pixel within a window of y (at the near edge if it has none)."""
+        _, col = self.bev.to_pixel(0.0, y)
+        half_px = WINDOW_M / 2 / self.bev.grid.m_per_px
+        lo, hi = int(max(0, col - half_px)), int(max(0, col + half_px))
+        hit = np.nonzero(mask[:, lo:hi].any(axis=1))[0]
+        x_near = self.bev.grid.x_near
+        x = float(self.bev.to_car(hit.max(), 0)[0]) - self._step_m / 2 if len(hit) else x_near
+        return np.array([max(x_near, x), y])
+
+    @property
+    def _step_m(self) -> float:
+        """[m] a walk's step: the view's depth in BANDS steps."""
+        return (self.bev.grid.x_far - self.bev.grid.x_near) / BANDS
 
     def _peaks(self, mask: np.ndarray, near_half: bool = True) -> list[tuple[float, float]]:
         """[(y [m], strength)] of the column histogram's peaks over the near half (or the whole
@@ -183,50 +232,63 @@ class LaneDetector:
                  if smooth[c] >= floor and smooth[c] >= smooth[c - 1] and smooth[c] > smooth[c + 1]]
         return [(float(self.bev.to_car(0, c)[1]), float(smooth[c])) for c in peaks]
 
-    def _follow(self, mask: np.ndarray, y_start: float) -> Line | None:
-        """Windows from the near band to the far one, each centred on the band's histogram peak
-        near where the line was in the band before; a quadratic through their centres."""
-        rows, cols = mask.shape
-        band_rows = rows // BANDS
-        half_px = WINDOW_M / 2 / self.bev.grid.m_per_px
-        _, col = self.bev.to_pixel(0.0, y_start)
-        points, drift = [], 0.0
-        for band in range(BANDS):
-            r1 = rows - band * band_rows
-            r0 = r1 - band_rows
-            lo, hi = int(max(0, col - half_px)), int(min(cols, col + half_px))
-            if hi - lo < 2:
+    def _follow(self, mask: np.ndarray, start: tuple[np.ndarray, np.ndarray | None]) -> Line | None:
+        """Walk along the line: BANDS steps, each a window WINDOW_M across and a step long ahead
+        of the last point found, in the line's direction (so a line that bends across the view
+        is followed, not only one running away from the car); the centroid of the window's mask
+        pixels is the next point, and the direction turns to run through the last two points
+        (a line found anew turns at its first point to its pixels' long axis, when they have one).
+        A step that finds nothing goes on in the same direction (a dash's gap, a shadow). A
+        quadratic y(x) through the points."""
+        step, known = self._step_m, start[1] is not None
+        pos, d = np.array(start[0], dtype=float), np.array(start[1] if known else (1.0, 0.0), dtype=float)
+        d /= np.linalg.norm(d)
+        points: list[np.ndarray] = []
+        for _ in range(BANDS):
+            if d[0] < MIN_AHEAD:  # the line turns across the view: a fit y(x) ends here
                 break
-            histogram = mask[r0:r1, lo:hi].sum(axis=0) / 255
-            if histogram.sum() >= MIN_PIXELS:
-                peak = lo + float(np.average(np.arange(hi - lo), weights=histogram))
-                drift = peak - col
-                col = peak
-                points.append(self.bev.to_car((r0 + r1) / 2, col))
-            else:
-                col += drift  # keep the line's direction through a gap (a dash, a shadow)
+            n = np.array([-d[1], d[0]])
+            corners = np.array([pos + s * n * WINDOW_M / 2 + a * d * step for s in (-1, 1) for a in (0, 1)])
+            (r_hi, c_hi), (r_lo, c_lo) = (self.bev.to_pixel(corners[:, 0].min(), corners[:, 1].min()),
+                                         self.bev.to_pixel(corners[:, 0].max(), corners[:, 1].max()))
+            r0, r1 = int(max(0, r_lo)), int(min(mask.shape[0], r_hi + 1))
+            c0, c1 = int(max(0, c_lo)), int(min(mask.shape[1], c_hi + 1))
+            if r1 - r0 < 2 or c1 - c0 < 2:
+                break
+            rr, cc = np.nonzero(mask[r0:r1, c0:c1])
+            xy = np.column_stack(self.bev.to_car(rr + r0, cc + c0))
+            rel = xy - pos
+            along, across = rel @ d, rel @ n
+            inside = xy[(along >= 0) & (along < step) & (np.abs(across) <= WINDOW_M / 2)]
+            if len(inside) < MIN_PIXELS:
+                pos = pos + d * step
+                continue
+            point = inside.mean(axis=0)
+            if points and np.linalg.norm(point - points[-1]) > step / 4:
+                d = _turned(d, point - points[-1], MAX_TURN_RAD_PER_M * np.linalg.norm(point - points[-1]))
+                if d[0] < MIN_AHEAD:  # this stretch already runs across the view: y(x) ends before it
+                    break
+            elif not points and not known:
+                d = _long_axis(inside, d)
+            points.append(point)
+            pos = point + d * step / 2
         confidence = len(points) / BANDS
-        if confidence < MIN_CONFIDENCE:
-            return None
-        p = np.array(points, dtype=float)
-        degree = 2 if len(p) >= 4 else 1
-        coeffs = np.polyfit(p[:, 0], p[:, 1], degree)
-        coeffs = tuple(float(v) for v in np.concatenate([np.zeros(3 - len(coeffs)), coeffs]))
-        return Line(coeffs, confidence, p)
+        return _fit(np.array(points, dtype=float), confidence) if confidence >= MIN_CONFIDENCE else None
 
     def _lanes(self, found: dict[str, Line | None]) -> Lanes:
         left, right, yellow = found["left"], found["right"], found["yellow"]
         if yellow is not None and yellow.confidence >= 0.5:
             centre, source = yellow, "yellow"
-        elif left is not None and right is not None:
-            a = [(l + r) / 2 for l, r in zip(left.coeffs, right.coeffs)]
-            centre, source = Line(tuple(a), min(left.confidence, right.confidence)), "edges"
+        elif left is not None and right is not None:  # each edge moved a half width in, square to itself
+            centre, source = _fit(np.vstack([left.offset(-self.half_width_m).points,
+                                             right.offset(self.half_width_m).points]),
+                                  min(left.confidence, right.confidence)), "edges"
         elif yellow is not None:  # seen in fewer bands (its dashes), but on the centre itself
             centre, source = yellow, "yellow"
         elif left is not None:
-            centre, source = left.shifted(-self.half_width_m), "left"
+            centre, source = left.offset(-self.half_width_m), "left"
         elif right is not None:
-            centre, source = right.shifted(self.half_width_m), "right"
+            centre, source = right.offset(self.half_width_m), "right"
         else:
             centre, source = None, "none"
         near = None
@@ -236,6 +298,42 @@ class LaneDetector:
             slope, intercept = np.polyfit(xs, centre.y(xs), 1)
             near = (float(slope), float(intercept))
         return Lanes(left, right, yellow, centre, source, near)
+
+
+def across(line: Line, of: Line) -> float:
+    """[m] how far left of the line `of` the line `line` runs, square to `of`: by their fits,
+    where `line` was seen nearest (further off, a pixel spans more floor, and an edge line's
+    staircase of pixels merges with a wall's lit foot)."""
+    x = float(line.points[:, 0].min())
+    return float((line.y(x) - of.y(x)) / np.sqrt(1 + of.slope(x) ** 2))
+
+
+def _fit(points: np.ndarray, confidence: float) -> Line:
+    """A quadratic y(x) through points (a straight line through fewer than four), each weighed by
+    how near it is: an image pixel spans more floor across the further off it is (and a slanted
+    line's staircase of pixels with it)."""
+    coeffs = np.polyfit(points[:, 0], points[:, 1], 2 if len(points) >= 4 else 1, w=1 / np.maximum(points[:, 0], 0.1))
+    return Line(tuple(float(v) for v in np.concatenate([np.zeros(3 - len(coeffs)), coeffs])), confidence, points)
+
+
+def _turned(d: np.ndarray, towards: np.ndarray, max_rad: float) -> np.ndarray:
+    """The unit direction d turned towards `towards`, by at most max_rad."""
+    turn = math.atan2(d[0] * towards[1] - d[1] * towards[0], d @ towards)
+    turn = max(-max_rad, min(max_rad, turn))
+    c, s = math.cos(turn), math.sin(turn)
+    return np.array([c * d[0] - s * d[1], s * d[0] + c * d[1]])
+
+
+def _long_axis(xy: np.ndarray, towards: np.ndarray) -> np.ndarray:
+    """The unit direction of a pixel cloud's long axis, pointing along `towards`; `towards`
+    itself when the cloud is not clearly longer than wide (a dash cut short by the window)."""
+    if len(xy) < 3:
+        return towards
+    values, vectors = np.linalg.eigh(np.cov((xy - xy.mean(axis=0)).T))
+    if values[-1] < ELONGATED ** 2 * max(values[0], 1e-12):
+        return towards
+    axis = vectors[:, -1]
+    return axis if axis @ towards >= 0 else -axis
 
 
 def debug_view(detector: LaneDetector, rgb: np.ndarray):
