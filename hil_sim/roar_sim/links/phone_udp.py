@@ -60,7 +60,9 @@ def payloads(rgb: np.ndarray, depth: np.ndarray | None, state: dict, quality: in
     """The three streams' payloads of one rendered frame."""
     h, w = rgb.shape[:2]
     cam = SIMULATED_CAR_CAMERA.model(w, h)
-    k = cam.fx, cam.fy, cam.cx, cam.cy
+    # the wire counts the principal point from the image's corner (the centre of a W x H image at
+    # W/2, H/2: the depth map is 2 cx wide), OpenCV from pixel (0, 0)'s centre: half a pixel more
+    k = cam.fx, cam.fy, cam.cx + 0.5, cam.cy + 0.5
     out = {"rgb": wire.with_intrinsics(*k, jpeg(rgb, quality)), "state": wire.state_line(state)}
     if depth is not None:
         out["depth"] = wire.with_intrinsics(*k, np.ascontiguousarray(depth, dtype="<f4").tobytes())
