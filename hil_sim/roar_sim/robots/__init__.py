@@ -17,9 +17,8 @@ write()), its measured limits, and its default agent.
 
 from __future__ import annotations
 
-import math
-
 import importlib
+import math
 import pkgutil
 from collections.abc import Callable
 from typing import ClassVar

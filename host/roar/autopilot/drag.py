@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from enum import Enum
 
 from roar.autopilot.agent import Agent, Command, Module, Observation
+from roar.autopilot.pure_pursuit import PurePursuit
 from roar.autopilot.race_agent import CarModel
 from roar.vision.lanes import Lanes, LaneDetector
 
@@ -161,8 +162,7 @@ class DragController(Module[tuple[DragSeen, DragPlan], Command]):
 
     def step(self, value: tuple[DragSeen, DragPlan]) -> Command:
         seen, plan = value
-        gx, gy = plan.goal
-        correction = math.atan2(2 * self.car.wheelbase_m * gy, gx * gx + gy * gy)  # pure pursuit, car frame
+        correction = math.atan(self.car.wheelbase_m * PurePursuit.curvature(0.0, 0.0, 0.0, plan.goal))  # car frame
         if plan.state is DragState.LANE and seen.speed >= LEARN_SPEED_M_S:
             self.trim_rad = max(-MAX_TRIM_RAD, min(MAX_TRIM_RAD, self.trim_rad + TRIM_GAIN * correction * self.period_s))
         angle = correction + self.trim_rad

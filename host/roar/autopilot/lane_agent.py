@@ -22,6 +22,7 @@ from enum import Enum
 
 from roar.autopilot.agent import Agent, Command, Module, Observation
 from roar.autopilot.longitudinal import SpeedController
+from roar.autopilot.pure_pursuit import PurePursuit
 from roar.autopilot.race_agent import CarModel
 from roar.vision.lanes import Lanes, LaneDetector
 from roar.vision.occupancy import Occupancy, occupancy
@@ -239,8 +240,7 @@ class LanePlanner(Module[Seen, LanePlan]):
             return LanePlan(LaneState.SEARCHING, goal, SEARCH_SPEED_M_S)
         self.lost_s = 0.0
         # the bend ahead, or the arc to the goal where the line is seen too little to show its bend
-        gx, gy = goal
-        curvature = max(lanes.centre.curvature(), abs(2 * gy) / (gx * gx + gy * gy))
+        curvature = max(lanes.centre.curvature(), abs(PurePursuit.curvature(0.0, 0.0, 0.0, goal)))
         speed = min(self.max_speed_m_s, limits.max_speed_m_s, math.sqrt(limits.max_lateral_m_s2 / max(curvature, 1e-3)))
         state = LaneState.FOLLOWING if lanes.source in ("yellow", "edges") else LaneState.ONE_LINE
         if state is LaneState.ONE_LINE:
@@ -289,8 +289,7 @@ class LaneController(Module[tuple[Seen, LanePlan], Command]):
         """Pure pursuit to the goal in the car's frame (straight ahead without one)."""
         if goal is None:
             return 0.0
-        gx, gy = goal
-        angle = math.atan2(2 * self.car.wheelbase_m * gy, gx * gx + gy * gy)
+        angle = math.atan(self.car.wheelbase_m * PurePursuit.curvature(0.0, 0.0, 0.0, goal))
         return max(-1.0, min(1.0, -angle / self.car.max_steer_rad))  # left angle = negative command
 
 

@@ -74,8 +74,8 @@ class Line:
     def offset(self, left_m: float) -> Line:
         """The parallel line left_m [m] to the left (right if negative): the points moved square
         to the fit, and fitted again."""
-        x = self.points[:, 0]
-        normal = np.column_stack([-self.slope(x), np.ones_like(x)]) / np.sqrt(1 + self.slope(x) ** 2)[:, None]
+        slope = self.slope(self.points[:, 0])
+        normal = np.column_stack([-slope, np.ones_like(slope)]) / np.sqrt(1 + slope ** 2)[:, None]
         return _fit(self.points + left_m * normal, self.confidence)
 
 
@@ -149,7 +149,7 @@ class LaneDetector:
         yellow = found["yellow"]
         if yellow is None or yellow.confidence < MEASURE_CONFIDENCE:
             return
-        halves = [sign * across(found[name], yellow) for name, sign in (("left", 1), ("right", -1))
+        halves = [sign * _across(found[name], yellow) for name, sign in (("left", 1), ("right", -1))
                   if found[name] is not None and found[name].confidence >= MEASURE_CONFIDENCE]
         if not halves or min(halves) <= 0 or max(halves) - min(halves) > SYMMETRY * max(halves):
             return
@@ -167,18 +167,18 @@ class LaneDetector:
         if found["yellow"] is not None:
             for name, sign in (("left", 1), ("right", -1)):
                 if found[name] is not None and \
-                        abs(across(found[name], found["yellow"]) - sign * self.half_width_m) > tolerance:
+                        abs(_across(found[name], found["yellow"]) - sign * self.half_width_m) > tolerance:
                     found[name] = None
         elif found["left"] is not None and found["right"] is not None and \
-                abs(across(found["left"], found["right"]) - 2 * self.half_width_m) > tolerance:
+                abs(_across(found["left"], found["right"]) - 2 * self.half_width_m) > tolerance:
             weaker = "left" if found["left"].confidence < found["right"].confidence else "right"
             found[weaker] = None
 
     def _starts(self, white: np.ndarray, yellow: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray | None]]:
         """Where each line's walk starts and its direction there, in metres: for a line found in
-        the last frame, where and how it began there; for a line without one, at the nearest pixels of a peak of
-        its mask's column histogram over the near half (the yellow line's strongest, the white
-        edges' outermost either side of it), its direction not known (None)."""
+        the last frame, where and how it began there; for a line without one, at the nearest
+        pixels of a peak of its mask's column histogram over the near half (the yellow line's
+        strongest, the white edges' outermost either side of it), its direction not known (None)."""
         out = {}
         for name, line in self._last.items():
             if line is not None:  # half a step before its first point, along its first two
@@ -300,7 +300,7 @@ class LaneDetector:
         return Lanes(left, right, yellow, centre, source, near)
 
 
-def across(line: Line, of: Line) -> float:
+def _across(line: Line, of: Line) -> float:
     """[m] how far left of the line `of` the line `line` runs, square to `of`: by their fits,
     where `line` was seen nearest (further off, a pixel spans more floor, and an edge line's
     staircase of pixels merges with a wall's lit foot)."""
