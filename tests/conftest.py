@@ -1,5 +1,7 @@
 import os
 import shutil
+import socket
+import struct
 import subprocess
 import time
 from pathlib import Path
@@ -45,22 +47,48 @@ def _no_user_calibration(monkeypatch, tmp_path_factory):
     monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path_factory.mktemp("config")))
 
 
+def _x_server_answers(number, timeout_s=2.0):
+    """True when the X server on :number completes the X11 connection handshake, through the
+    socket a client tries first (Linux: the abstract one) or its file."""
+    hello = struct.pack("<cxHHHHxx", b"l", 11, 0, 0, 0)  # little-endian, protocol 11.0, no auth
+    for address in (f"\0/tmp/.X11-unix/X{number}", f"/tmp/.X11-unix/X{number}"):
+        try:
+            with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as client:
+                client.settimeout(timeout_s)
+                client.connect(address)
+                client.sendall(hello)
+                if client.recv(1) == b"\x01":  # 1 = Success
+                    return True
+        except OSError:
+            continue
+    return False
+
+
 @pytest.fixture(scope="session")
-def virtual_display():
+def virtual_display(tmp_path_factory):
     """A virtual screen for the session: Xvfb picks a free display itself (-displayfd) and says
-    which, so no two servers can race for one number; yields the DISPLAY value."""
+    which, so no two servers can race for one number; the fixture then completes an X11 handshake
+    with it before any test uses it (a server that announced itself and cannot be reached is
+    replaced, twice at most) and yields the DISPLAY value. The server's own output is kept in
+    xvfb.log under the session's temporary directory, for a failing test to show."""
     xvfb = shutil.which("Xvfb")
     if xvfb is None:
         pytest.skip("Xvfb not installed: apt-get install xvfb")
-    read, write = os.pipe()
-    server = subprocess.Popen([xvfb, "-displayfd", str(write), "-nolisten", "tcp", "-screen", "0", "1280x1024x24"],
-                              pass_fds=(write,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    os.close(write)
-    with os.fdopen(read) as announced:
-        number = announced.readline().strip()
-    if not number:
+    log_path = tmp_path_factory.mktemp("xvfb") / "xvfb.log"
+    for _attempt in range(3):
+        read, write = os.pipe()
+        with open(log_path, "ab") as log:
+            server = subprocess.Popen([xvfb, "-displayfd", str(write), "-nolisten", "tcp", "-screen", "0", "1280x1024x24"],
+                                      pass_fds=(write,), stdout=log, stderr=log)
+        os.close(write)
+        with os.fdopen(read) as announced:
+            number = announced.readline().strip()
+        if number and server.poll() is None and _x_server_answers(number):
+            break
         server.kill()
-        pytest.fail("Xvfb did not start")
+        server.wait(timeout=10)
+    else:
+        pytest.fail(f"Xvfb did not start or did not answer: {log_path.read_text(errors='replace')[-2000:]}")
     yield f":{number}"
     server.terminate()
     server.wait(timeout=10)
