@@ -151,6 +151,16 @@ class Racecar:
         """How many wall bodies (or bodies of `of`) the car touches right now."""
         return self.world.contacts(self.car, of)
 
+    def lidar_mount(self) -> tuple[float, float, float]:
+        """(x ahead [m], y left [m], yaw [rad]) of the lidar in the car's frame (its base's pose)."""
+        c = self.client
+        pos, orn = pb.getLinkState(self.car, LIDAR_LINK, physicsClientId=c)[:2]
+        base, base_orn = pb.getBasePositionAndOrientation(self.car, physicsClientId=c)
+        yaw = pb.getEulerFromQuaternion(base_orn)[2]
+        dx, dy = pos[0] - base[0], pos[1] - base[1]
+        return (math.cos(yaw) * dx + math.sin(yaw) * dy, -math.sin(yaw) * dx + math.cos(yaw) * dy,
+                math.remainder(pb.getEulerFromQuaternion(orn)[2] - yaw, math.tau))
+
     def lidar(self, beams: int = lidar.BEAMS, fov_rad: float = lidar.FOV_RAD, range_m: float = lidar.RANGE_M) -> np.ndarray:
         """A scan from the Hokuyo link: distances [m] from right to left; range_m where nothing is hit."""
         pos, orn = pb.getLinkState(self.car, LIDAR_LINK, physicsClientId=self.client)[:2]

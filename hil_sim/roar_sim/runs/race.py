@@ -40,6 +40,8 @@ from roar_sim import robots
 from roar_sim.clock.lockstep import CONTROL_PERIOD_S as PERIOD_S
 from roar_sim.plants.racecar import LANE_CAMERA
 from roar_sim.robots import Robot
+from roar_sim.runs.localize import PARTICLES as LOCALIZE_PARTICLES
+from roar_sim.runs.localize import Localize, LocalizationLog
 from roar_sim.runs.progress import laps_bar
 from roar_sim.sensors.tfmini import Tfmini
 from roar_sim.world import plotting
@@ -55,6 +57,7 @@ DRAG_TOP_SPEED_M_S = 4.0  # [m/s] the drag race's speed unless asked (the IARRC 
 TOP_SPEED_RANGE_M_S = (0.5, 4.5)  # [m/s] what a drag race may ask for
 STEERING = {"pursuit": "pure pursuit", "pid": "the heading PID"}  # a robot's laterals, in words
 STILL_M_S = 0.05  # [m/s] slower than this, a stopped car stands where it is
+MAX_PARTICLES = 100_000  # the filter's particles a race may ask for
 
 
 class LaneCourse:
@@ -137,6 +140,7 @@ class RaceResult:
     braking_periods: int = 0  # control periods the ESC spent braking or reversing the motor
     slowest_m_s: float = 0.0  # [m/s] signed: negative if the car ever rolled backwards
     green_at_s: float | None = None  # [s] when the start lights turned green (None: no start lights)
+    localization: LocalizationLog | None = None  # the particle filter against the truth, when it drove
     moved_at_s: float | None = None  # [s] when the car first asked for throttle
     green_frames: int = 0  # camera frames that showed green up to and including the one it moved on
     boxes: int = 0  # boxes on the track
@@ -207,7 +211,7 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
          lateral: str = "pursuit", start_lights: int | None = None, boxes: Sequence[tuple[float, float]] = (),
          avoid: bool = False, record: Path | None = None, k_dd_s: float | None = None,
          profile: str | None = None, renderer: str | None = None, shaky_camera: int | None = None,
-         green_span_s: tuple[float, float] = GREEN_AFTER_S) -> RaceResult:
+         green_span_s: tuple[float, float] = GREEN_AFTER_S, localize: Localize | None = None) -> RaceResult:
     """Race `robot` (a name of roar_sim.robots) round `track`, its commands as a host sends them.
     lateral: its steering ("pursuit", "pid" where it has it), or "lane": the ESC car driving by
     its camera alone, and with it start_lights (a seed: start lights turn green at a moment drawn
@@ -218,13 +222,18 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
     (roar_sim.plants.car_profile: a name or a .toml; None: the ROAR car). renderer: what draws the
     camera's frames ("egl", "tiny"; None: roar_sim.world.renderer.wanted()). shaky_camera: a seed:
     the lane driver's camera mount shakes and its sensor adds noise (roar_sim.sensors.camera_noise).
-    green_span_s: [s] the span the start lights' green moment is drawn from."""
+    green_span_s: [s] the span the start lights' green moment is drawn from. localize: the driver
+    drives on the particle filter's pose (roar_sim.runs.localize: odometry and lidar on the
+    track's map) instead of the simulator's; the simulator's pose then only scores."""
     kind = robots.get(robot)
     if lateral == "lane" and not kind.lane_driving:
         raise ValueError(f"the {kind.title} does not drive by its camera: lane driving is the ESC car's")
     if lateral not in (*kind.laterals, "lane"):
         raise ValueError(f"the {kind.title} steers by {' or '.join(STEERING[k] for k in kind.laterals)} only, "
                          f"not {lateral!r}")
+    if localize is not None and (lateral == "lane" or not kind.has_lidar):
+        raise ValueError(f"--localize drives by a lidar's pose on the map: the line driver of a car with a lidar "
+                         f"(the ESC or IARRC car), not the {'lane driver' if lateral == 'lane' else kind.title}")
     if (start_lights is not None or avoid or record or shaky_camera is not None) and lateral != "lane":
         raise ValueError("start lights, the TFmini, recording and a shaky camera are for the lane driver (the ESC car "
                          "driving by its camera)")
@@ -252,6 +261,9 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
                 result.green_frames += obs.t_s >= result.green_at_s
                 if command.throttle > 0:  # the race starts now: the first lap is timed from here
                     result.moved_at_s = lap["start"] = obs.t_s
+            if localized is not None:  # the race is scored on where the car truly is
+                truth = car.state()
+                obs = Observation(obs.t_s, truth.x, truth.y, truth.yaw, abs(truth.speed), truth.yaw_rate)
             hint, s_now, cte = track.project((obs.x, obs.y), lap["hint"])
             lap.update(hint=hint, s=s_now, travelled=lap["travelled"] + track.arc_delta(lap["s"], s_now))
             result.travelled_m = lap["travelled"]
@@ -272,6 +284,8 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
         bar = laps_bar(laps, f"racing {track.name}") if progress else None  # once the simulator is up
         car.arm()
         agent = course.agent(margin) if course else car.agent(line, margin, lateral, k_dd_s)
+        localized = localize.car(car) if localize is not None else None
+        result.localization = localized.log if localized is not None else None
         if course:
             planner = agent.planner
 
@@ -285,7 +299,7 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
                     result.stops[-1].until_s = obs.t_s
                 elif open_stop and abs(obs.speed) > STILL_M_S:  # still rolling to a stop: it stands further on
                     result.stops[-1].at_m = lap["s"]
-        Runner(car, agent, PERIOD_S).run(
+        Runner(localized or car, agent, PERIOD_S).run(
             until=lambda obs: len(result.lap_times_s) >= laps or obs.t_s >= timeout_s,
             on_step=on_lane_step if course else on_step)
         car.wait(PERIOD_S)
@@ -331,6 +345,8 @@ def report(result: RaceResult) -> str:
     lines.append(f"laps completed: {len(result.lap_times_s)}, total {sum(result.lap_times_s):.2f} s (simulated)")
     lines.append(f"cross-track error: max {result.max_cross_track_m:.3f} m, RMS {result.rms_cross_track_m:.3f} m")
     lines.append(f"wall contacts: {result.wall_contacts}")
+    if result.localization is not None:
+        lines.append(result.localization.summary())
     end_s = result.path[-1][4] if result.path else 0.0
     lines += [stop.line(end_s) for stop in result.stops]
     if result.boxes:
@@ -351,6 +367,8 @@ def plot(result: RaceResult):
     plotting.draw_track(ax, result.track)
     p = np.array(result.path)
     plotting.draw_path(fig, ax, p[:, 0], p[:, 1], p[:, 2])
+    if result.localization is not None:
+        result.localization.draw(ax)
     ax.legend(loc="upper right", fontsize=8)
     ax_v.plot(result.track.arc_start, result.limit_speeds, color="black", lw=1.5, label="physical limit")
     ax_v.scatter(p[:, 3], p[:, 2], c=p[:, 2], s=3, cmap="viridis", label="driven")
@@ -425,6 +443,16 @@ def parser() -> argparse.ArgumentParser:
                    help="what draws the lane driver's camera frames: tiny (PyBullet's TinyRenderer, the default) or "
                         "egl (OpenGL without a window: 2.7x faster at 640x480, 1.1x at 320x240 here; TinyRenderer "
                         "where it cannot start); also the environment's ROAR_RENDERER")
+    p.add_argument("--localize", action="store_true",
+                   help="drive on the particle filter's pose instead of the simulator's: the car's odometry (wheel "
+                        "encoders and gyro, with their errors) and its lidar's scans on the track's map "
+                        "(roar.localization); prints the filter's error beside the lap times, and --plot draws its "
+                        "particles and the estimated and true paths")
+    p.add_argument("--particles", type=int, default=None, metavar="N",
+                   help=f"with --localize: the filter's particles (default {LOCALIZE_PARTICLES})")
+    p.add_argument("--global-start", action="store_true",
+                   help="with --localize: the filter starts not knowing where the car is (particles over the whole "
+                        "map) instead of at the start pose")
     p.add_argument("--plot", type=path_option, metavar="PNG", help="write the path and speed plot to this PNG")
     p.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
@@ -470,6 +498,13 @@ def main(argv: list[str] | None = None) -> int:
         p.error("--boxes, --avoid and --record need --driver lane (the car drives by its camera and laser)")
     if not 0 <= args.boxes <= 20:
         p.error("--boxes must be 0..20")
+    if (args.particles is not None or args.global_start) and not args.localize:
+        p.error("--particles and --global-start set up the particle filter: they need --localize")
+    if args.particles is not None and not 1 <= args.particles <= MAX_PARTICLES:
+        p.error(f"--particles must be 1..{MAX_PARTICLES}")
+    if args.localize and (args.driver == "lane" or not kind.has_lidar):
+        p.error(f"--localize drives the line driver by its lidar on the map: not with --driver lane, and a robot "
+                f"with a lidar ({', '.join(n for n in robots.names() if robots.get(n).has_lidar)})")
     plotting.check_png_argument(p, args.plot)
     problem = args.record is not None and unusable_folder(args.record)
     if problem:
@@ -505,7 +540,9 @@ def main(argv: list[str] | None = None) -> int:
     result = race(track, args.laps, waypoints, args.margin, args.robot, args.realtime, args.gui, progress=True,
                   timeout_s=args.seconds, lateral="lane" if args.driver == "lane" else args.steering,
                   start_lights=args.start_lights, boxes=boxes, avoid=args.avoid, record=args.record, k_dd_s=args.k_dd,
-                  profile=args.car_profile, renderer=args.renderer, shaky_camera=args.shaky_camera)
+                  profile=args.car_profile, renderer=args.renderer, shaky_camera=args.shaky_camera,
+                  localize=Localize(track, args.particles or LOCALIZE_PARTICLES, global_start=args.global_start)
+                  if args.localize else None)
     print(report(result))
     if result.path and args.plot and not plotting.save(lambda: plot(result), args.plot):
         return ExitStatus.ERROR

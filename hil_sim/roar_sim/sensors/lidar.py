@@ -26,3 +26,23 @@ def scan(world, position, yaw: float, beams: int = BEAMS, fov_rad: float = FOV_R
     hits = world.ray_test(start.tolist(), end.tolist())
     reach = range_m - MIN_RANGE_M
     return np.array([MIN_RANGE_M + h[2] * reach if h[0] >= 0 else range_m for h in hits])
+
+
+NOISE_M = 0.015  # [m] standard deviation of a reading's noise (a UST-10LX: +-40 mm accuracy)
+
+
+class Lidar:
+    """The car's lidar as a real driver gives it: roar.localization.LaserScans of `beams` beams
+    over FOV_RAD, each reading with seeded noise (a reading that meets nothing is the range)."""
+
+    def __init__(self, plant, seed: int | None = None, beams: int = BEAMS, noise_m: float = NOISE_M) -> None:
+        self.plant, self.beams, self.noise_m = plant, beams, noise_m
+        self.rng = np.random.default_rng(seed)
+
+    def scan(self, t_s: float):
+        from roar.localization.scan import LaserScan
+
+        ranges = self.plant.lidar(self.beams)
+        hit = ranges < RANGE_M
+        ranges[hit] = np.clip(ranges[hit] + self.rng.normal(0.0, self.noise_m, int(hit.sum())), MIN_RANGE_M, RANGE_M)
+        return LaserScan.fan(ranges, FOV_RAD, t_s, MIN_RANGE_M, RANGE_M)

@@ -1,0 +1,248 @@
+"""A simulated car that knows only what a real one measures: its odometry (a wheel encoder and a
+gyro, roar_sim.sensors.odometry) and its lidar's scans (roar_sim.sensors.lidar.Lidar), fed to the
+particle filter (roar.localization) on the world's map. Its observe() is the filter's pose, so
+any agent drives on it; the simulator's own pose is kept only to score the filter.
+
+    car = LocalizedCar(robot, grid, seed=1)            # grid: the known map (roar.tracks.occupancy_map)
+    Runner(car, agent, PERIOD_S).run(...)
+    car.errors                                         # (t, position error [m], heading error [rad]) per period
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from roar.autopilot import Command, Observation
+from roar.localization import Odometry, ParticleFilter
+from roar.localization.local_grid import LocalGrid
+from roar.localization.particle_filter import CONVERGED_M
+from roar.tracks.occupancy_map import OccupancyMap, track_map
+from roar.tracks.track import Track
+from roar_sim.clock.lockstep import CONTROL_PERIOD_S
+from roar_sim.robots import Robot
+from roar_sim.sensors.lidar import Lidar
+from roar_sim.sensors.odometry import WheelOdometry
+
+SCAN_PERIOD_S = 0.04  # [s] the lidar's scans at 25 Hz (a UST-10LX gives 40 Hz)
+SCAN_BEAMS = 1080  # the lidar's beams (the filter uses `beams` of them)
+PARTICLES = 1000  # the filter's particles in a race (the benchmark measures 2,500)
+BEAMS = 60  # beams of each scan the filter weighs
+SCORED_ERROR_M = 0.3  # [m] a global start has converged once the error stays below this
+EXPLORE_SPEED_M_S = 1.5  # [m/s] the car creeps at most this fast (by its odometry) while the filter is not localized
+EXPLORE_SLOW_M = 3.0  # [m] free ahead below which it creeps slower, in proportion (a corner ahead)
+EXPLORE_GAIN = 0.03  # throttle added per m/s short of its speed, each control period (an integral: the ESC's
+# speed for a throttle depends on the car)
+EXPLORE_MAX_THROTTLE = 0.6
+EXPLORE_STEERING_GAIN = 1.5  # steering per radian towards the open way (+1 full right)
+EXPLORE_VIEW_RAD = math.radians(90)  # [rad] either side of ahead where it looks for the open way
+EXPLORE_REACH_M = 4.0  # [m] ranges beyond this count as this: the nearest open way, not the farthest
+EXPLORE_HALF_GAP_M = 0.35  # [m] half the gap the car needs: a direction is as open as its beams this far either side
+
+
+@dataclass
+class LocalizationLog:
+    """What the filter did in a run, against the simulator's truth (for scoring only)."""
+
+    times_s: list[float] = field(default_factory=list)
+    position_error_m: list[float] = field(default_factory=list)
+    heading_error_rad: list[float] = field(default_factory=list)
+    estimated: list[tuple[float, float, float]] = field(default_factory=list)
+    true: list[tuple[float, float, float]] = field(default_factory=list)
+    odometry: list[tuple[float, float, float]] = field(default_factory=list)
+    fit: list[float] = field(default_factory=list)  # share of the last scan's beams agreeing with the map
+    particles: np.ndarray | None = None  # (P, 3) at the end
+    count: int = 0  # the filter's particles
+    beams: int = 0  # beams a scan it weighed
+    global_start: bool = False
+    converged_at_s: float | None = None  # [s] when a global start first converged (spread below CONVERGED_M)
+    skipped_beams: int = 0  # beams no measurement (NaN, negative, below the minimum range)
+    restarts: int = 0  # global restarts after the filter found itself lost
+
+    def rms_position_m(self, after_s: float = 0.0) -> float:
+        e = np.array([e for t, e in zip(self.times_s, self.position_error_m) if t >= after_s])
+        return float(np.sqrt(np.mean(e ** 2))) if e.size else math.nan
+
+    def rms_heading_rad(self, after_s: float = 0.0) -> float:
+        e = np.array([e for t, e in zip(self.times_s, self.heading_error_rad) if t >= after_s])
+        return float(np.sqrt(np.mean(e ** 2))) if e.size else math.nan
+
+    def max_position_m(self, after_s: float = 0.0) -> float:
+        e = [e for t, e in zip(self.times_s, self.position_error_m) if t >= after_s]
+        return max(e) if e else math.nan
+
+    def first_within(self, error_m: float, after_s: float = 0.0) -> float | None:
+        """[s] the first time at or after after_s from which the position error stays below
+        error_m to the end of the run (None: it never does)."""
+        last_bad = None
+        for t, e in zip(self.times_s, self.position_error_m):
+            if t >= after_s and e >= error_m:
+                last_bad = t
+        later = [t for t in self.times_s if t >= after_s and (last_bad is None or t > last_bad)]
+        return later[0] if later else None
+
+
+    def summary(self) -> str:
+        """The filter's error in a line (or two), for the race's report."""
+        if not self.times_s:
+            return "localization: no estimate"
+        odo, true = np.array(self.odometry), np.array(self.true)
+        drift = float(np.hypot(*(odo[-1, :2] - true[-1, :2])))
+        after = 0.0
+        start = f"started at the start pose"
+        if self.global_start:
+            after = self.first_within(SCORED_ERROR_M) or math.inf
+            start = (f"global start, within {SCORED_ERROR_M:g} m from {after:.2f} s on" if math.isfinite(after) else
+                     f"global start, never within {SCORED_ERROR_M:g} m for good")
+        line = (f"localization ({self.count} particles x {self.beams} beams, lidar at {1 / SCAN_PERIOD_S:.0f} Hz, "
+                f"{start}): position error RMS {self.rms_position_m(after):.3f} m, max "
+                f"{self.max_position_m(after):.3f} m; heading RMS {math.degrees(self.rms_heading_rad(after)):.2f} deg; "
+                f"odometry alone ended {drift:.2f} m off")
+        if self.restarts:
+            line += f"; lost and restarted over the whole map {self.restarts} times"
+        if self.skipped_beams:
+            line += f"; {self.skipped_beams} beams skipped (no measurement)"
+        return line
+
+    def draw(self, ax) -> None:
+        """The true and estimated paths and the last particles on a track's axes."""
+        est, true = np.array(self.estimated), np.array(self.true)
+        ax.plot(true[:, 0], true[:, 1], color="black", lw=0.8, label="true path")
+        ax.plot(est[:, 0], est[:, 1], color="tab:red", lw=0.8, ls="--", label="filter's path")
+        if self.particles is not None and len(self.particles):
+            p = self.particles[:: max(1, len(self.particles) // 500)]
+            ax.scatter(p[:, 0], p[:, 1], s=2, color="tab:orange", label="particles (end)", zorder=5)
+
+
+@dataclass(frozen=True)
+class Localize:
+    """How a race localizes: the known map is the track's (roar.tracks.occupancy_map.track_map:
+    its walls only), the filter's particles and beams, a global start, the sensors' seed."""
+
+    track: Track
+    particles: int = PARTICLES
+    beams: int = BEAMS
+    global_start: bool = False
+    seed: int = 1
+
+    def car(self, robot: Robot) -> LocalizedCar:
+        return LocalizedCar(robot, track_map(self.track), self.seed, self.particles, self.beams,
+                            start=None if self.global_start else "true")
+
+
+class LocalizedCar:
+    """The robot as the Runner drives it, its pose the filter's. start: the pose the filter
+    starts round (None: a global start, anywhere in the free space). local_grid: a grid each
+    scan is added to, from the lidar's pose by the filter (what the map lacks, round the car)."""
+
+    def __init__(self, robot: Robot, grid: OccupancyMap, seed: int | None = None, particles: int = PARTICLES,
+                 beams: int = BEAMS, start: tuple[float, float, float] | None | str = "true",
+                 local_grid: LocalGrid | None = None) -> None:
+        self.robot = robot
+        self.sensors = WheelOdometry(robot.plant, seed)
+        self.lidar = Lidar(robot.plant, None if seed is None else seed + 1, SCAN_BEAMS)
+        s = robot.state()
+        self.odometry = Odometry((s.x, s.y, s.yaw))
+        self.filter = ParticleFilter(grid, particles, beams, sensor=robot.plant.lidar_mount(), seed=seed)
+        if start is None:
+            self.filter.start_global()
+        else:
+            self.filter.start_at((s.x, s.y, s.yaw) if start == "true" else start)
+        self.local_grid = local_grid
+        self.log = LocalizationLog(count=particles, beams=beams, global_start=start is None)
+        self.exploring = start is None  # creeping along the open way until the filter is localized
+        self._next_scan_s = 0.0
+        self._last: tuple[float, float] | None = None  # (t [s], travelled [m])
+        self.scan = None  # the last scan
+        self._speed = 0.0  # [m/s] by the odometry
+        self._throttle = 0.0  # while exploring
+
+    @property
+    def time_s(self) -> float:
+        return self.robot.time_s
+
+    def observe(self) -> Observation:
+        t = self.robot.time_s
+        travelled, rate = self.sensors.read(t)
+        odo = self.odometry.update(t, travelled, rate)
+        self.filter.predict(odo)
+        if t + 1e-9 >= self._next_scan_s:
+            self.scan = self.lidar.scan(t)
+            self.filter.correct(self.scan)
+            if self.local_grid is not None:
+                self.local_grid.update(self.scan, self.lidar_pose())
+            self._next_scan_s = t + SCAN_PERIOD_S
+        speed = 0.0 if self._last is None or t <= self._last[0] else (travelled - self._last[1]) / (t - self._last[0])
+        self._last, self._speed = (t, travelled), abs(speed)
+        x, y, yaw = self.filter.pose
+        truth = self.robot.state()
+        log = self.log
+        log.times_s.append(t)
+        log.position_error_m.append(math.hypot(x - truth.x, y - truth.y))
+        log.heading_error_rad.append(abs(math.remainder(yaw - truth.yaw, math.tau)))
+        log.estimated.append((x, y, yaw))
+        log.true.append((truth.x, truth.y, truth.yaw))
+        log.odometry.append(odo)
+        log.fit.append(self.filter.fit)
+        log.particles = self.filter.poses
+        log.skipped_beams = self.filter.skipped_beams
+        self.exploring = not self.filter.localized
+        if self.filter.localized and log.converged_at_s is None:
+            log.converged_at_s = t
+        log.restarts = self.filter.restarts
+        return Observation(t, x, y, yaw, abs(speed), rate)
+
+    def lidar_pose(self) -> tuple[float, float, float]:
+        """Where the filter puts the lidar: its pose moved by the lidar's mounting."""
+        x, y, yaw = self.filter.pose
+        mx, my, myaw = self.filter.sensor
+        c, s = math.cos(yaw), math.sin(yaw)
+        return x + c * mx - s * my, y + s * mx + c * my, yaw + myaw
+
+    def send(self, command: Command) -> None:
+        """The driver's command; while the filter is not localized (a global start, or lost), the
+        car instead creeps towards the most open direction ahead (its pose means nothing yet)."""
+        if self.exploring and self.scan is not None:
+            command = self._explore(self.scan)
+        else:
+            self._throttle = 0.0
+        self.robot.send(command)
+
+    def _explore(self, scan) -> Command:
+        """Follow the gap: steer towards the most open direction ahead, where a direction is as
+        open as the nearest reading within a car's gap of it, and creep slower as the way
+        ahead closes."""
+        from scipy import ndimage
+
+        ranges = np.where(scan.usable(), np.minimum(scan.ranges, EXPLORE_REACH_M), 0.0)
+        step = float(np.median(np.abs(np.diff(scan.angles)))) if len(scan.angles) > 1 else 1.0
+        half = max(1, int(math.atan2(EXPLORE_HALF_GAP_M, 2.0) / max(step, 1e-6)))  # [beams] at 2 m
+        openness = ndimage.minimum_filter1d(ranges, 2 * half + 1, mode="nearest")
+        ahead = np.abs(scan.angles) <= EXPLORE_VIEW_RAD
+        score = np.where(ahead, openness - 0.5 * np.abs(scan.angles), -np.inf)  # the nearer ahead of two equals
+        best = int(np.argmax(score))
+        front = float(openness[np.argmin(np.abs(scan.angles))])
+        speed = EXPLORE_SPEED_M_S * min(1.0, max(0.3, front / EXPLORE_SLOW_M))
+        self._throttle = float(np.clip(self._throttle + EXPLORE_GAIN * (speed - self._speed), 0.0,
+                                       EXPLORE_MAX_THROTTLE))
+        return Command(self._throttle, float(np.clip(-EXPLORE_STEERING_GAIN * scan.angles[best], -1.0, 1.0)))
+
+    def wait(self, seconds: float) -> None:
+        self.robot.wait(seconds)
+
+
+def kidnap(robot: Robot, pose: tuple[float, float, float]) -> None:
+    """Carry the car to `pose` (x, y, yaw) in the simulator, at rest, without telling anyone."""
+    from roar_sim.world.bullet import pb
+
+    c = robot.plant.client
+    x, y, yaw = pose
+    z = pb.getBasePositionAndOrientation(robot.plant.car, physicsClientId=c)[0][2]
+    pb.resetBasePositionAndOrientation(robot.plant.car, [x, y, z], pb.getQuaternionFromEuler([0, 0, yaw]),
+                                       physicsClientId=c)
+    pb.resetBaseVelocity(robot.plant.car, [0, 0, 0], [0, 0, 0], physicsClientId=c)
+
+
+PERIOD_S = CONTROL_PERIOD_S

@@ -1,0 +1,324 @@
+"""Monte Carlo localization on a known occupancy map (AMCL's way): particles moved by odometry
+with noise, weighted by how well a subset of each scan's beams fits the map (ray casting and the
+beam model's table), resampled with low variance once the weights have grown uneven (the
+effective number of particles below half of them); the pose is their weighted mean (a circular
+mean for the heading) with a covariance.
+
+    pf = ParticleFilter(grid, particles=2500, beams=60, sensor=(0.265, 0.0, 0.0), seed=1)
+    pf.start_at((x, y, yaw))        # or pf.start_global(): particles over all the free space
+    pf.predict(odometry_pose)       # each control period: the odometry's pose (it drifts)
+    pf.correct(scan)                # each scan (roar.localization.LaserScan)
+    pf.pose, pf.covariance, pf.spread_m
+
+Lost and found: after each scan the filter checks how many of its beams agree with the map
+seen from the estimate (pf.fit: the share within FIT_TOLERANCE_M of the cast range). It is
+localized once the particles have converged and the fit has held above FIT_GOOD while the car
+drove LOCALIZED_M; a filter that was localized, or whose particles have converged, and
+whose fit stays below FIT_LOST for LOST_SCANS scans -- the car was carried off, or a global
+start converged on the wrong place -- is lost, and starts again over the whole free space
+(pf.restarts counts it). Things the map lacks (people, cones)
+cut a few beams short: they lower the fit, not below FIT_LOST.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from roar.checks import number
+from roar.errors import RoarError
+from roar.localization.beam_model import BeamModel
+from roar.localization.odometry import Pose, checked_pose, relative
+from roar.localization.raycast import RayMarcher, _kernels
+from roar.localization.scan import LaserScan
+from roar.tracks.occupancy_map import OccupancyMap
+
+MAX_PARTICLES = 1_000_000
+MAX_BEAMS = 2_000
+GLOBAL_FACTOR = 20  # a global start draws this many times the particles, down to the usual count once localized
+CONVERGED_M = 0.3  # [m] the particles' spread (position's standard deviation) below which the filter has converged
+MIN_MOVE_M, MIN_TURN_RAD = 0.01, math.radians(0.5)  # once localized, a scan corrects only after the car moved
+# this much (AMCL's rule: the same scan from the same place, weighed again and again, would make it overconfident)
+FIT_TOLERANCE_M = 0.15  # [m] a beam agrees with the map when it reads within this of the range cast from the estimate
+FIT_GOOD, LOCALIZED_M = 0.8, 5.0  # share of beams agreeing, held while the car drives this far [m]: localized
+# (a corridor or a straight looks like another for a few metres: only a bend tells them apart)
+FIT_LOST, LOST_SCANS = 0.6, 8  # below this share for this many scans: lost
+SEARCH_SIGMA = 4.0  # until localized, the beam model's hit is this many times wider: a particle 10 cm and 3 degrees
+# from the true pose must outlive one that fits a look-alike place exactly, until the car drives past where they differ
+SEARCH_RESAMPLE_BELOW = 0.02  # the same while not localized: resampling often, the few particles at the true pose
+# are lost to chance among the many at look-alike places (the far end of a corridor seen the other way round)
+NEAR_WALL_M = 3.0  # [m] a global start places particles by the scan's nearest reading when it is this near
+NEAR_TOLERANCE_M = 0.1  # [m] (+ 5 % of the range) between that reading and a cell's distance to its nearest wall
+NEAR_HEADING_RAD = math.radians(4)  # [rad] spread of the headings drawn from it
+SCAN_PLACED = 0.8  # share of a global start's particles placed by the scan (the rest anywhere: the nearest wall
+# may be behind the lidar, where it does not see)
+RESAMPLE_BELOW = 0.5  # resample when the effective number of particles falls below this share of them: until
+# then the weights carry over from scan to scan and the odometry's noise spreads the particles out
+
+
+class LocalizationError(RoarError, ValueError):
+    """A filter that cannot be set up as asked; str() says why in one line."""
+
+
+@dataclass(frozen=True)
+class MotionNoise:
+    """The odometry's error per update, as standard deviations that grow with the motion."""
+
+    along_per_m: float = 0.25  # [m/m] ahead, per metre driven (slip, the wheel's radius)
+    across_per_m: float = 0.05  # [m/m] sideways, per metre driven
+    turn_per_rad: float = 0.1  # [rad/rad] of heading, per radian turned (the gyro's scale)
+    turn_per_m: float = 0.05  # [rad/m] of heading, per metre driven (the gyro's bias)
+    floor_m: float = 0.002  # [m] whatever the motion: keeps the particles from collapsing onto one
+    floor_rad: float = 0.002  # [rad]
+
+
+def _compose(poses: np.ndarray, dx, dy, dyaw) -> np.ndarray:
+    """Poses (P, 3) moved by (dx ahead, dy left, dyaw) in each one's own frame (scalars or (P,))."""
+    c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+    out = np.empty_like(poses)
+    out[:, 0] = poses[:, 0] + c * dx - s * dy
+    out[:, 1] = poses[:, 1] + s * dx + c * dy
+    out[:, 2] = np.remainder(poses[:, 2] + dyaw + math.pi, math.tau) - math.pi
+    return out
+
+
+def low_variance_resample(weights: np.ndarray, count: int, rng: np.random.Generator) -> np.ndarray:
+    """Indices of `count` particles drawn in proportion to `weights` (summing to 1) with one
+    random number: evenly spaced pointers into the cumulative weights (Probabilistic Robotics'
+    low-variance sampler). A particle of weight w is drawn floor(w count) or ceil(w count) times."""
+    pointers = (rng.uniform(0.0, 1.0 / count) + np.arange(count) / count)
+    cumulative = np.cumsum(weights)
+    cumulative[-1] = 1.0  # no pointer falls past the end through rounding
+    return np.searchsorted(cumulative, pointers, side="right").clip(0, len(weights) - 1)
+
+
+class ParticleFilter:
+    def __init__(self, grid: OccupancyMap, particles: int = 2500, beams: int = 60, max_range_m: float = 10.0,
+                 sensor: Pose = (0.0, 0.0, 0.0), model: BeamModel = BeamModel(), noise: MotionNoise = MotionNoise(),
+                 seed: int | None = None, recovery: bool = True) -> None:
+        if not isinstance(grid, OccupancyMap):
+            raise LocalizationError(f"a particle filter needs an OccupancyMap (roar.tracks.load_map), got "
+                                    f"{type(grid).__name__}")
+        for name, value, high in (("particles", particles, MAX_PARTICLES), ("beams", beams, MAX_BEAMS)):
+            if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= high:
+                raise LocalizationError(f"{name} must be a whole number 1..{high:,}, got {value!r}")
+        try:
+            self.max_range_m = number("max_range_m", max_range_m, 10 * grid.resolution_m, 100.0, "m")
+            self.sensor = checked_pose("sensor", sensor)
+        except ValueError as e:
+            raise LocalizationError(str(e)) from None
+        self.grid, self.count, self.beams, self.model, self.noise = grid, particles, beams, model, noise
+        self.recovery = recovery
+        self.rng = np.random.default_rng(seed)
+        self.caster = RayMarcher(grid, self.max_range_m)
+        self.max_cells = int(round(self.caster.max_cells))
+        self.log_table = model.log_table(self.max_cells, grid.resolution_m)
+        searching = BeamModel(model.z_hit, model.z_short, model.z_max, model.z_rand, model.sigma_hit_m * SEARCH_SIGMA)
+        self.search_table = searching.log_table(self.max_cells, grid.resolution_m)
+        self._weigh = _kernels()["march_log_weights"]
+        free = np.argwhere(self.caster.frame.free)  # (ix, iy) of every free cell
+        if len(free) == 0:
+            raise LocalizationError("the map has no free cells to put particles in")
+        self._free = free
+        from scipy import ndimage
+
+        occupied = self.caster.frame.occupied
+        self._wall_dist, self._wall_at = ndimage.distance_transform_edt(~occupied, return_indices=True) \
+            if occupied.any() else (np.full(occupied.shape, np.inf), np.zeros((2, *occupied.shape), int))
+        self._place_by_scan = False
+        self.poses = np.zeros((0, 3))
+        self.weights = np.zeros(0)
+        self._odometry: Pose | None = None
+        self._moved_m = self._turned_rad = math.inf  # since the last correction: the first scan always corrects
+        self._estimate: Pose = (0.0, 0.0, 0.0)  # at the last correction
+        self._since: Pose = (0.0, 0.0, 0.0)  # the odometry's motion since then
+        self._covariance = np.full((3, 3), np.nan)
+        self.fit = math.nan  # share of the last scan's beams agreeing with the map from the estimate
+        self.localized = False
+        self._good = self._bad = 0  # scans in a row with a good fit, a bad one
+        self.restarts = 0  # global restarts after the filter was lost
+        self.corrections = self.skipped_scans = self.skipped_beams = 0
+
+    # --- where the particles start ---------------------------------------------------------------
+
+    def start_at(self, pose: Pose, spread: tuple[float, float, float] = (0.2, 0.2, 0.1)) -> None:
+        """Particles round a known pose: normal with standard deviations spread (x [m], y [m], yaw [rad])."""
+        x, y, yaw = checked_pose("start pose", pose)
+        n = self.count
+        self.poses = np.column_stack([self.rng.normal(x, spread[0], n), self.rng.normal(y, spread[1], n),
+                                      self.rng.normal(yaw, spread[2], n)])
+        self._reset((x, y, yaw))  # started where it is: localized
+
+    def start_global(self) -> None:
+        """Particles over the whole free space: the filter does not know where it is. The next
+        scan places them (see _fresh_from_scan): most where the map's nearest wall is as far as
+        the scan's nearest reading, facing so that it lies where the scan saw it; the rest anywhere."""
+        self.poses = self._fresh(self.count * GLOBAL_FACTOR)
+        self._reset(None)
+        self._place_by_scan = True
+
+    def _reset(self, estimate: Pose | None) -> None:
+        self.weights = np.full(len(self.poses), 1.0 / len(self.poses))
+        self._since = (0.0, 0.0, 0.0)
+        self._moved_m = self._turned_rad = math.inf
+        self.localized, self._good, self._bad = estimate is not None, 0, 0
+        self._was_localized = self.localized
+        self._update_estimate()
+
+    def _fresh_from_scan(self, n: int, angles: np.ndarray, ranges: np.ndarray) -> np.ndarray:
+        """n poses that agree with the scan's nearest reading (a sensor-based proposal, as Mixture
+        MCL draws them): SCAN_PLACED of them at free cells whose distance to the map's nearest
+        wall is that reading's range, each turned so that the wall lies at that beam's angle;
+        the others anywhere. Without a near reading, all anywhere."""
+        hits = ranges < NEAR_WALL_M
+        if not hits.any():
+            return self._fresh(n)
+        b = int(np.argmin(np.where(hits, ranges, np.inf)))
+        r, a = float(ranges[b]), float(angles[b])  # a: in the car's frame (the sensor's yaw added)
+        dist_m = self._wall_dist[self._free[:, 0], self._free[:, 1]] * self.grid.resolution_m
+        tolerance = NEAR_TOLERANCE_M + 0.05 * r
+        near = np.flatnonzero(np.abs(dist_m - r) <= tolerance)
+        placed = int(SCAN_PLACED * n) if len(near) else 0
+        cells = self._free[near[self.rng.integers(0, len(near), placed)]] if placed else np.zeros((0, 2), int)
+        to_wall = self._wall_at[:, cells[:, 0], cells[:, 1]].T - cells  # [cells] towards the nearest wall
+        wall_bearing = np.arctan2(to_wall[:, 1], to_wall[:, 0]) + self.caster.frame.grid.origin[2]
+        sensor_xy = self.caster.frame.world_points(*(cells + self.rng.uniform(-0.5, 0.5, cells.shape)).T)
+        heading = wall_bearing - a + self.rng.normal(0.0, NEAR_HEADING_RAD, placed)
+        c, s = np.cos(heading), np.sin(heading)
+        mx, my = self.sensor[0], self.sensor[1]  # the car's base behind its sensor
+        base = np.column_stack([sensor_xy[:, 0] - c * mx + s * my, sensor_xy[:, 1] - s * mx - c * my, heading])
+        return np.concatenate([base, self._fresh(n - placed)])
+
+    def _fresh(self, n: int) -> np.ndarray:
+        """n poses drawn evenly over the free cells, any heading."""
+        cells = self._free[self.rng.integers(0, len(self._free), n)] + self.rng.uniform(-0.5, 0.5, (n, 2))
+        xy = self.caster.frame.world_points(cells[:, 0], cells[:, 1])
+        return np.column_stack([xy, self.rng.uniform(-math.pi, math.pi, n)])
+
+    # --- odometry ------------------------------------------------------------------------------
+
+    def predict(self, odometry: Pose) -> None:
+        """Move every particle as the odometry's pose moved since the last call, with noise."""
+        odometry = tuple(float(v) for v in odometry)
+        if not all(math.isfinite(v) for v in odometry):
+            return
+        if self._odometry is None:
+            self._odometry = odometry
+            return
+        dx, dy, dyaw = relative(self._odometry, odometry)
+        self._odometry = odometry
+        if not len(self.poses):
+            return
+        dist = math.hypot(dx, dy)
+        n, nz = len(self.poses), self.noise
+        self.poses = _compose(self.poses,
+                              dx + self.rng.normal(0.0, nz.along_per_m * dist + nz.floor_m, n),
+                              dy + self.rng.normal(0.0, nz.across_per_m * dist + nz.floor_m, n),
+                              dyaw + self.rng.normal(0.0, nz.turn_per_rad * abs(dyaw) + nz.turn_per_m * dist
+                                                     + nz.floor_rad, n))
+        self._since = tuple(_compose(np.array([self._since]), dx, dy, dyaw)[0])
+        self._moved_m += dist
+        self._turned_rad += abs(dyaw)
+
+    # --- the scan ------------------------------------------------------------------------------
+
+    def correct(self, scan: LaserScan) -> bool:
+        """Weigh the particles by the scan and resample; False when the scan was not used (the
+        car has not moved since the last one, or it has no usable beam)."""
+        if not len(self.poses):
+            raise LocalizationError("the filter has no particles: call start_at(pose) or start_global() first")
+        if self.localized and self._moved_m < MIN_MOVE_M and self._turned_rad < MIN_TURN_RAD:
+            return False  # (a filter still searching weighs every scan)
+        subset = scan.every(self.beams)
+        usable = subset.usable()
+        self.skipped_beams += int(np.count_nonzero(~usable))
+        if not usable.any():
+            self.skipped_scans += 1
+            return False
+        angles = np.ascontiguousarray(subset.angles[usable] + self.sensor[2])
+        ranges = np.minimum(subset.ranges[usable], self.max_range_m)
+        if self._place_by_scan:
+            self._place_by_scan = False
+            full = scan.usable()
+            self.poses = self._fresh_from_scan(len(self.poses), scan.angles[full] + self.sensor[2],
+                                               np.minimum(scan.ranges[full], scan.range_max_m))
+            self.weights = np.full(len(self.poses), 1.0 / len(self.poses))
+        measured = np.minimum(np.round(ranges / self.grid.resolution_m), self.max_cells).astype(np.int64)
+        measured[subset.ranges[usable] >= min(scan.range_max_m, self.max_range_m)] = self.max_cells
+        sensors = _compose(self.poses, self.sensor[0], self.sensor[1], 0.0)
+        xs, ys, hs = self.caster.frame.cell_poses(sensors)
+        log_l = np.empty(len(self.poses))
+        table = self.log_table if self.localized else self.search_table
+        self._weigh(self.caster.dist, xs, ys, hs, angles, self.caster.max_cells, measured, table, log_l)
+        log_w = np.log(np.maximum(self.weights, 1e-300)) + log_l
+        log_w -= log_w.max()
+        w = np.exp(log_w)
+        self.weights = w / w.sum()
+        self._update_estimate()
+        self._judge(angles, ranges, measured == self.max_cells, min(self._moved_m, 1.0))
+        self.corrections += 1
+        self._moved_m = self._turned_rad = 0.0
+        if self.recovery and self._bad >= LOST_SCANS and (self._was_localized or self.converged):
+            self.restarts += 1
+            self.start_global()
+            return True
+        effective = 1.0 / float(np.sum(self.weights ** 2))
+        below = RESAMPLE_BELOW if self.localized else SEARCH_RESAMPLE_BELOW
+        if effective < below * len(self.weights) or (len(self.poses) > self.count and self.localized):
+            self._resample()
+        return True
+
+    def _judge(self, angles: np.ndarray, ranges: np.ndarray, at_max: np.ndarray, moved_m: float) -> None:
+        """The fit of the scan from the estimate, and from it whether the filter is localized or lost."""
+        sensor = _compose(np.array([self._estimate]), self.sensor[0], self.sensor[1], 0.0)
+        expected = self.caster.cast(sensor, angles)[0]
+        agree = np.where(at_max, expected >= self.max_range_m - FIT_TOLERANCE_M,
+                         np.abs(expected - ranges) <= FIT_TOLERANCE_M)
+        self.fit = float(np.mean(agree))
+        self._good = self._good + moved_m if self.fit >= FIT_GOOD and self.converged else 0.0
+        self._bad = self._bad + 1 if self.fit < FIT_LOST else 0
+        if self._good >= LOCALIZED_M:
+            self.localized = self._was_localized = True
+        elif self._bad >= LOST_SCANS:
+            self.localized = False
+
+    def _resample(self) -> None:
+        n = self.count
+        if len(self.poses) > n and not self.localized:
+            n = len(self.poses)  # a global start keeps its many particles until it is localized: a place that looks
+            # like the right one for a few metres must not take every particle there
+        self.poses = self.poses[low_variance_resample(self.weights, n, self.rng)]
+        self.weights = np.full(n, 1.0 / n)
+
+    # --- the estimate --------------------------------------------------------------------------
+
+    def _update_estimate(self) -> None:
+        w, p = self.weights, self.poses
+        x, y = float(w @ p[:, 0]), float(w @ p[:, 1])
+        yaw = math.atan2(float(w @ np.sin(p[:, 2])), float(w @ np.cos(p[:, 2])))
+        d = np.column_stack([p[:, 0] - x, p[:, 1] - y, np.remainder(p[:, 2] - yaw + math.pi, math.tau) - math.pi])
+        self._covariance = (d * w[:, None]).T @ d
+        self._estimate, self._since = (x, y, yaw), (0.0, 0.0, 0.0)
+
+    @property
+    def pose(self) -> Pose:
+        """(x [m], y [m], yaw [rad]): the weighted mean at the last scan, moved on since by the
+        odometry (so it is smooth between scans, and may jump at one)."""
+        moved = _compose(np.array([self._estimate]), *self._since)[0]
+        return float(moved[0]), float(moved[1]), float(moved[2])
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """(3, 3) of x [m], y [m], yaw [rad] over the particles at the last scan."""
+        return self._covariance.copy()
+
+    @property
+    def spread_m(self) -> float:
+        """[m] the particles' position standard deviation (the root of the covariance's trace in x, y)."""
+        return math.sqrt(max(0.0, self._covariance[0, 0] + self._covariance[1, 1]))
+
+    @property
+    def converged(self) -> bool:
+        return self.spread_m < CONVERGED_M
