@@ -109,3 +109,19 @@ def test_a_map_that_is_not_a_map_fails_in_one_line(tmp_path):
     result = subprocess.run([sys.executable, "-m", "roar.cli", "race", "--localize", "--track", "bad.yaml"],
                             capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert result.returncode == 1 and "not an image" in result.stderr and "Traceback" not in result.stderr
+
+
+def test_the_localize_example_knows_where_the_car_is_as_it_would_on_a_car():
+    """examples/localize.py on sim://tunnel:5: the library's Vehicle, the map's files, scans and
+    odometry from what the car reports -- and its promise, the filter's error, within 0.1 m."""
+    from conftest import ROOT
+
+    result = subprocess.run([sys.executable, str(ROOT / "examples" / "localize.py")], capture_output=True, text=True,
+                            timeout=120, cwd=ROOT)
+    assert result.returncode == 0, result.stderr[-2000:]
+    poses = [line for line in result.stdout.splitlines() if line.startswith("t ")]
+    assert len(poses) >= 6  # twice a second for 4 s
+    ys = [float(line.split("y")[1].split("m")[0]) for line in poses]
+    assert ys[-1] - ys[0] > 0.5  # it followed the car as it crept along the corridor
+    error = float(result.stdout.split("the filter's error: ")[1].split(" m")[0])
+    assert error < 0.1

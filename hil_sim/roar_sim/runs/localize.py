@@ -18,7 +18,6 @@ import numpy as np
 from roar.autopilot import Command, Observation
 from roar.localization import Odometry, ParticleFilter
 from roar.localization.local_grid import LocalGrid
-from roar.localization.particle_filter import CONVERGED_M
 from roar.tracks.occupancy_map import OccupancyMap, track_map
 from roar.tracks.track import Track
 from roar_sim.clock.lockstep import CONTROL_PERIOD_S
@@ -91,7 +90,7 @@ class LocalizationLog:
         odo, true = np.array(self.odometry), np.array(self.true)
         drift = float(np.hypot(*(odo[-1, :2] - true[-1, :2])))
         after = 0.0
-        start = f"started at the start pose"
+        start = "started at the start pose"
         if self.global_start:
             after = self.first_within(SCORED_ERROR_M) or math.inf
             start = (f"global start, within {SCORED_ERROR_M:g} m from {after:.2f} s on" if math.isfinite(after) else
@@ -245,4 +244,42 @@ def kidnap(robot: Robot, pose: tuple[float, float, float]) -> None:
     pb.resetBaseVelocity(robot.plant.car, [0, 0, 0], [0, 0, 0], physicsClientId=c)
 
 
-PERIOD_S = CONTROL_PERIOD_S
+
+
+@dataclass
+class KidnapRun:
+    log: LocalizationLog
+    at_s: float  # [s] when the car was carried off
+    ahead_m: float  # [m] how far along the track
+    wall_contacts: int = 0  # control periods touching a wall
+    done: bool = False  # carried off yet
+
+    def relocalized_after_s(self, within_m: float = SCORED_ERROR_M) -> float | None:
+        """[s] after the kidnap until the error stays below within_m (None: it never does)."""
+        t = self.log.first_within(within_m, self.at_s)
+        return None if t is None else t - self.at_s
+
+
+def kidnap_run(track: Track, at_s: float = 6.0, ahead_m: float = 5.0, seconds: float = 20.0, seed: int = 1,
+               particles: int = PARTICLES, robot: str = "esc") -> KidnapRun:
+    """The robot laps `track` on the filter's pose; at at_s it is carried ahead_m further along
+    the centre line (on it, facing along it, at rest) without a word to the filter."""
+    from roar.autopilot import Runner
+    from roar_sim import robots
+
+    with robots.get(robot)(track) as bot:
+        bot.arm()
+        car = Localize(track, particles, seed=seed).car(bot)
+        run = KidnapRun(car.log, at_s, ahead_m)
+
+        def on_step(obs: Observation, command: Command) -> None:
+            run.wall_contacts += bot.touching_wall()
+            if obs.t_s >= at_s and not run.done:
+                s = bot.state()
+                _, along, _ = track.project((s.x, s.y))
+                kidnap(bot, track.pose_at(along + ahead_m))
+                run.done = True
+
+        Runner(car, bot.agent(track.centerline, 0.9), CONTROL_PERIOD_S).run(until=lambda obs: obs.t_s >= seconds,
+                                                                            on_step=on_step)
+    return run

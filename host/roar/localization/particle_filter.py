@@ -31,7 +31,7 @@ from roar.checks import number
 from roar.errors import RoarError
 from roar.localization.beam_model import BeamModel
 from roar.localization.odometry import Pose, checked_pose, relative
-from roar.localization.raycast import RayMarcher, _kernels
+from roar.localization.raycast import BresenhamCaster, RayMarcher, _kernels
 from roar.localization.scan import LaserScan
 from roar.tracks.occupancy_map import OccupancyMap
 
@@ -97,7 +97,7 @@ def low_variance_resample(weights: np.ndarray, count: int, rng: np.random.Genera
 class ParticleFilter:
     def __init__(self, grid: OccupancyMap, particles: int = 2500, beams: int = 60, max_range_m: float = 10.0,
                  sensor: Pose = (0.0, 0.0, 0.0), model: BeamModel = BeamModel(), noise: MotionNoise = MotionNoise(),
-                 seed: int | None = None, recovery: bool = True) -> None:
+                 seed: int | None = None, recovery: bool = True, caster: str = "march") -> None:
         if not isinstance(grid, OccupancyMap):
             raise LocalizationError(f"a particle filter needs an OccupancyMap (roar.tracks.load_map), got "
                                     f"{type(grid).__name__}")
@@ -112,7 +112,10 @@ class ParticleFilter:
         self.grid, self.count, self.beams, self.model, self.noise = grid, particles, beams, model, noise
         self.recovery = recovery
         self.rng = np.random.default_rng(seed)
+        if caster not in ("march", "bresenham"):
+            raise LocalizationError(f"caster must be march or bresenham, got {caster!r}")
         self.caster = RayMarcher(grid, self.max_range_m)
+        self._walker = BresenhamCaster(grid, self.max_range_m) if caster == "bresenham" else None
         self.max_cells = int(round(self.caster.max_cells))
         self.log_table = model.log_table(self.max_cells, grid.resolution_m)
         searching = BeamModel(model.z_hit, model.z_short, model.z_max, model.z_rand, model.sigma_hit_m * SEARCH_SIGMA)
@@ -251,7 +254,11 @@ class ParticleFilter:
         xs, ys, hs = self.caster.frame.cell_poses(sensors)
         log_l = np.empty(len(self.poses))
         table = self.log_table if self.localized else self.search_table
-        self._weigh(self.caster.dist, xs, ys, hs, angles, self.caster.max_cells, measured, table, log_l)
+        if self._walker is None:
+            self._weigh(self.caster.dist, xs, ys, hs, angles, self.caster.max_cells, measured, table, log_l)
+        else:  # the benchmark's plain reference: every ray walked cell by cell, then the table
+            expected = np.minimum(self._walker.cast_cells(sensors, angles) + 0.5, self.max_cells).astype(np.int64)
+            log_l = table[measured[None, :], expected].sum(axis=1)
         log_w = np.log(np.maximum(self.weights, 1e-300)) + log_l
         log_w -= log_w.max()
         w = np.exp(log_w)
