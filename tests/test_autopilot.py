@@ -261,3 +261,11 @@ def test_heading_pid_steers_towards_the_goal_and_clamps():
     h.reset()
     behind_left = Observation(0.0, 0.0, 0.0, math.radians(179), 1.0)
     assert h.steering_angle(behind_left, (-1.0, -0.1), 0.02) > 0  # error wraps across +-pi, not a full turn
+
+
+def test_follower_goes_on_from_the_nearest_waypoint_when_the_pose_jumps():
+    """A localization's correction or a car carried off: the next waypoint is suddenly far away."""
+    f = LoopWaypointFollower(circle(2.0, 40))
+    f.setup()
+    assert f.step(obs_at(2, 0)) < 8
+    assert 19 <= f.step(obs_at(-2, 0)) <= 26  # half way round: not back where it was

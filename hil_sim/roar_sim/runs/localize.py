@@ -38,6 +38,8 @@ EXPLORE_MAX_THROTTLE = 0.6
 EXPLORE_STEERING_GAIN = 1.5  # steering per radian towards the open way (+1 full right)
 EXPLORE_VIEW_RAD = math.radians(90)  # [rad] either side of ahead where it looks for the open way
 EXPLORE_REACH_M = 4.0  # [m] ranges beyond this count as this: the nearest open way, not the farthest
+EXPLORE_SIDE_RAD = (math.radians(30), math.radians(110))  # [rad] the beams that see the side walls
+EXPLORE_CENTRING_RAD = 0.8  # [rad] turned away from the nearer side wall, at one wall touching and the other far
 EXPLORE_HALF_GAP_M = 0.35  # [m] half the gap the car needs: a direction is as open as its beams this far either side
 
 
@@ -211,8 +213,8 @@ class LocalizedCar:
 
     def _explore(self, scan) -> Command:
         """Follow the gap: steer towards the most open direction ahead, where a direction is as
-        open as the nearest reading within a car's gap of it, and creep slower as the way
-        ahead closes."""
+        open as the nearest reading within a car's gap of it, turned away from the nearer side
+        wall, and creep slower as the way ahead closes."""
         from scipy import ndimage
 
         ranges = np.where(scan.usable(), np.minimum(scan.ranges, EXPLORE_REACH_M), 0.0)
@@ -223,10 +225,14 @@ class LocalizedCar:
         score = np.where(ahead, openness - 0.5 * np.abs(scan.angles), -np.inf)  # the nearer ahead of two equals
         best = int(np.argmax(score))
         front = float(openness[np.argmin(np.abs(scan.angles))])
+        sides = (np.abs(scan.angles) >= EXPLORE_SIDE_RAD[0]) & (np.abs(scan.angles) <= EXPLORE_SIDE_RAD[1])
+        left = float(np.min(ranges[sides & (scan.angles > 0)], initial=EXPLORE_REACH_M))
+        right = float(np.min(ranges[sides & (scan.angles < 0)], initial=EXPLORE_REACH_M))
+        heading = scan.angles[best] + EXPLORE_CENTRING_RAD * (left - right) / max(left + right, 1e-6)
         speed = EXPLORE_SPEED_M_S * min(1.0, max(0.3, front / EXPLORE_SLOW_M))
         self._throttle = float(np.clip(self._throttle + EXPLORE_GAIN * (speed - self._speed), 0.0,
                                        EXPLORE_MAX_THROTTLE))
-        return Command(self._throttle, float(np.clip(-EXPLORE_STEERING_GAIN * scan.angles[best], -1.0, 1.0)))
+        return Command(self._throttle, float(np.clip(-EXPLORE_STEERING_GAIN * heading, -1.0, 1.0)))
 
     def wait(self, seconds: float) -> None:
         self.robot.wait(seconds)

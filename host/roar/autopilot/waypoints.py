@@ -81,15 +81,20 @@ class LoopWaypointFollower(Module[Observation, int]):
     also one the car has already passed (behind it, within `passed_m`): the seed waited to come
     close to each waypoint, which stalls when the car runs wide of one. At the start the first `skip_at_start` are skipped; after the last waypoint it wraps to
     `wrap_to` (the ROAR seed uses 0 + 10 on its CARLA maps, so the car does not aim back at the
-    start line). step() returns the index; `laps` counts wraps."""
+    start line). A pose that jumps -- a localization's correction, a filter that found itself
+    after a global start, a car carried off -- leaves the next waypoint far behind or ahead:
+    beyond `reacquire_m` the follower goes on from the waypoint nearest the car. step() returns
+    the index; `laps` counts wraps."""
 
     points: np.ndarray  # (N, 2+) [m]
     closeness_m: float = 0.3  # [m]
     passed_m: float = 1.0  # [m]
+    reacquire_m: float = 3.0  # [m] a next waypoint further than this: the pose jumped; go on from the nearest
     skip_at_start: int = 0
     wrap_to: int = 0
     index: int = field(default=0, init=False)
     laps: int = field(default=0, init=False)
+    steps: int = field(default=0, init=False)  # since setup(): the first keeps skip_at_start however far it is
 
     def __post_init__(self) -> None:
         n = len(self.points)
@@ -101,11 +106,14 @@ class LoopWaypointFollower(Module[Observation, int]):
             raise ValueError(f"closeness_m must be positive, got {self.closeness_m}")
 
     def setup(self) -> None:
-        self.index, self.laps = self.skip_at_start, 0
+        self.index, self.laps, self.steps = self.skip_at_start, 0, 0
 
     def step(self, value: Observation) -> int:
         xy = np.array([value.x, value.y])
         heading = np.array([np.cos(value.yaw), np.sin(value.yaw)])
+        if self.steps and float(np.linalg.norm(self.points[self.index, :2] - xy)) > self.reacquire_m:
+            self.index = int(np.argmin(np.linalg.norm(self.points[:, :2] - xy, axis=1)))
+        self.steps += 1
         for _ in range(len(self.points)):  # never spin forever, even if every point is close
             offset = self.points[self.index, :2] - xy
             distance = float(np.linalg.norm(offset))

@@ -47,6 +47,8 @@ FIT_GOOD, LOCALIZED_M = 0.8, 5.0  # share of beams agreeing, held while the car 
 FIT_LOST, LOST_SCANS = 0.6, 8  # below this share for this many scans: lost
 SEARCH_SIGMA = 4.0  # until localized, the beam model's hit is this many times wider: a particle 10 cm and 3 degrees
 # from the true pose must outlive one that fits a look-alike place exactly, until the car drives past where they differ
+SEARCH_TEMPER = 0.25  # ... and the scan's log-likelihood counts a quarter: two places that both fit, one a little
+# worse (a person the map lacks hides a few beams), keep particles until the car drives past where they differ
 SEARCH_RESAMPLE_BELOW = 0.02  # the same while not localized: resampling often, the few particles at the true pose
 # are lost to chance among the many at look-alike places (the far end of a corridor seen the other way round)
 NEAR_WALL_M = 3.0  # [m] a global start places particles by the scan's nearest reading when it is this near
@@ -119,7 +121,7 @@ class ParticleFilter:
         self.max_cells = int(round(self.caster.max_cells))
         self.log_table = model.log_table(self.max_cells, grid.resolution_m)
         searching = BeamModel(model.z_hit, model.z_short, model.z_max, model.z_rand, model.sigma_hit_m * SEARCH_SIGMA)
-        self.search_table = searching.log_table(self.max_cells, grid.resolution_m)
+        self.search_table = np.ascontiguousarray(SEARCH_TEMPER * searching.log_table(self.max_cells, grid.resolution_m))
         self._weigh = _kernels()["march_log_weights"]
         free = np.argwhere(self.caster.frame.free)  # (ix, iy) of every free cell
         if len(free) == 0:
