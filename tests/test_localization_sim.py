@@ -125,3 +125,17 @@ def test_the_localize_example_knows_where_the_car_is_as_it_would_on_a_car():
     assert ys[-1] - ys[0] > 0.5  # it followed the car as it crept along the corridor
     error = float(result.stdout.split("the filter's error: ")[1].split(" m")[0])
     assert error < 0.1
+
+
+def test_roar_race_localize_reports_the_filters_error_and_plots_its_particles(tmp_path):
+    plot = tmp_path / "localized.png"
+    result = subprocess.run([sys.executable, "-m", "roar.cli", "race", "--track", "random:9", "--laps", "1",
+                             "--localize", "--particles", "500", "--plot", str(plot)],
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr[-2000:]
+    line = next(line for line in result.stdout.splitlines() if line.startswith("localization ("))
+    assert "500 particles" in line and float(line.split("position error RMS ")[1].split(" m")[0]) <= MAX_RMS_M
+    from PIL import Image
+
+    with Image.open(plot) as image:
+        assert image.width > 800

@@ -346,3 +346,16 @@ def test_random_and_tunnel_names_work_in_the_gym_and_the_sim_url():
     with Vehicle("sim://?track=tunnel:2") as car:
         car.wait_armed(timeout_s=5)
         assert car.state() is not None
+
+
+def test_tunnels_of_one_seed_with_other_counts_paint_their_own_markers():
+    """The floor's paint is made once per shape and markings in a process: a tunnel with more
+    people draws its markers elsewhere, and must not lend its floor to the plain one."""
+    pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
+    from roar_sim.world import floor
+
+    crowded, plain = get("tunnel:3,people=8"), get("tunnel:3")
+    assert crowded.course.markers != plain.course.markers
+    floor.paints(crowded)
+    x, y, _ = plain.course.markers[0]
+    assert floor.colour_at(plain, (x, y)) == floor.MARKER_RGB

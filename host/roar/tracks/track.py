@@ -135,10 +135,12 @@ class Track:
 
     @cached_property
     def fingerprint(self) -> bytes:
-        """The same for tracks of the same shape: a key for what is built from the shape alone
-        (wall meshes, floor textures), built once per process."""
+        """The same for tracks of the same shape and floor markings: a key for what is built from
+        them alone (wall meshes, floor textures), built once per process. A tunnel's markers are
+        painted on its floor: two tunnels of one seed with other counts of things differ there."""
         parts = [np.float64(self.width_m).tobytes(), self.centerline.tobytes(), self.half_widths.tobytes(),
-                 *(poly.tobytes() for poly in self.extra_area), self.area.wkb if self.area is not None else b""]
+                 *(poly.tobytes() for poly in self.extra_area), self.area.wkb if self.area is not None else b"",
+                 np.asarray(self.course.markers if self.course is not None else (), np.float64).tobytes()]
         return hashlib.sha256(b"|".join(parts)).digest()
 
     @cached_property
