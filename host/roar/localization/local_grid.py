@@ -25,7 +25,7 @@ import numpy as np
 from roar.checks import number
 from roar.localization.odometry import Pose, checked_pose
 from roar.localization.particle_filter import LocalizationError
-from roar.localization.raycast import numba
+from roar.localization.raycast import compiled
 from roar.localization.scan import LaserScan
 from roar.tracks.occupancy_map import OccupancyMap
 
@@ -34,37 +34,31 @@ LIMIT = 3.5  # log-odds kept within +-LIMIT (so a cell can change its mind withi
 OCCUPIED_ABOVE = 0.6  # log-odds above which a cell is occupied
 HALF_LIFE_S = 2.0  # [s] the log-odds halve in this long without new evidence
 WALL_NEIGHBOURS = 2  # [cells] a hit this near a known wall is that wall (the lidar's noise and the map's cells)
-_KERNEL = None
 
 
-def _kernel():
-    global _KERNEL
-    if _KERNEL is None:
-        nb = numba()
+def _build_trace(nb):
+    @nb.njit(cache=True, nogil=True, fastmath=True)
+    def trace(sx, sy, ends_x, ends_y, hit, free, hits):
+        """Beams from (sx, sy) to each end (in cells of the grid, centres at integers): every
+        cell before the end marked in free, the end's cell in hits where `hit`."""
+        n = free.shape[0]
+        for b in range(ends_x.shape[0]):
+            dx, dy = ends_x[b] - sx, ends_y[b] - sy
+            length = math.sqrt(dx * dx + dy * dy)
+            steps = int(length * 2.0)  # half-cell steps
+            if steps > 0:
+                ux, uy = dx / length * 0.5, dy / length * 0.5
+                for k in range(steps - 1):  # up to a cell short of the end
+                    i, j = int(math.floor(sx + k * ux + 0.5)), int(math.floor(sy + k * uy + 0.5))
+                    if i < 0 or j < 0 or i >= n or j >= n:
+                        break
+                    free[i, j] = True
+            if hit[b]:
+                i, j = int(math.floor(ends_x[b] + 0.5)), int(math.floor(ends_y[b] + 0.5))
+                if 0 <= i < n and 0 <= j < n:
+                    hits[i, j] = True
 
-        @nb.njit(cache=True, nogil=True, fastmath=True)
-        def trace(sx, sy, ends_x, ends_y, hit, free, hits):
-            """Beams from (sx, sy) to each end (in cells of the grid, centres at integers): every
-            cell before the end marked in free, the end's cell in hits where `hit`."""
-            n = free.shape[0]
-            for b in range(ends_x.shape[0]):
-                dx, dy = ends_x[b] - sx, ends_y[b] - sy
-                length = math.sqrt(dx * dx + dy * dy)
-                steps = int(length * 2.0)  # half-cell steps
-                if steps > 0:
-                    ux, uy = dx / length * 0.5, dy / length * 0.5
-                    for k in range(steps - 1):  # up to a cell short of the end
-                        i, j = int(math.floor(sx + k * ux + 0.5)), int(math.floor(sy + k * uy + 0.5))
-                        if i < 0 or j < 0 or i >= n or j >= n:
-                            break
-                        free[i, j] = True
-                if hit[b]:
-                    i, j = int(math.floor(ends_x[b] + 0.5)), int(math.floor(ends_y[b] + 0.5))
-                    if 0 <= i < n and 0 <= j < n:
-                        hits[i, j] = True
-
-        _KERNEL = trace
-    return _KERNEL
+    return trace
 
 
 class LocalGrid:
@@ -84,7 +78,7 @@ class LocalGrid:
         self.origin = (0, 0)  # the world lattice cell of [0, 0]
         self.time_s: float | None = None
         self.skipped_beams = 0
-        self._trace = _kernel()
+        self._trace = compiled("local grid", _build_trace)
         self._angles_key = None
         self._cos = self._sin = None
 
