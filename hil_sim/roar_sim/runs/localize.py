@@ -58,7 +58,7 @@ class LocalizationLog:
     count: int = 0  # the filter's particles
     beams: int = 0  # beams a scan it weighed
     global_start: bool = False
-    converged_at_s: float | None = None  # [s] when a global start first converged (spread below CONVERGED_M)
+    converged_at_s: float | None = None  # [s] when the filter first declared itself localized (a global start)
     skipped_beams: int = 0  # beams no measurement (NaN, negative, below the minimum range)
     restarts: int = 0  # global restarts after the filter found itself lost
 

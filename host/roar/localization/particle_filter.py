@@ -142,7 +142,8 @@ class ParticleFilter:
         self._covariance = np.full((3, 3), np.nan)
         self.fit = math.nan  # share of the last scan's beams agreeing with the map from the estimate
         self.localized = False
-        self._good = self._bad = 0  # scans in a row with a good fit, a bad one
+        self._good, self._bad = 0.0, 0  # [m] driven with a good fit; scans in a row with a bad one
+        self._was_localized = False
         self.restarts = 0  # global restarts after the filter was lost
         self.corrections = self.skipped_scans = self.skipped_beams = 0
 
