@@ -67,7 +67,10 @@ def _x_server_answers(number, timeout_s=2.0):
 @pytest.fixture(scope="session")
 def virtual_display(tmp_path_factory):
     """A virtual screen for the session: Xvfb picks a free display itself (-displayfd) and says
-    which, so no two servers can race for one number; the fixture then completes an X11 handshake
+    which, so no two servers can race for one number. -noreset: by default an X server resets
+    when its last client leaves, and a client that connects during the reset is refused ("cannot
+    connect to X server": check_env closes one PyBullet window and opens the next at once, and on
+    a loaded machine the reset takes long enough). The fixture then completes an X11 handshake
     with it before any test uses it (a server that announced itself and cannot be reached is
     replaced, twice at most) and yields the DISPLAY value. The server's own output is kept in
     xvfb.log under the session's temporary directory, for a failing test to show."""
@@ -78,7 +81,8 @@ def virtual_display(tmp_path_factory):
     for _attempt in range(3):
         read, write = os.pipe()
         with open(log_path, "ab") as log:
-            server = subprocess.Popen([xvfb, "-displayfd", str(write), "-nolisten", "tcp", "-screen", "0", "1280x1024x24"],
+            server = subprocess.Popen([xvfb, "-displayfd", str(write), "-nolisten", "tcp", "-noreset", "-screen", "0",
+                                   "1280x1024x24"],
                                       pass_fds=(write,), stdout=log, stderr=log)
         os.close(write)
         with os.fdopen(read) as announced:
