@@ -173,7 +173,7 @@ class LocalizedCar:
             self.scan = self.lidar.scan(t)
             self.filter.correct(self.scan)
             if self.local_grid is not None:
-                self.local_grid.update(self.scan, self.lidar_pose())
+                self.local_grid.update(self.scan, self.filter.sensor_pose())
             self._next_scan_s = t + SCAN_PERIOD_S
         speed = 0.0 if self._last is None or t <= self._last[0] else (travelled - self._last[1]) / (t - self._last[0])
         self._last, self._speed = (t, travelled), abs(speed)
@@ -194,13 +194,6 @@ class LocalizedCar:
             log.converged_at_s = t
         log.restarts = self.filter.restarts
         return Observation(t, x, y, yaw, abs(speed), rate)
-
-    def lidar_pose(self) -> tuple[float, float, float]:
-        """Where the filter puts the lidar: its pose moved by the lidar's mounting."""
-        x, y, yaw = self.filter.pose
-        mx, my, myaw = self.filter.sensor
-        c, s = math.cos(yaw), math.sin(yaw)
-        return x + c * mx - s * my, y + s * mx + c * my, yaw + myaw
 
     def send(self, command: Command) -> None:
         """The driver's command; while the filter is not localized (a global start, or lost), the

@@ -319,6 +319,12 @@ class ParticleFilter:
         moved = _compose(np.array([self._estimate]), *self._since)[0]
         return float(moved[0]), float(moved[1]), float(moved[2])
 
+    def sensor_pose(self) -> Pose:
+        """Where the lidar is by the filter: the pose moved by the sensor's mounting (what a
+        local grid is fed from)."""
+        x, y, yaw = _compose(np.array([self.pose]), self.sensor[0], self.sensor[1], self.sensor[2])[0]
+        return float(x), float(y), float(yaw)
+
     @property
     def covariance(self) -> np.ndarray:
         """(3, 3) of x [m], y [m], yaw [rad] over the particles at the last scan."""
