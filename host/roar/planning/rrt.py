@@ -1,0 +1,247 @@
+"""RRT with circular-arc edges (the MIT racecar's planner): a tree of poses grown towards sampled
+points, each edge the arc tangent to its parent's heading (roar.planning.arcs), ahead or
+reversing, no tighter than the car's minimum turning radius, checked by the car's rectangle on
+the planning grid.
+
+    rrt = ArcRRT(grid, Footprint(), r_min_m=0.77, seed=1)
+    path = rrt.plan((x, y, heading), (gx, gy), budget_s=0.2)     # NoPath (one line) if none
+    path = rrt.replan(pose_now, goal, grid=new_grid)              # keeps the tree's still-valid part
+
+replan() keeps the subtree under the node of the last path nearest the car (where a follower
+put it), drops every edge the new grid blocks with all below it, and grows from there.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from roar.planning.arcs import arc_poses, arcs, truncated
+from roar.planning.footprint import Footprint
+from roar.planning.grid import NoPath, PlanningError, PlanningGrid
+from roar.planning.path import Path
+from roar.planning.tree import Tree
+
+R_MIN_M = 0.77  # [m] the ROAR 1/10 car at full lock: wheelbase 0.325 m / tan(0.4 rad)
+GOAL_BIAS = 0.1  # share of samples that are the goal
+GOAL_TOLERANCE_M = 0.3  # [m] a node this near the goal reaches it
+STEP_M = 1.5  # [m] the longest edge
+REVERSE_COST = 2.0  # a reversing metre costs this many metres ahead
+CANDIDATES = 3  # nearest nodes tried per sample before it is given up
+REGION_MARGIN_M = 3.0  # [m] samples are drawn from the free cells of the box round start and goal grown by this
+REROOT_M = 0.6  # [m] the car within this of a node of its last path: the tree is kept from there
+REROOT_RAD = 0.6  # [rad] ... and its heading within this
+MAX_NODES = 200_000
+
+
+def checked_pose(what: str, value, size: int = 3) -> tuple[float, ...]:
+    try:
+        v = tuple(float(x) for x in value)
+    except (TypeError, ValueError):
+        raise PlanningError(f"{what} must be {size} numbers, got {value!r}") from None
+    if len(v) < size or len(v) > 3 or not all(math.isfinite(x) for x in v):
+        raise PlanningError(f"{what} must be {size} finite numbers (x [m], y [m]{', heading [rad]' if size == 3 else ''}),"
+                            f" got {value!r}")
+    return v
+
+
+class ArcRRT:
+    def __init__(self, grid: PlanningGrid, footprint: Footprint = Footprint(), r_min_m: float = R_MIN_M,
+                 reverse: bool = True, reverse_cost: float = REVERSE_COST, goal_bias: float = GOAL_BIAS,
+                 goal_tolerance_m: float = GOAL_TOLERANCE_M, step_m: float = STEP_M, seed: int | None = None,
+                 region_margin_m: float | None = REGION_MARGIN_M) -> None:
+        if not isinstance(grid, PlanningGrid):
+            raise PlanningError(f"grid must be a PlanningGrid, got {type(grid).__name__}")
+        if not (math.isfinite(r_min_m) and 0 < r_min_m < 50):
+            raise PlanningError(f"r_min_m must be 0..50 m, got {r_min_m!r}")
+        if not 0 <= goal_bias < 1:
+            raise PlanningError(f"goal_bias must be 0..1, got {goal_bias!r}")
+        self.footprint, self.r_min_m, self.reverse = footprint, float(r_min_m), reverse
+        self.reverse_cost, self.goal_bias = float(reverse_cost), float(goal_bias)
+        self.goal_tolerance_m, self.step_m = float(goal_tolerance_m), float(step_m)
+        self.rng = np.random.default_rng(seed)
+        self.region_margin_m = region_margin_m  # None: sample the whole grid
+        self.tree: Tree | None = None
+        self.path: Path | None = None
+        self._branch: list[int] = []  # the last path's nodes
+        self.iterations = 0
+        self.kept_nodes = 0  # nodes the last replan kept from the tree before
+        self._set_grid(grid)
+
+    def _set_grid(self, grid: PlanningGrid) -> None:
+        self.grid = grid
+        self._all_free = self._free = grid.free_cells()
+        self._labels = None
+
+    def _region(self, start, goal) -> None:
+        """Sample from the free cells of the box round start and goal (grown by region_margin_m)."""
+        free = self._all_free
+        if self.region_margin_m is None or not len(free):
+            self._free = free
+            return
+        lo = np.minimum(start[:2], goal[:2]) - self.region_margin_m
+        hi = np.maximum(start[:2], goal[:2]) + self.region_margin_m
+        (i0, j0), (i1, j1) = self.grid.cells([lo, hi])
+        inside = (free[:, 0] >= i0) & (free[:, 0] <= i1) & (free[:, 1] >= j0) & (free[:, 1] <= j1)
+        self._free = free[inside] if inside.any() else free
+
+    # -- the public calls -------------------------------------------------------------------------
+
+    def plan(self, start, goal, budget_s: float = 0.2, max_iterations: int | None = None, t_s: float = 0.0) -> Path:
+        """A path from start (x, y, heading) to within goal_tolerance_m of goal (x, y[, heading:
+        ignored]), searched for budget_s of wall time (or max_iterations); NoPath if none."""
+        start = checked_pose("start", start)
+        goal = checked_pose("goal", goal, 2)[:2]
+        self._check_ends(start, goal)
+        self.tree, self.path, self._branch = Tree(start), None, []
+        self.kept_nodes = 0
+        return self._grow(goal, budget_s, max_iterations, t_s)
+
+    def replan(self, pose, goal, grid: PlanningGrid | None = None, budget_s: float = 0.2,
+               max_iterations: int | None = None, t_s: float = 0.0) -> Path:
+        """Plan again from pose, keeping the tree's part that is still valid (see the module's text)."""
+        if grid is not None:
+            self._set_grid(grid)
+        pose = checked_pose("pose", pose)
+        goal = checked_pose("goal", goal, 2)[:2]
+        root = self._reroot_node(pose)
+        if root is None:
+            return self.plan(pose, goal, budget_s, max_iterations, t_s)
+        self._check_ends(self.tree.pose(root), goal)
+        tree = self.tree
+        keep = tree.descendants(root)
+        tree.keep(keep, root)
+        self._drop_blocked()
+        self.kept_nodes = len(self.tree)
+        self.path, self._branch = None, []
+        return self._grow(goal, budget_s, max_iterations, t_s)
+
+    # -- inside ------------------------------------------------------------------------------------
+
+    def _check_ends(self, start, goal) -> None:
+        from scipy import ndimage
+
+        if not len(self._all_free):
+            raise NoPath("the map has no free space")
+        fp, g = self.footprint, self.grid
+        if not fp.fits(g, [start]):
+            raise NoPath(f"the start ({start[0]:.2f}, {start[1]:.2f}) is in collision (the car's rectangle "
+                         f"touches a wall or an obstacle)")
+        if g.blocked_at([goal])[0]:
+            raise NoPath(f"the goal ({goal[0]:.2f}, {goal[1]:.2f}) is inside a wall or an obstacle, or off the map")
+        if self._labels is None:
+            self._labels = ndimage.label(~g.blocked)[0]
+        (si, sj), (gi, gj) = g.cells([start[:2], goal])
+        if self._labels[si, sj] != self._labels[gi, gj]:
+            raise NoPath(f"the goal ({goal[0]:.2f}, {goal[1]:.2f}) is not connected to the start by free space")
+        self._region(start, goal)
+
+    def _reroot_node(self, pose) -> int | None:
+        if self.tree is None or not self._branch:
+            return None
+        nodes = np.array(self._branch)
+        t = self.tree
+        d = np.hypot(t.x[nodes] - pose[0], t.y[nodes] - pose[1])
+        turn = np.abs(np.remainder(t.heading[nodes] - pose[2] + math.pi, math.tau) - math.pi)
+        ok = (d <= REROOT_M) & (turn <= REROOT_RAD)
+        if not ok.any():
+            return None
+        return int(nodes[np.flatnonzero(ok)[np.argmin(d[ok])]])
+
+    def edge_poses(self, k: int) -> np.ndarray:
+        """(K, 3) poses along the edge into node k (from its parent)."""
+        t = self.tree
+        p = int(t.parent[k])
+        return arc_poses(*t.pose(p), float(t.radius[k]), float(t.angle[k]), float(t.length[k]), int(t.direction[k]),
+                         self.grid.resolution_m)
+
+    def _drop_blocked(self) -> None:
+        """Drop every node whose edge the grid now blocks, with everything below it."""
+        t = self.tree
+        bad = np.zeros(len(t), bool)
+        for k in range(1, len(t)):
+            if not bad[t.parent[k]] and not self.footprint.fits(self.grid, self.edge_poses(k)):
+                bad[k] = True
+        if bad.any():
+            drop = np.zeros(len(t), bool)
+            for k in np.flatnonzero(bad):
+                drop |= t.descendants(int(k))
+            t.keep(~drop, 0)
+
+    def _sample(self, goal) -> tuple[float, float]:
+        if self.rng.uniform() < self.goal_bias:
+            return goal
+        i, j = self._free[self.rng.integers(len(self._free))]
+        r = self.grid.resolution_m
+        return (self.grid.x0 + (i + self.rng.uniform()) * r, self.grid.y0 + (j + self.rng.uniform()) * r)
+
+    def _extend(self, px: float, py: float) -> int | None:
+        """Grow the tree towards (px, py): the cheapest arcs from its nodes (ahead, and reversing
+        at reverse_cost), cut at step_m, the first that fits; its new node or None."""
+        t = self.tree
+        options = [arcs(t.x, t.y, t.heading, px, py, self.r_min_m)]
+        if self.reverse:
+            options.append(arcs(t.x, t.y, t.heading, px, py, self.r_min_m, reverse=True))
+        metric = np.concatenate([options[0].length_m] + ([options[1].length_m * self.reverse_cost]
+                                                         if self.reverse else []))
+        n = len(t)
+        k = min(3, len(metric))
+        best = np.argpartition(metric, k - 1)[:k] if len(metric) > k else np.arange(len(metric))
+        for b in best[np.argsort(metric[best])]:
+            if not math.isfinite(metric[b]):
+                break
+            a, node = options[b // n], int(b % n)
+            angle, length = truncated(float(a.angle_rad[node]), float(a.length_m[node]), self.step_m)
+            if length < 1e-3:
+                continue
+            radius, direction = float(a.radius_m[node]), int(a.direction[node])
+            poses = arc_poses(*t.pose(node), radius, angle, length, direction, self.grid.resolution_m)
+            if not self.footprint.fits(self.grid, poses):
+                continue
+            x, y, th = poses[-1]
+            cost = float(t.cost[node]) + length * (self.reverse_cost if direction < 0 else 1.0)
+            return t.add(x, y, math.remainder(th, math.tau), node, cost, direction, radius, angle, length)
+        return None
+
+    def _grow(self, goal, budget_s: float, max_iterations: int | None, t_s: float) -> Path:
+        t = self.tree
+        start = time.perf_counter()
+        reached = self._reached(goal, np.arange(len(t)))
+        it = 0
+        while reached is None:
+            if (max_iterations is not None and it >= max_iterations) or \
+                    (max_iterations is None and time.perf_counter() - start > budget_s) or len(t) >= MAX_NODES:
+                self.iterations = it
+                raise NoPath(f"none found in {it} samples ({budget_s:g} s; {len(t)} nodes): the goal "
+                             f"({goal[0]:.2f}, {goal[1]:.2f}) may be out of reach of a car turning no tighter than "
+                             f"{self.r_min_m:g} m")
+            it += 1
+            k = self._extend(*self._sample(goal))
+            if k is not None:
+                reached = self._reached(goal, np.array([k]))
+        self.iterations = it
+        self._branch = t.branch(reached)
+        self.path = self._path(self._branch, t_s)
+        return self.path
+
+    def _reached(self, goal, nodes: np.ndarray) -> int | None:
+        t = self.tree
+        d = np.hypot(t.x[nodes] - goal[0], t.y[nodes] - goal[1])
+        ok = d <= self.goal_tolerance_m
+        if not ok.any():
+            return None
+        cands = nodes[ok]
+        return int(cands[np.argmin(t.cost[cands])])
+
+    def _path(self, branch: list[int], t_s: float) -> Path:
+        t = self.tree
+        poses = [np.array([t.pose(branch[0])])]
+        direction = [np.array([t.direction[branch[1]] if len(branch) > 1 else 1])]
+        for k in branch[1:]:
+            p = self.edge_poses(k)
+            poses.append(p)
+            direction.append(np.full(len(p), t.direction[k]))
+        return Path(np.concatenate(poses), np.concatenate(direction).astype(np.int8), t_s,
+                    np.array([t.pose(k) for k in branch]))
