@@ -9,6 +9,7 @@ import math
 import os
 import threading
 from contextlib import nullcontext
+from dataclasses import dataclass
 
 import numpy as np
 import pybullet_data
@@ -25,6 +26,43 @@ WALL_HEIGHT_M, WALL_THICKNESS_M = 0.3, 0.05  # [m] higher than the lidar (0.17 m
 WALL_PIECE_M = 0.15  # [m] longest wall box: the camera's renderer drops whole triangles that cross its near plane
 GROUND_HALF_M = 25.0  # [m] asphalt shown beyond the track (or around the origin without one)
 EGL_CHATTY_FRAMES = 2  # EGL prints its vendor on stdout within its first frames
+
+
+@dataclass(frozen=True)
+class Light:
+    """The light a world's frames are drawn in: where it comes from (a direction towards it), its
+    colour (RGB 0..1) and how much of it is ambient, diffuse and specular (PyBullet's renderers'
+    own parameters, which shade faces by their angle to it), and how much of it reaches the
+    camera per channel (gain: PyBullet's ambient term ignores the colour, so a dim or tinted
+    room is the frame scaled by it). Light.dim(0.4) is a dim room; Light.tinted((1, 0.8, 0.55))
+    a warm lamp."""
+
+    direction: tuple[float, float, float] = (0.3, 0.4, 1.0)
+    colour: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    ambient: float = 0.6
+    diffuse: float = 0.35
+    specular: float = 0.05
+    gain: tuple[float, float, float] = (1.0, 1.0, 1.0)
+
+    @classmethod
+    def dim(cls, brightness: float) -> Light:
+        return cls.tinted((brightness,) * 3)
+
+    @classmethod
+    def tinted(cls, rgb: tuple[float, float, float], direction: tuple[float, float, float] = (0.3, 0.4, 1.0)) -> Light:
+        return cls(direction=direction, colour=tuple(rgb), gain=tuple(rgb))
+
+    def lit(self, rgb: np.ndarray) -> np.ndarray:
+        if self.gain == (1.0, 1.0, 1.0):
+            return rgb
+        return np.clip(rgb * np.asarray(self.gain, dtype=np.float32), 0, 255).astype(np.uint8)
+
+    def camera_args(self) -> dict:
+        return {"lightDirection": list(self.direction), "lightColor": list(self.colour),
+                "lightAmbientCoeff": self.ambient, "lightDiffuseCoeff": self.diffuse,
+                "lightSpecularCoeff": self.specular}
+
+
 SOLVER_ITERATIONS = 10  # contact solver iterations per step (PyBullet default 50): a car on a plane settles in few
 
 
@@ -67,6 +105,7 @@ class World:
         # before any body: the EGL plugin never sees the shapes made before it
         # (with a window, TinyRenderer: the window's own OpenGL is not a second EGL context's)
         self._rendered = 0  # frames drawn
+        self.light: Light | None = None  # the light frames are drawn in (None: PyBullet's own)
         self.renderer, self.renderer_name = renderers.start(c, "tiny" if gui else renderers.wanted(renderer))
         pb.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=c)
         pb.setGravity(0, 0, -9.81, physicsClientId=c)
@@ -152,7 +191,7 @@ class World:
     def render(self, position, yaw: float, pitch: float, width: int, height: int, fov_deg: float,
                far_m: float = 10.0, near_m: float = 0.05) -> tuple[np.ndarray, np.ndarray]:
         """(RGB uint8 HxWx3, depth float32 HxW [m]) from a camera at `position` looking along `yaw`,
-        tilted down by `pitch` [rad]."""
+        tilted down by `pitch` [rad], in the world's light (self.light: None is PyBullet's own)."""
         forward = np.array([math.cos(yaw), math.sin(yaw), -math.tan(pitch)])
         view = pb.computeViewMatrix(list(position), (np.array(position) + forward).tolist(), [0, 0, 1])
         proj = pb.computeProjectionMatrixFOV(fov_deg, width / height, near_m, far_m)
@@ -163,9 +202,12 @@ class World:
         with silenced((1,)) if self._rendered < EGL_CHATTY_FRAMES and self.renderer_name == "egl" else nullcontext():
             _, _, rgba, depth_buf, _ = pb.getCameraImage(width, height, view, proj, renderer=self.renderer,
                                                          shadow=0, flags=pb.ER_NO_SEGMENTATION_MASK,
-                                                         physicsClientId=self.client)
+                                                         physicsClientId=self.client,
+                                                         **(self.light.camera_args() if self.light else {}))
         self._rendered += 1
         rgb = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3]
+        if self.light is not None:
+            rgb = self.light.lit(rgb)
         d = np.asarray(depth_buf, dtype=np.float32).reshape(height, width)
         return rgb, far_m * near_m / (far_m - (far_m - near_m) * d)
 
