@@ -47,6 +47,7 @@ BASE = {
     "limits": ["esc"],
     "track": ["oval"],
     "world": ["tunnel:1"],
+    "challenge": ["tunnel:3", "--to", "3", "--oracle"],
 }
 
 # (command, option, value) that is valid: what it does. Everything else must be refused in one line.
@@ -71,6 +72,11 @@ RUNS = {
     ("sim --stream", "--host", "0"): "0 is 0.0.0.0 to the resolver: every interface",
     ("sim --stream", "--push", "0"): "0 is 0.0.0.0 to the resolver: this machine",
     ("platoon", "--speed", "0"): "a leader that stands still",
+    ("challenge", "--cone-penalty", "0"): "cones cost nothing",
+    ("challenge", "--marker-bonus", "0"): "markers are worth nothing: never pursued",
+    ("challenge", "--latency", "0"): "camera frames on time",
+    ("challenge", "--seed", "0"): "noise and samples from seed 0",
+    ("challenge", "--seed", "99999999999999999999"): "a seed",
     ("calibrate", "--file", "0"): "a calibration file named 0",
     ("calibrate", "--file", "-1"): "a calibration file named -1",
     ("calibrate", "--file", "fast"): "a calibration file named fast",

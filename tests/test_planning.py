@@ -163,6 +163,25 @@ def test_the_arc_rrt_finds_a_collision_free_path_of_drivable_arcs(seed):
     assert 9.0 < path.length_m < 20.0
 
 
+def test_shortcutting_keeps_a_chain_of_drivable_arcs_and_never_lengthens_it():
+    grid = slalom()
+    for seed in range(5):
+        plain = ArcRRT(grid, r_min_m=R_MIN, seed=seed, reverse=False).plan((1.0, 1.0, 0.0), (10.5, 1.0),
+                                                                            max_iterations=20_000)
+        rrt = ArcRRT(grid, r_min_m=R_MIN, seed=seed, reverse=False, smooth=True)
+        smooth = rrt.plan((1.0, 1.0, 0.0), (10.5, 1.0), max_iterations=20_000)
+        assert_drivable(rrt, smooth, grid, (10.5, 1.0))
+        assert smooth.length_m <= plain.length_m + 1e-6
+        nodes = rrt._branch
+        assert np.all(np.abs(rrt.tree.radius[nodes[1:]]) >= R_MIN)
+        # each arc leaves its parent along the parent's heading: the chain has no kinks
+        for k in nodes[1:]:
+            start = rrt.edge_poses(k)[0]
+            parent = rrt.tree.pose(int(rrt.tree.parent[k]))
+            assert abs(math.remainder(math.atan2(start[1] - parent[1], start[0] - parent[0]) - parent[2],
+                                      math.tau)) < 0.1
+
+
 def test_the_arc_rrt_reverses_out_of_a_dead_end():
     grid = PlanningGrid.from_map(corridor_map(length_m=4.0, width_m=1.2))  # too narrow to turn round in
     rrt = ArcRRT(grid, r_min_m=R_MIN, seed=1, step_m=1.0)
@@ -285,6 +304,10 @@ def test_a_marker_is_pursued_only_when_its_bonus_beats_the_detour():
     assert m.taken == [near]
     assert m.goal((2.6, 0.0, 0.0), markers=[near])[1] == "route"  # taken: not again
     assert m.goal((17.0, 0.0, 0.0))[1] == "finish"
+    other = (12.0, 0.2)
+    assert m.goal((10.0, 0.0, 0.0), markers=[other]) == (other, "marker")
+    m.abandon()  # no way to it
+    assert m.goal((10.0, 0.0, 0.0), markers=[other])[1] == "route"
     grid = PlanningGrid.from_map(corridor_map(length_m=22.0, blocks=[(6.0, 0.0, 8.0, 2.0)]))
     goal, _ = m.goal((0.0, 1.0, 0.0), grid)
     assert not grid.blocked_at([goal])[0]

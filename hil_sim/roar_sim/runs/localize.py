@@ -136,11 +136,15 @@ class Localize:
 class LocalizedCar:
     """The robot as the Runner drives it, its pose the filter's. start: the pose the filter
     starts round (None: a global start, anywhere in the free space). local_grid: a grid each
-    scan is added to, from the lidar's pose by the filter (what the map lacks, round the car)."""
+    scan is added to, from the lidar's pose by the filter (what the map lacks, round the car).
+    oracle: the pose is the simulator's own (no filter runs; the local grid is fed from the true
+    lidar pose): the same stack with a perfect localization, to compare against. explore: set by
+    a driver that has lost its way, the car heads for the open way as while not localized; towards:
+    a world point [m] the open way is sought nearest to (the course's direction), else ahead."""
 
     def __init__(self, robot: Robot, grid: OccupancyMap, seed: int | None = None, particles: int = PARTICLES,
                  beams: int = BEAMS, start: tuple[float, float, float] | None | str = "true",
-                 local_grid: LocalGrid | None = None) -> None:
+                 local_grid: LocalGrid | None = None, oracle: bool = False) -> None:
         self.robot = robot
         self.sensors = WheelOdometry(robot.plant, seed)
         self.lidar = Lidar(robot.plant, None if seed is None else seed + 1, SCAN_BEAMS)
@@ -152,6 +156,9 @@ class LocalizedCar:
         else:
             self.filter.start_at((s.x, s.y, s.yaw) if start == "true" else start)
         self.local_grid = local_grid
+        self.oracle = oracle
+        self.explore = False
+        self.towards: tuple[float, float] | None = None
         self.log = LocalizationLog(count=particles, beams=beams, global_start=start is None)
         self.exploring = start is None  # creeping along the open way until the filter is localized
         self._next_scan_s = 0.0
@@ -168,17 +175,21 @@ class LocalizedCar:
         t = self.robot.time_s
         travelled, rate = self.sensors.read(t)
         odo = self.odometry.update(t, travelled, rate)
-        self.filter.predict(odo)
+        truth = self.robot.state()
+        if not self.oracle:
+            self.filter.predict(odo)
         if t + 1e-9 >= self._next_scan_s:
             self.scan = self.lidar.scan(t)
-            self.filter.correct(self.scan)
+            if self.oracle:
+                self.filter.start_at((truth.x, truth.y, truth.yaw))
+            else:
+                self.filter.correct(self.scan)
             if self.local_grid is not None:
                 self.local_grid.update(self.scan, self.filter.sensor_pose())
             self._next_scan_s = t + SCAN_PERIOD_S
         speed = 0.0 if self._last is None or t <= self._last[0] else (travelled - self._last[1]) / (t - self._last[0])
         self._last, self._speed = (t, travelled), abs(speed)
-        x, y, yaw = self.filter.pose
-        truth = self.robot.state()
+        x, y, yaw = (truth.x, truth.y, truth.yaw) if self.oracle else self.filter.pose
         log = self.log
         log.times_s.append(t)
         log.position_error_m.append(math.hypot(x - truth.x, y - truth.y))
@@ -189,7 +200,7 @@ class LocalizedCar:
         log.fit.append(self.filter.fit)
         log.particles = self.filter.poses
         log.skipped_beams = self.filter.skipped_beams
-        self.exploring = not self.filter.localized
+        self.exploring = self.explore or not (self.oracle or self.filter.localized)
         if self.filter.localized and log.converged_at_s is None:
             log.converged_at_s = t
         log.restarts = self.filter.restarts
@@ -215,7 +226,11 @@ class LocalizedCar:
         half = max(1, int(math.atan2(EXPLORE_HALF_GAP_M, 2.0) / max(step, 1e-6)))  # [beams] at 2 m
         openness = ndimage.minimum_filter1d(ranges, 2 * half + 1, mode="nearest")
         ahead = np.abs(scan.angles) <= EXPLORE_VIEW_RAD
-        score = np.where(ahead, openness - 0.5 * np.abs(scan.angles), -np.inf)  # the nearer ahead of two equals
+        want = 0.0  # the direction sought [rad] in the lidar's frame: ahead, or towards the course's next point
+        if self.towards is not None and self.filter.localized:
+            x, y, yaw = self.filter.sensor_pose()
+            want = math.remainder(math.atan2(self.towards[1] - y, self.towards[0] - x) - yaw, math.tau)
+        score = np.where(ahead, openness - 0.5 * np.abs(scan.angles - want), -np.inf)  # the nearer of two equals
         best = int(np.argmax(score))
         front = float(openness[np.argmin(np.abs(scan.angles))])
         sides = (np.abs(scan.angles) >= EXPLORE_SIDE_RAD[0]) & (np.abs(scan.angles) <= EXPLORE_SIDE_RAD[1])

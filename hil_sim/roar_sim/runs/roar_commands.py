@@ -1,6 +1,6 @@
 """The `roar` commands the simulator adds, registered through the "roar.commands" entry point
 group (pyproject.toml): `roar race`, `roar sim`, `roar step-response` (the IARRC car's speed
-controller), `roar sweep`, `roar platoon`, `roar limits`, and `roar track` / `roar world`. Each parses its own arguments; the
+controller), `roar sweep`, `roar platoon`, `roar limits`, `roar challenge`, and `roar track` / `roar world`. Each parses its own arguments; the
 simulator itself is imported only when a command runs, and its errors reach the `roar` command's
 one error boundary (roar.cli.errors)."""
 
@@ -126,6 +126,12 @@ def _limits(argv: list[str]) -> int:
     return main(argv)
 
 
+def _challenge(argv: list[str]) -> int:
+    from roar_sim.runs.challenge import main
+
+    return main(argv)
+
+
 def _track(argv: list[str]) -> int:
     from roar_sim.runs.show_track import main
 
@@ -155,6 +161,8 @@ platoon = Command("two simulated cars platooning over UDP multicast (`roar plato
 limits = Command("measure a simulated robot's physical limits against its table (`roar limits --help`)", _limits,
                  _parser_of("roar_sim.runs.limits"))
 
+challenge = Command("the MIT challenge in a tunnel world: the whole autonomy stack, scored (`roar challenge --help`)",
+                    _challenge, _parser_of("roar_sim.runs.challenge"))
 track = Command("show a track (random:SEED, a file, a map) and write it as .json, .csv or a map (`roar track --help`)",
                 _track, _parser_of("roar_sim.runs.show_track"))
 world = Command("show a world (tunnel:SEED: walls, cones, markers, people) and write its map (`roar world --help`)",

@@ -16,8 +16,9 @@ the simulator: feed it LaserScans and the odometry's pose (docs/localization.md)
 from roar.localization.beam_model import BeamModel
 from roar.localization.odometry import Encoder, Odometry
 from roar.localization.particle_filter import LocalizationError, MotionNoise, ParticleFilter
+from roar.localization.pose_history import PoseHistory
 from roar.localization.raycast import BresenhamCaster, RayMarcher
 from roar.localization.scan import LaserScan, ScanError
 
 __all__ = ["BeamModel", "BresenhamCaster", "Encoder", "LaserScan", "LocalizationError", "MotionNoise", "Odometry",
-           "ParticleFilter", "RayMarcher", "ScanError"]
+           "ParticleFilter", "PoseHistory", "RayMarcher", "ScanError"]

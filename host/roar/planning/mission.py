@@ -20,7 +20,8 @@ import numpy as np
 from roar.planning.grid import PlanningGrid
 
 HORIZON_M = 4.0  # [m] ahead along the route
-TAKEN_M = 0.3  # [m] a marker the car's reference point came this near is taken
+TAKEN_M = 0.5  # [m] a marker the car's reference point came this near is taken (the car is on it: its body reaches
+# 0.41 m ahead); more than a planner's goal tolerance (0.3 m), or a car that stops on reaching it would wait for ever
 NUDGE_M = (0.15, 0.3, 0.45, 0.6, 0.8)  # [m] rings searched round a blocked goal
 
 
@@ -36,6 +37,8 @@ class Mission:
         self.progress_m = 0.0  # along the route
         self.taken: list[tuple[float, float]] = []
         self.skipped: list[tuple[float, float]] = []  # markers whose detour cost more than their bonus
+        self.abandoned: list[tuple[float, float]] = []  # markers the local planner found no way to
+        self.pursuing: tuple[float, float] | None = None  # the marker the last goal was
 
     def along(self, xy) -> float:
         """[m] along the route of its point nearest xy, searched near the progress so far."""
@@ -61,6 +64,12 @@ class Mission:
     def _known(m, among) -> bool:
         return any(math.hypot(m[0] - a[0], m[1] - a[1]) < 0.4 for a in among)
 
+    def abandon(self, marker=None) -> None:
+        """Pursue this marker (default: the one the last goal was) no more: no way to it was found."""
+        marker = self.pursuing if marker is None else marker
+        if marker is not None and not self._known(marker, self.abandoned):
+            self.abandoned.append((float(marker[0]), float(marker[1])))
+
     @property
     def finish(self) -> tuple[float, float]:
         return tuple(self.route[-1])
@@ -73,7 +82,7 @@ class Mission:
         goal = self.point_at(s_goal)
         best, gain = None, 0.0
         for m in markers:
-            if self._known(m, self.taken):
+            if self._known(m, self.taken) or self._known(m, self.abandoned):
                 continue
             s_m = self.along(m[:2])
             if not s_car + 0.3 < s_m < s_goal + 1.0:
@@ -85,6 +94,7 @@ class Mission:
                 best, gain = (float(m[0]), float(m[1])), net
             elif not self._known(m, self.skipped):
                 self.skipped.append((float(m[0]), float(m[1])))
+        self.pursuing = best
         if best is not None:
             goal, why = best, "marker"
         return (goal if grid is None else free_near(grid, goal)), why

@@ -9,6 +9,10 @@ the planning grid.
 
 replan() keeps the subtree under the node of the last path nearest the car (where a follower
 put it), drops every edge the new grid blocks with all below it, and grows from there.
+
+smooth=True shortcuts a path found: from its start, the one arc to the farthest of its nodes that
+fits, then on from there (the new arcs join the tree as a branch of their own, so a replan keeps
+them); the random detours of a first RRT path go, and it stays a chain of drivable arcs.
 """
 
 from __future__ import annotations
@@ -51,7 +55,7 @@ class ArcRRT:
     def __init__(self, grid: PlanningGrid, footprint: Footprint = Footprint(), r_min_m: float = R_MIN_M,
                  reverse: bool = True, reverse_cost: float = REVERSE_COST, goal_bias: float = GOAL_BIAS,
                  goal_tolerance_m: float = GOAL_TOLERANCE_M, step_m: float = STEP_M, seed: int | None = None,
-                 region_margin_m: float | None = REGION_MARGIN_M) -> None:
+                 region_margin_m: float | None = REGION_MARGIN_M, smooth: bool = False) -> None:
         if not isinstance(grid, PlanningGrid):
             raise PlanningError(f"grid must be a PlanningGrid, got {type(grid).__name__}")
         if not (math.isfinite(r_min_m) and 0 < r_min_m < 50):
@@ -63,6 +67,7 @@ class ArcRRT:
         self.goal_tolerance_m, self.step_m = float(goal_tolerance_m), float(step_m)
         self.rng = np.random.default_rng(seed)
         self.region_margin_m = region_margin_m  # None: sample the whole grid
+        self.smooth = smooth
         self.tree: Tree | None = None
         self.path: Path | None = None
         self._branch: list[int] = []  # the last path's nodes
@@ -223,8 +228,42 @@ class ArcRRT:
                 reached = self._reached(goal, np.array([k]))
         self.iterations = it
         self._branch = t.branch(reached)
+        if self.smooth:
+            self._branch = self._shortcut(self._branch)
         self.path = self._path(self._branch, t_s)
         return self.path
+
+    def _shortcut(self, branch: list[int]) -> list[int]:
+        """The branch shortcut (see the module's text); itself when it reverses or nothing is shorter."""
+        t = self.tree
+        if len(branch) < 3 or (t.direction[branch[1:]] < 0).any():
+            return branch
+        out = [branch[0]]
+        at, i = branch[0], 0
+        while i < len(branch) - 1:
+            for j in range(len(branch) - 1, i, -1):
+                target = branch[j]
+                if j == i + 1 and at == branch[i]:  # the original edge
+                    out.append(target)
+                    at, i = target, j
+                    break
+                a = arcs(t.x[at], t.y[at], t.heading[at], float(t.x[target]), float(t.y[target]), self.r_min_m)
+                length = float(a.length_m)
+                if not math.isfinite(length):
+                    continue
+                poses = arc_poses(*t.pose(at), float(a.radius_m), float(a.angle_rad), length, 1,
+                                  self.grid.resolution_m)
+                if not self.footprint.fits(self.grid, poses):
+                    continue
+                x, y, th = poses[-1]
+                at = t.add(x, y, math.remainder(th, math.tau), at, float(t.cost[at]) + length, 1,
+                           float(a.radius_m), float(a.angle_rad), length)
+                out.append(at)
+                i = j
+                break
+            else:
+                return branch  # from a shortcut's end the rest cannot be reached: keep the path as found
+        return out if t.cost[out[-1]] < t.cost[branch[-1]] else branch
 
     def _reached(self, goal, nodes: np.ndarray) -> int | None:
         t = self.tree
