@@ -122,6 +122,16 @@ def test_a_short_challenge_run_touches_no_cone_and_counts_each_object_once():
                                          - 2.0 * len(result.markers_taken))
 
 
+def test_the_plan_example_finds_a_drivable_path():
+    from pathlib import Path
+
+    example = Path(__file__).resolve().parent.parent / "examples" / "plan.py"
+    result = subprocess.run([sys.executable, str(example)], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr[-2000:]
+    length = float(result.stdout.split(" m in ")[0])
+    assert 10.0 < length < 16.0, result.stdout  # 12 m along the corridors' centre: less inside a bend, more round a cone
+
+
 def roar(*args, timeout=240):
     return subprocess.run([sys.executable, "-m", "roar.cli", "challenge", *args], capture_output=True, text=True,
                           timeout=timeout)

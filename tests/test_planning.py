@@ -172,6 +172,8 @@ def test_shortcutting_keeps_a_chain_of_drivable_arcs_and_never_lengthens_it():
         smooth = rrt.plan((1.0, 1.0, 0.0), (10.5, 1.0), max_iterations=20_000)
         assert_drivable(rrt, smooth, grid, (10.5, 1.0))
         assert smooth.length_m <= plain.length_m + 1e-6
+        better = ArcRRT(grid, r_min_m=R_MIN, seed=seed, reverse=False, improve=500)
+        assert better.plan((1.0, 1.0, 0.0), (10.5, 1.0), max_iterations=20_000).length_m <= plain.length_m + 1e-6
         nodes = rrt._branch
         assert np.all(np.abs(rrt.tree.radius[nodes[1:]]) >= R_MIN)
         # each arc leaves its parent along the parent's heading: the chain has no kinks
@@ -224,8 +226,10 @@ def test_bad_inputs_end_in_one_line():
     with pytest.raises(NoPath, match=r"^no path: none found in 5 samples"):
         ArcRRT(grid, seed=1, goal_bias=0.0).plan((1.0, 1.0, 0.0), (10.5, 1.0), max_iterations=5)
     for bad in ((1.0, math.nan, 0.0), "here", (1.0,)):
-        with pytest.raises(ValueError, match="start must be"):
+        with pytest.raises(ValueError, match="^start"):
             rrt.plan(bad, (10.0, 1.0))
+    with pytest.raises(ValueError, match="^goal must be"):
+        rrt.plan((1.0, 1.0, 0.0), (1.0,))
     assert "\n" not in str(NoPath("x"))
 
 

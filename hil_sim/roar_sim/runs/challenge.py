@@ -25,7 +25,7 @@ from roar.autopilot.longitudinal import SpeedController
 from roar.localization.local_grid import LocalGrid
 from roar.localization.pose_history import PoseHistory
 from roar.planning import ArcRRT, Footprint, NoPath, PathFollower, PlanningGrid
-from roar.planning.follower import FollowerState
+from roar.planning.follower import FollowerState, Steer
 from roar.planning.mission import Mission
 from roar.tracks.occupancy_map import track_map
 from roar.tracks.track import Track, TrackError
@@ -50,9 +50,11 @@ REPLAN_S = 0.3  # [s] between plans (and at once when the way ahead is blocked o
 # seconds leaves the car on the outside of a bend, a new plan from where it is does not
 PLAN_SAMPLES = 1000  # samples a plan may draw before it gives up (~0.1 s here; counted, not timed, so that a
 # run is the same on any machine and under any load)
+PLAN_IMPROVE = 300  # samples more after a first path, for a cheaper one (a first RRT path may loop)
 PLAN_LATENCY_S = 0.15  # [s] from a plan's start to its path reaching the follower
 CRUISE_M_S = 1.5  # [m/s] the follower's top speed
-CONE_CLEARANCE_M = 0.05  # [m] a detected cone is blocked this far beyond its radius (its placement's error)
+CONE_CLEARANCE_M = 0.1  # [m] a detected cone is blocked this far beyond its radius (its placement's error, and
+# the follower's cut inside a tight bend round it)
 LOST_AFTER_S = 1.5  # [s] without a path: head for open space in the course's direction
 CLEARANCE_M = 0.08  # [m] the planner keeps the car's rectangle this far from walls and cones: the follower's and
 # the filter's errors together (3 cm each is typical, a swerve round a cone twice that)
@@ -93,6 +95,7 @@ class ChallengeResult:
     failed_plans: int = 0
     lost_s: float = 0.0  # [s] spent heading for open space without a path
     back_ups: int = 0  # times the car backed off something it was stuck against
+    events: list = field(default_factory=list)  # what went wrong, when and where: lines for the report
     wall_contacts: int = 0  # control periods touching a wall
     localization: object = None  # LocalizationLog
     course: object = None
@@ -136,6 +139,7 @@ class ChallengeResult:
                  f"{self.lost_s:.1f} s; backed up {self.back_ups} times; wall contact {self.wall_contacts * CONTROL_PERIOD_S:.2f} s"]
         if self.localization is not None and not self.oracle:
             lines.append("  " + self.localization.summary())
+        lines += [f"  {event}" for event in self.events]
         return "\n".join(lines)
 
     def draw(self, ax) -> None:
@@ -207,9 +211,10 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
         result.localization = car.log
         model = bot.model
         r_min = model.wheelbase_m / math.tan(model.max_steer_rad) * 1.05
-        planner = ArcRRT(base, footprint, r_min_m=r_min, seed=seed, smooth=True)
+        planner = ArcRRT(base, footprint, r_min_m=r_min, seed=seed, smooth=True, improve=PLAN_IMPROVE)
         # from a start nearer a wall than the clearance (the car swerved), plan with the bare rectangle
-        close_planner = ArcRRT(base, Footprint(margin_m=0.0), r_min_m=r_min, seed=seed, smooth=True)
+        close_planner = ArcRRT(base, Footprint(margin_m=0.0), r_min_m=r_min, seed=seed, smooth=True,
+                               improve=PLAN_IMPROVE)
         follower = PathFollower(max_speed_m_s=CRUISE_M_S)
         speed = SpeedController(model.limits.max_speed_m_s)
         camera = ShakyCamera(bot.plant, *CAMERA_SIZE, seed + 2)
@@ -226,6 +231,7 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
         result.seen_within = {"cone": set(), "marker": set()}
         next_frame = next_plan = next_try = 0.0
         why = "route"
+        steer = Steer(FollowerState.WAITING)
         last_path_s = 0.0
         backing_since = still_since = -10.0
         next_report = 1.0
@@ -253,6 +259,13 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
             for i, body in enumerate(cone_bodies):
                 if i not in result.cones_touched and bot.touching([body]):
                     result.cones_touched.add(i)
+                    doing = "backing off" if t - backing_since < BACK_UP_S[1] else \
+                        f"{follower.state.value}{', reversing' if steer.direction < 0 else ''}"
+                    seen = any(math.hypot(o.position[0] - course.cones[i][0], o.position[1] - course.cones[i][1]) < 0.4
+                               for o in tracker.objects("cone"))
+                    result.events.append(f"{t:.2f} s: touched the cone at ({course.cones[i][0]:.2f}, "
+                                         f"{course.cones[i][1]:.2f}) at {truth.speed:.2f} m/s, {doing}; the camera "
+                                         f"{'had' if seen else 'had not'} found it")
             car_poly = shapely.Polygon([(truth.x + math.cos(truth.yaw) * u - math.sin(truth.yaw) * v,
                                          truth.y + math.sin(truth.yaw) * u + math.cos(truth.yaw) * v)
                                         for u, v in Footprint(margin_m=0.0).corners()])
@@ -281,7 +294,7 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
                                in_view=lambda x, y, then=then: in_view(then, x, y))
             markers = [o.position for o in tracker.objects("marker")]
             mission.update(pose, markers)
-            # plan: at once when the path ahead is blocked or done, else when it is stale (looked at every REPLAN_S)
+            # plan: every REPLAN_S, and at once when the path ahead is blocked or the follower is not following
             cones = [o.position for o in tracker.objects("cone")]
             grid = base.with_local(local).with_discs(cones, CONE_RADIUS_M + CONE_CLEARANCE_M)
             blocked = follower.path is not None and not footprint.fits(
@@ -321,7 +334,7 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
                 path = pending.popleft()[1]
                 follower.set_path(path)
                 result.paths.append(path.poses)
-            steer = follower.step(pose)
+            steer = follower.step(pose, obs.speed)
             lost = follower.state != FollowerState.FOLLOWING and t - last_path_s > LOST_AFTER_S
             still_since = t if obs.speed > 0.05 or still_since < 0 else still_since
             if lost and t - still_since > STUCK_S and t - backing_since > BACK_UP_S[1] + STUCK_S:

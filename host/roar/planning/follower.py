@@ -1,8 +1,9 @@
 """Following a planner's path as exactly as the car can, through jumping poses and late plans
 (the MIT racecar's rules):
 
-- the target is the path point lookahead_m ahead of the first point not yet passed, never
-  beyond a change of direction (the car stops there and reverses);
+- the target is the path point lookahead_m ahead of the first point not yet passed (less when
+  the car is slower: 0.3 m at rest), never beyond a change of direction (the car stops there
+  and reverses);
 - when the pose jumps off the path (further than off_path_m from it) the follower holds its
   target and says OFF_PATH, until the car is back;
 - when the pose jumps back on, or a new path arrives late (made from where the car was), it
@@ -26,7 +27,8 @@ from roar.autopilot.pure_pursuit import PurePursuit
 from roar.planning.path import Path
 from roar.planning.rrt import checked_pose
 
-LOOKAHEAD_M = 0.6  # [m]
+LOOKAHEAD_M = 0.6  # [m] at MAX_SPEED_M_S; shorter slower (the chord pure pursuit cuts grows with its square)
+MIN_LOOKAHEAD_M = 0.3  # [m] at a standstill
 OFF_PATH_M = 0.5  # [m] further than this from the path: off it
 DONE_M = 0.25  # [m] this near the path's last point, the path is done
 MAX_SPEED_M_S = 2.0  # [m/s]
@@ -83,7 +85,15 @@ class PathFollower:
         """The index of the change of direction (or the end) at or after point i."""
         return int(self._cusps[np.searchsorted(self._cusps, i)])
 
-    def step(self, pose) -> Steer:
+    def lookahead(self, speed_m_s: float | None) -> float:
+        """[m] lookahead_m at max_speed_m_s (or speed unknown), MIN_LOOKAHEAD_M at rest, linear between."""
+        if speed_m_s is None:
+            return self.lookahead_m
+        f = min(1.0, max(0.0, abs(speed_m_s) / self.max_speed_m_s))
+        return min(self.lookahead_m, MIN_LOOKAHEAD_M) + f * max(0.0, self.lookahead_m - MIN_LOOKAHEAD_M)
+
+    def step(self, pose, speed_m_s: float | None = None) -> Steer:
+        """Where to steer from pose; speed_m_s (the car's, if known) shortens the lookahead when slow."""
         x, y, yaw = checked_pose("pose", pose)
         path = self.path
         if path is None:
@@ -115,7 +125,7 @@ class PathFollower:
             end = self._segment_end(i)
         self.state = FollowerState.FOLLOWING
         # the target: lookahead_m along the path from the first point not passed, not beyond the cusp
-        want = self._s[i] + max(0.0, self.lookahead_m - math.hypot(pts[i, 0] - x, pts[i, 1] - y))
+        want = self._s[i] + max(0.0, self.lookahead(speed_m_s) - math.hypot(pts[i, 0] - x, pts[i, 1] - y))
         j = min(end, int(np.searchsorted(self._s, want)))
         self.target = (float(pts[j, 0]), float(pts[j, 1]))
         to_stop = float(self._s[end] - self._s[i]) + math.hypot(pts[i, 0] - x, pts[i, 1] - y)

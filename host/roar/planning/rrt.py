@@ -10,7 +10,8 @@ the planning grid.
 replan() keeps the subtree under the node of the last path nearest the car (where a follower
 put it), drops every edge the new grid blocks with all below it, and grows from there.
 
-smooth=True shortcuts a path found: from its start, the one arc to the farthest of its nodes that
+improve=N draws N more samples after the first path and keeps the cheapest path to the goal then
+(no rewiring: another branch that happens to be cheaper). smooth=True shortcuts a path found: from its start, the one arc to the farthest of its nodes that
 fits, then on from there (the new arcs join the tree as a branch of their own, so a replan keeps
 them); the random detours of a first RRT path go, and it stays a chain of drivable arcs.
 """
@@ -22,6 +23,7 @@ import time
 
 import numpy as np
 
+from roar.localization.odometry import checked_pose as pose_of
 from roar.planning.arcs import arc_poses, arcs, truncated
 from roar.planning.footprint import Footprint
 from roar.planning.grid import NoPath, PlanningError, PlanningGrid
@@ -41,21 +43,24 @@ MAX_NODES = 200_000
 
 
 def checked_pose(what: str, value, size: int = 3) -> tuple[float, ...]:
+    """A pose (x, y, heading) of finite numbers, or with size 2 a point (x, y) or a pose (its
+    heading kept); ValueError naming it in one line."""
+    if size == 3:
+        return pose_of(what, value)
     try:
-        v = tuple(float(x) for x in value)
-    except (TypeError, ValueError):
-        raise PlanningError(f"{what} must be {size} numbers, got {value!r}") from None
-    if len(v) < size or len(v) > 3 or not all(math.isfinite(x) for x in v):
-        raise PlanningError(f"{what} must be {size} finite numbers (x [m], y [m]{', heading [rad]' if size == 3 else ''}),"
-                            f" got {value!r}")
-    return v
+        parts = tuple(value)
+    except TypeError:
+        raise PlanningError(f"{what} must be (x [m], y [m]) or (x, y, heading [rad]), got {value!r}") from None
+    if len(parts) not in (2, 3):
+        raise PlanningError(f"{what} must be (x [m], y [m]) or (x, y, heading [rad]), got {value!r}")
+    return pose_of(what, parts if len(parts) == 3 else (*parts, 0.0))[:len(parts)]
 
 
 class ArcRRT:
     def __init__(self, grid: PlanningGrid, footprint: Footprint = Footprint(), r_min_m: float = R_MIN_M,
                  reverse: bool = True, reverse_cost: float = REVERSE_COST, goal_bias: float = GOAL_BIAS,
                  goal_tolerance_m: float = GOAL_TOLERANCE_M, step_m: float = STEP_M, seed: int | None = None,
-                 region_margin_m: float | None = REGION_MARGIN_M, smooth: bool = False) -> None:
+                 region_margin_m: float | None = REGION_MARGIN_M, smooth: bool = False, improve: int = 0) -> None:
         if not isinstance(grid, PlanningGrid):
             raise PlanningError(f"grid must be a PlanningGrid, got {type(grid).__name__}")
         if not (math.isfinite(r_min_m) and 0 < r_min_m < 50):
@@ -68,6 +73,7 @@ class ArcRRT:
         self.rng = np.random.default_rng(seed)
         self.region_margin_m = region_margin_m  # None: sample the whole grid
         self.smooth = smooth
+        self.improve = improve  # samples drawn after the first path, the cheapest path to the goal then kept
         self.tree: Tree | None = None
         self.path: Path | None = None
         self._branch: list[int] = []  # the last path's nodes
@@ -226,6 +232,11 @@ class ArcRRT:
             k = self._extend(*self._sample(goal))
             if k is not None:
                 reached = self._reached(goal, np.array([k]))
+        for _ in range(self.improve):  # a first RRT path is a random one: more samples may offer a cheaper one
+            it += 1
+            k = self._extend(*self._sample(goal))
+            if k is not None and self._reached(goal, np.array([k])) is not None and t.cost[k] < t.cost[reached]:
+                reached = k
         self.iterations = it
         self._branch = t.branch(reached)
         if self.smooth:
