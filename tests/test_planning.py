@@ -184,6 +184,16 @@ def test_shortcutting_keeps_a_chain_of_drivable_arcs_and_never_lengthens_it():
                                       math.tau)) < 0.1
 
 
+def test_a_path_ends_where_the_car_has_room_to_overshoot_its_stop():
+    grid = PlanningGrid.from_map(corridor_map())  # its end wall at x = 12 m
+    for seed in range(3):
+        rrt = ArcRRT(grid, r_min_m=R_MIN, seed=seed, stop_room_m=0.25)
+        path = rrt.plan((1.0, 1.0, 0.0), (11.45, 1.0), max_iterations=20_000)
+        x, y, th = path.poses[-1]
+        on = 0.25 * path.direction[-1]  # overshooting the way it drives in: ahead, or back when reversing
+        assert rrt.footprint.fits(grid, [(x + on * math.cos(th), y + on * math.sin(th), th)])
+
+
 def test_the_arc_rrt_reverses_out_of_a_dead_end():
     grid = PlanningGrid.from_map(corridor_map(length_m=4.0, width_m=1.2))  # too narrow to turn round in
     rrt = ArcRRT(grid, r_min_m=R_MIN, seed=1, step_m=1.0)

@@ -51,6 +51,8 @@ REPLAN_S = 0.3  # [s] between plans (and at once when the way ahead is blocked o
 PLAN_SAMPLES = 1000  # samples a plan may draw before it gives up (~0.1 s here; counted, not timed, so that a
 # run is the same on any machine and under any load)
 PLAN_IMPROVE = 300  # samples more after a first path, for a cheaper one (a first RRT path may loop)
+STOP_ROOM_M = 0.25  # [m] a plan ends where the car fits this much further on: it coasts past its stop (the ESC
+# has no brake that holds; below 0.3 m/s the speed controller stops braking lest the car reverse)
 PLAN_LATENCY_S = 0.15  # [s] from a plan's start to its path reaching the follower
 CRUISE_M_S = 1.5  # [m/s] the follower's top speed
 CONE_CLEARANCE_M = 0.1  # [m] a detected cone is blocked this far beyond its radius (its placement's error, and
@@ -163,6 +165,13 @@ class ChallengeResult:
         ax.plot(*c.goal[:2], marker="*", markersize=14, color="gold", markeredgecolor="black", label="goal")
 
 
+def _doing(follower: PathFollower, steer: Steer, backing_s: float) -> str:
+    """What the car was doing, for an event's line."""
+    if backing_s < BACK_UP_S[1]:
+        return "backing off"
+    return f"{follower.state.value}{', reversing' if steer.direction < 0 else ''}"
+
+
 def route_to_goal(track: Track, goal_m: float | None = None) -> np.ndarray:
     """The centre line from the start to the course's goal (or goal_m along it)."""
     course = track.course
@@ -211,10 +220,11 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
         result.localization = car.log
         model = bot.model
         r_min = model.wheelbase_m / math.tan(model.max_steer_rad) * 1.05
-        planner = ArcRRT(base, footprint, r_min_m=r_min, seed=seed, smooth=True, improve=PLAN_IMPROVE)
+        planner = ArcRRT(base, footprint, r_min_m=r_min, seed=seed, smooth=True, improve=PLAN_IMPROVE,
+                         stop_room_m=STOP_ROOM_M)
         # from a start nearer a wall than the clearance (the car swerved), plan with the bare rectangle
         close_planner = ArcRRT(base, Footprint(margin_m=0.0), r_min_m=r_min, seed=seed, smooth=True,
-                               improve=PLAN_IMPROVE)
+                               improve=PLAN_IMPROVE, stop_room_m=STOP_ROOM_M)
         follower = PathFollower(max_speed_m_s=CRUISE_M_S)
         speed = SpeedController(model.limits.max_speed_m_s)
         camera = ShakyCamera(bot.plant, *CAMERA_SIZE, seed + 2)
@@ -234,6 +244,8 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
         steer = Steer(FollowerState.WAITING)
         last_path_s = 0.0
         backing_since = still_since = -10.0
+        touched_wall = False
+        settle_s = latency_s + Tracker().confirm_hits / fps  # [s] the first frame's arrival and a track's confirmation
         next_report = 1.0
 
         def in_view(pose, x: float, y: float, sight: bool = False, within_m: float = CAMERA_RANGE_M) -> bool:
@@ -255,12 +267,16 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
             history.add(t, pose)
             result.true_path.append((truth.x, truth.y))
             # scoring, by the simulator's truth
-            result.wall_contacts += bot.touching_wall()
+            touching = bot.touching_wall()
+            if touching and not touched_wall:
+                result.events.append(f"{t:.2f} s: touched a wall at ({truth.x:.2f}, {truth.y:.2f}) at {truth.speed:.2f} "
+                                     f"m/s, {_doing(follower, steer, t - backing_since)}")
+            touched_wall = touching
+            result.wall_contacts += touching
             for i, body in enumerate(cone_bodies):
                 if i not in result.cones_touched and bot.touching([body]):
                     result.cones_touched.add(i)
-                    doing = "backing off" if t - backing_since < BACK_UP_S[1] else \
-                        f"{follower.state.value}{', reversing' if steer.direction < 0 else ''}"
+                    doing = _doing(follower, steer, t - backing_since)
                     seen = any(math.hypot(o.position[0] - course.cones[i][0], o.position[1] - course.cones[i][1]) < 0.4
                                for o in tracker.objects("cone"))
                     result.events.append(f"{t:.2f} s: touched the cone at ({course.cones[i][0]:.2f}, "
@@ -342,6 +358,11 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
                 result.back_ups += 1
             if lost:
                 result.lost_s += CONTROL_PERIOD_S
+            if t < settle_s:  # the first frames are on their way: stand until the camera has seen what is ahead
+                speed.reset()
+                car.send(Command(0.0, 0.0))
+                car.wait(CONTROL_PERIOD_S)
+                continue
             backing = t - backing_since
             if backing < BACK_UP_S[0] or (backing < BACK_UP_S[1] and not footprint.fits(grid, [pose])):
                 car.explore = False

@@ -34,7 +34,8 @@ DONE_M = 0.25  # [m] this near the path's last point, the path is done
 MAX_SPEED_M_S = 2.0  # [m/s]
 LATERAL_M_S2 = 2.0  # [m/s^2] the speed on a bend is held below sqrt(this / curvature)
 BRAKE_M_S2 = 1.5  # [m/s^2] the speed is held to stop at the path's end (or a change of direction)
-MIN_SPEED_M_S = 0.4  # [m/s] never asked to go slower while following (the ESC stalls below)
+MIN_SPEED_M_S = 0.4  # [m/s] never asked to go slower while following (the ESC stalls below)...
+CREEP_M = 0.3  # [m] ...but over the last this much before a stop (a goal by a wall: no overshoot into it)
 
 
 class FollowerState(str, Enum):
@@ -131,8 +132,10 @@ class PathFollower:
         to_stop = float(self._s[end] - self._s[i]) + math.hypot(pts[i, 0] - x, pts[i, 1] - y)
         ahead = (self._s >= self._s[i]) & (self._s <= self._s[i] + 1.5)
         kappa = float(self._kappa[ahead].max()) if ahead.any() else 0.0
-        speed = min(self.max_speed_m_s, math.sqrt(LATERAL_M_S2 / max(kappa, 1e-6)),
-                    max(MIN_SPEED_M_S, math.sqrt(2 * BRAKE_M_S2 * max(0.0, to_stop - self.done_m))))
+        stopping = math.sqrt(2 * BRAKE_M_S2 * max(0.0, to_stop - self.done_m))
+        if to_stop > self.done_m + CREEP_M:  # not yet at the end: no slower than the ESC keeps rolling
+            stopping = max(MIN_SPEED_M_S, stopping)
+        speed = min(self.max_speed_m_s, math.sqrt(LATERAL_M_S2 / max(kappa, 1e-6)), stopping)
         return self._steer(x, y, yaw, self.target, int(path.direction[i]), speed, remaining)
 
     def _steer(self, x: float, y: float, yaw: float, target, direction: int, speed: float,

@@ -10,7 +10,8 @@ the planning grid.
 replan() keeps the subtree under the node of the last path nearest the car (where a follower
 put it), drops every edge the new grid blocks with all below it, and grows from there.
 
-improve=N draws N more samples after the first path and keeps the cheapest path to the goal then
+stop_room_m: a path ends only where the car would still fit that much further on (a car that
+overshoots its stop does not meet the wall). improve=N draws N more samples after the first path and keeps the cheapest path to the goal then
 (no rewiring: another branch that happens to be cheaper). smooth=True shortcuts a path found: from its start, the one arc to the farthest of its nodes that
 fits, then on from there (the new arcs join the tree as a branch of their own, so a replan keeps
 them); the random detours of a first RRT path go, and it stays a chain of drivable arcs.
@@ -40,6 +41,7 @@ REGION_MARGIN_M = 3.0  # [m] samples are drawn from the free cells of the box ro
 REROOT_M = 0.6  # [m] the car within this of a node of its last path: the tree is kept from there
 REROOT_RAD = 0.6  # [rad] ... and its heading within this
 MAX_NODES = 200_000
+MAX_KEPT = 2000  # a replan keeping more nodes than this starts afresh (each sample weighs every node)
 
 
 def checked_pose(what: str, value, size: int = 3) -> tuple[float, ...]:
@@ -60,7 +62,8 @@ class ArcRRT:
     def __init__(self, grid: PlanningGrid, footprint: Footprint = Footprint(), r_min_m: float = R_MIN_M,
                  reverse: bool = True, reverse_cost: float = REVERSE_COST, goal_bias: float = GOAL_BIAS,
                  goal_tolerance_m: float = GOAL_TOLERANCE_M, step_m: float = STEP_M, seed: int | None = None,
-                 region_margin_m: float | None = REGION_MARGIN_M, smooth: bool = False, improve: int = 0) -> None:
+                 region_margin_m: float | None = REGION_MARGIN_M, smooth: bool = False, improve: int = 0,
+                 stop_room_m: float = 0.0) -> None:
         if not isinstance(grid, PlanningGrid):
             raise PlanningError(f"grid must be a PlanningGrid, got {type(grid).__name__}")
         if not (math.isfinite(r_min_m) and 0 < r_min_m < 50):
@@ -74,6 +77,7 @@ class ArcRRT:
         self.region_margin_m = region_margin_m  # None: sample the whole grid
         self.smooth = smooth
         self.improve = improve  # samples drawn after the first path, the cheapest path to the goal then kept
+        self.stop_room_m = stop_room_m  # [m] a path ends where the car fits this much further on (it may overshoot)
         self.tree: Tree | None = None
         self.path: Path | None = None
         self._branch: list[int] = []  # the last path's nodes
@@ -123,6 +127,8 @@ class ArcRRT:
         self._check_ends(self.tree.pose(root), goal)
         tree = self.tree
         keep = tree.descendants(root)
+        if np.count_nonzero(keep) > MAX_KEPT:
+            return self.plan(pose, goal, budget_s, max_iterations, t_s)
         tree.keep(keep, root)
         self._drop_blocked()
         self.kept_nodes = len(self.tree)
@@ -283,6 +289,17 @@ class ArcRRT:
         if not ok.any():
             return None
         cands = nodes[ok]
+        if self.stop_room_m > 0:  # room to stop: the car fits stop_room_m on along its last edge's direction
+            room = []
+            for k in cands:
+                x, y, th = t.pose(int(k))
+                ahead = self.stop_room_m * (1 if t.direction[k] > 0 else -1)
+                ends = [(x + f * ahead * math.cos(th), y + f * ahead * math.sin(th), th) for f in (0.5, 1.0)]
+                if self.footprint.fits(self.grid, ends):
+                    room.append(k)
+            if not room:
+                return None
+            cands = np.array(room)
         return int(cands[np.argmin(t.cost[cands])])
 
     def _path(self, branch: list[int], t_s: float) -> Path:
