@@ -32,7 +32,8 @@ MIN_LOOKAHEAD_M = 0.3  # [m] at a standstill
 OFF_PATH_M = 0.5  # [m] further than this from the path: off it
 DONE_M = 0.25  # [m] this near the path's last point, the path is done
 MAX_SPEED_M_S = 2.0  # [m/s]
-LATERAL_M_S2 = 2.0  # [m/s^2] the speed on a bend is held below sqrt(this / curvature)
+LATERAL_M_S2 = 1.0  # [m/s^2] the speed on a bend is held below sqrt(this / curvature): 0.9 m/s on the tightest arcs, where
+# faster the car swings 0.1 m and more off them (the servo's slew, pure pursuit's cut)
 BRAKE_M_S2 = 1.5  # [m/s^2] the speed is held to stop at the path's end (or a change of direction)
 MIN_SPEED_M_S = 0.4  # [m/s] never asked to go slower while following (the ESC stalls below)...
 CREEP_M = 0.3  # [m] ...but over the last this much before a stop (a goal by a wall: no overshoot into it)
