@@ -316,11 +316,10 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
             blocked = follower.path is not None and not footprint.fits(
                 grid, follower.path.poses[follower.index:][::4])
             due = t + 1e-9 >= next_plan
-            if due:
-                next_plan = t + REPLAN_S
-                goal, why = mission.goal(pose, grid, markers)
             wanted = blocked or follower.state != FollowerState.FOLLOWING or due
             if wanted and not pending and t + 1e-9 >= next_try:
+                next_plan = t + REPLAN_S
+                goal, why = mission.goal(pose, grid, markers)  # always afresh: a goal reached is the next one
                 result.plans += 1
                 path = None
                 for rrt in (planner, close_planner):
@@ -332,7 +331,6 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
                             break
                 if path is not None:
                     pending.append((t + PLAN_LATENCY_S, path))
-                    next_plan = t + REPLAN_S
                     last_path_s = t
                 else:
                     result.failed_plans += 1
