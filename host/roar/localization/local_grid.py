@@ -81,6 +81,7 @@ class LocalGrid:
         self._trace = compiled("local grid", _build_trace)
         self._angles_key = None
         self._cos = self._sin = None
+        self._grown: dict[int, np.ndarray] = {}  # grow_cells -> the known map's walls grown by that many cells
 
     def update(self, scan: LaserScan, sensor_pose: Pose, t_s: float | None = None) -> None:
         """Add a scan taken from sensor_pose (the lidar's world pose) at t_s (default: the scan's time)."""
@@ -142,9 +143,10 @@ class LocalGrid:
             return np.zeros((self.n, self.n), bool)
         from scipy import ndimage
 
-        walls = self.known.occupied
-        if grow_cells:
-            walls = ndimage.binary_dilation(walls, iterations=grow_cells)
+        if grow_cells not in self._grown:  # the known map never changes: grown once (a planner asks every period)
+            self._grown[grow_cells] = ndimage.binary_dilation(self.known.occupied, iterations=grow_cells) \
+                if grow_cells else self.known.occupied
+        walls = self._grown[grow_cells]
         cells = np.round(self.known.to_cells(self.cell_centres().reshape(-1, 2))).astype(int)
         rows, cols = walls.shape
         inside = (cells[:, 0] >= 0) & (cells[:, 0] < cols) & (cells[:, 1] >= 0) & (cells[:, 1] < rows)

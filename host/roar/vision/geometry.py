@@ -47,6 +47,15 @@ class CameraModel:
         f = (height / 2) / math.tan(math.radians(fov_deg) / 2)
         return cls(width, height, f, f, (width - 1) / 2, (height - 1) / 2, x_m, y_m, z_m, pitch_rad)
 
+    def unproject(self, u, v, depth) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(x ahead, y left, z up) [m] in the car's frame of pixels (u, v) seen at depth [m] along
+        the optical axis (the inverse of project, off the floor too)."""
+        z = np.asarray(depth, dtype=np.float64)
+        right = (np.asarray(u) - self.cx) / self.fx * z
+        down = (np.asarray(v) - self.cy) / self.fy * z
+        c, s = math.cos(self.pitch_rad), math.sin(self.pitch_rad)
+        return self.x_m + z * c - down * s, self.y_m - right, self.z_m - z * s - down * c
+
     def project(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(u, v) [px] of floor points (x, y) in the car's frame (points behind the camera give
         nonsense; keep x ahead of it)."""

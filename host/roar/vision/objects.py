@@ -50,10 +50,7 @@ class Detection:
 class ObjectDetector:
     def __init__(self, camera: CameraModel, max_range_m: float = MAX_RANGE_M, min_pixels: int = MIN_PIXELS) -> None:
         self.camera, self.max_range_m, self.min_pixels = camera, max_range_m, min_pixels
-        h, w = camera.height, camera.width
-        v, u = np.mgrid[0:h, 0:w]
-        self._ray_right = (u - camera.cx) / camera.fx  # per metre of depth along the optical axis
-        self._ray_down = (v - camera.cy) / camera.fy
+        self._v, self._u = np.mgrid[0:camera.height, 0:camera.width]
 
     @staticmethod
     def balanced(rgb: np.ndarray) -> np.ndarray:
@@ -85,7 +82,6 @@ class ObjectDetector:
                              f"camera's {c.width}x{c.height}")
         x0, y0, yaw = pose
         cos_y, sin_y = math.cos(yaw), math.sin(yaw)
-        cp, sp = math.cos(c.pitch_rad), math.sin(c.pitch_rad)
         out = []
         for kind, mask in self.masks(rgb).items():
             n, labels, stats, _ = cv2().connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
@@ -97,11 +93,7 @@ class ObjectDetector:
                 ok = np.isfinite(z) & (z > 0)
                 if not ok.any():
                     continue
-                z = z[ok]
-                right, down = self._ray_right[sel][ok] * z, self._ray_down[sel][ok] * z
-                # camera frame (forward z, right, down) -> car frame (ahead, left, up)
-                ahead = c.x_m + z * cp - down * sp
-                left = c.y_m - right
+                ahead, left, _ = c.unproject(self._u[sel][ok], self._v[sel][ok], z[ok])
                 fx, fy = float(np.median(ahead)), float(np.median(left))
                 rng = math.hypot(fx - c.x_m, fy - c.y_m)
                 if rng > self.max_range_m:

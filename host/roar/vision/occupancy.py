@@ -78,14 +78,7 @@ def camera_points(depth: np.ndarray, camera: CameraModel, stride: int = STRIDE) 
     v, u = np.mgrid[0:h:stride, 0:w:stride]
     z = depth[::stride, ::stride].astype(np.float64)
     keep = np.isfinite(z) & (z > 0.05) & (z < X_RANGE_M[1] * 2)
-    u, v, z = u[keep], v[keep], z[keep]
-    right = (u - camera.cx) / camera.fx * z
-    down = (v - camera.cy) / camera.fy * z
-    c, s = math.cos(camera.pitch_rad), math.sin(camera.pitch_rad)
-    # optical axis tilted down by pitch: ahead = z cos - down sin ... (the inverse of CameraModel.project)
-    x = camera.x_m + z * c - down * s
-    zc = camera.z_m - z * s - down * c
-    y = camera.y_m - right
+    x, y, zc = camera.unproject(u[keep], v[keep], z[keep])
     return np.column_stack([x, y, zc])
 
 
