@@ -10,6 +10,13 @@ the planning grid.
 replan() keeps the subtree under the node of the last path nearest the car (where a follower
 put it), drops every edge the new grid blocks with all below it, and grows from there.
 
+room_m: each metre driven with less room than room_m between the car's sides and the nearest
+obstacle costs up to ROOM_COST metres more, so of two gaps the wider is taken when it is not much
+longer (the pose's error and the follower's cut then have room).
+
+max_reverse_m: a path reverses at most this far in a row, counting what the car has just reversed
+(plan's reversed_m): there is no camera behind, and a long way backwards is a long way blind.
+
 stop_room_m: a path ends only where the car would still fit that much further on (a car that
 overshoots its stop does not meet the wall). improve=N draws N more samples after the first path and keeps the cheapest path to the goal then
 (no rewiring: another branch that happens to be cheaper). smooth=True shortcuts a path found: from its start, the one arc to the farthest of its nodes that
@@ -37,11 +44,13 @@ GOAL_TOLERANCE_M = 0.3  # [m] a node this near the goal reaches it
 STEP_M = 1.5  # [m] the longest edge
 REVERSE_COST = 2.0  # a reversing metre costs this many metres ahead
 CANDIDATES = 3  # nearest nodes tried per sample before it is given up
+PARENTS = 10  # with room_m: the nearest nodes weighed as a new node's parent, the cheapest way to it first
 REGION_MARGIN_M = 3.0  # [m] samples are drawn from the free cells of the box round start and goal grown by this
 REROOT_M = 0.6  # [m] the car within this of a node of its last path: the tree is kept from there
 REROOT_RAD = 0.6  # [rad] ... and its heading within this
 MAX_NODES = 200_000
 MAX_KEPT = 2000  # a replan keeping more nodes than this starts afresh (each sample weighs every node)
+ROOM_COST = 3.0  # extra metres per metre driven with no room beside the car's rectangle, falling to none at room_m
 
 
 def checked_pose(what: str, value, size: int = 3) -> tuple[float, ...]:
@@ -63,7 +72,7 @@ class ArcRRT:
                  reverse: bool = True, reverse_cost: float = REVERSE_COST, goal_bias: float = GOAL_BIAS,
                  goal_tolerance_m: float = GOAL_TOLERANCE_M, step_m: float = STEP_M, seed: int | None = None,
                  region_margin_m: float | None = REGION_MARGIN_M, smooth: bool = False, improve: int = 0,
-                 stop_room_m: float = 0.0) -> None:
+                 stop_room_m: float = 0.0, max_reverse_m: float | None = None, room_m: float = 0.0) -> None:
         if not isinstance(grid, PlanningGrid):
             raise PlanningError(f"grid must be a PlanningGrid, got {type(grid).__name__}")
         if not (math.isfinite(r_min_m) and 0 < r_min_m < 50):
@@ -78,6 +87,9 @@ class ArcRRT:
         self.smooth = smooth
         self.improve = improve  # samples drawn after the first path, the cheapest path to the goal then kept
         self.stop_room_m = stop_room_m  # [m] a path ends where the car fits this much further on (it may overshoot)
+        self.max_reverse_m = max_reverse_m  # [m] reversing in a row at most (None: no limit)
+        self.room_m = room_m  # [m] less room than this beside the car costs extra (0: length alone)
+        self._room = None  # (distance to the nearest blocked cell [m] over the sampling region, i0, j0)
         self.tree: Tree | None = None
         self.path: Path | None = None
         self._branch: list[int] = []  # the last path's nodes
@@ -101,21 +113,31 @@ class ArcRRT:
         (i0, j0), (i1, j1) = self.grid.cells([lo, hi])
         inside = (free[:, 0] >= i0) & (free[:, 0] <= i1) & (free[:, 1] >= j0) & (free[:, 1] <= j1)
         self._free = free[inside] if inside.any() else free
+        if self.room_m > 0:  # the distance to the nearest blocked cell over the region (a metre more round it)
+            from scipy import ndimage
+
+            pad = int(math.ceil(1.0 / self.grid.resolution_m))
+            nx, ny = self.grid.shape
+            i0, j0 = max(0, i0 - pad), max(0, j0 - pad)
+            sub = self.grid.blocked[i0:min(nx, i1 + pad + 1), j0:min(ny, j1 + pad + 1)]
+            self._room = (ndimage.distance_transform_edt(~sub) * self.grid.resolution_m, i0, j0)
 
     # -- the public calls -------------------------------------------------------------------------
 
-    def plan(self, start, goal, budget_s: float = 0.2, max_iterations: int | None = None, t_s: float = 0.0) -> Path:
+    def plan(self, start, goal, budget_s: float = 0.2, max_iterations: int | None = None, t_s: float = 0.0,
+             reversed_m: float = 0.0) -> Path:
         """A path from start (x, y, heading) to within goal_tolerance_m of goal (x, y[, heading:
-        ignored]), searched for budget_s of wall time (or max_iterations); NoPath if none."""
+        ignored]), searched for budget_s of wall time (or max_iterations); NoPath if none.
+        reversed_m: metres the car has just driven backwards (they count towards max_reverse_m)."""
         start = checked_pose("start", start)
         goal = checked_pose("goal", goal, 2)[:2]
         self._check_ends(start, goal)
-        self.tree, self.path, self._branch = Tree(start), None, []
+        self.tree, self.path, self._branch = Tree(start, reversed_m=reversed_m), None, []
         self.kept_nodes = 0
         return self._grow(goal, budget_s, max_iterations, t_s)
 
     def replan(self, pose, goal, grid: PlanningGrid | None = None, budget_s: float = 0.2,
-               max_iterations: int | None = None, t_s: float = 0.0) -> Path:
+               max_iterations: int | None = None, t_s: float = 0.0, reversed_m: float = 0.0) -> Path:
         """Plan again from pose, keeping the tree's part that is still valid (see the module's text)."""
         if grid is not None:
             self._set_grid(grid)
@@ -123,13 +145,13 @@ class ArcRRT:
         goal = checked_pose("goal", goal, 2)[:2]
         root = self._reroot_node(pose)
         if root is None:
-            return self.plan(pose, goal, budget_s, max_iterations, t_s)
+            return self.plan(pose, goal, budget_s, max_iterations, t_s, reversed_m)
         self._check_ends(self.tree.pose(root), goal)
         tree = self.tree
         keep = tree.descendants(root)
         if np.count_nonzero(keep) > MAX_KEPT:
-            return self.plan(pose, goal, budget_s, max_iterations, t_s)
-        tree.keep(keep, root)
+            return self.plan(pose, goal, budget_s, max_iterations, t_s, reversed_m)
+        tree.keep(keep, root, reversed_m)
         self._drop_blocked()
         self.kept_nodes = len(self.tree)
         self.path, self._branch = None, []
@@ -175,11 +197,14 @@ class ArcRRT:
                          self.grid.resolution_m)
 
     def _drop_blocked(self) -> None:
-        """Drop every node whose edge the grid now blocks, with everything below it."""
+        """Drop every node whose edge the grid now blocks (or that reverses too far in a row), with
+        everything below it."""
         t = self.tree
         bad = np.zeros(len(t), bool)
+        if self.max_reverse_m is not None:
+            bad[1:] = t.reversed[1:] > self.max_reverse_m + 1e-6
         for k in range(1, len(t)):
-            if not bad[t.parent[k]] and not self.footprint.fits(self.grid, self.edge_poses(k)):
+            if not bad[k] and not bad[t.parent[k]] and not self.footprint.fits(self.grid, self.edge_poses(k)):
                 bad[k] = True
         if bad.any():
             drop = np.zeros(len(t), bool)
@@ -190,6 +215,10 @@ class ArcRRT:
     def _sample(self, goal) -> tuple[float, float]:
         if self.rng.uniform() < self.goal_bias:
             return goal
+        return self._free_point()
+
+    def _free_point(self) -> tuple[float, float]:
+        """A point drawn uniformly from the sampling region's free cells."""
         i, j = self._free[self.rng.integers(len(self._free))]
         r = self.grid.resolution_m
         return (self.grid.x0 + (i + self.rng.uniform()) * r, self.grid.y0 + (j + self.rng.uniform()) * r)
@@ -201,16 +230,19 @@ class ArcRRT:
         options = [arcs(t.x, t.y, t.heading, px, py, self.r_min_m)]
         if self.reverse:
             options.append(arcs(t.x, t.y, t.heading, px, py, self.r_min_m, reverse=True))
-        metric = np.concatenate([options[0].length_m] + ([options[1].length_m * self.reverse_cost]
-                                                         if self.reverse else []))
+        room = np.full(len(t), np.inf) if self.max_reverse_m is None else self.max_reverse_m - t.reversed  # [m]
+        metric = np.concatenate([options[0].length_m] + ([np.where(room > 0.05, options[1].length_m, np.inf)
+                                                          * self.reverse_cost] if self.reverse else []))
         n = len(t)
-        k = min(3, len(metric))
+        k = min(CANDIDATES if self.room_m <= 0 else PARENTS, len(metric))
         best = np.argpartition(metric, k - 1)[:k] if len(metric) > k else np.arange(len(metric))
-        for b in best[np.argsort(metric[best])]:
+        order = metric[best] if self.room_m <= 0 else metric[best] + t.cost[best % n]
+        for b in best[np.argsort(order)]:
             if not math.isfinite(metric[b]):
                 break
             a, node = options[b // n], int(b % n)
-            angle, length = truncated(float(a.angle_rad[node]), float(a.length_m[node]), self.step_m)
+            reach = self.step_m if a is options[0] else min(self.step_m, float(room[node]))
+            angle, length = truncated(float(a.angle_rad[node]), float(a.length_m[node]), reach)
             if length < 1e-3:
                 continue
             radius, direction = float(a.radius_m[node]), int(a.direction[node])
@@ -218,7 +250,8 @@ class ArcRRT:
             if not self.footprint.fits(self.grid, poses):
                 continue
             x, y, th = poses[-1]
-            cost = float(t.cost[node]) + length * (self.reverse_cost if direction < 0 else 1.0)
+            cost = float(t.cost[node]) + length * (self.reverse_cost if direction < 0 else 1.0) + \
+                self._crowding(poses, length)
             return t.add(x, y, math.remainder(th, math.tau), node, cost, direction, radius, angle, length)
         return None
 
@@ -273,14 +306,30 @@ class ArcRRT:
                 if not self.footprint.fits(self.grid, poses):
                     continue
                 x, y, th = poses[-1]
-                at = t.add(x, y, math.remainder(th, math.tau), at, float(t.cost[at]) + length, 1,
-                           float(a.radius_m), float(a.angle_rad), length)
+                at = t.add(x, y, math.remainder(th, math.tau), at,
+                           float(t.cost[at]) + length + self._crowding(poses, length), 1, float(a.radius_m),
+                           float(a.angle_rad), length)
                 out.append(at)
                 i = j
                 break
             else:
                 return branch  # from a shortcut's end the rest cannot be reached: keep the path as found
         return out if t.cost[out[-1]] < t.cost[branch[-1]] else branch
+
+    def _crowding(self, poses: np.ndarray, length: float) -> float:
+        """[m] the extra cost of an edge for the room it leaves beside the car: ROOM_COST per metre
+        with none, nothing with room_m or more (0 without room_m)."""
+        if self._room is None or self.room_m <= 0:
+            return 0.0
+        dist, i0, j0 = self._room
+        fp = self.footprint
+        mid = (fp.front_m - fp.rear_m) / 2  # [m] the rectangle's centre ahead of the pose
+        centres = poses[:, :2] + mid * np.stack([np.cos(poses[:, 2]), np.sin(poses[:, 2])], axis=1)
+        ij = self.grid.cells(centres) - (i0, j0)
+        inside = (ij[:, 0] >= 0) & (ij[:, 1] >= 0) & (ij[:, 0] < dist.shape[0]) & (ij[:, 1] < dist.shape[1])
+        clear = np.full(len(poses), np.inf)
+        clear[inside] = dist[ij[inside, 0], ij[inside, 1]] - (fp.half_width_m + fp.margin_m)
+        return ROOM_COST * length * float(np.mean(np.clip(1.0 - clear / self.room_m, 0.0, 1.0)))
 
     def _reached(self, goal, nodes: np.ndarray) -> int | None:
         t = self.tree

@@ -79,7 +79,7 @@ class DubinsRRTStar(ArcRRT):
         return self.plan(pose, goal, budget_s, max_iterations, t_s)
 
     def _at_goal(self, goal, k: int) -> bool:
-        return bool(np.isin(k, self._goal_nodes(goal, np.array([k]))))
+        return len(self._goal_nodes(goal, np.array([k]))) > 0
 
     def _goal_nodes(self, goal, nodes: np.ndarray | None = None) -> np.ndarray:
         t = self.tree
@@ -95,11 +95,6 @@ class DubinsRRTStar(ArcRRT):
             return np.array([goal[0], goal[1], heading])
         x, y = self._free_point()
         return np.array([x, y, self.rng.uniform(-math.pi, math.pi)])
-
-    def _free_point(self) -> tuple[float, float]:
-        i, j = self._free[self.rng.integers(len(self._free))]
-        r = self.grid.resolution_m
-        return (self.grid.x0 + (i + self.rng.uniform()) * r, self.grid.y0 + (j + self.rng.uniform()) * r)
 
     def _edge(self, a, b) -> tuple[float, np.ndarray]:
         """(length, poses) of the Dubins curve from pose a to pose b."""
@@ -160,9 +155,6 @@ class DubinsRRTStar(ArcRRT):
                 below = t.descendants(j)
                 if below[k]:  # never under itself
                     continue
-                drop = float(t.cost[j] - via[i])
-                t._a["cost"][:len(t)][below] -= drop
-                t._a["parent"][j] = k
-                t._a["length"][j] = float(out.length_m[i])
+                t.reparent(j, k, float(via[i]), float(out.length_m[i]), below)
                 self.rewires += 1
         return k
