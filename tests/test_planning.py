@@ -1,9 +1,10 @@
 """roar.planning on its own (no simulator): the arc geometry against its closed-form formulas,
 Dubins curves against OMPL's and their own ends, the footprint's rasterised collision, the grid's
-frame, the arc RRT (r_min, collision-free paths, reversing, re-planning that keeps the valid
-tree, bad inputs in one line), the Dubins RRT* (rewiring keeps costs consistent and shortens),
-the path follower (pose jumps, late paths, reversing), the high-level planner's marker rule, the
-pose history and the SORT tracker."""
+frame, the arc RRT (r_min, collision-free paths, reversing and its cap, the wider of two gaps,
+re-planning that keeps the valid tree, bad inputs in one line), the Dubins RRT* (rewiring keeps
+costs consistent and shortens), the path follower (pose jumps, late paths, reversing, slowing for
+bends, braking rather than swerving for a late cone), the high-level planner's marker rule, the
+pose history, the SORT tracker and the camera's view (no miss round a corner)."""
 
 import math
 
@@ -137,6 +138,14 @@ def test_the_footprint_is_rasterised_over_the_cars_rectangle_not_its_centre():
     assert not fp.fits(PlanningGrid(turned, RES, 0.0, 0.0), [(5.0, 5.0, math.pi / 2)])  # ...and into it
     assert fp.first_collision(PlanningGrid(free, RES, 0.0, 0.0), [(1.0, 1.0, 0.0), (0.05, 1.0, 0.0)]) == 1  # off grid
 
+    # round obstacles, exactly: a cone 0.1 m round just clear of the front, touching it, off a corner
+    assert not fp.touches_discs([pose], [(5.52, 5.0)], 0.1) and fp.touches_discs([pose], [(5.49, 5.0)], 0.1)
+    assert not fp.touches_discs([pose], [(5.48, 5.23)], 0.1)  # 0.113 m from the corner (5.4, 5.15)
+    assert fp.touches_discs([pose], [(5.46, 5.21)], 0.1)  # 0.085 m from the corner
+    assert fp.touches_discs([(0.0, 0.0, 0.0), pose], [(5.1, 5.0)], 0.1)  # under the car, at the second pose
+    assert not fp.touches_discs([pose], [(4.75, 5.0)], 0.1)  # 0.15 m behind its rear
+    assert not fp.touches_discs([pose], np.zeros((0, 2)), 0.1)
+
 
 # -- arc RRT ---------------------------------------------------------------------------------------
 
@@ -200,6 +209,51 @@ def test_the_arc_rrt_reverses_out_of_a_dead_end():
     path = rrt.plan((3.0, 0.6, 0.0), (0.8, 0.6), max_iterations=20_000)
     assert_drivable(rrt, path, grid, (0.8, 0.6))
     assert (path.direction < 0).any()
+
+
+def reversing_runs(path) -> list[float]:
+    """[m] the lengths of a path's stretches driven backwards in a row."""
+    steps = np.hypot(*np.diff(path.poses[:, :2], axis=0).T)
+    runs, run = [], 0.0
+    for back, step in zip(path.direction[1:] < 0, steps):
+        run = run + step if back else 0.0
+        runs.append(run)
+    return runs or [0.0]
+
+
+def test_a_path_reverses_no_farther_in_a_row_than_allowed_counting_what_the_car_just_reversed():
+    grid = PlanningGrid.from_map(corridor_map(length_m=12.0, width_m=2.0))
+    for seed in range(3):  # facing the wrong way, the goal 6 m behind: a turn, not 6 m backwards blind
+        rrt = ArcRRT(grid, r_min_m=R_MIN, seed=seed, max_reverse_m=1.0)
+        path = rrt.plan((8.0, 1.0, 0.0), (2.0, 1.0), max_iterations=20_000)
+        assert_drivable(rrt, path, grid, (2.0, 1.0))
+        assert max(reversing_runs(path)) <= 1.0 + grid.resolution_m
+        assert np.all(rrt.tree.reversed <= 1.0 + 1e-9)
+        # the car has just reversed its metre: the path may not begin backwards
+        again = rrt.replan(tuple(path.poses[0]), (2.0, 1.0), max_iterations=20_000, reversed_m=1.0)
+        assert again.direction[1] > 0
+        assert max(reversing_runs(again)) <= 1.0 + grid.resolution_m
+    blind = [max(reversing_runs(ArcRRT(grid, r_min_m=R_MIN, seed=s).plan((8.0, 1.0, 0.0), (2.0, 1.0),
+                                                                          max_iterations=20_000)))
+             for s in range(3)]
+    assert max(blind) > 1.5  # unlimited, a plain RRT does back down the corridor: the limit is what stopped it
+
+
+def test_with_room_m_the_wider_gap_beside_a_cone_is_taken():
+    # a cone 0.95 m from one wall of a 2.4 m corridor: a gap the car fits with 0.2 m to spare, and a wide one
+    grid = PlanningGrid.from_map(corridor_map(length_m=10.0, width_m=2.4)).with_discs([(5.0, 0.95)], 0.2)
+
+    def narrow(room_m: float) -> int:
+        count = 0
+        for seed in range(20):
+            rrt = ArcRRT(grid, r_min_m=R_MIN, seed=seed, room_m=room_m, smooth=True, improve=300)
+            path = rrt.plan((1.0, 1.2, 0.0), (9.0, 1.2), max_iterations=1000)
+            assert_drivable(rrt, path, grid, (9.0, 1.2))
+            count += np.interp(5.0, path.poses[:, 0], path.poses[:, 1]) < 0.95
+        return count
+
+    assert narrow(0.3) == 0
+    assert narrow(0.0) >= 2  # by length alone the first gap found is kept, narrow or not
 
 
 def test_replanning_keeps_the_still_valid_tree_and_routes_round_what_appeared():
@@ -294,6 +348,37 @@ def test_a_late_path_is_followed_from_where_the_car_is_now():
     assert s.speed_m_s > 0
 
 
+def test_the_follower_slows_for_a_bend_ahead_in_time_to_take_it():
+    from roar.planning.follower import BRAKE_M_S2, LATERAL_M_S2
+
+    r, straight = 0.8, 4.0  # [m] 4 m straight, then a quarter turn 0.8 m round
+    xs = np.arange(0.0, straight, 0.02)
+    a = np.arange(0.0, math.pi / 2, 0.02 / r)
+    poses = np.vstack([np.stack([xs, np.zeros_like(xs), np.zeros_like(xs)], axis=1),
+                       np.stack([straight + r * np.sin(a), r - r * np.cos(a), a], axis=1)])
+    path = Path(poses, np.ones(len(poses), np.int8))
+    fast = PathFollower(max_speed_m_s=4.0)
+    bend = math.sqrt(LATERAL_M_S2 * r)  # [m/s] the bend's own speed
+    for x in (0.0, 1.5, 2.5):
+        follower = PathFollower(max_speed_m_s=4.0)
+        follower.set_path(path)
+        before = straight - x
+        want = bend if before <= 1.5 else min(4.0, math.sqrt(bend ** 2 + 2 * BRAKE_M_S2 * before))
+        assert follower.step((x, 0.0, 0.0), 3.0).speed_m_s == pytest.approx(want, abs=0.05)
+    assert fast.entry_speed(path) == pytest.approx(min(4.0, math.sqrt(bend ** 2 + 2 * BRAKE_M_S2 * straight)), abs=0.05)
+    late = Path(poses[poses[:, 0] > 3.2], np.ones(int(np.sum(poses[:, 0] > 3.2)), np.int8))  # the bend 0.8 m on
+    assert fast.entry_speed(late) == pytest.approx(bend, abs=0.05)
+    assert fast.path is None  # asking changes nothing
+    # a cone seen late 3 m ahead, the way round it bending at once: at 2 m/s the car brakes (it stops in
+    # 1.33 m, short of the cone); at walking pace it takes the way round; with the cone 1 m ahead it
+    # swerves (braking would not stop it short)
+    follower = PathFollower(max_speed_m_s=2.0)
+    assert follower.brake_rather(late, 2.0, shut_m=3.0, front_m=0.44)
+    assert not follower.brake_rather(late, 0.8, shut_m=3.0, front_m=0.44)
+    assert not follower.brake_rather(late, 2.0, shut_m=1.0, front_m=0.44)
+    assert not follower.brake_rather(path, 2.0, shut_m=3.0, front_m=0.44)  # a way round it can take at speed
+
+
 def test_reversing_steers_the_wheels_the_other_way():
     f = PathFollower()
     f.set_path(Path(np.stack([np.arange(0.0, -5.0, -0.05), np.zeros(100), np.zeros(100)], axis=1),
@@ -356,3 +441,27 @@ def test_sort_counts_each_object_once_and_drops_what_is_seen_once():
         tracker.update([], k * 0.1, in_view=lambda x, y: False)
     assert len(tracker.objects()) == 3
     assert all(min(math.hypot(o.x - x, o.y - y) for _, x, y in objects) < 0.08 for o in tracker.objects())
+
+
+def test_a_cone_round_a_corner_is_not_missed_but_one_in_plain_view_is():
+    from roar.vision.geometry import SIMULATED_CAR_CAMERA
+    from roar.vision.view import CameraView
+
+    known = corridor_map(length_m=12.0, width_m=4.0, blocks=[(4.0, 0.0, 4.3, 3.0)])  # a wall with a gap at the top
+    view = CameraView(SIMULATED_CAR_CAMERA.model(320, 240), known)
+    pose = (2.0, 1.0, 0.0)  # the camera 0.39 m ahead, at (2.39, 1)
+    assert view.sees(pose, 3.5, 1.0)
+    assert not view.sees(pose, 5.5, 1.0)  # behind the wall
+    assert not view.sees(pose, 2.7, 1.0)  # too near: it fills the frame's bottom
+    assert not view.sees(pose, 3.0, 3.5)  # outside the field of view
+    assert not view.sees(pose, 8.0, 1.0) and not CameraView(view.camera).sees(pose, 8.0, 1.0)  # too far
+    assert CameraView(view.camera).sees(pose, 5.5, 1.0)  # with no map, walls hide nothing
+    tracker = Tracker()
+    objects = [("cone", 3.5, 1.0), ("cone", 5.5, 1.0)]
+    for k in range(5):  # both seen (the car was elsewhere)
+        tracker.update([Detection(kind, x, y, k * 0.1, 2.0, 50) for kind, x, y in objects], k * 0.1)
+    assert len(tracker.objects("cone")) == 2
+    for k in range(5, 25):  # now nothing is detected from the pose: the one in plain view is gone
+        tracker.update([], k * 0.1, in_view=lambda x, y: view.sees(pose, x, y))
+    kept = tracker.objects("cone")
+    assert len(kept) == 1 and math.hypot(kept[0].x - 5.5, kept[0].y - 1.0) < 0.05

@@ -34,7 +34,10 @@ DONE_M = 0.25  # [m] this near the path's last point, the path is done
 MAX_SPEED_M_S = 2.0  # [m/s]
 LATERAL_M_S2 = 1.0  # [m/s^2] the speed on a bend is held below sqrt(this / curvature): 0.9 m/s on the tightest arcs, where
 # faster the car swings 0.1 m and more off them (the servo's slew, pure pursuit's cut)
-BRAKE_M_S2 = 1.5  # [m/s^2] the speed is held to stop at the path's end (or a change of direction)
+BRAKE_M_S2 = 1.5  # [m/s^2] the speed is held to stop at the path's end (or a change of direction), and to slow for
+# a bend further on
+ENTRY_SLACK_M_S = 0.2  # [m/s] a path entered this much faster than its bends allow is still taken (braking on it)
+BEND_WINDOW_M = 1.5  # [m] the tightest bend this far ahead sets the speed at once
 MIN_SPEED_M_S = 0.4  # [m/s] never asked to go slower while following (the ESC stalls below)...
 CREEP_M = 0.3  # [m] ...but over the last this much before a stop (a goal by a wall: no overshoot into it)
 
@@ -73,12 +76,8 @@ class PathFollower:
         self.path, self.index, self.target = path, 0, None
         if path is not None:
             d = np.diff(path.poses[:, :2], axis=0)
-            self._seg = np.linalg.norm(d, axis=1)
-            self._s = np.concatenate([[0.0], np.cumsum(self._seg)])
             self._tangent = np.vstack([d, d[-1:]]) if len(d) else np.array([[1.0, 0.0]])
-            heading = np.unwrap(path.poses[:, 2])
-            self._kappa = np.abs(np.gradient(heading, self._s)) if len(heading) > 1 and self._s[-1] > 0 else \
-                np.zeros(len(heading))
+            self._s, self._kappa = along_and_curvature(path)
             cusps = np.flatnonzero(np.diff(path.direction) != 0) + 1
             self._cusps = np.concatenate([cusps, [len(path.poses) - 1]])
         self.state = FollowerState.WAITING if path is None else FollowerState.FOLLOWING
@@ -131,13 +130,28 @@ class PathFollower:
         j = min(end, int(np.searchsorted(self._s, want)))
         self.target = (float(pts[j, 0]), float(pts[j, 1]))
         to_stop = float(self._s[end] - self._s[i]) + math.hypot(pts[i, 0] - x, pts[i, 1] - y)
-        ahead = (self._s >= self._s[i]) & (self._s <= self._s[i] + 1.5)
-        kappa = float(self._kappa[ahead].max()) if ahead.any() else 0.0
         stopping = math.sqrt(2 * BRAKE_M_S2 * max(0.0, to_stop - self.done_m))
         if to_stop > self.done_m + CREEP_M:  # not yet at the end: no slower than the ESC keeps rolling
             stopping = max(MIN_SPEED_M_S, stopping)
-        speed = min(self.max_speed_m_s, math.sqrt(LATERAL_M_S2 / max(kappa, 1e-6)), stopping)
+        speed = min(self._bend_speed(i), stopping)
         return self._steer(x, y, yaw, self.target, int(path.direction[i]), speed, remaining)
+
+    def _bend_speed(self, i: int) -> float:
+        return bend_speed(self._s, self._kappa, i, self.max_speed_m_s)
+
+    def entry_speed(self, path: Path) -> float:
+        """[m/s] the fastest the car may enter path (at its first point) and still take its bends
+        (a plan made at speed may begin with a bend only a slower car can follow)."""
+        return bend_speed(*along_and_curvature(path), 0, self.max_speed_m_s)
+
+    def brake_rather(self, path: Path, speed_m_s: float, shut_m: float, front_m: float) -> bool:
+        """A cone seen late shut the way shut_m [m] ahead (along the old path) and `path` goes round
+        it: whether braking costs less than taking it. Taking it costs the cone when the car is
+        faster than its bends allow (entry_speed, ENTRY_SLACK_M_S of braking on the way allowed);
+        braking costs a stop, and is chosen when the car's front (front_m ahead of its pose)
+        stops short of the cone."""
+        too_fast = speed_m_s > self.entry_speed(path) + ENTRY_SLACK_M_S
+        return too_fast and speed_m_s ** 2 / (2 * BRAKE_M_S2) < shut_m - front_m
 
     def _steer(self, x: float, y: float, yaw: float, target, direction: int, speed: float,
                remaining: float = 0.0) -> Steer:
@@ -147,3 +161,23 @@ class PathFollower:
             curvature = PurePursuit.curvature(x, y, yaw, target)
         return Steer(self.state, curvature, direction, speed, (float(target[0]), float(target[1])), self.index,
                      remaining)
+
+
+def along_and_curvature(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """([m] along the path at each point, [1/m] the size of its curvature there)."""
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path.poses[:, :2], axis=0), axis=1))])
+    heading = np.unwrap(path.poses[:, 2])
+    kappa = np.abs(np.gradient(heading, s)) if len(heading) > 1 and s[-1] > 0 else np.zeros(len(heading))
+    return s, kappa
+
+
+def bend_speed(s: np.ndarray, kappa: np.ndarray, i: int, max_speed_m_s: float) -> float:
+    """[m/s] the fastest a car may be at point i of a path (s along it [m], curvature kappa [1/m])
+    for the bends ahead: the tightest within BEND_WINDOW_M under LATERAL_M_S2 sideways, and every
+    one further on reachable at its own speed braking at BRAKE_M_S2."""
+    ahead = (s >= s[i]) & (s <= s[i] + max_speed_m_s ** 2 / (2 * BRAKE_M_S2) + BEND_WINDOW_M)
+    near = s[ahead] <= s[i] + BEND_WINDOW_M
+    bend = np.minimum(max_speed_m_s, np.sqrt(LATERAL_M_S2 / np.maximum(kappa[ahead], 1e-6)))
+    window = float(bend[near].min()) if near.any() else max_speed_m_s
+    braking = float(np.sqrt(bend ** 2 + 2 * BRAKE_M_S2 * (s[ahead] - s[i])).min()) if ahead.any() else window
+    return min(window, braking)

@@ -88,6 +88,22 @@ class Footprint:
     def fits(self, grid: PlanningGrid, poses) -> bool:
         return self.first_collision(grid, poses) < 0
 
+    def touches_discs(self, poses, centres_xy, radius_m: float) -> bool:
+        """Whether the rectangle (margin included) at any of poses (N, 3) comes nearer than
+        radius_m [m] to any of centres_xy (M, 2) [m]: the car against round obstacles (cones),
+        exactly, with no grid."""
+        p = np.asarray(poses, dtype=float).reshape(-1, 3)
+        c = np.asarray(centres_xy, dtype=float).reshape(-1, 2)
+        if not len(p) or not len(c):
+            return False
+        dx, dy = c[None, :, 0] - p[:, None, 0], c[None, :, 1] - p[:, None, 1]
+        cos, sin = np.cos(p[:, 2])[:, None], np.sin(p[:, 2])[:, None]
+        u, v = cos * dx + sin * dy, -sin * dx + cos * dy  # the centres in the car's frame at each pose
+        (back, right), (front, left) = self.corners()[0], self.corners()[2]
+        out_u = np.maximum(np.maximum(back - u, u - front), 0.0)
+        out_v = np.maximum(np.maximum(right - v, v - left), 0.0)
+        return bool((np.hypot(out_u, out_v) < radius_m).any())
+
     def _points(self, resolution_m: float) -> tuple[np.ndarray, np.ndarray]:
         cache = self.__dict__.setdefault("_cache", {})
         if resolution_m not in cache:

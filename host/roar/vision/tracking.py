@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 GATE_M = 0.6  # [m] a detection further than this from a track's prediction is not it
-CONFIRM_HITS = 3
+CONFIRM_HITS = 2
 MAX_MISSES = 2
 MAX_MISSES_CONFIRMED = 6
 MEASUREMENT_M = 0.08  # [m] standard deviation of a detection's position
