@@ -269,3 +269,28 @@ def test_follower_goes_on_from_the_nearest_waypoint_when_the_pose_jumps():
     f.setup()
     assert f.step(obs_at(2, 0)) < 8
     assert 19 <= f.step(obs_at(-2, 0)) <= 26  # half way round: not back where it was
+
+
+def test_the_open_way_steers_for_the_gap_nearest_the_wanted_direction():
+    import math
+
+    import numpy as np
+
+    from roar.autopilot.open_way import MAX_THROTTLE, OpenWay
+    from roar.localization.scan import LaserScan
+
+    angles = np.linspace(-math.pi, math.pi, 720, endpoint=False)
+    walls = np.minimum(2.0 / np.maximum(np.abs(np.cos(angles)), 1e-6), 1.0 / np.maximum(np.abs(np.sin(angles)), 1e-6))
+    left = (angles > math.radians(40)) & (angles < math.radians(70))  # a side way open to the left
+    right = (angles < -math.radians(40)) & (angles > -math.radians(70))  # and one to the right
+    one = LaserScan(angles, np.where(left, 10.0, walls), 0.0)
+    assert OpenWay().command(one, 0.0).steering < -0.5  # steering +1 is full right: towards the left gap
+    both = LaserScan(angles, np.where(left | right, 10.0, walls), 0.0)
+    assert OpenWay().command(both, 0.0, want_rad=-1.0).steering > 0.5
+    assert OpenWay().command(both, 0.0, want_rad=1.0).steering < -0.5
+    way = OpenWay()
+    for _ in range(200):  # standing still: the throttle winds up to its limit, and no further
+        command = way.command(one, 0.0)
+    assert command.throttle == MAX_THROTTLE
+    way.reset()
+    assert way.command(one, 5.0).throttle == 0.0  # too fast: no throttle (it never brakes)

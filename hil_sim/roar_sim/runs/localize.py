@@ -17,6 +17,7 @@ import numpy as np
 
 from roar.autopilot import Command, Observation
 from roar.localization import Odometry, ParticleFilter
+from roar.autopilot.open_way import OpenWay
 from roar.localization.local_grid import LocalGrid
 from roar.tracks.occupancy_map import OccupancyMap, track_map
 from roar.tracks.track import Track
@@ -30,17 +31,6 @@ SCAN_BEAMS = 1080  # the lidar's beams (the filter uses `beams` of them)
 PARTICLES = 1000  # the filter's particles in a race (the benchmark measures 2,500)
 BEAMS = 60  # beams of each scan the filter weighs
 SCORED_ERROR_M = 0.3  # [m] a global start has converged once the error stays below this
-EXPLORE_SPEED_M_S = 1.5  # [m/s] the car creeps at most this fast (by its odometry) while the filter is not localized
-EXPLORE_SLOW_M = 3.0  # [m] free ahead below which it creeps slower, in proportion (a corner ahead)
-EXPLORE_GAIN = 0.03  # throttle added per m/s short of its speed, each control period (an integral: the ESC's
-# speed for a throttle depends on the car)
-EXPLORE_MAX_THROTTLE = 0.6
-EXPLORE_STEERING_GAIN = 1.5  # steering per radian towards the open way (+1 full right)
-EXPLORE_VIEW_RAD = math.radians(90)  # [rad] either side of ahead where it looks for the open way
-EXPLORE_REACH_M = 4.0  # [m] ranges beyond this count as this: the nearest open way, not the farthest
-EXPLORE_SIDE_RAD = (math.radians(30), math.radians(110))  # [rad] the beams that see the side walls
-EXPLORE_CENTRING_RAD = 0.8  # [rad] turned away from the nearer side wall, at one wall touching and the other far
-EXPLORE_HALF_GAP_M = 0.35  # [m] half the gap the car needs: a direction is as open as its beams this far either side
 
 
 @dataclass
@@ -165,7 +155,7 @@ class LocalizedCar:
         self._last: tuple[float, float] | None = None  # (t [s], travelled [m])
         self.scan = None  # the last scan
         self._speed = 0.0  # [m/s] by the odometry
-        self._throttle = 0.0  # while exploring
+        self._open_way = OpenWay()  # drives while exploring
 
     @property
     def time_s(self) -> float:
@@ -208,39 +198,17 @@ class LocalizedCar:
 
     def send(self, command: Command) -> None:
         """The driver's command; while the filter is not localized (a global start, or lost), the
-        car instead creeps towards the most open direction ahead (its pose means nothing yet)."""
+        car instead heads for the open way ahead (roar.autopilot.open_way: its pose means nothing
+        yet), towards the course's next point once the pose is good enough for that."""
         if self.exploring and self.scan is not None:
-            command = self._explore(self.scan)
+            want = 0.0
+            if self.towards is not None and self.filter.localized:
+                x, y, yaw = self.filter.sensor_pose()
+                want = math.remainder(math.atan2(self.towards[1] - y, self.towards[0] - x) - yaw, math.tau)
+            command = self._open_way.command(self.scan, self._speed, want)
         else:
-            self._throttle = 0.0
+            self._open_way.reset()
         self.robot.send(command)
-
-    def _explore(self, scan) -> Command:
-        """Follow the gap: steer towards the most open direction ahead, where a direction is as
-        open as the nearest reading within a car's gap of it, turned away from the nearer side
-        wall, and creep slower as the way ahead closes."""
-        from scipy import ndimage
-
-        ranges = np.where(scan.usable(), np.minimum(scan.ranges, EXPLORE_REACH_M), 0.0)
-        step = float(np.median(np.abs(np.diff(scan.angles)))) if len(scan.angles) > 1 else 1.0
-        half = max(1, int(math.atan2(EXPLORE_HALF_GAP_M, 2.0) / max(step, 1e-6)))  # [beams] at 2 m
-        openness = ndimage.minimum_filter1d(ranges, 2 * half + 1, mode="nearest")
-        ahead = np.abs(scan.angles) <= EXPLORE_VIEW_RAD
-        want = 0.0  # the direction sought [rad] in the lidar's frame: ahead, or towards the course's next point
-        if self.towards is not None and self.filter.localized:
-            x, y, yaw = self.filter.sensor_pose()
-            want = math.remainder(math.atan2(self.towards[1] - y, self.towards[0] - x) - yaw, math.tau)
-        score = np.where(ahead, openness - 0.5 * np.abs(scan.angles - want), -np.inf)  # the nearer of two equals
-        best = int(np.argmax(score))
-        front = float(openness[np.argmin(np.abs(scan.angles))])
-        sides = (np.abs(scan.angles) >= EXPLORE_SIDE_RAD[0]) & (np.abs(scan.angles) <= EXPLORE_SIDE_RAD[1])
-        left = float(np.min(ranges[sides & (scan.angles > 0)], initial=EXPLORE_REACH_M))
-        right = float(np.min(ranges[sides & (scan.angles < 0)], initial=EXPLORE_REACH_M))
-        heading = scan.angles[best] + EXPLORE_CENTRING_RAD * (left - right) / max(left + right, 1e-6)
-        speed = EXPLORE_SPEED_M_S * min(1.0, max(0.3, front / EXPLORE_SLOW_M))
-        self._throttle = float(np.clip(self._throttle + EXPLORE_GAIN * (speed - self._speed), 0.0,
-                                       EXPLORE_MAX_THROTTLE))
-        return Command(self._throttle, float(np.clip(-EXPLORE_STEERING_GAIN * heading, -1.0, 1.0)))
 
     def wait(self, seconds: float) -> None:
         self.robot.wait(seconds)
