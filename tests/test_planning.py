@@ -465,3 +465,27 @@ def test_a_cone_round_a_corner_is_not_missed_but_one_in_plain_view_is():
         tracker.update([], k * 0.1, in_view=lambda x, y: view.sees(pose, x, y))
     kept = tracker.objects("cone")
     assert len(kept) == 1 and math.hypot(kept[0].x - 5.5, kept[0].y - 1.0) < 0.05
+
+
+def test_the_course_driver_stands_until_it_has_seen_then_drives_along_the_route():
+    from roar.localization.local_grid import LocalGrid
+    from roar.planning.course_driver import CourseDriver
+    from roar.vision.geometry import SIMULATED_CAR_CAMERA
+
+    known = corridor_map(length_m=12.0, width_m=2.0)
+    route = np.array([(0.5, 1.0), (11.0, 1.0)])
+    camera = SIMULATED_CAR_CAMERA.model(160, 120)
+    driver = CourseDriver(known, route, camera, LocalGrid(10.0, RES, known), wheelbase_m=0.325, max_steer_rad=0.4,
+                          max_speed_m_s=5.0, seed=1)
+    grey, far = np.full((120, 160, 3), 128, np.uint8), np.full((120, 160), np.inf)
+    pose, commands = (1.0, 1.0, 0.0), []
+    for k in range(40):  # 0.8 s standing at the start, a frame every 0.1 s from 0.3 s on
+        t = k * 0.02
+        frames = [(grey, far, t - 0.3)] if k >= 15 and k % 5 == 0 else []
+        commands.append(driver.step(t, pose, 0.0, frames))
+    first_go = next(k for k, c in enumerate(commands) if c.throttle > 0)
+    assert all(c.throttle == 0.0 and c.steering == 0.0 for c in commands[:first_go])
+    assert driver.frames >= 3 and first_go >= 25  # the third frame came at 0.5 s: not before
+    assert driver.plans >= 1 and driver.follower.path is not None and not driver.exploring
+    assert driver.follower.path.poses[-1, 0] > 4.0  # towards the route's next goal, 4 m on
+    assert not driver.objects("cone") and abs(commands[-1].steering) < 0.2

@@ -19,20 +19,18 @@ from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
+import shapely
 
 from roar.autopilot import Command
-from roar.autopilot.longitudinal import SpeedController
 from roar.localization.local_grid import LocalGrid
 from roar.localization.pose_history import PoseHistory
-from roar.planning import ArcRRT, Footprint, NoPath, PathFollower, PlanningGrid
-from roar.planning.follower import FollowerState, Steer
-from roar.planning.mission import Mission
+from roar.planning import Footprint
+from roar.planning.course_driver import CourseDriver
 from roar.tracks.occupancy_map import track_map
 from roar.tracks.track import Track, TrackError
-from roar.tracks.tunnel import CONE_RADIUS_M, MARKER_SIZE_M
+from roar.tracks.tunnel import MARKER_SIZE_M
 from roar.vision.geometry import SIMULATED_CAR_CAMERA
-from roar.vision.objects import ObjectDetector
-from roar.vision.tracking import Tracker
+from roar.vision.tracking import CONFIRM_HITS
 from roar_sim.clock.lockstep import CONTROL_PERIOD_S
 from roar_sim.runs.localize import PARTICLES, LocalizedCar
 from roar_sim.sensors.camera_noise import ShakyCamera
@@ -43,29 +41,9 @@ FINISH_M = 0.5  # [m] the car's reference point this near the goal: finished
 CAMERA_SIZE = (320, 240)  # [px]
 CAMERA_FPS = 10.0  # [Hz]
 CAMERA_LATENCY_S = 0.3  # [s] from a frame's capture to its arrival
-CAMERA_RANGE_M = 4.5  # [m] the detector places nothing farther
-SEEN_WITHIN_M = 4.0  # [m] detection is scored on the objects that came this near the camera in its view
-REPLAN_S = 0.3  # [s] between plans (and at once when the way ahead is blocked or the follower is not following;
-# a plan that failed is tried again REPLAN_S later). Kept paths drift: a path of long smoothed arcs followed for
-# seconds leaves the car on the outside of a bend, a new plan from where it is does not
-PLAN_SAMPLES = 1000  # samples a plan may draw before it gives up (~0.1 s here; counted, not timed, so that a
-# run is the same on any machine and under any load)
-PLAN_IMPROVE = 300  # samples more after a first path, for a cheaper one (a first RRT path may loop)
-STOP_ROOM_M = 0.25  # [m] a plan ends where the car fits this much further on: it coasts past its stop (the ESC
-# has no brake that holds; below 0.3 m/s the speed controller stops braking lest the car reverse)
+SEEN_WITHIN_M = 4.0  # [m] detection is scored on the objects that came this near the camera in its view, no wall
+# between, in as many of the frames the detector received as the tracker needs to confirm an object
 PLAN_LATENCY_S = 0.15  # [s] from a plan's start to its path reaching the follower
-CRUISE_M_S = 1.5  # [m/s] the follower's top speed
-CONE_CLEARANCE_M = 0.1  # [m] a detected cone is blocked this far beyond its radius (its placement's error, and
-# the follower's cut inside a tight bend round it)
-LOST_AFTER_S = 1.5  # [s] without a path: head for open space in the course's direction
-CLEARANCE_M = 0.08  # [m] the planner keeps the car's rectangle this far from walls and cones: the follower's and
-# the filter's errors together (3 cm each is typical, a swerve round a cone twice that)
-BACK_UP_S = (0.5, 2.0)  # [s] reversing, straight, when the car is stuck (its rectangle touches something, or it
-# has not moved for STUCK_S without a path): at least the first, until its rectangle is clear, at most the second
-BACK_UP_THROTTLE = -0.45
-STUCK_S = 1.0  # [s]
-REVERSE_M_S = 0.5  # [m/s] the speed along a path's reversing stretch
-REVERSE_THROTTLE, REVERSE_GAIN = 0.3, 0.4  # reverse throttle, and more per m/s short of REVERSE_M_S
 MAX_SECONDS = 150.0  # [s] of simulated time before the run is given up
 
 
@@ -90,13 +68,15 @@ class ChallengeResult:
     true_path: list = field(default_factory=list)  # (x, y) per control period
     detections: dict = field(default_factory=dict)  # kind -> [(x, y)] confirmed objects at the end
     seen_within: dict = field(default_factory=dict)  # kind -> set of indices of the course's objects that came
-    # within SEEN_WITHIN_M of the camera while in its view, no wall between
+    # within SEEN_WITHIN_M of the camera in its view, no wall between, in enough of the frames received
     paths: list = field(default_factory=list)  # the planner's paths (poses (N, 3)) as they arrived
     tree: np.ndarray | None = None  # (n, 3) the last tree's nodes
     plans: int = 0
     failed_plans: int = 0
     lost_s: float = 0.0  # [s] spent heading for open space without a path
     back_ups: int = 0  # times the car backed off something it was stuck against
+    late_brakes: int = 0  # times the car braked for a way shut ahead rather than swerve round at its speed
+    guard_stops: int = 0  # times the car braked because the way its wheels pointed met a known cone
     events: list = field(default_factory=list)  # what went wrong, when and where: lines for the report
     wall_contacts: int = 0  # control periods touching a wall
     localization: object = None  # LocalizationLog
@@ -136,9 +116,10 @@ class ChallengeResult:
                  f"(+{m.cone_penalty_s:g} s each), markers taken {len(self.markers_taken)} of {len(c.markers)} "
                  f"(-{m.marker_bonus_s:g} s each); score {self.score:.2f} s",
                  f"  detection: cones precision {pr['cone'][0]:.2f} recall {pr['cone'][1]:.2f}, markers precision "
-                 f"{pr['marker'][0]:.2f} recall {pr['marker'][1]:.2f} (objects that came within "
-                 f"{SEEN_WITHIN_M:g} m in view); plans {self.plans}, failed {self.failed_plans}; lost "
-                 f"{self.lost_s:.1f} s; backed up {self.back_ups} times; wall contact {self.wall_contacts * CONTROL_PERIOD_S:.2f} s"]
+                 f"{pr['marker'][0]:.2f} recall {pr['marker'][1]:.2f} (objects within "
+                 f"{SEEN_WITHIN_M:g} m in view in {CONFIRM_HITS}+ frames received); plans {self.plans}, failed {self.failed_plans}; lost "
+                 f"{self.lost_s:.1f} s; backed up {self.back_ups} times; braked for a way shut ahead "
+                 f"{self.late_brakes} times, for a cone about to be touched {self.guard_stops}; wall contact {self.wall_contacts * CONTROL_PERIOD_S:.2f} s"]
         if self.localization is not None and not self.oracle:
             lines.append("  " + self.localization.summary())
         lines += [f"  {event}" for event in self.events]
@@ -165,13 +146,6 @@ class ChallengeResult:
         ax.plot(*c.goal[:2], marker="*", markersize=14, color="gold", markeredgecolor="black", label="goal")
 
 
-def _doing(follower: PathFollower, steer: Steer, backing_s: float) -> str:
-    """What the car was doing, for an event's line."""
-    if backing_s < BACK_UP_S[1]:
-        return "backing off"
-    return f"{follower.state.value}{', reversing' if steer.direction < 0 else ''}"
-
-
 def route_to_goal(track: Track, goal_m: float | None = None) -> np.ndarray:
     """The centre line from the start to the course's goal (or goal_m along it)."""
     course = track.course
@@ -181,8 +155,6 @@ def route_to_goal(track: Track, goal_m: float | None = None) -> np.ndarray:
 
 
 def _marker_polygons(course):
-    import shapely
-
     a, b = MARKER_SIZE_M[0] / 2, MARKER_SIZE_M[1] / 2
     out = []
     for x, y, yaw in course.markers:
@@ -198,8 +170,6 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
               progress=None) -> ChallengeResult:
     """Run the challenge (see the module's text). goal_m: finish that far along the route instead
     of at the course's goal (a short run). progress(t_s, along_m, route_m) is called each second."""
-    import shapely
-
     from roar_sim import robots
 
     course = track.course
@@ -209,89 +179,29 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
     goal_xy = tuple(route[-1])
     result = ChallengeResult(track.name, oracle, scoring, course=course)
     known = track_map(track)
-    base = PlanningGrid.from_map(known)
     local = LocalGrid(10.0, known.resolution_m, known)
-    mission = Mission(route, scoring.marker_bonus_s, CRUISE_M_S)
-    footprint = Footprint(margin_m=CLEARANCE_M)
+    cam_model = SIMULATED_CAR_CAMERA.model(*CAMERA_SIZE)
     with robots.get(robot)(track) as bot:
         bot.arm()
         car = LocalizedCar(bot, known, seed, 10 if oracle else particles, start="true", local_grid=local,
                            oracle=oracle)
         result.localization = car.log
         model = bot.model
-        r_min = model.wheelbase_m / math.tan(model.max_steer_rad) * 1.05
-        planner = ArcRRT(base, footprint, r_min_m=r_min, seed=seed, smooth=True, improve=PLAN_IMPROVE,
-                         stop_room_m=STOP_ROOM_M)
-        # from a start nearer a wall than the clearance (the car swerved), plan with the bare rectangle
-        close_planner = ArcRRT(base, Footprint(margin_m=0.0), r_min_m=r_min, seed=seed, smooth=True,
-                               improve=PLAN_IMPROVE, stop_room_m=STOP_ROOM_M)
-        follower = PathFollower(max_speed_m_s=CRUISE_M_S)
-        speed = SpeedController(model.limits.max_speed_m_s)
+        driver = CourseDriver(known, route, cam_model, local, wheelbase_m=model.wheelbase_m,
+                              max_steer_rad=model.max_steer_rad, max_speed_m_s=model.limits.max_speed_m_s,
+                              bonus_s=scoring.marker_bonus_s, seed=seed, plan_latency_s=PLAN_LATENCY_S)
+        result.events = driver.events  # the driver's and the referee's, in time order
         camera = ShakyCamera(bot.plant, *CAMERA_SIZE, seed + 2)
-        cam_model = SIMULATED_CAR_CAMERA.model(*CAMERA_SIZE)
-        detector = ObjectDetector(cam_model, CAMERA_RANGE_M)
-        tracker = Tracker()
-        history = PoseHistory()
+        referee = _Referee(track, bot, cam_model, result)
         frames: deque = deque()  # (arrives at [s], captured at [s], rgb, depth)
-        pending: deque = deque()  # (arrives at [s], path)
-        half_fov = math.atan(cam_model.width / 2 / cam_model.fx)
-        markers_poly = _marker_polygons(course)
-        open_floor = track.region.buffer(0.02)
-        cone_bodies = list(bot.plant.world.cones)
-        result.seen_within = {"cone": set(), "marker": set()}
-        next_frame = next_plan = next_try = 0.0
-        why = "route"
-        steer = Steer(FollowerState.WAITING)
-        last_path_s = 0.0
-        backing_since = still_since = -10.0
-        touched_wall = False
-        settle_s = latency_s + Tracker().confirm_hits / fps  # [s] the first frame's arrival and a track's confirmation
-        next_report = 1.0
-
-        def in_view(pose, x: float, y: float, sight: bool = False, within_m: float = CAMERA_RANGE_M) -> bool:
-            """Whether the camera at pose sees (x, y): in its field of view and within_m, and
-            (sight) with no wall between."""
-            cx = pose[0] + cam_model.x_m * math.cos(pose[2])
-            cy = pose[1] + cam_model.x_m * math.sin(pose[2])
-            bearing = math.remainder(math.atan2(y - cy, x - cx) - pose[2], math.tau)
-            if not (abs(bearing) < half_fov * 0.9 and 0.5 < math.hypot(x - cx, y - cy) < within_m):
-                return False
-            return not sight or open_floor.contains(shapely.LineString([(cx, cy), (x, y)]))
-
+        true_history = PoseHistory()
+        next_frame, next_report = 0.0, 1.0
         while True:
             obs = car.observe()
             t = obs.t_s
-            pose = (obs.x, obs.y, obs.yaw)
             truth = bot.state()
-            true_pose = (truth.x, truth.y, truth.yaw)
-            history.add(t, pose)
-            result.true_path.append((truth.x, truth.y))
-            # scoring, by the simulator's truth
-            touching = bot.touching_wall()
-            if touching and not touched_wall:
-                result.events.append(f"{t:.2f} s: touched a wall at ({truth.x:.2f}, {truth.y:.2f}) at {truth.speed:.2f} "
-                                     f"m/s, {_doing(follower, steer, t - backing_since)}")
-            touched_wall = touching
-            result.wall_contacts += touching
-            for i, body in enumerate(cone_bodies):
-                if i not in result.cones_touched and bot.touching([body]):
-                    result.cones_touched.add(i)
-                    doing = _doing(follower, steer, t - backing_since)
-                    seen = any(math.hypot(o.position[0] - course.cones[i][0], o.position[1] - course.cones[i][1]) < 0.4
-                               for o in tracker.objects("cone"))
-                    result.events.append(f"{t:.2f} s: touched the cone at ({course.cones[i][0]:.2f}, "
-                                         f"{course.cones[i][1]:.2f}) at {truth.speed:.2f} m/s, {doing}; the camera "
-                                         f"{'had' if seen else 'had not'} found it")
-            car_poly = shapely.Polygon([(truth.x + math.cos(truth.yaw) * u - math.sin(truth.yaw) * v,
-                                         truth.y + math.sin(truth.yaw) * u + math.cos(truth.yaw) * v)
-                                        for u, v in Footprint(margin_m=0.0).corners()])
-            for i, poly in enumerate(markers_poly):
-                if i not in result.markers_taken and car_poly.intersects(poly):
-                    result.markers_taken.add(i)
-            for kind, objects in (("cone", course.cones), ("marker", course.markers)):
-                for i, o in enumerate(objects):
-                    if i not in result.seen_within[kind] and in_view(true_pose, o[0], o[1], True, SEEN_WITHIN_M):
-                        result.seen_within[kind].add(i)
+            true_history.add(t, (truth.x, truth.y, truth.yaw))
+            referee.watch(t, truth, driver)
             if math.hypot(truth.x - goal_xy[0], truth.y - goal_xy[1]) <= FINISH_M:
                 result.finished, result.time_s = True, t
                 break
@@ -303,89 +213,85 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
                 rgb, depth = camera()
                 frames.append((t + latency_s, t, rgb, depth))
                 next_frame += 1.0 / fps
+            arrived = []
             while frames and frames[0][0] <= t + 1e-9:
                 _, taken, rgb, depth = frames.popleft()
-                then = history.at(taken) or pose
-                tracker.update(detector.detect(rgb, depth, then, taken), taken,
-                               in_view=lambda x, y, then=then: in_view(then, x, y))
-            markers = [o.position for o in tracker.objects("marker")]
-            mission.update(pose, markers)
-            # plan: every REPLAN_S, and at once when the path ahead is blocked or the follower is not following
-            cones = [o.position for o in tracker.objects("cone")]
-            grid = base.with_local(local).with_discs(cones, CONE_RADIUS_M + CONE_CLEARANCE_M)
-            blocked = follower.path is not None and not footprint.fits(
-                grid, follower.path.poses[follower.index:][::4])
-            due = t + 1e-9 >= next_plan
-            wanted = blocked or follower.state != FollowerState.FOLLOWING or due
-            if wanted and not pending and t + 1e-9 >= next_try:
-                next_plan = t + REPLAN_S
-                goal, why = mission.goal(pose, grid, markers)  # always afresh: a goal reached is the next one
-                result.plans += 1
-                path = None
-                for rrt in (planner, close_planner):
-                    try:
-                        path = rrt.replan(pose, goal, grid, max_iterations=PLAN_SAMPLES, t_s=t)
-                        break
-                    except NoPath as e:
-                        if "in collision" not in str(e) or rrt is close_planner:
-                            break
-                if path is not None:
-                    pending.append((t + PLAN_LATENCY_S, path))
-                    last_path_s = t
-                else:
-                    result.failed_plans += 1
-                    next_try = t + REPLAN_S  # not again at once: the world needs to change first
-                    if why == "marker":  # no way to it: the route instead
-                        mission.abandon()
-                        next_try = next_plan = t
-                    if blocked:
-                        follower.set_path(None)  # brake: the way ahead is shut and no way round is known yet
-                    if not footprint.fits(grid, [pose]) and not close_planner.footprint.fits(grid, [pose]) and \
-                            t - backing_since > BACK_UP_S[1]:
-                        backing_since = t  # touching a wall or a cone: back off
-                        result.back_ups += 1
-            while pending and pending[0][0] <= t + 1e-9:
-                path = pending.popleft()[1]
-                follower.set_path(path)
-                result.paths.append(path.poses)
-            steer = follower.step(pose, obs.speed)
-            lost = follower.state != FollowerState.FOLLOWING and t - last_path_s > LOST_AFTER_S
-            still_since = t if obs.speed > 0.05 or still_since < 0 else still_since
-            if lost and t - still_since > STUCK_S and t - backing_since > BACK_UP_S[1] + STUCK_S:
-                backing_since = t
-                result.back_ups += 1
-            if lost:
-                result.lost_s += CONTROL_PERIOD_S
-            if t < settle_s:  # the first frames are on their way: stand until the camera has seen what is ahead
-                speed.reset()
-                car.send(Command(0.0, 0.0))
-                car.wait(CONTROL_PERIOD_S)
-                continue
-            backing = t - backing_since
-            if backing < BACK_UP_S[0] or (backing < BACK_UP_S[1] and not footprint.fits(grid, [pose])):
-                car.explore = False
-                speed.reset()
-                car.send(Command(BACK_UP_THROTTLE, 0.0))
-                car.wait(CONTROL_PERIOD_S)
-                continue
-            car.explore = lost
-            car.towards = mission.point_at(mission.progress_m + mission.horizon_m)
-            target = steer.speed_m_s if steer.state == FollowerState.FOLLOWING else 0.0
-            if steer.direction < 0 and steer.state == FollowerState.FOLLOWING:  # reversing: slowly, the ESC brakes first
-                speed.reset()
-                throttle = -min(0.6, REVERSE_THROTTLE + REVERSE_GAIN * max(0.0, REVERSE_M_S - obs.speed))
-            else:
-                throttle = speed.step(target, obs.speed, CONTROL_PERIOD_S)
-            angle = math.atan(model.wheelbase_m * steer.curvature)
-            car.send(Command(throttle, max(-1.0, min(1.0, -angle / model.max_steer_rad))))
+                referee.frame_received(true_history.at(taken) or (truth.x, truth.y, truth.yaw))
+                arrived.append((rgb, depth, taken))
+            command = driver.step(t, (obs.x, obs.y, obs.yaw), obs.speed, arrived)
+            car.explore, car.towards = driver.exploring, driver.towards
+            car.send(command)
             car.wait(CONTROL_PERIOD_S)
             if progress is not None and t >= next_report:
-                progress(t, mission.progress_m, mission.length_m)
+                progress(t, driver.mission.progress_m, driver.mission.length_m)
                 next_report += 1.0
         car.send(Command(0.0, 0.0))
-        result.detections = {kind: [o.position for o in tracker.objects(kind)] for kind in ("cone", "marker")}
-        result.tree = planner.tree.poses() if planner.tree is not None else None
+        result.detections = {kind: driver.objects(kind) for kind in ("cone", "marker")}
+        result.tree = driver.planner.tree.poses() if driver.planner.tree is not None else None
+        for name in ("plans", "failed_plans", "lost_s", "back_ups", "late_brakes", "guard_stops", "paths"):
+            setattr(result, name, getattr(driver, name))
     return result
+
+
+class _Referee:
+    """Scoring by the simulator's truth: walls and cones touched (each with a line saying when,
+    where, how fast and what the car was doing), markers driven over, and which objects the camera
+    had in view in the frames the detector received."""
+
+    def __init__(self, track: Track, bot, camera, result: ChallengeResult) -> None:
+        self.bot, self.camera, self.result = bot, camera, result
+        self.course = track.course
+        self.markers = _marker_polygons(self.course)
+        self.open_floor = track.region.buffer(0.02)
+        self.cone_bodies = list(bot.plant.world.cones)
+        self.half_fov = math.atan(camera.width / 2 / camera.fx)  # [rad]
+        self.in_frames = {"cone": {}, "marker": {}}  # kind -> index -> frames received with it in view
+        self.touched_wall = False
+        self.outline = Footprint(margin_m=0.0).corners()  # [m] the car's, about its rear axle
+        result.seen_within = {"cone": set(), "marker": set()}
+
+    def watch(self, t: float, truth, driver: CourseDriver) -> None:
+        """One control period of the run, by the truth."""
+        r, course = self.result, self.course
+        r.true_path.append((truth.x, truth.y))
+        touching = self.bot.touching_wall()
+        if touching and not self.touched_wall:
+            r.events.append(f"{t:.2f} s: touched a wall at ({truth.x:.2f}, {truth.y:.2f}) at {truth.speed:.2f} m/s, "
+                            f"{driver.doing(t)}")
+        self.touched_wall = touching
+        r.wall_contacts += touching
+        for i, body in enumerate(self.cone_bodies):
+            if i not in r.cones_touched and self.bot.touching([body]):
+                r.cones_touched.add(i)
+                cx, cy = course.cones[i][:2]
+                seen = any(math.hypot(x - cx, y - cy) < 0.4 for x, y in driver.objects("cone"))
+                r.events.append(f"{t:.2f} s: touched the cone at ({cx:.2f}, {cy:.2f}) at {truth.speed:.2f} m/s, "
+                                f"{driver.doing(t)}; the camera {'had' if seen else 'had not'} found it")
+        c, s = math.cos(truth.yaw), math.sin(truth.yaw)
+        car = shapely.Polygon([(truth.x + c * u - s * v, truth.y + s * u + c * v)
+                               for u, v in self.outline])
+        for i, poly in enumerate(self.markers):
+            if i not in r.markers_taken and car.intersects(poly):
+                r.markers_taken.add(i)
+
+    def frame_received(self, true_pose) -> None:
+        """A frame reached the detector, taken from true_pose: count the objects it had in view."""
+        for kind, objects in (("cone", self.course.cones), ("marker", self.course.markers)):
+            for i, o in enumerate(objects):
+                if self._in_view(true_pose, o[0], o[1]):
+                    self.in_frames[kind][i] = self.in_frames[kind].get(i, 0) + 1
+                    if self.in_frames[kind][i] >= CONFIRM_HITS:
+                        self.result.seen_within[kind].add(i)
+
+    def _in_view(self, pose, x: float, y: float) -> bool:
+        """Whether the camera at the true pose sees (x, y): in its field of view, within
+        SEEN_WITHIN_M, no wall of the world between."""
+        cx = pose[0] + self.camera.x_m * math.cos(pose[2])
+        cy = pose[1] + self.camera.x_m * math.sin(pose[2])
+        bearing = math.remainder(math.atan2(y - cy, x - cx) - pose[2], math.tau)
+        if not (abs(bearing) < self.half_fov * 0.9 and 0.5 < math.hypot(x - cx, y - cy) < SEEN_WITHIN_M):
+            return False
+        return self.open_floor.contains(shapely.LineString([(cx, cy), (x, y)]))
 
 
 DESCRIPTION = """The MIT challenge on the simulated car: from a tunnel world's start to its goal as fast as

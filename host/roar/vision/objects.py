@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from roar.tracks.tunnel import CONE_RADIUS_M
 from roar.vision.geometry import CameraModel, cv2
 
 KINDS = ("cone", "marker")
@@ -34,7 +35,6 @@ MAX_GAIN = 8.0  # the most balancing brightens a channel (a darker frame stays d
 MERGE_M = 0.6  # [m] regions of one colour placed nearer than this are one object (a marker, 0.5 m long, seen in
 # pieces: dim, or half hidden); two cones or two markers stand at least 1.2 m apart (roar.tracks.tunnel)
 MAX_RANGE_M = 4.5  # [m] farther objects are too few pixels to place well
-CONE_RADIUS_M = 0.1  # [m] (roar.tracks.tunnel's cones)
 
 
 @dataclass(frozen=True)
