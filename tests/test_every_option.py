@@ -29,10 +29,12 @@ GUARD_S = 20.0  # [s] longer than any documented short run below takes on a busy
 UNTIL_STOPPED_S = 2.0  # [s] a documented run "until Ctrl-C" gets this long, then the guard's Ctrl-C
 
 # command -> the arguments of a short, valid run to which one option with one value is added;
-# {tmp} is the test's folder, {frames} a folder with one recorded frame
+# {tmp} is the test's folder, {frames} a folder with one recorded frame, {recording} an MCAP recording
 BASE = {
     "send": ["loop://", "--for", "0.1"],
     "drive": ["loop://"],
+    "record": ["loop://", "--out", "{tmp}/run.mcap", "--for", "0.1"],
+    "replay": ["{recording}"],
     "calibrate": ["loop://", "--file", "{tmp}/calibration.toml"],
     "scan": ["--timeout", "0.1"],
     "ports": [],
@@ -87,7 +89,7 @@ RUNS = {
     ("calibrate", "--file", "99999999999999999999"): "a calibration file named 999...",
 }
 # names and paths: any word is a name (a file to write, a folder): a run, if it is writable
-NAMES = {"--out", "--plot", "--video", "--record", "--file", "--calibration"}
+NAMES = {"--out", "--plot", "--video", "--record", "--file", "--calibration", "--log"}
 
 
 def commands() -> dict[str, tuple[list[str], argparse.ArgumentParser]]:
@@ -129,6 +131,16 @@ def frames(tmp_path_factory):
     return folder
 
 
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    from roar.recorder import Recorder
+
+    path = tmp_path_factory.mktemp("recording") / "run.mcap"
+    with Recorder(path, {"car": "loop://"}) as rec:
+        rec.control(b"(1500,1500)\n", 0)
+    return path
+
+
 class Guard:
     """SIGALRM after `seconds`: the run ends as on Ctrl-C (a hang becomes status 130)."""
 
@@ -149,12 +161,13 @@ class Guard:
 
 
 @pytest.mark.parametrize("command, option, value", CASES, ids=[f"{c}-{o}-{v or 'empty'}" for c, o, v in CASES])
-def test_a_bad_value_is_one_line_or_a_documented_run(command, option, value, tmp_path, frames, capsys, monkeypatch):
+def test_a_bad_value_is_one_line_or_a_documented_run(command, option, value, tmp_path, frames, recording, capsys,
+                                                    monkeypatch):
     monkeypatch.setattr("sys.stdin", io.StringIO(""))  # nobody types: an interactive command reads its end
     monkeypatch.chdir(tmp_path)  # files and folders a valid value names land here
     flags, parser = commands()[command]
     name = command.split()[0]
-    base = [a.format(tmp=tmp_path, frames=frames) for a in BASE[command]]
+    base = [a.format(tmp=tmp_path, frames=frames, recording=recording) for a in BASE[command]]
     action = dict(options(parser))[option]
     if action.option_strings:
         argv = [*base, option, value] if option not in base else _replaced(base, option, value)

@@ -26,6 +26,7 @@ import atexit
 import dataclasses
 import collections
 import logging
+import sys
 import threading
 import time
 import weakref
@@ -55,17 +56,32 @@ class Vehicle:
     (roar.calibration.default_path()) or, without one, 1000/1500/2000 us on both channels.
     reconnect: reopen a lost link with backoff (True) or give up (False; the next call raises).
     transport_options: options a URL cannot carry, passed to the transport (e.g. a bleak backend).
+    record: an MCAP file to record the run into (roar.recorder: every message sent, every line
+    received, the state, and the scans and frames asked for), finished when the vehicle closes.
     """
 
     def __init__(self, url: str = "sim://", calibration: Calibration | str | Path | None = None,
-                 rate_hz: float | None = None, reconnect: bool = True, **transport_options) -> None:
+                 rate_hz: float | None = None, reconnect: bool = True, record: str | Path | None = None,
+                 **transport_options) -> None:
         if isinstance(calibration, (str, Path)):
             calibration = Calibration.load(calibration)
         self.calibration = calibration if calibration is not None else load_default()
         period_s = DEFAULT_PERIOD_S if rate_hz is None else 1.0 / _check_rate(rate_hz)
         self.url = url
         self.transport: Transport = open_url(url, **transport_options)
-        self.transport.open()
+        self.recorder = None
+        if record is not None:
+            from roar.recorder import Recorder, RecordingTransport
+
+            self.recorder = Recorder(record, {"car": url, "command": " ".join(sys.argv)},
+                                     simulated=self.transport.scheme == "sim")
+            self.transport = RecordingTransport(self.transport, self.recorder)
+        try:
+            self.transport.open()
+        except BaseException:
+            if self.recorder is not None:
+                self.recorder.close()
+            raise
         self.replies: collections.deque[str] = collections.deque(maxlen=200)  # the car's lines, newest last
         self.events: collections.deque[CarEvent] = collections.deque(maxlen=200)  # the same, typed
         self.errors = 0  # "ERR ..." replies seen
@@ -290,6 +306,8 @@ class Vehicle:
         self._closed = True
         self._throttle = self._steering = self._speed = 0.0
         self._sender.stop(final=self._message())
+        if self.recorder is not None and self.protocol_version is not None:
+            self.recorder.note("car", {"protocol_version": str(self.protocol_version)})
         self.transport.close()
 
     def __enter__(self) -> Vehicle:

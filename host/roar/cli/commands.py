@@ -22,8 +22,9 @@ KNOWN_VIDS = {0x2341: "Arduino", 0x2A03: "Arduino", 0x1A86: "CH340 (Nano clone /
               0x10C4: "CP210x (ESP32)", 0x0403: "FTDI", 0x0483: "STM32", 0x303A: "Espressif"}
 
 
-def _vehicle(args) -> Vehicle:
-    return Vehicle(args.url, calibration=getattr(args, "calibration", None))
+def _vehicle(args, record=None) -> Vehicle:
+    return Vehicle(args.url, calibration=getattr(args, "calibration", None),
+                   record=record if record is not None else getattr(args, "log", None))
 
 
 def send(args) -> int:
@@ -88,6 +89,30 @@ def drive(args) -> int:
 
     with _vehicle(args) as car:
         return run(car)
+
+
+def record(args) -> int:
+    from roar.cli.teleop import run
+
+    if args.seconds is None and not sys.stdin.isatty():  # before the car is opened and the file made
+        raise UserError("roar record drives with the keyboard: run it in a terminal, or give --for SECONDS")
+    with _vehicle(args, record=args.out) as car:
+        if args.seconds is None:
+            status = run(car)
+        else:
+            print(f"recording {args.url} at neutral for {args.seconds:g} s into {args.out}", flush=True)
+            time.sleep(args.seconds)
+            status = 0
+    print(f"recorded {car.recorder.messages} messages into {args.out} (open it in Foxglove, or `roar replay "
+          f"{args.out}`)")
+    return status
+
+
+def replay(args) -> int:
+    from roar.replay import summary
+
+    print(summary(args.file))
+    return 0
 
 
 def calibrate(args) -> int:

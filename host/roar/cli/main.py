@@ -26,6 +26,8 @@ EXAMPLES = """examples:
   roar send sim:// --throttle 0.3 --steering 0.5 --for 5
   roar send "sim://?robot=iarrc" --speed 1.5 --for 3
   roar drive serial:///dev/ttyUSB0       drive with the keyboard
+  roar record sim://oval --out run.mcap  drive with the keyboard, everything recorded (open it in Foxglove)
+  roar replay run.mcap                   what a recording holds: duration, channels, rates, gaps
   roar calibrate ble://                  set trim and end-points, saved for next time
   roar <command> --help                  more about one command
 """
@@ -38,6 +40,11 @@ def _add_url(p: argparse.ArgumentParser) -> None:
 def _add_calibration(p: argparse.ArgumentParser) -> None:
     p.add_argument("--calibration", type=path_option, metavar="TOML",
                    help=f"calibration file (default: {default_path()} if it exists)")
+
+
+def _add_log(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--log", type=path_option, metavar="MCAP",
+                   help="record the run into this MCAP file (every message sent and line received, the state)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -58,12 +65,33 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--for", dest="seconds", type=float, default=1.0, metavar="SECONDS",
                    help="how long to hold it (default 1 s, at most 3600)")
     _add_calibration(p)
+    _add_log(p)
 
     p = sub.add_parser("drive", help="drive with the keyboard",
                        description="Keyboard teleop: W/S or Up/Down change throttle by 0.1, A/D or Left/Right "
                                    "steer by 0.2, space stops, Q quits. Neutral is sent on exit.")
     _add_url(p)
     _add_calibration(p)
+    _add_log(p)
+
+    p = sub.add_parser("record", help="record a car into an MCAP file while you drive it",
+                       description="Drive with the keyboard (as `roar drive`) while everything is recorded into an "
+                                   "MCAP file: every control message as sent (its text and what the car's parser "
+                                   "makes of it), every line the car sends, and the car's state and pose, in "
+                                   "Foxglove's own message types where one fits. Open the file in Foxglove, or "
+                                   "read it with `roar replay`. With --for, no keyboard: the car is held at "
+                                   "neutral and listened to for that long (its boot lines, telemetry).")
+    _add_url(p)
+    p.add_argument("--out", type=path_option, required=True, metavar="MCAP", help="the file to write (replaced)")
+    p.add_argument("--for", dest="seconds", type=number_option(0, 3600, "s", low_open=True), default=None,
+                   metavar="SECONDS", help="listen at neutral this long instead of driving with the keyboard")
+    _add_calibration(p)
+
+    p = sub.add_parser("replay", help="what an MCAP recording holds",
+                       description="Summarise a recording (`roar record`, `--log`, Vehicle(record=...)): its "
+                                   "duration, clock and car, and per channel the message count, rate and the "
+                                   "longest gap, so a stalled sensor or link shows at a glance.")
+    p.add_argument("file", type=path_option, metavar="MCAP", help="the recording")
 
     p = sub.add_parser("calibrate", help="set trim and end-points interactively",
                        description="Walk through steering and throttle trim and end-points with the car "

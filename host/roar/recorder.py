@@ -1,0 +1,305 @@
+"""Every run on the record: an MCAP log (mcap.dev), written with foxglove-sdk in Foxglove's own
+message types where one fits, so Foxglove (or any MCAP reader) shows a run with no setup.
+
+    with Recorder("run.mcap", metadata={"car": "sim://oval"}) as rec:
+        rec.control(b"C1500,1500\\n", t_ns)       # every control message as sent
+        rec.line("READY 2", t_ns)                  # every line the car sent
+        rec.state(vehicle_state, t_ns)
+        rec.scan(ranges, -2.36, 2.36, 10.0, t_ns)  # a lidar scan
+        rec.image(rgb, t_ns)                       # a camera frame (JPEG)
+
+    Vehicle("sim://oval", record="run.mcap")     # the same, for everything a Vehicle sends and reads
+
+Times are nanoseconds: of the simulator's clock for sim:// (metadata clock=simulated), else of
+the host's monotonic clock (clock=monotonic, and wall_clock_offset_ns = wall - monotonic at the
+start). Chunks are zstd-compressed, ~1 MiB each; the file is finished on close(), at the
+program's exit and on Ctrl-C or SIGTERM (roar's commands turn both into a clean exit), so every
+reader opens it.
+
+Topics (TOPICS below): control messages as JSON (the text sent and its decoded pulses or speed),
+the car's lines as foxglove.Log, telemetry fields and the car's state as JSON, the pose as
+foxglove.PoseInFrame and a world -> base_link foxglove.FrameTransform, lidar as
+foxglove.LaserScan, camera frames as foxglove.CompressedImage with a foxglove.CameraCalibration.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from dataclasses import asdict
+from pathlib import Path
+
+from roar.errors import RoarError
+
+CONTROL = "/control"
+LINES = "/car/lines"
+TELEMETRY = "/car/telemetry"
+STATE = "/car/state"
+POSE = "/car/pose"
+TF = "/tf"
+SCAN = "/lidar"
+IMAGE = "/camera/image"
+CALIBRATION = "/camera/calibration"
+TOPICS = (CONTROL, LINES, TELEMETRY, STATE, POSE, TF, SCAN, IMAGE, CALIBRATION)
+WORLD_FRAME, CAR_FRAME, LIDAR_FRAME, CAMERA_FRAME = "world", "base_link", "lidar", "camera"
+CHUNK_BYTES = 1 << 20  # [B] of messages before a chunk is compressed and written
+JPEG_QUALITY = 85
+
+CONTROL_SCHEMA = {"type": "object", "title": "roar.Control", "properties": {
+    "text": {"type": "string", "description": "the message as sent, as text"},
+    "throttle_us": {"type": "integer"}, "steering_us": {"type": "integer"},
+    "speed_mm_s": {"type": "integer", "description": "a speed setpoint's"},
+    "result": {"type": "string", "description": "what the car's parser makes of it (ok, setpoint, or why not)"}}}
+STATE_SCHEMA = {"type": "object", "title": "roar.VehicleState",
+                "description": "roar.telemetry.VehicleState's fields; absent where the link cannot tell"}
+TELEMETRY_SCHEMA = {"type": "object", "title": "roar.Telemetry", "description": "a telemetry line's fields"}
+
+
+class RecordError(RoarError):
+    """A recording that cannot be made (one line)."""
+
+
+def foxglove_sdk():
+    try:
+        import foxglove
+        import foxglove.channels  # noqa: F401
+    except ImportError:
+        raise RecordError("recording needs foxglove-sdk: pip install 'roar-platform[record]'") from None
+    return foxglove
+
+
+class Recorder:
+    def __init__(self, path: str | Path, metadata: dict[str, str] | None = None, simulated: bool = False) -> None:
+        """An MCAP file at path (replaced if there); metadata: strings for the file's "run"
+        record (the car, the track, the command line...); simulated: times are the simulator's."""
+        from roar.user_files import unwritable
+
+        fox = foxglove_sdk()
+        from foxglove.mcap import MCAPWriteOptions
+
+        self.path = Path(path)
+        problem = unwritable(self.path)
+        if problem:
+            raise RecordError(f"{self.path}: {problem}")
+        self._fox = fox
+        self._ctx = fox.Context()
+        self._writer = fox.open_mcap(self.path, allow_overwrite=True, context=self._ctx,
+                                     writer_options=MCAPWriteOptions(chunk_size=CHUNK_BYTES))
+        self._channels: dict[str, object] = {}
+        self._lock = threading.Lock()
+        self.closed = False
+        self.messages = 0  # recorded
+        self._calibrated: tuple[int, int] | None = None  # the image size a calibration was written for
+        info = {"clock": "simulated" if simulated else "monotonic", "recorder": "roar"}
+        if not simulated:
+            info["wall_clock_offset_ns"] = str(time.time_ns() - time.monotonic_ns())
+        info.update({k: str(v) for k, v in (metadata or {}).items()})
+        self._writer.write_metadata("run", info)
+
+    # -- channels -------------------------------------------------------------------------------
+
+    def _channel(self, topic: str, kind: str | None = None, schema: dict | None = None):
+        ch = self._channels.get(topic)
+        if ch is None:
+            fox = self._fox
+            if kind is None:
+                ch = fox.Channel(topic, schema=schema, context=self._ctx)
+            else:
+                ch = getattr(fox.channels, f"{kind}Channel")(topic, context=self._ctx)
+            self._channels[topic] = ch
+        return ch
+
+    def _log(self, topic: str, msg, t_ns: int, kind: str | None = None, schema: dict | None = None) -> None:
+        with self._lock:
+            if self.closed:
+                return
+            self._channel(topic, kind, schema).log(msg, log_time=int(t_ns))
+            self.messages += 1
+
+    @staticmethod
+    def _stamp(t_ns: int):
+        from foxglove.messages import Timestamp
+
+        return Timestamp(sec=int(t_ns) // 1_000_000_000, nsec=int(t_ns) % 1_000_000_000)
+
+    # -- what is recorded -------------------------------------------------------------------------
+
+    def control(self, data: bytes, t_ns: int) -> None:
+        """A control message as it went to the car: its text and what it says."""
+        from roar.protocol.control import StreamDecoder
+
+        msg: dict = {"text": bytes(data).decode("ascii", "replace").strip()}
+        events = StreamDecoder().feed(bytes(data))
+        if events:  # what the car's own parser makes of it (the twin of the firmware's)
+            e = events[-1]
+            msg["result"] = str(e.result)
+            if e.command is not None:
+                msg.update(throttle_us=e.command.throttle_us, steering_us=e.command.steering_us)
+            if e.setpoint is not None:
+                msg.update(speed_mm_s=e.setpoint.speed_mm_s, steering_us=e.setpoint.steering_us)
+        self._log(CONTROL, msg, t_ns, schema=CONTROL_SCHEMA)
+
+    def line(self, text: str, t_ns: int) -> None:
+        """A line the car sent; a telemetry line's fields on TELEMETRY too."""
+        from foxglove.messages import Log, LogLevel
+
+        from roar.protocol import spec
+        from roar.telemetry import parse_telemetry
+
+        level = LogLevel.Error if text.startswith(spec.SERIAL_REPLY_ERROR) else LogLevel.Info
+        self._log(LINES, Log(timestamp=self._stamp(t_ns), level=level, message=text, name="car", file="", line=0),
+                  t_ns, "Log")
+        fields = parse_telemetry(text) if text.startswith(spec.TELEMETRY_REPLY) else None
+        if fields:
+            self._log(TELEMETRY, _jsonable(fields), t_ns, schema=TELEMETRY_SCHEMA)
+
+    def state(self, state, t_ns: int) -> None:
+        """The car's state (roar.telemetry.VehicleState); with a position, its pose and transform."""
+        from foxglove.messages import FrameTransform, Pose, PoseInFrame, Quaternion, Vector3
+
+        fields = {k: v for k, v in _jsonable(asdict(state)).items() if v is not None}
+        self._log(STATE, fields, t_ns, schema=STATE_SCHEMA)
+        if state.x_m is None or state.y_m is None:
+            return
+        yaw = state.yaw_rad or 0.0
+        q = Quaternion(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
+        where = Vector3(x=float(state.x_m), y=float(state.y_m), z=0.0)
+        stamp = self._stamp(t_ns)
+        self._log(POSE, PoseInFrame(timestamp=stamp, frame_id=WORLD_FRAME, pose=Pose(position=where, orientation=q)),
+                  t_ns, "PoseInFrame")
+        self._log(TF, FrameTransform(timestamp=stamp, parent_frame_id=WORLD_FRAME, child_frame_id=CAR_FRAME,
+                                     translation=where, rotation=q), t_ns, "FrameTransform")
+
+    def scan(self, ranges, start_rad: float, end_rad: float, max_range_m: float, t_ns: int) -> None:
+        """A lidar scan: ranges [m] at equal steps from start_rad to end_rad (the car's frame)."""
+        from foxglove.messages import LaserScan, Pose, Quaternion, Vector3
+
+        import numpy as np
+
+        r = np.asarray(ranges, dtype=np.float64).ravel()
+        r = np.where(np.isfinite(r) & (r > 0) & (r < max_range_m), r, np.inf)
+        pose = Pose(position=Vector3(x=0.0, y=0.0, z=0.0), orientation=Quaternion(x=0.0, y=0.0, z=0.0, w=1.0))
+        self._log(SCAN, LaserScan(timestamp=self._stamp(t_ns), frame_id=CAR_FRAME, pose=pose,
+                                  start_angle=float(start_rad), end_angle=float(end_rad), ranges=r.tolist(),
+                                  intensities=[]), t_ns, "LaserScan")
+
+    def image(self, rgb, t_ns: int, fx_px: float | None = None) -> None:
+        """A camera frame (RGB, H x W x 3, uint8) as JPEG; its calibration (a pinhole of focal
+        length fx_px, or 70 degrees vertical) once per size."""
+        from foxglove.messages import CameraCalibration, CompressedImage
+
+        from roar.vision.geometry import cv2
+
+        ok, jpeg = cv2().imencode(".jpg", rgb[:, :, ::-1], [cv2().IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
+        if not ok:
+            raise RecordError("a camera frame could not be encoded as JPEG")
+        h, w = rgb.shape[:2]
+        stamp = self._stamp(t_ns)
+        if self._calibrated != (w, h):
+            f = fx_px if fx_px is not None else (h / 2) / math.tan(math.radians(35.0))
+            cx, cy = (w - 1) / 2, (h - 1) / 2
+            self._log(CALIBRATION, CameraCalibration(
+                timestamp=stamp, frame_id=CAMERA_FRAME, width=w, height=h, distortion_model="", D=[],
+                K=[f, 0.0, cx, 0.0, f, cy, 0.0, 0.0, 1.0], R=[1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0],
+                P=[f, 0.0, cx, 0.0, 0.0, f, cy, 0.0, 0.0, 0.0, 1.0, 0.0]), t_ns, "CameraCalibration")
+            self._calibrated = (w, h)
+        self._log(IMAGE, CompressedImage(timestamp=stamp, frame_id=CAMERA_FRAME, data=jpeg.tobytes(), format="jpeg"),
+                  t_ns, "CompressedImage")
+
+    def note(self, name: str, fields: dict[str, str]) -> None:
+        """A metadata record (strings) learnt during the run: the car's protocol version..."""
+        with self._lock:
+            if not self.closed:
+                self._writer.write_metadata(name, {k: str(v) for k, v in fields.items()})
+
+    # -- the end ----------------------------------------------------------------------------------
+
+    def close(self) -> None:
+        """Finish the file (its summary and index): every reader opens it."""
+        with self._lock:
+            if self.closed:
+                return
+            self.closed = True
+            self._writer.close()
+
+    def __enter__(self) -> Recorder:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+LIDAR_FOV_RAD = math.radians(270)  # [rad] a Transport's lidar(): distances from right to left over this
+
+
+class RecordingTransport:
+    """A transport whose every write, reply line, state, scan and camera frame is also recorded:
+    what Vehicle(..., record=PATH) drives through. Everything else is the link's own."""
+
+    def __init__(self, inner, recorder: Recorder) -> None:
+        self.inner, self.recorder = inner, recorder
+        self._t0 = time.monotonic_ns()
+        self._simulated = getattr(inner, "scheme", "") == "sim"
+
+    def __getattr__(self, name: str):
+        return getattr(self.inner, name)
+
+    def now_ns(self) -> int:
+        """[ns] the simulator's clock on sim://, else the host's monotonic clock since the start."""
+        if self._simulated:
+            state = self.inner.state()
+            if state is not None and state.time_s is not None:
+                return int(round(state.time_s * 1e9))
+        return time.monotonic_ns() - self._t0
+
+    def open(self) -> None:
+        self.inner.open()
+
+    def write(self, data: bytes) -> None:
+        self.inner.write(data)
+        t = self.now_ns()
+        self.recorder.control(data, t)
+        state = self.inner.state()
+        if state is not None:
+            self.recorder.state(state, t)
+
+    def read_lines(self) -> list[str]:
+        lines = self.inner.read_lines()
+        if lines:
+            t = self.now_ns()
+            for line in lines:
+                self.recorder.line(line, t)
+        return lines
+
+    def lidar(self):
+        ranges = self.inner.lidar()
+        if ranges is not None:
+            self.recorder.scan(ranges, -LIDAR_FOV_RAD / 2, LIDAR_FOV_RAD / 2, float("inf"), self.now_ns())
+        return ranges
+
+    def camera(self, width: int, height: int):
+        frame = self.inner.camera(width, height)
+        if frame is not None:
+            self.recorder.image(frame[0], self.now_ns())
+        return frame
+
+    def close(self) -> None:
+        try:
+            self.inner.close()
+        finally:
+            self.recorder.close()
+
+
+def _jsonable(fields: dict) -> dict:
+    """Fields as JSON takes them: enums as their words, tuples as lists, infinities and NaN as None."""
+    out = {}
+    for k, v in fields.items():
+        if isinstance(v, float) and not math.isfinite(v):
+            v = None
+        elif isinstance(v, (tuple, list)):
+            v = list(v)
+        elif v is not None and not isinstance(v, (bool, int, float, str)):
+            v = str(v)
+        out[k] = v
+    return out

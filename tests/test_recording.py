@@ -1,0 +1,213 @@
+"""Every run on the record: roar.recorder's MCAP files read back by the mcap library (and their
+Foxglove messages decoded from the file's own schemas), Vehicle(record=...) on the simulator and
+over a pty serial link, `roar record` stopped mid-run by Ctrl-C and SIGTERM leaving a file every
+reader opens, and `roar replay`'s summary and its one-line refusals."""
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+pytest.importorskip("foxglove", reason="pip install foxglove-sdk (the project's record extra)")
+pytest.importorskip("mcap", reason="pip install mcap (the project's record extra)")
+
+from mcap.reader import make_reader  # noqa: E402
+
+from roar.protocol import encode  # noqa: E402
+from roar.recorder import Recorder  # noqa: E402
+from roar.replay import ReplayError, messages, read_log, summary  # noqa: E402
+from roar.telemetry import VehicleState  # noqa: E402
+
+
+def counts(path) -> dict[str, int]:
+    with open(path, "rb") as f:
+        s = make_reader(f).get_summary()
+        return {c.topic: s.statistics.channel_message_counts[i] for i, c in s.channels.items()}
+
+
+def test_each_kind_of_message_reads_back_in_foxglove_types(tmp_path):
+    path = tmp_path / "run.mcap"
+    rgb = np.zeros((120, 160, 3), np.uint8)
+    rgb[:, :80] = (255, 120, 0)  # orange left half
+    with Recorder(path, {"car": "test://", "track": "oval"}, simulated=True) as rec:
+        rec.control(encode(1600, 1400), 1_000)
+        rec.control(b"[1200,1500]\n", 2_000)  # a speed setpoint
+        rec.control(b"?\n", 3_000)  # not one: kept as text
+        rec.line("READY 2", 4_000)
+        rec.line("ERR range", 5_000)
+        rec.line("TEL autonomous none 7400 0 1234 800 1000 1580 1500 -200 500 100 0 300 0", 6_000)
+        rec.state(VehicleState(time_s=0.5, x_m=1.0, y_m=2.0, yaw_rad=math.pi / 2, speed_m_s=0.7), 7_000)
+        rec.scan([1.0, 2.0, float("inf"), 0.0], -1.0, 1.0, 10.0, 8_000)
+        rec.image(rgb, 9_000)
+        rec.image(rgb, 10_000)
+    got = {}
+    for topic, t, m in messages(path):
+        got.setdefault(topic, []).append((t, m))
+    control = [m for _, m in got["/control"]]
+    assert control[0] == {"text": "(1600,1400)", "result": "ok", "throttle_us": 1600, "steering_us": 1400}
+    assert control[1]["result"] == "setpoint" and control[1]["speed_mm_s"] == 1200
+    assert control[2]["text"] == "?" and "throttle_us" not in control[2]
+    lines = [m for _, m in got["/car/lines"]]
+    assert [m.message for m in lines] == ["READY 2", "ERR range", "TEL autonomous none 7400 0 1234 800 1000 1580 1500 -200 500 100 0 300 0"]
+    (_, telemetry), = got["/car/telemetry"]
+    assert telemetry["mode"] == "autonomous" and telemetry["battery_v"] == 7.4 and telemetry["pid_gains_pm"] == [500, 100, 0, 300]
+    assert lines[1].level == 4 and lines[0].level == 2  # foxglove.LogLevel ERROR, INFO
+    (_, pose), = got["/car/pose"]
+    assert pose.frame_id == "world" and (pose.pose.position.x, pose.pose.position.y) == (1.0, 2.0)
+    assert 2 * math.atan2(pose.pose.orientation.z, pose.pose.orientation.w) == pytest.approx(math.pi / 2)
+    (_, tf), = got["/tf"]
+    assert (tf.parent_frame_id, tf.child_frame_id) == ("world", "base_link")
+    (_, state), = got["/car/state"]
+    assert state == {"time_s": 0.5, "x_m": 1.0, "y_m": 2.0, "yaw_rad": pytest.approx(math.pi / 2), "speed_m_s": 0.7}
+    (t, scan), = got["/lidar"]
+    assert t == 8_000 and list(scan.ranges)[:2] == [1.0, 2.0] and all(math.isinf(r) for r in scan.ranges[2:])
+    assert len(got["/camera/image"]) == 2 and len(got["/camera/calibration"]) == 1  # calibration once per size
+    import cv2
+
+    jpeg = got["/camera/image"][0][1]
+    assert jpeg.format == "jpeg"
+    back = cv2.imdecode(np.frombuffer(jpeg.data, np.uint8), cv2.IMREAD_COLOR)[:, :, ::-1]
+    assert np.abs(back.astype(int) - rgb).mean() < 4
+    log = read_log(path)
+    assert log.metadata["run"]["car"] == "test://" and log.metadata["run"]["clock"] == "simulated"
+    assert log.messages == 14 and log.duration_s == pytest.approx(9e-6)
+
+
+def test_a_vehicle_records_what_it_sends_and_hears_in_simulated_time(tmp_path):
+    from roar import Vehicle
+
+    path = tmp_path / "run.mcap"
+    with Vehicle("sim://oval?speedup=2", record=path) as car:
+        car.drive(0.3, -0.5)
+        time.sleep(0.6)
+        car.lidar()
+        car.camera(160, 120)
+        pulses = car.pulses_us()
+        car.drive(0.0, 0.0)
+        time.sleep(0.2)
+    control = [m for _, _, m in messages(path, ["/control"])]
+    assert {"throttle_us": pulses[0], "steering_us": pulses[1]}.items() <= control[len(control) // 2].items() or \
+        any(m.get("throttle_us") == pulses[0] and m.get("steering_us") == pulses[1] for m in control)
+    assert control[-1]["throttle_us"] == 1500  # the neutral sent at close
+    assert len(control) >= 20  # re-sent at 50 Hz, every one recorded
+    states = [m for _, _, m in messages(path, ["/car/state"])]
+    times = [t for _, t, _ in messages(path, ["/car/state"])]
+    assert times == sorted(times) and all(t == round(s["time_s"] * 1e9) for t, s in zip(times, states))
+    assert max(s["x_m"] for s in states) != min(s["x_m"] for s in states)  # it drove
+    c = counts(path)
+    assert c["/lidar"] == 1 and c["/camera/image"] == 1 and c["/car/lines"] >= 1
+    assert any(m.message.startswith("READY") for _, _, m in messages(path, ["/car/lines"]))
+    log = read_log(path)
+    assert log.metadata["run"]["clock"] == "simulated" and log.metadata["car"]["protocol_version"] == "1"
+
+
+def test_a_car_over_a_serial_link_is_recorded_on_the_hosts_clock(pty_car, tmp_path):
+    from roar import Vehicle
+
+    path = tmp_path / "run.mcap"
+    start = time.monotonic_ns()
+    with Vehicle(f"serial://{pty_car.path}", record=path) as car:
+        car.drive(0.2, 0.0)
+        assert car.wait_for(timeout_s=3.0) is not None
+        time.sleep(0.3)
+    heard = list(car.replies)
+    took = time.monotonic_ns() - start
+    log = read_log(path)
+    run = log.metadata["run"]
+    assert run["clock"] == "monotonic" and abs(int(run["wall_clock_offset_ns"]) - (time.time_ns() - time.monotonic_ns())) < 5e9
+    assert 0 < log.duration_s <= took / 1e9
+    lines = [m.message for _, _, m in messages(path, ["/car/lines"])]
+    assert lines and lines == heard  # every line the car sent, in order
+    control = [m for _, _, m in messages(path, ["/control"])]
+    assert any(m.get("throttle_us", 1500) > 1500 for m in control) and control[-1]["throttle_us"] == 1500
+
+
+def roar(*args, **kwargs):
+    return subprocess.Popen([sys.executable, "-m", "roar.cli", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, **kwargs)
+
+
+@pytest.mark.parametrize("how", [signal.SIGINT, signal.SIGTERM])
+def test_a_recording_stopped_mid_run_is_a_finished_file(tmp_path, how):
+    path = tmp_path / "run.mcap"
+    proc = roar("record", "sim://oval", "--out", str(path), "--for", "60")
+    deadline = time.monotonic() + 60
+    while "recording" not in (line := proc.stdout.readline()) and time.monotonic() < deadline:
+        assert line, proc.stderr.read()
+    time.sleep(1.0)
+    proc.send_signal(how)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 128 + how, err
+    assert "Traceback" not in err
+    with open(path, "rb") as f:  # the summary and index are there: a seeking reader opens it
+        reader = make_reader(f)
+        assert reader.get_summary() is not None and reader.get_summary().statistics.message_count > 20
+    log = read_log(path)
+    assert log.channels["/control"].count > 20 and log.metadata["run"]["command"].startswith(sys.executable) is False
+    assert "record sim://oval" in log.metadata["run"]["command"]
+
+
+def test_roar_record_and_replay_summarise_a_run(tmp_path):
+    path = tmp_path / "run.mcap"
+    done = subprocess.run([sys.executable, "-m", "roar.cli", "record", "sim://oval", "--out", str(path), "--for", "1"],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert "recorded" in done.stdout and str(path) in done.stdout
+    out = summary(path)
+    assert "simulated time" in out and "sim://oval" in out
+    row = next(line for line in out.splitlines() if line.strip().startswith("/control"))
+    rate = float(row.split("Hz")[0].split()[-1])
+    assert 40 <= rate <= 60  # re-sent at 50 Hz of the car's time
+    shown = subprocess.run([sys.executable, "-m", "roar.cli", "replay", str(path)], capture_output=True, text=True,
+                           timeout=60)
+    assert shown.returncode == 0 and shown.stdout.strip() == out
+
+
+def foreign(path):
+    from mcap.writer import Writer
+
+    with open(path, "wb") as f:
+        w = Writer(f)
+        w.start()
+        schema = w.register_schema("pose", "jsonschema", b"{}")
+        channel = w.register_channel("/odom", "json", schema)
+        w.add_message(channel, 1, json.dumps({"x": 1}).encode(), 1)
+        w.finish()
+
+
+@pytest.mark.parametrize("make, says", [
+    (lambda p: None, "no such file"),
+    (lambda p: p.write_bytes(b""), "empty"),
+    (lambda p: p.write_text("hello"), "not an MCAP file"),
+    (foreign, "not a roar recording"),
+    ("cut", "cut off"),
+])
+def test_replay_refuses_what_is_not_a_recording_in_one_line(tmp_path, make, says):
+    path = tmp_path / "bad.mcap"
+    if make == "cut":
+        good = tmp_path / "good.mcap"
+        with Recorder(good) as rec:
+            for k in range(3000):
+                rec.scan(np.random.default_rng(k).uniform(0, 10, 540), -2.0, 2.0, 10.0, k * 1000)
+        path.write_bytes(good.read_bytes()[: os.path.getsize(good) // 2])
+    else:
+        make(path)
+    with pytest.raises(ReplayError, match=says):
+        read_log(path)
+    shown = subprocess.run([sys.executable, "-m", "roar.cli", "replay", str(path)], capture_output=True, text=True,
+                           timeout=60)
+    assert shown.returncode == 1 and says in shown.stderr and len(shown.stderr.strip().splitlines()) == 1
+
+
+def test_a_recording_that_cannot_be_made_is_one_line_and_drives_nothing(tmp_path):
+    (tmp_path / "a_file").write_text("not a folder")
+    done = subprocess.run([sys.executable, "-m", "roar.cli", "record", "sim://oval", "--out",
+                           str(tmp_path / "a_file" / "run.mcap"), "--for", "1"],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 1 and "Traceback" not in done.stderr and len(done.stderr.strip().splitlines()) == 1
