@@ -245,10 +245,11 @@ class RecordingTransport:
     def __getattr__(self, name: str):
         return getattr(self.inner, name)
 
-    def now_ns(self) -> int:
-        """[ns] the simulator's clock on sim://, else the host's monotonic clock since the start."""
+    def now_ns(self, state=None) -> int:
+        """[ns] the simulator's clock on sim:// (of `state` if given), else the host's monotonic
+        clock since the start."""
         if self._simulated:
-            state = self.inner.state()
+            state = state if state is not None else self.inner.state()
             if state is not None and state.time_s is not None:
                 return int(round(state.time_s * 1e9))
         return time.monotonic_ns() - self._t0
@@ -258,9 +259,9 @@ class RecordingTransport:
 
     def write(self, data: bytes) -> None:
         self.inner.write(data)
-        t = self.now_ns()
+        state = self.inner.state()  # one snapshot: its time is the record's
+        t = self.now_ns(state)
         self.recorder.control(data, t)
-        state = self.inner.state()
         if state is not None:
             self.recorder.state(state, t)
 
