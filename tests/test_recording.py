@@ -211,3 +211,36 @@ def test_a_recording_that_cannot_be_made_is_one_line_and_drives_nothing(tmp_path
                            str(tmp_path / "a_file" / "run.mcap"), "--for", "1"],
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 1 and "Traceback" not in done.stderr and len(done.stderr.strip().splitlines()) == 1
+
+
+def test_a_race_on_the_filters_pose_records_what_only_the_simulator_knows(tmp_path):
+    pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
+    from roar.tracks import get
+    from roar_sim.runs.localize import Localize
+    from roar_sim.runs.race import race
+
+    path = tmp_path / "race.mcap"
+    track = get("tunnel:5,cones=0")
+    race(track, laps=1, timeout_s=3.0, localize=Localize(track, particles=500), log=path)
+    log = read_log(path)
+    assert log.metadata["run"]["clock"] == "simulated" and log.metadata["run"]["car"] == "sim://?robot=esc"
+    c = log.channels
+    periods = c["/sim/firmware"].count
+    assert 140 <= periods <= 152 and c["/sim/firmware"].rate_hz == pytest.approx(50, abs=0.5)  # 3 s at 50 Hz
+    assert c["/control"].count >= periods and c["/lidar"].rate_hz == pytest.approx(25, abs=0.5)
+    assert c["/localization/particles"].rate_hz == pytest.approx(5, abs=0.3)
+    for name in ("/sim/true_pose", "/localization/pose", "/sim/contacts", "/car/state", "/tf"):
+        assert c[name].count == periods, name
+    firmware = [m for _, _, m in messages(path, ["/sim/firmware"])]
+    sent = [m for _, _, m in messages(path, ["/control"])]
+    assert firmware[-1]["throttle_us"] in {m["throttle_us"] for m in sent[-3:]}  # what it was sent, it outputs
+    assert {"brake_phase", "source", "latched", "braking"} <= firmware[-1].keys() and firmware[-1]["source"] == "host"
+    truth = [(m.pose.position.x, m.pose.position.y) for _, _, m in messages(path, ["/sim/true_pose"])]
+    estimate = [(m.pose.position.x, m.pose.position.y) for _, _, m in messages(path, ["/localization/pose"])]
+    assert max(math.dist(a, b) for a, b in zip(truth, estimate)) < 0.3
+    assert math.dist(truth[0], truth[-1]) > 1.0  # it drove
+    clouds = [m for _, _, m in messages(path, ["/localization/particles"])]
+    assert all(len(m.poses) == 300 for m in clouds)
+    scan = next(m for _, _, m in messages(path, ["/lidar"]))
+    assert scan.end_angle - scan.start_angle == pytest.approx(math.radians(270), abs=0.01)
+    assert not any(m["cone"] or m["person"] for _, _, m in messages(path, ["/sim/contacts"]))

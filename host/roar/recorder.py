@@ -171,6 +171,27 @@ class Recorder:
         self._log(TF, FrameTransform(timestamp=stamp, parent_frame_id=WORLD_FRAME, child_frame_id=CAR_FRAME,
                                      translation=where, rotation=q), t_ns, "FrameTransform")
 
+    def fields(self, topic: str, fields: dict, t_ns: int, title: str = "") -> None:
+        """Any record of named values (JSON, one schema per topic titled `title`): what a
+        simulator or an autopilot adds (the firmware's outputs, contacts, a planner's state)."""
+        self._log(topic, _jsonable(fields), t_ns, schema={"type": "object", "title": title or topic})
+
+    def poses(self, topic: str, poses, t_ns: int) -> None:
+        """Poses (N, 3) [m, m, rad] in the world as foxglove.PosesInFrame (a particle filter's
+        particles); one pose as foxglove.PoseInFrame."""
+        from foxglove.messages import Pose, PoseInFrame, PosesInFrame, Quaternion, Vector3
+
+        import numpy as np
+
+        p = np.asarray(poses, dtype=float).reshape(-1, 3)
+        made = [Pose(position=Vector3(x=float(x), y=float(y), z=0.0),
+                     orientation=Quaternion(x=0.0, y=0.0, z=math.sin(th / 2), w=math.cos(th / 2))) for x, y, th in p]
+        stamp = self._stamp(t_ns)
+        if len(made) == 1:
+            self._log(topic, PoseInFrame(timestamp=stamp, frame_id=WORLD_FRAME, pose=made[0]), t_ns, "PoseInFrame")
+        else:
+            self._log(topic, PosesInFrame(timestamp=stamp, frame_id=WORLD_FRAME, poses=made), t_ns, "PosesInFrame")
+
     def scan(self, ranges, start_rad: float, end_rad: float, max_range_m: float, t_ns: int) -> None:
         """A lidar scan: ranges [m] at equal steps from start_rad to end_rad (the car's frame)."""
         from foxglove.messages import LaserScan, Pose, Quaternion, Vector3

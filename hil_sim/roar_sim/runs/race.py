@@ -4,7 +4,7 @@ robot.
 
     roar race [--robot esc|iarrc|junior] [--track NAME|FILE] [--laps 2]
               [--line centre|optimal|RACELINE.csv] [--waypoints FILE] [--margin 0.9] [--k-dd S] [--steering pursuit|pid] [--driver line|lane]
-              [--start-lights SEED] [--boxes N] [--avoid] [--record DIR] [--shaky-camera SEED]
+              [--start-lights SEED] [--boxes N] [--avoid] [--frames DIR] [--shaky-camera SEED]
               [--renderer tiny|egl] [--plot out/race.png]
               [--realtime] [--gui]
 
@@ -62,12 +62,12 @@ MAX_PARTICLES = 100_000  # the filter's particles a race may ask for
 
 class LaneCourse:
     """What the lane driver meets beside its robot: start lights (a seed), boxes on the track, the
-    TFmini on its nose, and a folder its frames are recorded to."""
+    TFmini on its nose, and a folder its frames are written to."""
 
     def __init__(self, robot: Robot, start_seed: int | None = None, boxes: Sequence[tuple[float, float]] = (),
-                 avoid: bool = False, record: Path | None = None, shaky_seed: int | None = None,
+                 avoid: bool = False, frames: Path | None = None, shaky_seed: int | None = None,
                  green_span_s: tuple[float, float] = GREEN_AFTER_S) -> None:
-        self.robot, self.record = robot, record
+        self.robot, self.frames = robot, frames
         world, track = robot.plant.world, robot.track
         self._frame = (ShakyCamera(robot.plant, *LANE_CAMERA, shaky_seed) if shaky_seed is not None else
                        lambda: robot.plant.camera(*LANE_CAMERA))
@@ -77,20 +77,20 @@ class LaneCourse:
             robot.plant.props.append(self.lights)
         self.boxes = place_boxes(world, track, boxes)
         self.laser = Tfmini(robot.plant) if avoid else None
-        if record is not None:
-            record.mkdir(parents=True, exist_ok=True)
+        if frames is not None:
+            frames.mkdir(parents=True, exist_ok=True)
         self._frames = 0
 
     def camera(self) -> tuple[np.ndarray, np.ndarray]:
-        """The lane driver's frame (RGB, depth); with record, also written as NNNNNN.png and
+        """The lane driver's frame (RGB, depth); with frames, also written as NNNNNN.png and
         NNNNNN_depth.npy (metres), the folder `roar vision` reads."""
         rgb, depth = self._frame()
-        if self.record is not None:
+        if self.frames is not None:
             from roar.vision.geometry import cv2
 
             name = f"{self._frames:06d}"
-            cv2().imwrite(str(self.record / f"{name}.png"), np.ascontiguousarray(rgb[:, :, ::-1]))
-            np.save(self.record / f"{name}_depth.npy", depth)
+            cv2().imwrite(str(self.frames / f"{name}.png"), np.ascontiguousarray(rgb[:, :, ::-1]))
+            np.save(self.frames / f"{name}_depth.npy", depth)
             self._frames += 1
         return rgb, depth
 
@@ -209,14 +209,15 @@ def check_line(track: Track, line: np.ndarray) -> None:
 def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margin: float = 0.9, robot: str = "esc",
          realtime: bool = False, gui: bool = False, progress: bool = False, timeout_s: float | None = None,
          lateral: str = "pursuit", start_lights: int | None = None, boxes: Sequence[tuple[float, float]] = (),
-         avoid: bool = False, record: Path | None = None, k_dd_s: float | None = None,
+         avoid: bool = False, frames: Path | None = None, k_dd_s: float | None = None,
          profile: str | None = None, renderer: str | None = None, shaky_camera: int | None = None,
-         green_span_s: tuple[float, float] = GREEN_AFTER_S, localize: Localize | None = None) -> RaceResult:
+         green_span_s: tuple[float, float] = GREEN_AFTER_S, localize: Localize | None = None,
+         log: Path | None = None) -> RaceResult:
     """Race `robot` (a name of roar_sim.robots) round `track`, its commands as a host sends them.
     lateral: its steering ("pursuit", "pid" where it has it), or "lane": the ESC car driving by
     its camera alone, and with it start_lights (a seed: start lights turn green at a moment drawn
     from it, and the car waits for them), avoid (a TFmini on its nose, keeping to a lane and
-    changing lanes for what is ahead), record (a folder the driver's frames are written to).
+    changing lanes for what is ahead), frames (a folder the driver's frames are written to).
     boxes: (distance along the centre line, offset to its left) [m] of each box. k_dd_s: pure
     pursuit's look-ahead per m/s [s] (None: the robot's default). profile: the ESC car's profile
     (roar_sim.plants.car_profile: a name or a .toml; None: the ROAR car). renderer: what draws the
@@ -224,7 +225,9 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
     the lane driver's camera mount shakes and its sensor adds noise (roar_sim.sensors.camera_noise).
     green_span_s: [s] the span the start lights' green moment is drawn from. localize: the driver
     drives on the particle filter's pose (roar_sim.runs.localize: odometry and lidar on the
-    track's map) instead of the simulator's; the simulator's pose then only scores."""
+    track's map) instead of the simulator's; the simulator's pose then only scores. log: an MCAP
+    file the run is recorded into (roar_sim.runs.run_log: what the host sent and heard, the
+    firmware's outputs, contacts, and the particle filter's pose and particles where it drives)."""
     kind = robots.get(robot)
     if lateral == "lane" and not kind.lane_driving:
         raise ValueError(f"the {kind.title} does not drive by its camera: lane driving is the ESC car's")
@@ -234,8 +237,8 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
     if localize is not None and (lateral == "lane" or not kind.has_lidar):
         raise ValueError(f"--localize drives by a lidar's pose on the map: the line driver of a car with a lidar "
                          f"(the ESC or IARRC car), not the {'lane driver' if lateral == 'lane' else kind.title}")
-    if (start_lights is not None or avoid or record or shaky_camera is not None) and lateral != "lane":
-        raise ValueError("start lights, the TFmini, recording and a shaky camera are for the lane driver (the ESC car "
+    if (start_lights is not None or avoid or frames or shaky_camera is not None) and lateral != "lane":
+        raise ValueError("start lights, the TFmini, writing frames and a shaky camera are for the lane driver (the ESC car "
                          "driving by its camera)")
     line = track.centerline if waypoints is None else np.asarray(waypoints)[:, :2]
     if waypoints is not None:
@@ -247,7 +250,13 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
         stack.enter_context(renderers.chosen(renderer))
         car = stack.enter_context(kind(track, realtime=realtime, gui=gui, **({"profile": profile} if profile else {})))
         world = car.plant.world
-        course = (LaneCourse(car, start_lights, boxes, avoid, record, shaky_camera, green_span_s)
+        sim_log = None
+        if log is not None:
+            from roar_sim.runs.run_log import SimLog
+
+            sim_log = SimLog(car, log, {"command": " ".join(sys.argv), "driver": lateral})
+            stack.callback(sim_log.close)  # finished however the race ends
+        course = (LaneCourse(car, start_lights, boxes, avoid, frames, shaky_camera, green_span_s)
                   if lateral == "lane" else None)
         result = RaceResult(track, speed_profile(track.centerline, car.limits), robot=robot, boxes=len(boxes),
                             racing_limit_lap_s=optimal_line(track, robot).lap_time_s(car.limits))
@@ -280,6 +289,10 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
                 lap["start"] = obs.t_s
             if bar:
                 bar.update(max(0.0, min(laps, lap["travelled"] / track.length_m) - bar.n))
+            if sim_log is not None:
+                sim_log.step()
+                if localized is not None:
+                    sim_log.localization(localized.filter.pose, localized.filter.poses, localized.scan)
 
         bar = laps_bar(laps, f"racing {track.name}") if progress else None  # once the simulator is up
         car.arm()
@@ -430,9 +443,13 @@ def parser() -> argparse.ArgumentParser:
                         "round the boxes) and tells its position over V2V; the camera car keeps its lane, changes "
                         "lanes round boxes, and keeps its gap to the leader while it is ahead in its lane; the "
                         "states and their transitions are printed (and plotted with --plot)")
-    p.add_argument("--record", type=path_option, metavar="DIR",
+    p.add_argument("--frames", type=path_option, metavar="DIR",
                    help="with --driver lane: write every frame the driver sees (PNG and depth .npy) to DIR, for "
                         "`roar vision DIR`")
+    p.add_argument("--log", type=path_option, metavar="MCAP",
+                   help="record the race into this MCAP file: every control message and line, the car's state, "
+                        "the firmware's outputs, contacts, and with --localize the filter's pose and particles "
+                        "(open it in Foxglove, or `roar replay`)")
     p.add_argument("--car-profile", metavar="NAME|FILE",
                    help="the ESC car's own numbers: roar (default), f1tenth (about 8 m/s), or a profile .toml "
                         "(roar_sim/plants/car_profiles/); its limits are measured on first use")
@@ -488,14 +505,15 @@ def main(argv: list[str] | None = None) -> int:
         p.error("--start-lights needs --driver lane (the car sees the lights through its camera)")
     if args.follow and (args.driver != "lane" or not args.avoid):
         p.error("--follow is ROAR's combined driver: it needs --driver lane --avoid")
-    if args.follow and (args.start_lights is not None or args.record or args.shaky_camera is not None or args.renderer):
-        p.error("--follow runs two cars: not with --start-lights, --record, --shaky-camera or --renderer")
+    if args.follow and (args.start_lights is not None or args.frames or args.shaky_camera is not None or args.renderer
+                        or args.log):
+        p.error("--follow runs two cars: not with --start-lights, --frames, --shaky-camera, --renderer or --log")
     if args.shaky_camera is not None and args.driver != "lane":
         p.error("--shaky-camera shakes the lane driver's camera: it needs --driver lane")
     if args.renderer and args.driver != "lane":  # (the drag race's camera is the IARRC car's)
         p.error("--renderer draws the lane driver's camera: it needs --driver lane")
-    if (args.boxes or args.avoid or args.record) and args.driver != "lane":
-        p.error("--boxes, --avoid and --record need --driver lane (the car drives by its camera and laser)")
+    if (args.boxes or args.avoid or args.frames) and args.driver != "lane":
+        p.error("--boxes, --avoid and --frames need --driver lane (the car drives by its camera and laser)")
     if not 0 <= args.boxes <= 20:
         p.error("--boxes must be 0..20")
     if (args.particles is not None or args.global_start) and not args.localize:
@@ -506,9 +524,9 @@ def main(argv: list[str] | None = None) -> int:
         p.error(f"--localize drives the line driver by its lidar on the map: not with --driver lane, and a robot "
                 f"with a lidar ({', '.join(n for n in robots.names() if robots.get(n).has_lidar)})")
     plotting.check_png_argument(p, args.plot)
-    problem = args.record is not None and unusable_folder(args.record)
+    problem = args.frames is not None and unusable_folder(args.frames)
     if problem:
-        p.error(f"--record {problem}")
+        p.error(f"--frames {problem}")
     if args.car_profile is not None and args.robot != "esc":
         p.error("--car-profile is the ESC car's (--robot esc)")
     if args.car_profile is not None:
@@ -539,10 +557,10 @@ def main(argv: list[str] | None = None) -> int:
         return _combined(args, track, boxes)
     result = race(track, args.laps, waypoints, args.margin, args.robot, args.realtime, args.gui, progress=True,
                   timeout_s=args.seconds, lateral="lane" if args.driver == "lane" else args.steering,
-                  start_lights=args.start_lights, boxes=boxes, avoid=args.avoid, record=args.record, k_dd_s=args.k_dd,
+                  start_lights=args.start_lights, boxes=boxes, avoid=args.avoid, frames=args.frames, k_dd_s=args.k_dd,
                   profile=args.car_profile, renderer=args.renderer, shaky_camera=args.shaky_camera,
                   localize=Localize(track, args.particles or LOCALIZE_PARTICLES, global_start=args.global_start)
-                  if args.localize else None)
+                  if args.localize else None, log=args.log)
     print(report(result))
     if result.path and args.plot and not plotting.save(lambda: plot(result), args.plot):
         return ExitStatus.ERROR
@@ -576,7 +594,8 @@ def _drag(p, args) -> int:
     if args.robot != "iarrc":
         p.error("--event drag is the IARRC car's (its speed PID, encoder, gyro and TFmini): add --robot iarrc")
     lane_only = {"--driver lane": args.driver == "lane", "--start-lights": args.start_lights is not None,
-                 "--boxes": bool(args.boxes), "--avoid": args.avoid, "--record": args.record is not None,
+                 "--boxes": bool(args.boxes), "--avoid": args.avoid, "--frames": args.frames is not None,
+                 "--log": args.log is not None,
                  "--shaky-camera": args.shaky_camera is not None, "--waypoints": args.waypoints is not None,
                  "--line": args.line != "centre", "--k-dd": args.k_dd is not None,
                  "--car-profile": args.car_profile is not None, "--follow": args.follow}

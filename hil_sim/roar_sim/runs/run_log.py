@@ -1,0 +1,90 @@
+"""The simulator's side of a recording (roar.recorder): besides what a host sees of the car (every
+control message as it reached the firmware, every line it sent, its state), what only the
+simulator knows, each control period: the firmware's outputs (pulses, where the command came
+from, the brake phase, latched), contacts with walls, cones and people, and -- where those pieces
+run -- the particle filter's pose and particles. Times are the simulator's.
+
+    log = SimLog(robot, "run.mcap", {"command": "roar race ..."})
+    ... each control period: log.step()   (and log.localization(filter) where one runs)
+    log.close()
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from roar.recorder import Recorder
+
+FIRMWARE = "/sim/firmware"
+CONTACTS = "/sim/contacts"
+TRUE_POSE = "/sim/true_pose"
+FILTER_POSE = "/localization/pose"
+PARTICLES = "/localization/particles"
+PARTICLES_EVERY_S = 0.2  # [s] between recorded particle clouds (a cloud is ~40 bytes a particle)
+MAX_PARTICLES = 300  # recorded of a cloud, evenly picked
+
+
+class SimLog:
+    def __init__(self, robot, path, metadata: dict | None = None) -> None:
+        self.robot = robot
+        track = getattr(robot, "track", None)
+        info = {"car": f"sim://?robot={type(robot).__module__.rsplit('.', 1)[-1]}",
+                "track": getattr(track, "name", "") if track is not None else "open floor"}
+        info.update(metadata or {})
+        self.rec = Recorder(path, info, simulated=True)
+        write, read = robot.write, robot.read
+
+        def logged_write(data: bytes) -> None:  # the bytes as they reach the firmware
+            write(data)
+            self.rec.control(data, self.t_ns())
+
+        def logged_read() -> list[str]:
+            lines = read()
+            t = self.t_ns()
+            for line in lines:
+                self.rec.line(line, t)
+            return lines
+
+        robot.write, robot.read = logged_write, logged_read  # this robot's only: the class is untouched
+        self._next_cloud_s = 0.0
+        self._last_scan_s = None
+
+    def t_ns(self) -> int:
+        return int(round(self.robot.time_s * 1e9))
+
+    def step(self) -> None:
+        """One control period: the car's state and pose, the firmware's outputs, contacts, and
+        the lines it sent (read here: nobody else reads a simulated race's lines)."""
+        robot, t = self.robot, self.t_ns()
+        robot.read()
+        self.rec.state(robot.vehicle_state(), t)
+        firmware = {**robot.info(), "braking": robot.braking()}
+        outputs = getattr(robot, "outputs", None)
+        if outputs is not None:
+            firmware.update(throttle_us=outputs.throttle_us, steering_us=outputs.steering_us,
+                            source=outputs.source.name.lower(), brake_phase=outputs.brake_phase.name.lower(),
+                            latched=outputs.latched)
+        self.rec.fields(FIRMWARE, firmware, t, "roar_sim.Firmware")
+        world = robot.plant.world
+        self.rec.fields(CONTACTS, {"wall": robot.touching_wall(), "cone": robot.touching(world.cones),
+                                   "person": robot.touching(world.people)}, t, "roar_sim.Contacts")
+
+    def localization(self, pose, particles, scan=None) -> None:
+        """The filter's pose (x, y, yaw) each period, with the true pose beside it, its particles
+        every PARTICLES_EVERY_S (MAX_PARTICLES of them), and the lidar scan it weighed (a
+        roar.localization.LaserScan) when it is a new one."""
+        t = self.t_ns()
+        if scan is not None and scan.time_s != self._last_scan_s:
+            self._last_scan_s = scan.time_s
+            self.rec.scan(scan.ranges, float(scan.angles[0]), float(scan.angles[-1]), scan.range_max_m,
+                          int(round(scan.time_s * 1e9)))
+        s = self.robot.state()
+        self.rec.poses(FILTER_POSE, [pose], t)
+        self.rec.poses(TRUE_POSE, [(s.x, s.y, s.yaw)], t)
+        if self.robot.time_s + 1e-9 >= self._next_cloud_s and particles is not None and len(particles):
+            pick = np.linspace(0, len(particles) - 1, min(MAX_PARTICLES, len(particles))).astype(int)
+            self.rec.poses(PARTICLES, np.asarray(particles)[pick], t)
+            self._next_cloud_s = self.robot.time_s + PARTICLES_EVERY_S
+
+    def close(self) -> None:
+        self.rec.close()
