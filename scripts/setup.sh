@@ -35,11 +35,13 @@ if [[ $level == test ]]; then
   if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
     apt_install nodejs npm
   fi
-  runner=hil_sim/micropython
-  if command -v npm >/dev/null && [[ ! -f $runner/node_modules/.installed || $runner/package-lock.json -nt $runner/node_modules/.installed ]]; then
-    echo "setup: installing the MicroPython runtime (npm ci in $runner)"
-    (cd "$runner" && npm ci --no-audit --no-fund --loglevel=error >/dev/null) && touch "$runner/node_modules/.installed"
-  fi
+  # and an independent Foxglove WebSocket client (npm @foxglove/ws-protocol) for the live-server tests
+  for runner in hil_sim/micropython tests/foxglove_client; do
+    if command -v npm >/dev/null && [[ ! -f $runner/node_modules/.installed || $runner/package-lock.json -nt $runner/node_modules/.installed ]]; then
+      echo "setup: npm ci in $runner"
+      (cd "$runner" && npm ci --no-audit --no-fund --loglevel=error >/dev/null) && touch "$runner/node_modules/.installed"
+    fi
+  done
 fi
 
 # .venv with the pinned dependencies of the level; the test level's includes the run level's.

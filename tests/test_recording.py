@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -244,3 +245,56 @@ def test_a_race_on_the_filters_pose_records_what_only_the_simulator_knows(tmp_pa
     scan = next(m for _, _, m in messages(path, ["/lidar"]))
     assert scan.end_angle - scan.start_angle == pytest.approx(math.radians(270), abs=0.01)
     assert not any(m["cone"] or m["person"] for _, _, m in messages(path, ["/sim/contacts"]))
+
+
+CLIENT = Path(__file__).parent / "foxglove_client"
+
+
+def free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def foxglove_client(port: int, topics: list[str], count: int, seconds: float = 30.0) -> list[dict]:
+    """The npm @foxglove/ws-protocol client's events (tests/foxglove_client/client.mjs)."""
+    import shutil
+
+    if shutil.which("node") is None or not (CLIENT / "node_modules" / "@foxglove" / "ws-protocol").exists():
+        pytest.skip("the Foxglove client needs Node.js and `npm ci` in tests/foxglove_client (make test does both)")
+    done = subprocess.run(["node", str(CLIENT / "client.mjs"), f"ws://127.0.0.1:{port}", ",".join(topics), str(count),
+                           str(seconds)], capture_output=True, text=True, timeout=seconds + 30)
+    events = [json.loads(line) for line in done.stdout.splitlines() if line.startswith("{")]
+    assert done.returncode == 0, (done.stdout[-2000:], done.stderr[-2000:])
+    return events
+
+
+def test_a_served_car_is_live_in_an_independent_foxglove_client(tmp_path):
+    from roar import Vehicle
+
+    port = free_port()
+    sim = subprocess.Popen([sys.executable, "-m", "roar.cli", "sim", "--serial", "--foxglove", str(port),
+                            "--seconds", "60"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        path = sim.stdout.readline().split(" on ")[1].split(" ")[0]
+        assert "ws://127.0.0.1" in sim.stdout.readline()
+        with Vehicle(f"serial://{path}") as car:
+            car.send_pulses(1600, 1300)
+            assert car.flush(2.0)
+            time.sleep(0.1)  # the simulator has it (its pty pumped)
+            events = foxglove_client(port, ["/control", "/sim/firmware", "/car/state", "/car/pose"], 5)
+    finally:
+        sim.send_signal(signal.SIGINT)
+        sim.communicate(timeout=30)
+    advertised = {c["topic"]: c for c in events[0]["advertised"]}
+    assert advertised["/car/pose"]["schemaName"] == "foxglove.PoseInFrame"
+    assert advertised["/sim/firmware"]["encoding"] == "json"
+    got = {}
+    for e in events[1:]:
+        got.setdefault(e["topic"], []).append(e)
+    assert all(len(got[t]) == 5 for t in ("/control", "/sim/firmware", "/car/state", "/car/pose"))
+    assert {(e["json"]["throttle_us"], e["json"]["steering_us"]) for e in got["/control"]} == {(1600, 1300)}
+    assert all(e["json"]["source"] == "host" for e in got["/sim/firmware"])
+    assert all(e["json"]["time_s"] > 0 for e in got["/car/state"]) and all(e["bytes"] > 0 for e in got["/car/pose"])

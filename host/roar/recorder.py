@@ -43,6 +43,8 @@ IMAGE = "/camera/image"
 CALIBRATION = "/camera/calibration"
 TOPICS = (CONTROL, LINES, TELEMETRY, STATE, POSE, TF, SCAN, IMAGE, CALIBRATION)
 WORLD_FRAME, CAR_FRAME, LIDAR_FRAME, CAMERA_FRAME = "world", "base_link", "lidar", "camera"
+SERVE_HOST = "127.0.0.1"  # live channels are served on loopback only
+FOXGLOVE_PORT = 8765  # Foxglove's own default
 CHUNK_BYTES = 1 << 20  # [B] of messages before a chunk is compressed and written
 JPEG_QUALITY = 85
 
@@ -70,22 +72,33 @@ def foxglove_sdk():
 
 
 class Recorder:
-    def __init__(self, path: str | Path, metadata: dict[str, str] | None = None, simulated: bool = False) -> None:
-        """An MCAP file at path (replaced if there); metadata: strings for the file's "run"
-        record (the car, the track, the command line...); simulated: times are the simulator's."""
+    def __init__(self, path: str | Path | None, metadata: dict[str, str] | None = None, simulated: bool = False,
+                 serve_port: int | None = None) -> None:
+        """An MCAP file at path (replaced if there; None: none); metadata: strings for the file's
+        "run" record (the car, the track, the command line...); simulated: times are the
+        simulator's; serve_port: also serve every channel live over the Foxglove WebSocket
+        protocol on 127.0.0.1 at this port (Foxglove: "Open connection", ws://127.0.0.1:PORT)."""
         from roar.user_files import unwritable
 
         fox = foxglove_sdk()
         from foxglove.mcap import MCAPWriteOptions
 
-        self.path = Path(path)
-        problem = unwritable(self.path)
+        self.path = None if path is None else Path(path)
+        problem = self.path is not None and unwritable(self.path)
         if problem:
             raise RecordError(f"{self.path}: {problem}")
         self._fox = fox
         self._ctx = fox.Context()
-        self._writer = fox.open_mcap(self.path, allow_overwrite=True, context=self._ctx,
-                                     writer_options=MCAPWriteOptions(chunk_size=CHUNK_BYTES))
+        self._server = None
+        if serve_port is not None:
+            if not (isinstance(serve_port, int) and 1 <= serve_port <= 65535):
+                raise RecordError(f"the Foxglove port must be 1..65535, got {serve_port!r}")
+            try:
+                self._server = fox.start_server(name="roar", host=SERVE_HOST, port=serve_port, context=self._ctx)
+            except Exception as e:  # the SDK's own error type: a port in use, mostly
+                raise RecordError(f"cannot serve Foxglove on {SERVE_HOST}:{serve_port}: {e}") from None
+        self._writer = None if self.path is None else fox.open_mcap(
+            self.path, allow_overwrite=True, context=self._ctx, writer_options=MCAPWriteOptions(chunk_size=CHUNK_BYTES))
         self._channels: dict[str, object] = {}
         self._lock = threading.Lock()
         self.closed = False
@@ -95,7 +108,8 @@ class Recorder:
         if not simulated:
             info["wall_clock_offset_ns"] = str(time.time_ns() - time.monotonic_ns())
         info.update({k: str(v) for k, v in (metadata or {}).items()})
-        self._writer.write_metadata("run", info)
+        if self._writer is not None:
+            self._writer.write_metadata("run", info)
 
     # -- channels -------------------------------------------------------------------------------
 
@@ -231,7 +245,7 @@ class Recorder:
     def note(self, name: str, fields: dict[str, str]) -> None:
         """A metadata record (strings) learnt during the run: the car's protocol version..."""
         with self._lock:
-            if not self.closed:
+            if not self.closed and self._writer is not None:
                 self._writer.write_metadata(name, {k: str(v) for k, v in fields.items()})
 
     # -- the end ----------------------------------------------------------------------------------
@@ -242,7 +256,10 @@ class Recorder:
             if self.closed:
                 return
             self.closed = True
-            self._writer.close()
+            if self._writer is not None:
+                self._writer.close()
+            if self._server is not None:
+                self._server.stop()
 
     def __enter__(self) -> Recorder:
         return self

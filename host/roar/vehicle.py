@@ -57,11 +57,12 @@ class Vehicle:
     reconnect: reopen a lost link with backoff (True) or give up (False; the next call raises).
     transport_options: options a URL cannot carry, passed to the transport (e.g. a bleak backend).
     record: an MCAP file to record the run into (roar.recorder: every message sent, every line
-    received, the state, and the scans and frames asked for), finished when the vehicle closes.
+    received, the state, and the scans and frames asked for), finished when the vehicle closes;
+    or a roar.recorder.Recorder (one that also serves the channels live, say).
     """
 
     def __init__(self, url: str = "sim://", calibration: Calibration | str | Path | None = None,
-                 rate_hz: float | None = None, reconnect: bool = True, record: str | Path | None = None,
+                 rate_hz: float | None = None, reconnect: bool = True, record=None,
                  **transport_options) -> None:
         if isinstance(calibration, (str, Path)):
             calibration = Calibration.load(calibration)
@@ -73,8 +74,8 @@ class Vehicle:
         if record is not None:
             from roar.recorder import Recorder, RecordingTransport
 
-            self.recorder = Recorder(record, {"car": url, "command": " ".join(sys.argv)},
-                                     simulated=self.transport.scheme == "sim")
+            self.recorder = record if isinstance(record, Recorder) else Recorder(
+                record, {"car": url, "command": " ".join(sys.argv)}, simulated=self.transport.scheme == "sim")
             self.transport = RecordingTransport(self.transport, self.recorder)
         try:
             self.transport.open()

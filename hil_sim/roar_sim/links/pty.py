@@ -20,8 +20,11 @@ import threading
 import tty
 
 from roar.tracks.names import FORMS
-from roar.cli.errors import ArgumentParser, ExitStatus, UserError, run_command, seconds_option, stopped_status
+from roar.cli.errors import (ArgumentParser, ExitStatus, UserError, port_option, run_command, seconds_option,
+                             stopped_status)
+from roar.recorder import FOXGLOVE_PORT
 from roar_sim import robots
+from roar_sim.clock.lockstep import CONTROL_PERIOD_S
 from roar_sim.robots import Robot
 from roar.tracks import get
 
@@ -32,8 +35,10 @@ MAX_UNSENT_BYTES = 4096  # [bytes] reply bytes held for a slow reader; whole lin
 class PtyCar:
     """A robot behind a pty. Call pump() repeatedly (or serve()) to move bytes and time."""
 
-    def __init__(self, sim: Robot) -> None:
-        self.sim = sim
+    def __init__(self, sim: Robot, log=None) -> None:
+        """log: a roar_sim.runs.run_log.SimLog of sim, stepped each control period."""
+        self.sim, self.log = sim, log
+        self._next_log_s = 0.0
         self.master, self._slave = os.openpty()
         tty.setraw(self._slave, termios.TCSANOW)  # bytes pass unchanged: no echo, no line editing
         os.set_blocking(self.master, False)
@@ -50,6 +55,9 @@ class PtyCar:
         if data:
             self.sim.write(data)
         self.sim.run(seconds)
+        if self.log is not None and self.sim.time_s + 1e-9 >= self._next_log_s:
+            self.log.step()
+            self._next_log_s = self.sim.time_s + CONTROL_PERIOD_S
         for line in self.sim.read():  # like the firmware: whole lines, dropped when there is no room
             data = (line + "\n").encode("ascii")
             if len(self._unsent) + len(data) <= MAX_UNSENT_BYTES:
@@ -88,6 +96,8 @@ class PtyCar:
                 os.close(fd)
             except OSError:
                 pass
+        if self.log is not None:
+            self.log.close()
         self.sim.close()
 
     def __enter__(self) -> PtyCar:
@@ -108,6 +118,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--track", default="oval", help=f"{FORMS} (default: oval)")
     p.add_argument("--seconds", type=seconds_option, default=0.0, metavar="S", help="stop after this long (default: run until Ctrl-C)")
     p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
+    p.add_argument("--foxglove", nargs="?", const=FOXGLOVE_PORT, type=port_option, default=None, metavar="PORT",
+                   help=f"serve the car's channels live over the Foxglove WebSocket protocol on 127.0.0.1 (default "
+                        f"port {FOXGLOVE_PORT})")
     return p
 
 
@@ -117,8 +130,20 @@ def main(argv: list[str] | None = None) -> int:
     if "serial" not in kind.links:
         raise UserError(f"the {kind.title} has no serial port (robots with one: {', '.join(serial_robots())})"
                         + ("; serve it over HTTP with roar sim --robot junior --http" if "http" in kind.links else ""))
-    with PtyCar(kind(get(args.track), realtime=True, gui=args.gui)) as car:
+    sim = kind(get(args.track), realtime=True, gui=args.gui)
+    log = None
+    if args.foxglove is not None:
+        from roar_sim.runs.run_log import SimLog
+
+        try:
+            log = SimLog(sim, None, {"command": " ".join(sys.argv)}, args.foxglove, drain_lines=False)
+        except BaseException:
+            sim.close()
+            raise
+    with PtyCar(sim, log) as car:
         print(f"simulated {kind.title} on {car.path} (115200 baud, any setting works); Ctrl-C to stop", flush=True)
+        if log is not None:
+            print(f"its channels live: Foxglove, Open connection, ws://127.0.0.1:{args.foxglove}", flush=True)
         status = ExitStatus.OK
         try:
             car.serve(args.seconds)

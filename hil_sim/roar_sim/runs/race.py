@@ -33,7 +33,8 @@ import numpy as np
 
 from roar.autopilot import Agent, Command, Observation, Runner, WaypointError, lap_time, load_waypoints, speed_profile
 from roar.user_files import unusable_folder
-from roar.cli.errors import ArgumentParser, ExitStatus, number_option, path_option, run_command
+from roar.cli.errors import ArgumentParser, ExitStatus, number_option, path_option, port_option, run_command
+from roar.recorder import FOXGLOVE_PORT
 from roar.tracks.track_files import load_raceline_csv
 from roar.tracks.tunnel import describe
 from roar_sim import robots
@@ -212,7 +213,7 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
          avoid: bool = False, frames: Path | None = None, k_dd_s: float | None = None,
          profile: str | None = None, renderer: str | None = None, shaky_camera: int | None = None,
          green_span_s: tuple[float, float] = GREEN_AFTER_S, localize: Localize | None = None,
-         log: Path | None = None) -> RaceResult:
+         log: Path | None = None, serve_port: int | None = None) -> RaceResult:
     """Race `robot` (a name of roar_sim.robots) round `track`, its commands as a host sends them.
     lateral: its steering ("pursuit", "pid" where it has it), or "lane": the ESC car driving by
     its camera alone, and with it start_lights (a seed: start lights turn green at a moment drawn
@@ -227,7 +228,8 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
     drives on the particle filter's pose (roar_sim.runs.localize: odometry and lidar on the
     track's map) instead of the simulator's; the simulator's pose then only scores. log: an MCAP
     file the run is recorded into (roar_sim.runs.run_log: what the host sent and heard, the
-    firmware's outputs, contacts, and the particle filter's pose and particles where it drives)."""
+    firmware's outputs, contacts, and the particle filter's pose and particles where it drives);
+    serve_port: the same channels served live (Foxglove WebSocket on 127.0.0.1)."""
     kind = robots.get(robot)
     if lateral == "lane" and not kind.lane_driving:
         raise ValueError(f"the {kind.title} does not drive by its camera: lane driving is the ESC car's")
@@ -251,10 +253,10 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
         car = stack.enter_context(kind(track, realtime=realtime, gui=gui, **({"profile": profile} if profile else {})))
         world = car.plant.world
         sim_log = None
-        if log is not None:
+        if log is not None or serve_port is not None:
             from roar_sim.runs.run_log import SimLog
 
-            sim_log = SimLog(car, log, {"command": " ".join(sys.argv), "driver": lateral})
+            sim_log = SimLog(car, log, {"command": " ".join(sys.argv), "driver": lateral}, serve_port)
             stack.callback(sim_log.close)  # finished however the race ends
         course = (LaneCourse(car, start_lights, boxes, avoid, frames, shaky_camera, green_span_s)
                   if lateral == "lane" else None)
@@ -450,6 +452,10 @@ def parser() -> argparse.ArgumentParser:
                    help="record the race into this MCAP file: every control message and line, the car's state, "
                         "the firmware's outputs, contacts, and with --localize the filter's pose and particles "
                         "(open it in Foxglove, or `roar replay`)")
+    p.add_argument("--foxglove", nargs="?", const=FOXGLOVE_PORT, type=port_option, default=None, metavar="PORT",
+                   help=f"serve the same channels live over the Foxglove WebSocket protocol on 127.0.0.1 (default port "
+                        f"{FOXGLOVE_PORT}; in Foxglove: Open connection, ws://127.0.0.1:PORT); add --realtime to "
+                        f"watch at the car's pace")
     p.add_argument("--car-profile", metavar="NAME|FILE",
                    help="the ESC car's own numbers: roar (default), f1tenth (about 8 m/s), or a profile .toml "
                         "(roar_sim/plants/car_profiles/); its limits are measured on first use")
@@ -506,8 +512,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.follow and (args.driver != "lane" or not args.avoid):
         p.error("--follow is ROAR's combined driver: it needs --driver lane --avoid")
     if args.follow and (args.start_lights is not None or args.frames or args.shaky_camera is not None or args.renderer
-                        or args.log):
-        p.error("--follow runs two cars: not with --start-lights, --frames, --shaky-camera, --renderer or --log")
+                        or args.log or args.foxglove):
+        p.error("--follow runs two cars: not with --start-lights, --frames, --shaky-camera, --renderer, --log or "
+                "--foxglove")
     if args.shaky_camera is not None and args.driver != "lane":
         p.error("--shaky-camera shakes the lane driver's camera: it needs --driver lane")
     if args.renderer and args.driver != "lane":  # (the drag race's camera is the IARRC car's)
@@ -560,7 +567,7 @@ def main(argv: list[str] | None = None) -> int:
                   start_lights=args.start_lights, boxes=boxes, avoid=args.avoid, frames=args.frames, k_dd_s=args.k_dd,
                   profile=args.car_profile, renderer=args.renderer, shaky_camera=args.shaky_camera,
                   localize=Localize(track, args.particles or LOCALIZE_PARTICLES, global_start=args.global_start)
-                  if args.localize else None, log=args.log)
+                  if args.localize else None, log=args.log, serve_port=args.foxglove)
     print(report(result))
     if result.path and args.plot and not plotting.save(lambda: plot(result), args.plot):
         return ExitStatus.ERROR
@@ -595,7 +602,7 @@ def _drag(p, args) -> int:
         p.error("--event drag is the IARRC car's (its speed PID, encoder, gyro and TFmini): add --robot iarrc")
     lane_only = {"--driver lane": args.driver == "lane", "--start-lights": args.start_lights is not None,
                  "--boxes": bool(args.boxes), "--avoid": args.avoid, "--frames": args.frames is not None,
-                 "--log": args.log is not None,
+                 "--log": args.log is not None, "--foxglove": args.foxglove is not None,
                  "--shaky-camera": args.shaky_camera is not None, "--waypoints": args.waypoints is not None,
                  "--line": args.line != "centre", "--k-dd": args.k_dd is not None,
                  "--car-profile": args.car_profile is not None, "--follow": args.follow}

@@ -11,7 +11,8 @@ import importlib
 import sys
 
 from roar.tracks.names import FORMS
-from roar.cli.errors import ArgumentParser, UserError, path_option, run_command, seconds_option
+from roar.cli.errors import ArgumentParser, UserError, path_option, port_option, run_command, seconds_option
+from roar.recorder import FOXGLOVE_PORT
 from roar.cli.plugins import Command
 
 SIM_DESCRIPTION = """Run a simulated robot (--robot esc, iarrc or junior; default esc) as a program reaches a
@@ -51,6 +52,10 @@ def _sim_parser() -> argparse.ArgumentParser:
                    help="with --serial or --http: stop after this long (default: Ctrl-C)")
     p.add_argument("--laps", type=int, default=None, help="without a link: laps to drive (default 2)")
     p.add_argument("--plot", type=path_option, metavar="PNG", help="without a link: write the driven path to this PNG")
+    p.add_argument("--foxglove", nargs="?", const=FOXGLOVE_PORT, type=port_option, default=None, metavar="PORT",
+                   help=f"without a link (then in real time) or with --serial: serve the car's channels live over the "
+                        f"Foxglove WebSocket protocol on 127.0.0.1 (default port {FOXGLOVE_PORT}; in Foxglove: Open "
+                        f"connection, ws://127.0.0.1:PORT)")
     return p
 
 
@@ -84,6 +89,9 @@ def _sim(argv: list[str]) -> int:
         raise UserError("--seconds is how long --serial or --http serve; a race ends after its laps "
                         "(roar race --seconds sets its time limit)")
     gui = ["--gui"] if args.gui else []
+    foxglove = ["--foxglove", str(args.foxglove)] if args.foxglove is not None else []
+    if foxglove and args.http is not None:
+        raise UserError("--foxglove serves a race's or a serial car's channels (not --http's yet)")
     seconds = ["--seconds", str(args.seconds)] if args.seconds is not None else []
     if args.http is not None:
         from roar_sim.links.junior_http import main as serve_junior
@@ -94,12 +102,13 @@ def _sim(argv: list[str]) -> int:
     if args.serial:
         from roar_sim.links.pty import main as serve
 
-        return serve(["--robot", args.robot, "--track", args.track, *seconds, *gui])
+        return serve(["--robot", args.robot, "--track", args.track, *seconds, *gui, *foxglove])
     from roar_sim.runs.race import main as race
 
     plot = ["--plot", str(args.plot)] if args.plot else []
     laps = ["--laps", str(args.laps)] if args.laps is not None else []
-    return race(["--robot", args.robot, "--track", args.track, *laps, *gui, *plot])
+    return race(["--robot", args.robot, "--track", args.track, *laps, *gui, *plot,
+                 *([*foxglove, "--realtime"] if foxglove else [])])
 
 
 def _step_response(argv: list[str]) -> int:

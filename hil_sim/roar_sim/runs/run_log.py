@@ -25,13 +25,17 @@ MAX_PARTICLES = 300  # recorded of a cloud, evenly picked
 
 
 class SimLog:
-    def __init__(self, robot, path, metadata: dict | None = None) -> None:
-        self.robot = robot
+    def __init__(self, robot, path, metadata: dict | None = None, serve_port: int | None = None,
+                 drain_lines: bool = True) -> None:
+        """path: the MCAP file (None: none); serve_port: also serve the channels live (Foxglove
+        WebSocket on 127.0.0.1); drain_lines: step() reads the robot's lines (set False where a
+        link reads them: they are recorded as it does)."""
+        self.robot, self.drain_lines = robot, drain_lines
         track = getattr(robot, "track", None)
         info = {"car": f"sim://?robot={type(robot).__module__.rsplit('.', 1)[-1]}",
                 "track": getattr(track, "name", "") if track is not None else "open floor"}
         info.update(metadata or {})
-        self.rec = Recorder(path, info, simulated=True)
+        self.rec = Recorder(path, info, simulated=True, serve_port=serve_port)
         write, read = robot.write, robot.read
 
         def logged_write(data: bytes) -> None:  # the bytes as they reach the firmware
@@ -56,7 +60,8 @@ class SimLog:
         """One control period: the car's state and pose, the firmware's outputs, contacts, and
         the lines it sent (read here: nobody else reads a simulated race's lines)."""
         robot, t = self.robot, self.t_ns()
-        robot.read()
+        if self.drain_lines:
+            robot.read()
         self.rec.state(robot.vehicle_state(), t)
         firmware = {**robot.info(), "braking": robot.braking()}
         outputs = getattr(robot, "outputs", None)

@@ -96,7 +96,18 @@ def record(args) -> int:
 
     if args.seconds is None and not sys.stdin.isatty():  # before the car is opened and the file made
         raise UserError("roar record drives with the keyboard: run it in a terminal, or give --for SECONDS")
-    with _vehicle(args, record=args.out) as car:
+    from roar.recorder import Recorder
+
+    recorder = Recorder(args.out, {"car": args.url, "command": " ".join(sys.argv)},
+                        simulated=args.url.split(":", 1)[0].lower() == "sim", serve_port=args.foxglove)
+    if args.foxglove is not None:
+        print(f"serving the channels live: Foxglove, Open connection, ws://127.0.0.1:{args.foxglove}", flush=True)
+    try:
+        car = _vehicle(args, record=recorder)
+    except BaseException:
+        recorder.close()
+        raise
+    with car:
         if args.seconds is None:
             status = run(car)
         else:

@@ -85,6 +85,13 @@ def number_option(low: float, high: float, unit: str = "", low_open: bool = Fals
     return parse
 
 
+def port_option(text: str) -> int:
+    """An argparse type: a TCP port, a whole number 1..65535."""
+    if not text.strip().isdigit() or not 1 <= int(text) <= 65535:
+        raise argparse.ArgumentTypeError(f"must be a port, a whole number 1..65535, got {text!r}")
+    return int(text)
+
+
 def path_option(text: str) -> Path:
     """An argparse type: a file or folder name, not an empty one (which would mean "here")."""
     if not text.strip():

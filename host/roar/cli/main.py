@@ -16,6 +16,7 @@ from roar.calibration import default_path
 from roar.cli import plugins
 from roar.checks import MAX_SCAN_S
 from roar.cli.errors import ArgumentParser, UserError, number_option, path_option, run_command, seconds_option
+from roar.recorder import FOXGLOVE_PORT
 from roar.transports.registry import url_help
 from roar.vision.geometry import SIMULATED_CAR_CAMERA
 
@@ -45,6 +46,14 @@ def _add_calibration(p: argparse.ArgumentParser) -> None:
 def _add_log(p: argparse.ArgumentParser) -> None:
     p.add_argument("--log", type=path_option, metavar="MCAP",
                    help="record the run into this MCAP file (every message sent and line received, the state)")
+
+
+def _add_foxglove(p: argparse.ArgumentParser) -> None:
+    from roar.cli.errors import port_option
+
+    p.add_argument("--foxglove", nargs="?", const=FOXGLOVE_PORT, type=port_option, default=None, metavar="PORT",
+                   help=f"also serve the channels live over the Foxglove WebSocket protocol on 127.0.0.1 (default port "
+                        f"{FOXGLOVE_PORT}; in Foxglove: Open connection, ws://127.0.0.1:PORT)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -85,6 +94,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=path_option, required=True, metavar="MCAP", help="the file to write (replaced)")
     p.add_argument("--for", dest="seconds", type=number_option(0, 3600, "s", low_open=True), default=None,
                    metavar="SECONDS", help="listen at neutral this long instead of driving with the keyboard")
+    _add_foxglove(p)
     _add_calibration(p)
 
     p = sub.add_parser("replay", help="what an MCAP recording holds",
