@@ -4,6 +4,9 @@ rate and longest gap, with the mcap library's reader. A file that is not one end
 
     log = read_log("run.mcap")       # .metadata, .channels {topic: ChannelStats}, .duration_s
     print(summary("run.mcap"))
+    plot("run.mcap", "run.png")      # the path, the speed, the commands
+    with Vehicle("sim://") as car:
+        play("run.mcap", car)        # the recorded commands again, at their times
 """
 
 from __future__ import annotations
@@ -155,3 +158,74 @@ def summary(path: str | Path) -> str:
         c = log.channels[topic]
         lines.append(f"  {topic:<{width}}  {c.schema:<26} {c.count:>8,} {c.rate_hz:>6.1f} Hz {c.longest_gap_ns / 1e9:>10.3f} s")
     return "\n".join(lines)
+
+
+def commands(path: str | Path) -> list[tuple[float, dict]]:
+    """([s] from the first, control message) of every control message that changed what the car
+    was told (the sender's re-sends dropped)."""
+    out, last, t0 = [], None, None
+    for _, t, msg in messages(path, ["/control"]):
+        t0 = t if t0 is None else t0
+        said = {k: msg.get(k) for k in ("throttle_us", "steering_us", "speed_mm_s")}
+        if msg.get("result") in ("ok", "setpoint") and said != last:
+            out.append(((t - t0) / 1e9, msg))
+            last = said
+    return out
+
+
+def play(path: str | Path, car, on_command=None) -> int:
+    """Send a recording's commands to a car (a roar.Vehicle) at their recorded times: the
+    Vehicle re-sends each at its rate and sends neutral when it closes, so every failsafe rule
+    holds as when a program drives. Returns how many were played."""
+    import time
+
+    todo = commands(path)
+    if not todo:
+        raise ReplayError(f"{path}: no control messages to play")
+    start = time.monotonic()
+    for k, (at_s, msg) in enumerate(todo):
+        time.sleep(max(0.0, at_s - (time.monotonic() - start)))
+        if msg.get("result") == "setpoint":
+            car.drive(speed=msg["speed_mm_s"] / 1000, steering=(msg["steering_us"] - 1500) / 500)
+        else:
+            car.send_pulses(msg["throttle_us"], msg["steering_us"])
+        if on_command is not None:
+            on_command(k, at_s, msg)
+    return len(todo)
+
+
+def plot(path: str | Path, png: str | Path) -> None:
+    """The driven path, the speed and the commands over time, into a PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    log = read_log(path)
+    states = [(t, m) for _, t, m in messages(path, ["/car/state"])]
+    control = [(t, m) for _, t, m in messages(path, ["/control"]) if m.get("result") in ("ok", "setpoint")]
+    t0 = log.start_ns
+    fig, (ax_path, ax_speed, ax_cmd) = plt.subplots(3, 1, figsize=(8, 11), gridspec_kw={"height_ratios": [3, 1, 1]})
+    xy = [(m["x_m"], m["y_m"]) for _, m in states if "x_m" in m and "y_m" in m]
+    if xy:
+        ax_path.plot(*zip(*xy), lw=1.2)
+        ax_path.plot(*xy[0], "go", label="start")
+        ax_path.plot(*xy[-1], "rs", label="end")
+        ax_path.legend(fontsize=8)
+    else:
+        ax_path.text(0.5, 0.5, "this link reported no position", ha="center", transform=ax_path.transAxes)
+    ax_path.set_aspect("equal", adjustable="datalim")
+    ax_path.set(xlabel="x [m]", ylabel="y [m]", title=f"{log.path.name}: {log.metadata.get('run', {}).get('car', '')}")
+    speed = [((t - t0) / 1e9, m["speed_m_s"]) for t, m in states if "speed_m_s" in m]
+    if speed:
+        ax_speed.plot(*zip(*speed), lw=1)
+    ax_speed.set(xlabel="t [s]", ylabel="speed [m/s]")
+    for key, label in (("throttle_us", "throttle"), ("steering_us", "steering")):
+        points = [((t - t0) / 1e9, m[key]) for t, m in control if key in m]
+        if points:
+            ax_cmd.step(*zip(*points), where="post", lw=1, label=f"{label} [us]")
+    ax_cmd.set(xlabel="t [s]", ylabel="pulse [us]")
+    ax_cmd.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(png, dpi=100)
+    plt.close(fig)

@@ -120,9 +120,32 @@ def record(args) -> int:
 
 
 def replay(args) -> int:
-    from roar.replay import summary
+    from roar.replay import commands, play, plot, summary
+    from roar.user_files import unwritable
 
-    print(summary(args.file))
+    if args.plot is not None and unwritable(args.plot):
+        raise UserError(f"--plot {unwritable(args.plot)}")
+    print(summary(args.file), flush=True)
+    if args.plot is not None:
+        plot(args.file, args.plot)
+        print(f"plot: {args.plot}")
+    if args.to is None:
+        return 0
+    todo = commands(args.file)
+    if not todo:
+        raise UserError(f"{args.file}: no control messages to play")
+    scheme = args.to.split(":", 1)[0].lower()
+    if scheme not in ("sim", "loop") and not args.yes:
+        if not sys.stdin.isatty():
+            raise UserError(f"--to {args.to} drives a real car: run in a terminal to confirm, or add --yes")
+        answer = input(f"play {len(todo)} commands over {todo[-1][0]:.1f} s to {args.to}? the car will move "
+                       f"(type yes): ")
+        if answer.strip().lower() != "yes":
+            print("not played")
+            return 1
+    with Vehicle(args.to, calibration=None) as car:
+        played = play(args.file, car)
+    print(f"played {played} commands to {args.to} over {todo[-1][0]:.1f} s; neutral sent")
     return 0
 
 

@@ -100,8 +100,14 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("replay", help="what an MCAP recording holds",
                        description="Summarise a recording (`roar record`, `--log`, Vehicle(record=...)): its "
                                    "duration, clock and car, and per channel the message count, rate and the "
-                                   "longest gap, so a stalled sensor or link shows at a glance.")
+                                   "longest gap, so a stalled sensor or link shows at a glance. --plot draws it; "
+                                   "--to URL plays its commands to a car (the simulator, or a real one after you "
+                                   "confirm) through the library, which re-sends them and ends at neutral.")
     p.add_argument("file", type=path_option, metavar="MCAP", help="the recording")
+    p.add_argument("--plot", type=path_option, metavar="PNG", help="draw the path, the speed and the commands")
+    p.add_argument("--to", metavar="URL", help="play the recorded commands to this car at their recorded times "
+                                               "(a real car asks first; the failsafe rules hold as ever)")
+    p.add_argument("--yes", action="store_true", help="with --to a real car: do not ask")
 
     p = sub.add_parser("calibrate", help="set trim and end-points interactively",
                        description="Walk through steering and throttle trim and end-points with the car "
