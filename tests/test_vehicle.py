@@ -138,3 +138,18 @@ def test_every_message_is_a_valid_control_message():
         for v in (-1, -0.33, 0, 0.77, 1):
             car.drive(v, -v)
     assert all(decode(m) for m in sent(car))
+
+
+def test_raw_pulses_stay_on_the_wire_when_the_car_says_ready():
+    """A car that boots (READY) after send_pulses: learning its protocol version must not put the
+    Vehicle's own (neutral) command back over the raw pulses (calibration holds them)."""
+    with Vehicle("loop://", rate_hz=50) as car:
+        car.send_pulses(1600, 1300)
+        assert wait_for(lambda: sent(car) and sent(car)[-1] == encode(1600, 1300))
+        car.transport.inject("READY 1")
+        assert wait_for(lambda: car.protocol_version == 1)
+        n = len(sent(car))
+        assert wait_for(lambda: len(sent(car)) >= n + 5)
+        assert set(sent(car)[n:]) == {encode(1600, 1300)}
+        car.drive(0.0, 0.0)  # the Vehicle's own command again: a READY now re-sends it as the car takes it
+        assert wait_for(lambda: sent(car)[-1] == NEUTRAL)

@@ -93,6 +93,7 @@ class Vehicle:
         self.protocol_version: int | None = None  # what the car said: READY n (2: it takes speed setpoints)
         self._telemetry: dict = {}  # the latest telemetry line's fields
         self._zero_speed_sent = False
+        self._raw = False  # the message on the wire is raw pulses (send_pulses), not drive()'s
         self._closed = False
         self._sender = CommandSender(self.transport, period_s, self._on_lines, reconnect)
         self._sender.start(self._message())
@@ -143,6 +144,7 @@ class Vehicle:
             self._sender.set(self._message())
             self._zero_speed_sent = self.flush()
         self._throttle, self._steering, self._speed = t, s, v
+        self._raw = False
         self._sender.set(self._message())
         time.sleep(0)  # yield the GIL so the sender can put it on the wire now, even in a busy loop
 
@@ -157,6 +159,7 @@ class Vehicle:
         it also re-arms a car whose failsafe latched, even if a new command follows at once)."""
         self._check_usable()
         self._throttle = self._steering = self._speed = 0.0
+        self._raw = False
         self._sender.set(self._message())
         self.flush()
 
@@ -168,6 +171,7 @@ class Vehicle:
         """Send raw pulse widths [us], bypassing the calibration (for calibration tools)."""
         message = encode(throttle_us, steering_us)  # ControlError (a ValueError) when out of range
         self._check_usable()
+        self._raw = True  # the car's READY must not put the Vehicle's own command back over these
         self._sender.set(message)
 
     def pulses_us(self) -> tuple[int, int]:
@@ -238,7 +242,7 @@ class Vehicle:
         with self._events_cond:
             self.protocol_version = version
             self._events_cond.notify_all()
-        if not self._closed:
+        if not self._closed and not self._raw:
             self._sender.set(self._message())
 
     # --- what the car tells ---------------------------------------------------------------------
