@@ -60,3 +60,20 @@ if [[ ! -x .venv/bin/python ]] || ! { fresh "$stamp" || { [[ $level == run ]] &&
   fi
   touch "$stamp"
 fi
+
+# DonkeyCar's own tub reader in a side environment (it wants Python 3.11 and numpy < 2), to check
+# the tubs `roar dataset` writes. Not fatal: where it cannot install, that test skips and says why.
+if [[ $level == test ]]; then
+  side=.venv-donkey
+  if [[ ! -f $side/.installed || tests/donkey/requirements.txt -nt $side/.installed ]]; then
+    if command -v python3.11 >/dev/null; then
+      echo "setup: $side (DonkeyCar's tub reader)"
+      { [[ -x $side/bin/python ]] || python3.11 -m venv "$side"; } &&
+        $side/bin/python -m pip install --disable-pip-version-check -r tests/donkey/requirements.txt \
+          >"$side.log" 2>&1 && touch "$side/.installed" ||
+        echo "setup: DonkeyCar did not install (see $side.log): its tub test will skip" >&2
+    else
+      echo "setup: no python3.11 for DonkeyCar's tub reader: its tub test will skip" >&2
+    fi
+  fi
+fi

@@ -35,6 +35,7 @@ BASE = {
     "drive": ["loop://"],
     "record": ["loop://", "--out", "{tmp}/run.mcap", "--for", "0.1"],
     "replay": ["{recording}"],
+    "dataset": ["{recording}", "--out", "{tmp}/tub"],
     "calibrate": ["loop://", "--file", "{tmp}/calibration.toml"],
     "scan": ["--timeout", "0.1"],
     "ports": [],
@@ -138,6 +139,7 @@ def recording(tmp_path_factory):
     path = tmp_path_factory.mktemp("recording") / "run.mcap"
     with Recorder(path, {"car": "loop://"}) as rec:
         rec.control(b"(1500,1500)\n", 0)
+        rec.image(np.zeros((8, 8, 3), np.uint8), 1)
     return path
 
 

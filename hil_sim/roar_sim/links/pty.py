@@ -20,9 +20,8 @@ import threading
 import tty
 
 from roar.tracks.names import FORMS
-from roar.cli.errors import (ArgumentParser, ExitStatus, UserError, port_option, run_command, seconds_option,
+from roar.cli.errors import (ArgumentParser, ExitStatus, UserError, add_foxglove_option, run_command, seconds_option,
                              stopped_status)
-from roar.recorder import FOXGLOVE_PORT
 from roar_sim import robots
 from roar_sim.clock.lockstep import CONTROL_PERIOD_S
 from roar_sim.robots import Robot
@@ -118,9 +117,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--track", default="oval", help=f"{FORMS} (default: oval)")
     p.add_argument("--seconds", type=seconds_option, default=0.0, metavar="S", help="stop after this long (default: run until Ctrl-C)")
     p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
-    p.add_argument("--foxglove", nargs="?", const=FOXGLOVE_PORT, type=port_option, default=None, metavar="PORT",
-                   help=f"serve the car's channels live over the Foxglove WebSocket protocol on 127.0.0.1 (default "
-                        f"port {FOXGLOVE_PORT})")
+    add_foxglove_option(p, "the car's channels")
     return p
 
 

@@ -33,8 +33,7 @@ import numpy as np
 
 from roar.autopilot import Agent, Command, Observation, Runner, WaypointError, lap_time, load_waypoints, speed_profile
 from roar.user_files import unusable_folder
-from roar.cli.errors import ArgumentParser, ExitStatus, number_option, path_option, port_option, run_command
-from roar.recorder import FOXGLOVE_PORT
+from roar.cli.errors import ArgumentParser, ExitStatus, add_foxglove_option, number_option, path_option, run_command
 from roar.tracks.track_files import load_raceline_csv
 from roar.tracks.tunnel import describe
 from roar_sim import robots
@@ -452,10 +451,7 @@ def parser() -> argparse.ArgumentParser:
                    help="record the race into this MCAP file: every control message and line, the car's state, "
                         "the firmware's outputs, contacts, and with --localize the filter's pose and particles "
                         "(open it in Foxglove, or `roar replay`)")
-    p.add_argument("--foxglove", nargs="?", const=FOXGLOVE_PORT, type=port_option, default=None, metavar="PORT",
-                   help=f"serve the same channels live over the Foxglove WebSocket protocol on 127.0.0.1 (default port "
-                        f"{FOXGLOVE_PORT}; in Foxglove: Open connection, ws://127.0.0.1:PORT); add --realtime to "
-                        f"watch at the car's pace")
+    add_foxglove_option(p, "the same channels", when="with --realtime to watch at the car's pace: ")
     p.add_argument("--car-profile", metavar="NAME|FILE",
                    help="the ESC car's own numbers: roar (default), f1tenth (about 8 m/s), or a profile .toml "
                         "(roar_sim/plants/car_profiles/); its limits are measured on first use")

@@ -11,8 +11,7 @@ import importlib
 import sys
 
 from roar.tracks.names import FORMS
-from roar.cli.errors import ArgumentParser, UserError, path_option, port_option, run_command, seconds_option
-from roar.recorder import FOXGLOVE_PORT
+from roar.cli.errors import ArgumentParser, UserError, add_foxglove_option, path_option, run_command, seconds_option
 from roar.cli.plugins import Command
 
 SIM_DESCRIPTION = """Run a simulated robot (--robot esc, iarrc or junior; default esc) as a program reaches a
@@ -52,10 +51,7 @@ def _sim_parser() -> argparse.ArgumentParser:
                    help="with --serial or --http: stop after this long (default: Ctrl-C)")
     p.add_argument("--laps", type=int, default=None, help="without a link: laps to drive (default 2)")
     p.add_argument("--plot", type=path_option, metavar="PNG", help="without a link: write the driven path to this PNG")
-    p.add_argument("--foxglove", nargs="?", const=FOXGLOVE_PORT, type=port_option, default=None, metavar="PORT",
-                   help=f"without a link (then in real time) or with --serial: serve the car's channels live over the "
-                        f"Foxglove WebSocket protocol on 127.0.0.1 (default port {FOXGLOVE_PORT}; in Foxglove: Open "
-                        f"connection, ws://127.0.0.1:PORT)")
+    add_foxglove_option(p, "the car's channels", when="without a link (then in real time) or with --serial: ")
     return p
 
 

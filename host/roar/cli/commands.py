@@ -191,3 +191,15 @@ def ports(args) -> int:
         print(f"{p.device:24} {p.description or ''}" + (f"  [{hint}]" if hint else ""))
     print(f"\ndrive one with: roar drive serial://{found[0].device}")
     return 0
+
+
+def dataset(args) -> int:
+    from roar.dataset import write_donkey, write_npz
+    from roar.user_files import unusable_folder, unwritable
+
+    problem = unusable_folder(args.out) if args.format == "donkey" else unwritable(args.out)
+    if problem:
+        raise UserError(f"--out {problem}")
+    count = (write_donkey if args.format == "donkey" else write_npz)(args.file, args.out)
+    print(f"{count} frames with their commands into {args.out} ({args.format})")
+    return 0

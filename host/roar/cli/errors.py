@@ -92,6 +92,15 @@ def port_option(text: str) -> int:
     return int(text)
 
 
+def add_foxglove_option(p: argparse.ArgumentParser, what: str = "the channels", when: str = "") -> None:
+    """--foxglove [PORT]: serve a recording's channels live (roar.recorder.FOXGLOVE_PORT by default)."""
+    from roar.recorder import FOXGLOVE_PORT
+
+    p.add_argument("--foxglove", nargs="?", const=FOXGLOVE_PORT, type=port_option, default=None, metavar="PORT",
+                   help=f"{when}serve {what} live over the Foxglove WebSocket protocol on 127.0.0.1 (default port "
+                        f"{FOXGLOVE_PORT}; in Foxglove: Open connection, ws://127.0.0.1:PORT)")
+
+
 def path_option(text: str) -> Path:
     """An argparse type: a file or folder name, not an empty one (which would mean "here")."""
     if not text.strip():

@@ -15,8 +15,8 @@ from pathlib import Path
 from roar.calibration import default_path
 from roar.cli import plugins
 from roar.checks import MAX_SCAN_S
-from roar.cli.errors import ArgumentParser, UserError, number_option, path_option, run_command, seconds_option
-from roar.recorder import FOXGLOVE_PORT
+from roar.cli.errors import (ArgumentParser, UserError, add_foxglove_option, number_option, path_option, run_command,
+                             seconds_option)
 from roar.transports.registry import url_help
 from roar.vision.geometry import SIMULATED_CAR_CAMERA
 
@@ -29,6 +29,7 @@ EXAMPLES = """examples:
   roar drive serial:///dev/ttyUSB0       drive with the keyboard
   roar record sim://oval --out run.mcap  drive with the keyboard, everything recorded (open it in Foxglove)
   roar replay run.mcap                   what a recording holds: duration, channels, rates, gaps
+  roar dataset run.mcap --out tub        its camera frames and commands as a DonkeyCar tub
   roar calibrate ble://                  set trim and end-points, saved for next time
   roar <command> --help                  more about one command
 """
@@ -46,14 +47,6 @@ def _add_calibration(p: argparse.ArgumentParser) -> None:
 def _add_log(p: argparse.ArgumentParser) -> None:
     p.add_argument("--log", type=path_option, metavar="MCAP",
                    help="record the run into this MCAP file (every message sent and line received, the state)")
-
-
-def _add_foxglove(p: argparse.ArgumentParser) -> None:
-    from roar.cli.errors import port_option
-
-    p.add_argument("--foxglove", nargs="?", const=FOXGLOVE_PORT, type=port_option, default=None, metavar="PORT",
-                   help=f"also serve the channels live over the Foxglove WebSocket protocol on 127.0.0.1 (default port "
-                        f"{FOXGLOVE_PORT}; in Foxglove: Open connection, ws://127.0.0.1:PORT)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -94,7 +87,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=path_option, required=True, metavar="MCAP", help="the file to write (replaced)")
     p.add_argument("--for", dest="seconds", type=number_option(0, 3600, "s", low_open=True), default=None,
                    metavar="SECONDS", help="listen at neutral this long instead of driving with the keyboard")
-    _add_foxglove(p)
+    add_foxglove_option(p, when="also ")
     _add_calibration(p)
 
     p = sub.add_parser("replay", help="what an MCAP recording holds",
@@ -108,6 +101,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--to", metavar="URL", help="play the recorded commands to this car at their recorded times "
                                                "(a real car asks first; the failsafe rules hold as ever)")
     p.add_argument("--yes", action="store_true", help="with --to a real car: do not ask")
+
+    p = sub.add_parser("dataset", help="camera frames and commands of a recording, for imitation learning",
+                       description="Turn a recording's camera frames, each with the command the car was driving "
+                                   "by when it was taken, into a dataset: a DonkeyCar tub v2 (--format donkey: "
+                                   "DonkeyCar's own trainer reads it) or one .npz of arrays (--format npz: "
+                                   "images, angle, throttle, t_s; examples/dataset_npz.py loads it for PyTorch). "
+                                   "Angle and throttle are the pulses as fractions of their range, -1..1.")
+    p.add_argument("file", type=path_option, metavar="MCAP", help="the recording (with camera frames)")
+    p.add_argument("--format", choices=["donkey", "npz"], default="donkey", help="default donkey")
+    p.add_argument("--out", type=path_option, required=True, metavar="PATH", help="the tub's folder, or the .npz")
 
     p = sub.add_parser("calibrate", help="set trim and end-points interactively",
                        description="Walk through steering and throttle trim and end-points with the car "
