@@ -402,3 +402,39 @@ def test_a_recording_without_frames_is_no_dataset(tmp_path):
     done = subprocess.run([sys.executable, "-m", "roar.cli", "dataset", str(path), "--out", str(tmp_path / "tub")],
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 1 and "no camera frames" in done.stderr and len(done.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("robot, firmware_keys", [("esc", {"throttle_us", "brake_phase", "source", "esc_mode"}),
+                                                   ("iarrc", {"throttle_us", "setpoint_mm_s", "esc_mode"}),
+                                                   ("junior", {"duty_permille"})])
+def test_every_robots_race_is_recorded_with_its_own_firmware(robot, firmware_keys, tmp_path):
+    pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
+    from roar.tracks import get
+    from roar_sim.runs.race import race
+
+    path = tmp_path / "race.mcap"
+    race(get("oval"), laps=1, robot=robot, timeout_s=2.0, log=path)
+    log = read_log(path)
+    assert log.metadata["run"]["car"] == f"sim://?robot={robot}"
+    assert log.channels["/sim/firmware"].rate_hz == pytest.approx(50, abs=0.5)
+    firmware = [m for _, _, m in messages(path, ["/sim/firmware"])]
+    assert firmware_keys <= firmware[-1].keys()
+    control = [m for _, _, m in messages(path, ["/control"])]
+    assert control and {m["result"] for m in control} == {"esc": {"ok"}, "iarrc": {"setpoint"},
+                                                          "junior": {"fractions"}}[robot]
+    states = [m for _, _, m in messages(path, ["/car/state"])]
+    assert math.dist((states[0]["x_m"], states[0]["y_m"]), (states[-1]["x_m"], states[-1]["y_m"])) > 0.5  # it drove
+
+
+def test_a_speed_car_is_recorded_with_its_setpoints_and_telemetry(tmp_path):
+    from roar import Vehicle
+
+    path = tmp_path / "run.mcap"
+    with Vehicle("sim://?robot=iarrc", record=path) as car:
+        car.drive(speed=1.0, steering=0.2)
+        time.sleep(1.0)
+    setpoints = [m for _, _, m in messages(path, ["/control"]) if m.get("result") == "setpoint"]
+    assert {m["speed_mm_s"] for m in setpoints} >= {0, 1000} and setpoints[-1]["speed_mm_s"] == 0  # zero at close
+    telemetry = [m for _, _, m in messages(path, ["/car/telemetry"])]
+    assert telemetry and {"mode", "battery_v", "speed_m_s", "pid_gains_pm"} <= telemetry[-1].keys()
+    assert read_log(path).metadata["car"]["protocol_version"] == "2"

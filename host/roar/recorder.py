@@ -52,7 +52,9 @@ CONTROL_SCHEMA = {"type": "object", "title": "roar.Control", "properties": {
     "text": {"type": "string", "description": "the message as sent, as text"},
     "throttle_us": {"type": "integer"}, "steering_us": {"type": "integer"},
     "speed_mm_s": {"type": "integer", "description": "a speed setpoint's"},
-    "result": {"type": "string", "description": "what the car's parser makes of it (ok, setpoint, or why not)"}}}
+    "result": {"type": "string", "description": "what the car's parser makes of it (ok, setpoint, or why not)"},
+    "throttle": {"type": "number", "description": "-1..1, on a link that carries fractions (the Junior's duties)"},
+    "steering": {"type": "number", "description": "-1..1 (+1 full right), on a link that carries fractions"}}}
 STATE_SCHEMA = {"type": "object", "title": "roar.VehicleState",
                 "description": "roar.telemetry.VehicleState's fields; absent where the link cannot tell"}
 TELEMETRY_SCHEMA = {"type": "object", "title": "roar.Telemetry", "description": "a telemetry line's fields"}
@@ -153,6 +155,12 @@ class Recorder:
             if e.setpoint is not None:
                 msg.update(speed_mm_s=e.setpoint.speed_mm_s, steering_us=e.setpoint.steering_us)
         self._log(CONTROL, msg, t_ns, schema=CONTROL_SCHEMA)
+
+    def command(self, throttle: float, steering: float, t_ns: int, text: str = "") -> None:
+        """A command on a link that carries fractions rather than a control message (the
+        Junior's HTTP duties): throttle and steering in -1..1."""
+        self._log(CONTROL, {"text": text, "result": "fractions", "throttle": float(throttle),
+                            "steering": float(steering)}, t_ns, schema=CONTROL_SCHEMA)
 
     def line(self, text: str, t_ns: int) -> None:
         """A line the car sent; a telemetry line's fields on TELEMETRY too."""

@@ -50,6 +50,16 @@ class SimLog:
             return lines
 
         robot.write, robot.read = logged_write, logged_read  # this robot's only: the class is untouched
+        if hasattr(robot, "host"):  # the IARRC car: its drive() writes through host()
+            robot.host = logged_write
+        elif "http" in type(robot).links:
+            drive = robot.drive  # the Junior: its drive() is an HTTP request of duties, no control message
+
+            def logged_drive(throttle: float, steering: float) -> None:
+                drive(throttle, steering)
+                self.rec.command(throttle, steering, self.t_ns(), "http")
+
+            robot.drive = logged_drive
         self._next_cloud_s = 0.0
         self._last_scan_s = None
 
@@ -69,6 +79,9 @@ class SimLog:
             firmware.update(throttle_us=outputs.throttle_us, steering_us=outputs.steering_us,
                             source=outputs.source.name.lower(), brake_phase=outputs.brake_phase.name.lower(),
                             latched=outputs.latched)
+        esc = getattr(robot, "esc", None)  # the simulated ESC behind the firmware's pulse
+        if esc is not None:
+            firmware["esc_mode"] = esc.mode.name.lower()
         self.rec.fields(FIRMWARE, firmware, t, "roar_sim.Firmware")
         world = robot.plant.world
         self.rec.fields(CONTACTS, {"wall": robot.touching_wall(), "cone": robot.touching(world.cones),
