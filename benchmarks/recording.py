@@ -48,7 +48,7 @@ def drive(record: Path | None) -> tuple[float, float]:
                             t_ns)
                 rec.state(state, t_ns)
                 if scan is not None:
-                    rec.scan(scan, -math.radians(135), math.radians(135), 10.0, t_ns)
+                    rec.scan(scan, -math.radians(135), math.radians(135), t_ns)
                 if frame is not None:
                     rec.image(frame[0], t_ns)
                 recording += time.perf_counter() - r0

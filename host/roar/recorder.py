@@ -5,7 +5,7 @@ message types where one fits, so Foxglove (or any MCAP reader) shows a run with 
         rec.control(b"C1500,1500\\n", t_ns)       # every control message as sent
         rec.line("READY 2", t_ns)                  # every line the car sent
         rec.state(vehicle_state, t_ns)
-        rec.scan(ranges, -2.36, 2.36, 10.0, t_ns)  # a lidar scan
+        rec.scan(ranges, -2.36, 2.36, t_ns)        # a lidar scan
         rec.image(rgb, t_ns)                       # a camera frame (JPEG)
 
     Vehicle("sim://oval", record="run.mcap")     # the same, for everything a Vehicle sends and reads
@@ -214,14 +214,15 @@ class Recorder:
         else:
             self._log(topic, PosesInFrame(timestamp=stamp, frame_id=WORLD_FRAME, poses=made), t_ns, "PosesInFrame")
 
-    def scan(self, ranges, start_rad: float, end_rad: float, max_range_m: float, t_ns: int) -> None:
-        """A lidar scan: ranges [m] at equal steps from start_rad to end_rad (the car's frame)."""
+    def scan(self, ranges, start_rad: float, end_rad: float, t_ns: int) -> None:
+        """A lidar scan: ranges [m] at equal steps from start_rad to end_rad (the car's frame),
+        kept exactly as the sensor gave them (what it read at or beyond its range too), so a
+        replay feeds a filter the same numbers."""
         from foxglove.messages import LaserScan, Pose, Quaternion, Vector3
 
         import numpy as np
 
         r = np.asarray(ranges, dtype=np.float64).ravel()
-        r = np.where(np.isfinite(r) & (r > 0) & (r < max_range_m), r, np.inf)
         pose = Pose(position=Vector3(x=0.0, y=0.0, z=0.0), orientation=Quaternion(x=0.0, y=0.0, z=0.0, w=1.0))
         self._log(SCAN, LaserScan(timestamp=self._stamp(t_ns), frame_id=CAR_FRAME, pose=pose,
                                   start_angle=float(start_rad), end_angle=float(end_rad), ranges=r.tolist(),
@@ -322,7 +323,7 @@ class RecordingTransport:
     def lidar(self):
         ranges = self.inner.lidar()
         if ranges is not None:
-            self.recorder.scan(ranges, -LIDAR_FOV_RAD / 2, LIDAR_FOV_RAD / 2, float("inf"), self.now_ns())
+            self.recorder.scan(ranges, -LIDAR_FOV_RAD / 2, LIDAR_FOV_RAD / 2, self.now_ns())
         return ranges
 
     def camera(self, width: int, height: int):
@@ -339,14 +340,18 @@ class RecordingTransport:
 
 
 def _jsonable(fields: dict) -> dict:
-    """Fields as JSON takes them: enums as their words, tuples as lists, infinities and NaN as None."""
-    out = {}
-    for k, v in fields.items():
-        if isinstance(v, float) and not math.isfinite(v):
-            v = None
-        elif isinstance(v, (tuple, list)):
-            v = list(v)
-        elif v is not None and not isinstance(v, (bool, int, float, str)):
-            v = str(v)
-        out[k] = v
-    return out
+    """Fields as JSON takes them: enums as their words, tuples as lists, infinities and NaN as
+    None, nested records and lists alike."""
+    return {k: _json_value(v) for k, v in fields.items()}
+
+
+def _json_value(v):
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    if isinstance(v, dict):
+        return _jsonable(v)
+    if isinstance(v, (tuple, list)):
+        return [_json_value(x) for x in v]
+    if v is not None and not isinstance(v, (bool, int, float, str)):
+        return str(v)
+    return v

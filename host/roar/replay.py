@@ -229,3 +229,38 @@ def plot(path: str | Path, png: str | Path) -> None:
     fig.tight_layout()
     fig.savefig(png, dpi=100)
     plt.close(fig)
+
+
+def localize(path: str | Path, known) -> list[tuple[tuple[float, float, float], tuple[float, float, float]]]:
+    """Run a recorded race's particle filter again, open loop, from what the recording holds: the
+    filter's set-up (the "localization" record), each period's odometry and the scans it weighed
+    (/localization/steps, /lidar), on the map `known` (an OccupancyMap). Returns (recorded pose,
+    replayed pose) per period: equal, bit for bit, when the filter is the one that ran."""
+    import json
+
+    import numpy as np
+
+    from roar.localization import LaserScan, ParticleFilter
+
+    setup = {k: json.loads(v) for k, v in read_log(path).metadata.get("localization", {}).items()}
+    if not setup:
+        raise ReplayError(f"{path}: no particle filter ran in this recording (roar race --localize --log)")
+    scans = {t: m for _, t, m in messages(path, ["/lidar"])}
+    f = ParticleFilter(known, setup["particles"], setup["beams"], sensor=tuple(setup["sensor"]), seed=setup["seed"])
+    if setup["start"] is None:
+        f.start_global()
+    else:
+        f.start_at(tuple(setup["start"]))
+    out = []
+    for _, _, step in messages(path, ["/localization/steps"]):
+        f.predict(tuple(step["odometry"]))
+        s = step["scan"]
+        if s is not None:
+            m = scans.get(s["log_ns"])
+            if m is None:
+                raise ReplayError(f"{path}: the scan at {s['time_s']:.3f} s is missing")
+            ranges = np.array(m.ranges, dtype=np.float64)
+            f.correct(LaserScan(np.linspace(m.start_angle, m.end_angle, len(ranges)), ranges, s["time_s"],
+                                s["range_min_m"], s["range_max_m"]))
+        out.append((tuple(step["pose"]), tuple(float(v) for v in f.pose)))
+    return out

@@ -141,10 +141,13 @@ class LocalizedCar:
         s = robot.state()
         self.odometry = Odometry((s.x, s.y, s.yaw))
         self.filter = ParticleFilter(grid, particles, beams, sensor=robot.plant.lidar_mount(), seed=seed)
+        self.setup = {"particles": particles, "beams": beams, "seed": seed, "sensor": list(robot.plant.lidar_mount()),
+                      "start": None}  # what a replay needs to run the same filter (roar.replay.localize)
         if start is None:
             self.filter.start_global()
         else:
-            self.filter.start_at((s.x, s.y, s.yaw) if start == "true" else start)
+            self.setup["start"] = list((s.x, s.y, s.yaw) if start == "true" else start)
+            self.filter.start_at(tuple(self.setup["start"]))
         self.local_grid = local_grid
         self.oracle = oracle
         self.explore = False
@@ -156,6 +159,7 @@ class LocalizedCar:
         self.scan = None  # the last scan
         self._speed = 0.0  # [m/s] by the odometry
         self._open_way = OpenWay()  # drives while exploring
+        self.odo, self.scanned = None, False
 
     @property
     def time_s(self) -> float:
@@ -165,6 +169,7 @@ class LocalizedCar:
         t = self.robot.time_s
         travelled, rate = self.sensors.read(t)
         odo = self.odometry.update(t, travelled, rate)
+        self.odo, self.scanned = odo, False  # what the filter was given this period
         truth = self.robot.state()
         if not self.oracle:
             self.filter.predict(odo)
@@ -174,6 +179,7 @@ class LocalizedCar:
                 self.filter.start_at((truth.x, truth.y, truth.yaw))
             else:
                 self.filter.correct(self.scan)
+                self.scanned = True
             if self.local_grid is not None:
                 self.local_grid.update(self.scan, self.filter.sensor_pose())
             self._next_scan_s = t + SCAN_PERIOD_S

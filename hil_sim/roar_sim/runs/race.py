@@ -293,7 +293,7 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
             if sim_log is not None:
                 sim_log.step()
                 if localized is not None:
-                    sim_log.localization(localized.filter.pose, localized.filter.poses, localized.scan)
+                    sim_log.localization(localized)
 
         bar = laps_bar(laps, f"racing {track.name}") if progress else None  # once the simulator is up
         car.arm()

@@ -11,6 +11,8 @@ run -- the particle filter's pose and particles. Times are the simulator's.
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 
 from roar.recorder import Recorder
@@ -20,6 +22,7 @@ CONTACTS = "/sim/contacts"
 TRUE_POSE = "/sim/true_pose"
 FILTER_POSE = "/localization/pose"
 PARTICLES = "/localization/particles"
+STEPS = "/localization/steps"
 PARTICLES_EVERY_S = 0.2  # [s] between recorded particle clouds (a cloud is ~40 bytes a particle)
 MAX_PARTICLES = 300  # recorded of a cloud, evenly picked
 
@@ -61,7 +64,7 @@ class SimLog:
 
             robot.drive = logged_drive
         self._next_cloud_s = 0.0
-        self._last_scan_s = None
+        self._set_up = False
 
     def t_ns(self) -> int:
         return int(round(self.robot.time_s * 1e9))
@@ -87,21 +90,30 @@ class SimLog:
         self.rec.fields(CONTACTS, {"wall": robot.touching_wall(), "cone": robot.touching(world.cones),
                                    "person": robot.touching(world.people)}, t, "roar_sim.Contacts")
 
-    def localization(self, pose, particles, scan=None) -> None:
-        """The filter's pose (x, y, yaw) each period, with the true pose beside it, its particles
-        every PARTICLES_EVERY_S (MAX_PARTICLES of them), and the lidar scan it weighed (a
-        roar.localization.LaserScan) when it is a new one."""
+    def localization(self, car) -> None:
+        """A LocalizedCar's period: the filter's pose (with the true pose beside it), its particles
+        every PARTICLES_EVERY_S (MAX_PARTICLES of them), the scan it weighed, and on STEPS exactly
+        what it was given (odometry, the scan's time) and its pose, so that roar.replay.localize
+        runs the same filter again, bit for bit; its set-up in the file's "localization" record."""
         t = self.t_ns()
-        if scan is not None and scan.time_s != self._last_scan_s:
-            self._last_scan_s = scan.time_s
-            self.rec.scan(scan.ranges, float(scan.angles[0]), float(scan.angles[-1]), scan.range_max_m,
-                          int(round(scan.time_s * 1e9)))
+        f = car.filter
+        if not self._set_up:
+            self.rec.note("localization", {k: json.dumps(v) for k, v in car.setup.items()})
+            self._set_up = True
+        scan = car.scan if car.scanned else None
+        if scan is not None:
+            self.rec.scan(scan.ranges, float(scan.angles[0]), float(scan.angles[-1]), int(round(scan.time_s * 1e9)))
+        step = {"odometry": list(car.odo), "pose": list(f.pose), "scan": None}
+        if scan is not None:  # which /lidar message, and what its ranges mean
+            step["scan"] = {"time_s": scan.time_s, "log_ns": int(round(scan.time_s * 1e9)),
+                            "range_min_m": scan.range_min_m, "range_max_m": scan.range_max_m}
+        self.rec.fields(STEPS, step, t, "roar_sim.FilterStep")
         s = self.robot.state()
-        self.rec.poses(FILTER_POSE, [pose], t)
+        self.rec.poses(FILTER_POSE, [f.pose], t)
         self.rec.poses(TRUE_POSE, [(s.x, s.y, s.yaw)], t)
-        if self.robot.time_s + 1e-9 >= self._next_cloud_s and particles is not None and len(particles):
-            pick = np.linspace(0, len(particles) - 1, min(MAX_PARTICLES, len(particles))).astype(int)
-            self.rec.poses(PARTICLES, np.asarray(particles)[pick], t)
+        if self.robot.time_s + 1e-9 >= self._next_cloud_s and len(f.poses):
+            pick = np.linspace(0, len(f.poses) - 1, min(MAX_PARTICLES, len(f.poses))).astype(int)
+            self.rec.poses(PARTICLES, np.asarray(f.poses)[pick], t)
             self._next_cloud_s = self.robot.time_s + PARTICLES_EVERY_S
 
     def close(self) -> None:
