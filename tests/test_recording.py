@@ -455,3 +455,13 @@ def test_a_recorded_filter_replays_open_loop_bit_for_bit(tmp_path):
     assert len(pairs) >= 195
     assert all(recorded == replayed for recorded, replayed in pairs)  # the same floats, not nearly
     assert len({p for p, _ in pairs}) > 100  # it moved: not a pose compared with itself
+
+
+def test_roar_vision_reads_a_recordings_camera_frames(with_frames, tmp_path):
+    done = subprocess.run([sys.executable, "-m", "roar.cli", "vision", str(with_frames), "--out", str(tmp_path / "v")],
+                          capture_output=True, text=True, timeout=180)
+    assert done.returncode == 0, done.stderr
+    rows = [line for line in done.stdout.splitlines() if " at " in line and ": lines " in line]
+    assert len(rows) == 12 and "12 frames" in done.stdout
+    assert sum("lines none" not in row for row in rows) >= 10  # the oval's lines, seen from the recording
+    assert len(list((tmp_path / "v").glob("*_lanes.png"))) == 12

@@ -146,7 +146,8 @@ def build_parser() -> argparse.ArgumentParser:
                                    "lies beside it. Writes a debug view per frame, optionally a video, and "
                                    "prints offset, heading and the nearest obstacle per frame. The camera is the "
                                    "simulated car's unless --fov/--height/--ahead/--pitch say otherwise.")
-    p.add_argument("folder", type=path_option, metavar="FOLDER", help="the recorded frames")
+    p.add_argument("folder", type=path_option, metavar="FOLDER|MCAP",
+                   help="the recorded frames: a folder (roar race --frames), or a recording's camera frames")
     p.add_argument("--out", type=path_option, default=Path("out/vision"), metavar="DIR",
                    help="where the debug views go (default: out/vision)")
     p.add_argument("--video", type=path_option, default=None, metavar="MP4", help="also write the lane views as a video")

@@ -1,5 +1,6 @@
-"""`roar vision FOLDER`: the car's perception over recorded frames -- a real car's or the
-simulator's. Every image (PNG/JPEG, or an RGB array in NPY) in the folder, in name order, goes
+"""`roar vision FOLDER|RECORDING.mcap`: the car's perception over recorded frames -- a real car's
+or the simulator's. Every image (PNG/JPEG, or an RGB array in NPY) in the folder, in name order
+(or every camera frame of an MCAP recording, roar.recorder's, named by its time), goes
 through the lane detector (the moving ROIs carry from frame to frame, as live); a depth image
 beside it (NAME_depth.npy, metres) goes through the ground-plane occupancy grid too. Writes a
 debug view per frame (NAME_lanes.png, NAME_occupancy.png) into --out, optionally a video of the
@@ -90,20 +91,24 @@ def run(folder: Path, out: Path, video: Path | None = None, fps: float = 10.0,
     from roar.vision.lanes import LaneDetector, debug_view
     from roar.vision.occupancy import figure, occupancy
 
-    paths = frames_in(folder)
+    recording = folder.suffix.lower() == ".mcap" and not folder.is_dir()
+    items = _recorded(folder) if recording else \
+        ((p.name, p.stem, lambda p=p: load_rgb(p), p) for p in frames_in(folder))
     out.mkdir(parents=True, exist_ok=True)
     detector, size, writer = None, None, None
-    for path in paths:
-        rgb = load_rgb(path)
+    count = 0
+    for name, stem, load, path in items:
+        count += 1
+        rgb = load()
         h, w = rgb.shape[:2]
         if size is None:
             size = (w, h)
             detector = LaneDetector(BirdsEye(camera.model(w, h)))
         elif size != (w, h):
-            raise FramesError(f"{path.name} is {w}x{h}, the frames before it {size[0]}x{size[1]}: one camera a folder")
+            raise FramesError(f"{name} is {w}x{h}, the frames before it {size[0]}x{size[1]}: one camera a folder")
         lanes = detector.detect(rgb)
         fig = debug_view(detector, rgb)
-        fig.savefig(out / f"{path.stem}_lanes.png")
+        fig.savefig(out / f"{stem}_lanes.png")
         if video is not None:
             view = _figure_rgb(fig)
             if writer is None:
@@ -113,11 +118,11 @@ def run(folder: Path, out: Path, video: Path | None = None, fps: float = 10.0,
                     raise FramesError(f"cannot write the video {video} (OpenCV has no MP4 writer here?)")
             writer.write(np.ascontiguousarray(view[:, :, ::-1]))
         plt.close(fig)
-        line = (f"{path.name}: lines {lanes.source}"
+        line = (f"{name}: lines {lanes.source}"
                 + (f", offset {lanes.offset_m:+.3f} m, heading {math.degrees(lanes.heading_rad):+.1f} deg"
                    if lanes.centre is not None else ""))
-        depth_path = path.with_name(path.stem + DEPTH_SUFFIX)
-        if depth_path.exists():
+        depth_path = None if path is None else path.with_name(path.stem + DEPTH_SUFFIX)
+        if depth_path is not None and depth_path.exists():
             depth, unknown = load_depth(depth_path, size)
             grid = occupancy(depth, camera.model(w, h))
             nearest = grid.nearest_ahead(0.25)
@@ -125,10 +130,19 @@ def run(folder: Path, out: Path, video: Path | None = None, fps: float = 10.0,
             if unknown:
                 line += f" ({unknown} of {depth.size} depth pixels not a number)"
             occupancy_fig = figure(rgb, grid)
-            occupancy_fig.savefig(out / f"{path.stem}_occupancy.png")
+            occupancy_fig.savefig(out / f"{stem}_occupancy.png")
             plt.close(occupancy_fig)
         print(line, flush=True)
     if writer is not None:
         writer.release()
-    print(f"{len(paths)} frames; debug views in {out}" + (f", video {video}" if video is not None else ""))
+    print(f"{count} frames; debug views in {out}" + (f", video {video}" if video is not None else ""))
     return 0
+
+
+def _recorded(path: Path):
+    """(name, stem, load, None) of each camera frame of a recording (no depth: not recorded)."""
+    from roar.dataset import frames
+
+    for k, (t_ns, rgb, _, _) in enumerate(frames(path)):
+        stem = f"{k:06d}"
+        yield f"{stem} at {t_ns / 1e9:.3f} s", stem, (lambda rgb=rgb: rgb), None
