@@ -465,3 +465,21 @@ def test_roar_vision_reads_a_recordings_camera_frames(with_frames, tmp_path):
     assert len(rows) == 12 and "12 frames" in done.stdout
     assert sum("lines none" not in row for row in rows) >= 10  # the oval's lines, seen from the recording
     assert len(list((tmp_path / "v").glob("*_lanes.png"))) == 12
+
+
+def test_a_lane_driver_race_records_its_frames_and_what_it_saw_in_them(tmp_path):
+    pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
+    from roar.tracks import get
+    from roar_sim.runs.race import race
+
+    path = tmp_path / "lane.mcap"
+    race(get("oval"), laps=1, lateral="lane", timeout_s=1.0, log=path)
+    c = read_log(path).channels
+    frames = c["/camera/image"].count
+    assert frames >= 45 and c["/perception/lanes"].count == frames and c["/autopilot/lane_state"].count >= frames
+    seen = [m for _, _, m in messages(path, ["/perception/lanes"])]
+    assert sum(m["lines"] != "none" for m in seen) >= frames - 2 and all("offset_m" in m for m in seen)
+    from roar.autopilot.lane_agent import LaneState
+
+    states = [m["state"] for _, _, m in messages(path, ["/autopilot/lane_state"])]
+    assert set(states) <= {s.value for s in LaneState} and states[-1] == LaneState.FOLLOWING.value

@@ -80,11 +80,14 @@ class LaneCourse:
         if frames is not None:
             frames.mkdir(parents=True, exist_ok=True)
         self._frames = 0
+        self.log = None  # a roar_sim.runs.run_log.SimLog: the driver's frames and what it saw in them
 
     def camera(self) -> tuple[np.ndarray, np.ndarray]:
         """The lane driver's frame (RGB, depth); with frames, also written as NNNNNN.png and
         NNNNNN_depth.npy (metres), the folder `roar vision` reads."""
         rgb, depth = self._frame()
+        if self.log is not None:
+            self.log.image(rgb)
         if self.frames is not None:
             from roar.vision.geometry import cv2
 
@@ -101,7 +104,17 @@ class LaneCourse:
         from roar.vision.lanes import LaneDetector
         from roar.vision.start_lights import StartLightDetector
         camera = SIMULATED_CAR_CAMERA.model(*LANE_CAMERA)
-        return lane_agent(self.camera, LaneDetector(BirdsEye(camera)), self.robot.model, PERIOD_S, margin,
+        detector = LaneDetector(BirdsEye(camera))
+        if self.log is not None:  # what the detector saw, frame by frame, into the recording
+            detect, log = detector.detect, self.log
+
+            def detect_logged(rgb):
+                lanes = detect(rgb)
+                log.lanes(lanes)
+                return lanes
+
+            detector.detect = detect_logged
+        return lane_agent(self.camera, detector, self.robot.model, PERIOD_S, margin,
                           depth_camera=camera,
                           start=StartLightDetector() if self.lights is not None else None,
                           laser=self.laser.read if self.laser is not None else None)
@@ -259,6 +272,8 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
             stack.callback(sim_log.close)  # finished however the race ends
         course = (LaneCourse(car, start_lights, boxes, avoid, frames, shaky_camera, green_span_s)
                   if lateral == "lane" else None)
+        if course is not None:
+            course.log = sim_log
         result = RaceResult(track, speed_profile(track.centerline, car.limits), robot=robot, boxes=len(boxes),
                             racing_limit_lap_s=optimal_line(track, robot).lap_time_s(car.limits))
         lights = course.lights if course else None
@@ -305,6 +320,8 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
 
             def on_lane_step(obs: Observation, command: Command) -> None:
                 on_step(obs, command)
+                if sim_log is not None:
+                    sim_log.lane_state(planner.state.value)
                 stopped = planner.state.name in ("STOPPED", "OBSTACLE")
                 open_stop = result.stops and result.stops[-1].until_s is None
                 if stopped and not open_stop:

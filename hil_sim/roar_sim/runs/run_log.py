@@ -23,6 +23,8 @@ TRUE_POSE = "/sim/true_pose"
 FILTER_POSE = "/localization/pose"
 PARTICLES = "/localization/particles"
 STEPS = "/localization/steps"
+LANES = "/perception/lanes"
+LANE_STATE = "/autopilot/lane_state"
 PARTICLES_EVERY_S = 0.2  # [s] between recorded particle clouds (a cloud is ~40 bytes a particle)
 MAX_PARTICLES = 300  # recorded of a cloud, evenly picked
 
@@ -115,6 +117,20 @@ class SimLog:
             pick = np.linspace(0, len(f.poses) - 1, min(MAX_PARTICLES, len(f.poses))).astype(int)
             self.rec.poses(PARTICLES, np.asarray(f.poses)[pick], t)
             self._next_cloud_s = self.robot.time_s + PARTICLES_EVERY_S
+
+    def image(self, rgb) -> None:
+        """A frame the driver's camera took now."""
+        self.rec.image(rgb, self.t_ns())
+
+    def lanes(self, lanes) -> None:
+        """What the lane detector made of the frame (roar.vision.lanes.Lanes)."""
+        centre = lanes.centre is not None
+        self.rec.fields(LANES, {"lines": lanes.source, "offset_m": lanes.offset_m if centre else None,
+                                "heading_rad": lanes.heading_rad if centre else None}, self.t_ns(), "roar.Lanes")
+
+    def lane_state(self, state: str) -> None:
+        """The lane driver's state this period (following, stopped, ...)."""
+        self.rec.fields(LANE_STATE, {"state": state}, self.t_ns(), "roar.LaneState")
 
     def close(self) -> None:
         self.rec.close()
