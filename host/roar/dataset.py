@@ -34,12 +34,13 @@ NEUTRAL_US, HALF_RANGE_US = 1500, 500  # [us]
 
 def frames(path: str | Path):
     """(log time [ns], RGB HxWx3 uint8, angle, throttle) for each camera frame, with the latest
-    command sent before it (neutral before the first)."""
+    command sent before it (neutral before the first): in the order they were recorded, as a
+    command and a frame of the same simulated moment are only told apart by it."""
     from roar.vision.geometry import cv2
 
     angle = throttle = 0.0
     seen = False
-    for topic, t, msg in messages(path, ["/control", "/camera/image"]):
+    for topic, t, msg in messages(path, ["/control", "/camera/image"], as_written=True):  # a command, then its frame
         if topic == "/control":
             if "throttle_us" in msg and "steering_us" in msg:
                 throttle = (msg["throttle_us"] - NEUTRAL_US) / HALF_RANGE_US

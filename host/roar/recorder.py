@@ -24,9 +24,11 @@ foxglove.LaserScan, camera frames as foxglove.CompressedImage with a foxglove.Ca
 
 from __future__ import annotations
 
+import atexit
 import math
 import threading
 import time
+import weakref
 from dataclasses import asdict
 from pathlib import Path
 
@@ -112,6 +114,7 @@ class Recorder:
         info.update({k: str(v) for k, v in (metadata or {}).items()})
         if self._writer is not None:
             self._writer.write_metadata("run", info)
+        atexit.register(_close_at_exit, weakref.ref(self))  # a program ending any way finishes the file
 
     # -- channels -------------------------------------------------------------------------------
 
@@ -178,20 +181,20 @@ class Recorder:
 
     def state(self, state, t_ns: int) -> None:
         """The car's state (roar.telemetry.VehicleState); with a position, its pose and transform."""
-        from foxglove.messages import FrameTransform, Pose, PoseInFrame, Quaternion, Vector3
+        from foxglove.messages import FrameTransform
 
         fields = {k: v for k, v in _jsonable(asdict(state)).items() if v is not None}
         self._log(STATE, fields, t_ns, schema=STATE_SCHEMA)
         if state.x_m is None or state.y_m is None:
             return
-        yaw = state.yaw_rad or 0.0
-        q = Quaternion(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
-        where = Vector3(x=float(state.x_m), y=float(state.y_m), z=0.0)
-        stamp = self._stamp(t_ns)
-        self._log(POSE, PoseInFrame(timestamp=stamp, frame_id=WORLD_FRAME, pose=Pose(position=where, orientation=q)),
-                  t_ns, "PoseInFrame")
-        self._log(TF, FrameTransform(timestamp=stamp, parent_frame_id=WORLD_FRAME, child_frame_id=CAR_FRAME,
-                                     translation=where, rotation=q), t_ns, "FrameTransform")
+        from foxglove.messages import Quaternion, Vector3
+
+        x, y, yaw = float(state.x_m), float(state.y_m), state.yaw_rad or 0.0
+        self.pose(POSE, (x, y, yaw), t_ns)  # the foxglove messages are built anew each time: they cannot be read back
+        self._log(TF, FrameTransform(timestamp=self._stamp(t_ns), parent_frame_id=WORLD_FRAME, child_frame_id=CAR_FRAME,
+                                     translation=Vector3(x=x, y=y, z=0.0),
+                                     rotation=Quaternion(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))),
+                  t_ns, "FrameTransform")
 
     def fields(self, topic: str, fields: dict, t_ns: int, title: str = "") -> None:
         """Any record of named values (JSON, one schema per topic titled `title`): what a
@@ -199,20 +202,38 @@ class Recorder:
         self._log(topic, _jsonable(fields), t_ns, schema={"type": "object", "title": title or topic})
 
     def poses(self, topic: str, poses, t_ns: int) -> None:
-        """Poses (N, 3) [m, m, rad] in the world as foxglove.PosesInFrame (a particle filter's
-        particles); one pose as foxglove.PoseInFrame."""
-        from foxglove.messages import Pose, PoseInFrame, PosesInFrame, Quaternion, Vector3
+        """Poses (N, 3) [m, m, rad] in the world as foxglove.PosesInFrame (a filter's particles, a
+        path, a tree's nodes, objects found)."""
+        from foxglove.messages import PosesInFrame
 
         import numpy as np
 
-        p = np.asarray(poses, dtype=float).reshape(-1, 3)
-        made = [Pose(position=Vector3(x=float(x), y=float(y), z=0.0),
-                     orientation=Quaternion(x=0.0, y=0.0, z=math.sin(th / 2), w=math.cos(th / 2))) for x, y, th in p]
-        stamp = self._stamp(t_ns)
-        if len(made) == 1:
-            self._log(topic, PoseInFrame(timestamp=stamp, frame_id=WORLD_FRAME, pose=made[0]), t_ns, "PoseInFrame")
-        else:
-            self._log(topic, PosesInFrame(timestamp=stamp, frame_id=WORLD_FRAME, poses=made), t_ns, "PosesInFrame")
+        made = [_pose(x, y, th) for x, y, th in np.asarray(poses, dtype=float).reshape(-1, 3)]
+        self._log(topic, PosesInFrame(timestamp=self._stamp(t_ns), frame_id=WORLD_FRAME, poses=made), t_ns,
+                  "PosesInFrame")
+
+    def pose(self, topic: str, pose, t_ns: int) -> None:
+        """One pose (x, y, yaw) [m, m, rad] in the world as foxglove.PoseInFrame."""
+        from foxglove.messages import PoseInFrame
+
+        self._log(topic, PoseInFrame(timestamp=self._stamp(t_ns), frame_id=WORLD_FRAME, pose=_pose(*pose)), t_ns,
+                  "PoseInFrame")
+
+    def grid(self, topic: str, cells, corner_xy: tuple[float, float], resolution_m: float, t_ns: int) -> None:
+        """An occupancy grid as foxglove.Grid (field "occupancy", 0..100 as ROS maps have it):
+        cells (nx, ny), [i, j] the cell i along x and j along y from the world corner corner_xy [m]."""
+        from foxglove.messages import Grid, PackedElementField, PackedElementFieldNumericType, Pose, Quaternion
+        from foxglove.messages import Vector2, Vector3
+
+        import numpy as np
+
+        rows = np.ascontiguousarray(np.asarray(cells, dtype=np.uint8).T)  # row j (y), column i (x)
+        pose = Pose(position=Vector3(x=float(corner_xy[0]), y=float(corner_xy[1]), z=0.0),
+                    orientation=Quaternion(x=0.0, y=0.0, z=0.0, w=1.0))
+        field = PackedElementField(name="occupancy", offset=0, type=PackedElementFieldNumericType.Uint8)
+        self._log(topic, Grid(timestamp=self._stamp(t_ns), frame_id=WORLD_FRAME, pose=pose, column_count=rows.shape[1],
+                              cell_size=Vector2(x=resolution_m, y=resolution_m), row_stride=rows.shape[1],
+                              cell_stride=1, fields=[field], data=rows.tobytes()), t_ns, "Grid")
 
     def scan(self, ranges, start_rad: float, end_rad: float, t_ns: int) -> None:
         """A lidar scan: ranges [m] at equal steps from start_rad to end_rad (the car's frame),
@@ -337,6 +358,19 @@ class RecordingTransport:
             self.inner.close()
         finally:
             self.recorder.close()
+
+
+def _pose(x: float, y: float, yaw: float):
+    from foxglove.messages import Pose, Quaternion, Vector3
+
+    return Pose(position=Vector3(x=float(x), y=float(y), z=0.0),
+                orientation=Quaternion(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2)))
+
+
+def _close_at_exit(ref) -> None:
+    recorder = ref()
+    if recorder is not None:
+        recorder.close()
 
 
 def _jsonable(fields: dict) -> dict:

@@ -111,9 +111,10 @@ def read_log(path: str | Path) -> Log:
     return log
 
 
-def messages(path: str | Path, topics: list[str] | None = None):
-    """(topic, log time [ns], message) of a recording in time order: JSON channels as dicts,
-    protobuf ones (Foxglove's types) as protobuf messages built from the file's own schemas."""
+def messages(path: str | Path, topics: list[str] | None = None, as_written: bool = False):
+    """(topic, log time [ns], message) of a recording in time order (as_written: in the order they
+    were written, which settles messages of the same time), JSON channels as dicts, protobuf ones
+    (Foxglove's types) as protobuf messages built from the file's own schemas."""
     import json
 
     from mcap.exceptions import McapError
@@ -122,7 +123,7 @@ def messages(path: str | Path, topics: list[str] | None = None):
     decoders: dict[int, object] = {}
     with f:
         try:
-            for schema, channel, message in reader.iter_messages(topics=topics):
+            for schema, channel, message in reader.iter_messages(topics=topics, log_time_order=not as_written):
                 decode = decoders.get(channel.id)
                 if decode is None:
                     decode = decoders[channel.id] = json.loads if channel.message_encoding == "json" else \

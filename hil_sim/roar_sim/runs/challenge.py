@@ -167,9 +167,12 @@ def _marker_polygons(course):
 def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scoring = Scoring(),
               latency_s: float = CAMERA_LATENCY_S, fps: float = CAMERA_FPS, goal_m: float | None = None,
               max_seconds: float = MAX_SECONDS, particles: int = PARTICLES, robot: str = "esc",
-              progress=None) -> ChallengeResult:
+              progress=None, log=None, serve_port: int | None = None) -> ChallengeResult:
     """Run the challenge (see the module's text). goal_m: finish that far along the route instead
-    of at the course's goal (a short run). progress(t_s, along_m, route_m) is called each second."""
+    of at the course's goal (a short run). progress(t_s, along_m, route_m) is called each second.
+    log: an MCAP file the run is recorded into (roar_sim.runs.run_log: the firmware's side, the
+    filter, the camera's frames, the detections, the plans, their trees and the local grid);
+    serve_port: the same served live (Foxglove WebSocket on 127.0.0.1)."""
     from roar_sim import robots
 
     course = track.course
@@ -193,6 +196,13 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
         result.events = driver.events  # the driver's and the referee's, in time order
         camera = ShakyCamera(bot.plant, *CAMERA_SIZE, seed + 2)
         referee = _Referee(track, bot, cam_model, result)
+        sim_log = None
+        if log is not None or serve_port is not None:
+            import sys
+
+            from roar_sim.runs.run_log import SimLog
+
+            sim_log = SimLog(bot, log, {"command": " ".join(sys.argv), "driver": "challenge"}, serve_port)
         frames: deque = deque()  # (arrives at [s], captured at [s], rgb, depth)
         true_history = PoseHistory()
         next_frame, next_report = 0.0, 1.0
@@ -212,6 +222,8 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
             if t + 1e-9 >= next_frame:
                 rgb, depth = camera()
                 frames.append((t + latency_s, t, rgb, depth))
+                if sim_log is not None:
+                    sim_log.image(rgb)
                 next_frame += 1.0 / fps
             arrived = []
             while frames and frames[0][0] <= t + 1e-9:
@@ -221,11 +233,18 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
             command = driver.step(t, (obs.x, obs.y, obs.yaw), obs.speed, arrived)
             car.explore, car.towards = driver.exploring, driver.towards
             car.send(command)
+            if sim_log is not None:
+                sim_log.step()
+                if not oracle:
+                    sim_log.localization(car)
+                sim_log.planning(driver, local)
             car.wait(CONTROL_PERIOD_S)
             if progress is not None and t >= next_report:
                 progress(t, driver.mission.progress_m, driver.mission.length_m)
                 next_report += 1.0
         car.send(Command(0.0, 0.0))
+        if sim_log is not None:
+            sim_log.close()
         result.detections = {kind: driver.objects(kind) for kind in ("cone", "marker")}
         result.tree = driver.planner.tree.poses() if driver.planner.tree is not None else None
         for name in ("plans", "failed_plans", "lost_s", "back_ups", "late_brakes", "guard_stops", "paths"):
@@ -317,7 +336,7 @@ def seed_option(text: str) -> int:
 
 
 def parser():
-    from roar.cli.errors import ArgumentParser, number_option, path_option
+    from roar.cli.errors import ArgumentParser, add_foxglove_option, number_option, path_option
     from roar_sim import robots
 
     seconds = number_option(0, 3600, "s")
@@ -341,6 +360,10 @@ def parser():
     p.add_argument("--robot", choices=[n for n in robots.names() if n == "esc"], default="esc",
                    help="the car (the ESC car: the planner's arcs are a steered car's)")
     p.add_argument("--plot", type=path_option, metavar="PNG", help="draw the run into this PNG")
+    p.add_argument("--log", type=path_option, metavar="MCAP",
+                   help="record the run into this MCAP file: the firmware's side, the filter, the camera's frames, the "
+                        "cones and markers found, the plans and their trees, the local grid (Foxglove, roar replay)")
+    add_foxglove_option(p, "the same channels")
     return p
 
 
@@ -373,7 +396,7 @@ def main(argv: list[str] | None = None) -> int:
         result = challenge(track, oracle=args.oracle, seed=args.seed,
                            scoring=Scoring(args.cone_penalty, args.marker_bonus), latency_s=args.latency,
                            fps=args.fps, goal_m=args.to, max_seconds=args.seconds, robot=args.robot,
-                           progress=progress)
+                           progress=progress, log=args.log, serve_port=args.foxglove)
     finally:
         bar.close()
     print(result.report())

@@ -24,6 +24,12 @@ FILTER_POSE = "/localization/pose"
 PARTICLES = "/localization/particles"
 STEPS = "/localization/steps"
 LANES = "/perception/lanes"
+PATH = "/planning/path"
+TREE = "/planning/tree"
+CONES = "/perception/cones"
+MARKERS = "/perception/markers"
+LOCAL_GRID = "/localization/local_grid"
+GRID_EVERY_S = 0.5  # [s] between recorded trees and local grids
 LANE_STATE = "/autopilot/lane_state"
 PARTICLES_EVERY_S = 0.2  # [s] between recorded particle clouds (a cloud is ~40 bytes a particle)
 MAX_PARTICLES = 300  # recorded of a cloud, evenly picked
@@ -67,6 +73,7 @@ class SimLog:
             robot.drive = logged_drive
         self._next_cloud_s = 0.0
         self._set_up = False
+        self._paths, self._objects, self._next_grid_s = 0, {}, 0.0
 
     def t_ns(self) -> int:
         return int(round(self.robot.time_s * 1e9))
@@ -111,8 +118,8 @@ class SimLog:
                             "range_min_m": scan.range_min_m, "range_max_m": scan.range_max_m}
         self.rec.fields(STEPS, step, t, "roar_sim.FilterStep")
         s = self.robot.state()
-        self.rec.poses(FILTER_POSE, [f.pose], t)
-        self.rec.poses(TRUE_POSE, [(s.x, s.y, s.yaw)], t)
+        self.rec.pose(FILTER_POSE, f.pose, t)
+        self.rec.pose(TRUE_POSE, (s.x, s.y, s.yaw), t)
         if self.robot.time_s + 1e-9 >= self._next_cloud_s and len(f.poses):
             pick = np.linspace(0, len(f.poses) - 1, min(MAX_PARTICLES, len(f.poses))).astype(int)
             self.rec.poses(PARTICLES, np.asarray(f.poses)[pick], t)
@@ -131,6 +138,31 @@ class SimLog:
     def lane_state(self, state: str) -> None:
         """The lane driver's state this period (following, stopped, ...)."""
         self.rec.fields(LANE_STATE, {"state": state}, self.t_ns(), "roar.LaneState")
+
+    def planning(self, driver, local=None) -> None:
+        """The challenge's driver (roar.planning.course_driver.CourseDriver) this period: each new
+        path as it reached the follower, the last plan's tree every GRID_EVERY_S, the confirmed
+        cones and markers when they change, the local grid every GRID_EVERY_S."""
+        t = self.t_ns()
+        for poses in driver.paths[self._paths:]:
+            self.rec.poses(PATH, poses[:: max(1, len(poses) // 200)], t)
+        self._paths = len(driver.paths)
+        for kind, topic in (("cone", CONES), ("marker", MARKERS)):
+            found = driver.objects(kind)
+            if found != self._objects.get(kind):
+                self._objects[kind] = found
+                self.rec.poses(topic, [(x, y, 0.0) for x, y in found] or np.zeros((0, 3)), t)
+        if self.robot.time_s + 1e-9 < self._next_grid_s:
+            return
+        self._next_grid_s = self.robot.time_s + GRID_EVERY_S
+        tree = driver.planner.tree
+        if tree is not None and len(tree) > 1:
+            nodes = tree.poses()
+            self.rec.poses(TREE, nodes[:: max(1, len(nodes) // 500)], t)
+        if local is not None and local.time_s is not None:
+            r = local.resolution_m
+            occupied = np.where(local.occupied(), 100, np.where(local.free(), 0, 50))
+            self.rec.grid(LOCAL_GRID, occupied, (local.origin[0] * r, local.origin[1] * r), r, t)
 
     def close(self) -> None:
         self.rec.close()
