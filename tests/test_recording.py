@@ -502,3 +502,26 @@ def test_a_challenge_run_records_its_detections_plans_trees_and_grid(tmp_path):
     cones = [m for _, _, m in messages(path, ["/perception/cones"])]
     found = [(p.position.x, p.position.y) for p in cones[-1].poses]
     assert found and all(min(math.dist(f, o[:2]) for o in result.course.cones) < 0.4 for f in found)
+
+
+@pytest.mark.parametrize("robot", ["iarrc", "junior"])
+def test_every_robots_drive_becomes_a_dataset(robot, tmp_path):
+    from roar import Vehicle
+    from roar.dataset import frames
+    from roar.protocol import spec
+
+    path = tmp_path / "run.mcap"
+    with Vehicle(f"sim://?robot={robot}", record=path) as car:
+        for k in range(4):
+            if robot == "iarrc":
+                car.drive(speed=0.5 * (k + 1), steering=0.25)
+            else:
+                car.drive(0.2 * (k + 1), 0.25)
+            assert car.flush(1.0)
+            car.camera(160, 120)
+    rows = list(frames(path))
+    assert len(rows) == 4 and all(rgb.shape == (120, 160, 3) for _, rgb, _, _ in rows)
+    assert all(a == pytest.approx(0.25, abs=0.01) for _, _, a, _ in rows)
+    want = [500 * (k + 1) / spec.SETPOINT_MAX_SPEED_MM_S for k in range(4)] if robot == "iarrc" else \
+        [0.2 * (k + 1) for k in range(4)]
+    assert [th for _, _, _, th in rows] == pytest.approx(want, abs=0.01)

@@ -5,7 +5,8 @@ with the command the car was driving by when it was taken.
     write_npz("run.mcap", "run.npz")     # images (N, H, W, 3) uint8, angle, throttle, t_s: for PyTorch
 
 Angle and throttle are the pulses as fractions: (pulse - 1500 us) / 500 us, in [-1, 1]; angle +1
-is full right, as DonkeyCar's user/angle. A tub's user/mode is "user" for a run a person drove
+is full right, as DonkeyCar's user/angle. A speed car's throttle is its setpoint over the
+protocol's top speed; the Junior's link carries fractions already. A tub's user/mode is "user" for a run a person drove
 and "local" for one an autopilot drove (a race's recording says which driver).
 
 The tub v2 layout, as DonkeyCar's datastore reads it: `manifest.json` (five JSON lines: the
@@ -42,9 +43,7 @@ def frames(path: str | Path):
     seen = False
     for topic, t, msg in messages(path, ["/control", "/camera/image"], as_written=True):  # a command, then its frame
         if topic == "/control":
-            if "throttle_us" in msg and "steering_us" in msg:
-                throttle = (msg["throttle_us"] - NEUTRAL_US) / HALF_RANGE_US
-                angle = (msg["steering_us"] - NEUTRAL_US) / HALF_RANGE_US
+            angle, throttle = _command(msg, angle, throttle)
             continue
         seen = True
         bgr = cv2().imdecode(np.frombuffer(msg.data, np.uint8), cv2().IMREAD_COLOR)
@@ -53,6 +52,23 @@ def frames(path: str | Path):
         yield t, np.ascontiguousarray(bgr[:, :, ::-1]), angle, throttle
     if not seen:
         raise ReplayError(f"{path}: no camera frames (record with a camera: Vehicle.camera() in the run)")
+
+
+def _command(msg: dict, angle: float, throttle: float) -> tuple[float, float]:
+    """(angle, throttle) in -1..1 of a control message: pulses, a speed setpoint (throttle: the
+    speed over the protocol's top speed), or a link's own fractions (the Junior's); others keep
+    the last."""
+    from roar.protocol import spec
+
+    if "steering_us" in msg:
+        angle = (msg["steering_us"] - NEUTRAL_US) / HALF_RANGE_US
+    if "throttle_us" in msg:
+        throttle = (msg["throttle_us"] - NEUTRAL_US) / HALF_RANGE_US
+    elif "speed_mm_s" in msg:
+        throttle = msg["speed_mm_s"] / spec.SETPOINT_MAX_SPEED_MM_S
+    elif "throttle" in msg and "steering" in msg:
+        angle, throttle = msg["steering"], msg["throttle"]
+    return float(angle), float(throttle)
 
 
 def _mode(path) -> str:
