@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from roar.replay import ReplayError, messages, read_log
+from roar.replay import ReplayError, messages, metadata
 
 INPUTS = ["cam/image_array", "user/angle", "user/throttle", "user/mode"]
 TYPES = ["image_array", "float", "float", "str"]
@@ -72,8 +72,7 @@ def _command(msg: dict, angle: float, throttle: float) -> tuple[float, float]:
 
 
 def _mode(path) -> str:
-    run = read_log(path).metadata.get("run", {})
-    return "local" if run.get("driver") else "user"
+    return "local" if metadata(path).get("run", {}).get("driver") else "user"
 
 
 def write_npz(path: str | Path, out: str | Path) -> int:
@@ -94,7 +93,7 @@ def write_donkey(path: str | Path, out: str | Path) -> int:
     if (out / "manifest.json").exists():
         raise ReplayError(f"{out}: already a tub (give a new folder)")
     (out / "images").mkdir(parents=True, exist_ok=True)
-    run = read_log(path).metadata.get("run", {})
+    run = metadata(path).get("run", {})
     offset_ms = int(run.get("wall_clock_offset_ns", 0)) // 1_000_000  # monotonic -> wall clock (0: simulated)
     mode = _mode(path)
     day = time.strftime("%y-%m-%d")

@@ -78,16 +78,29 @@ def open_reader(path: str | Path):
     return f, make_reader(f)
 
 
+def metadata(path: str | Path) -> dict[str, dict[str, str]]:
+    """A roar recording's metadata records (name -> fields) without reading its messages."""
+    from mcap.exceptions import McapError
+
+    f, reader = open_reader(path)
+    try:
+        with f:
+            found = {record.name: dict(record.metadata) for record in reader.iter_metadata()}
+    except (McapError, EOFError, ValueError, struct.error) as e:
+        raise ReplayError(f"{path}: cut off or damaged ({e}): a recording that was not finished") from None
+    if found.get("run", {}).get("recorder") != "roar":
+        raise ReplayError(f"{path}: not a roar recording (no run metadata from roar)")
+    return found
+
+
 def read_log(path: str | Path) -> Log:
     """Everything but the messages' contents: metadata, and per channel its statistics."""
     from mcap.exceptions import McapError
 
+    log = Log(Path(path), metadata(path))
     f, reader = open_reader(path)
-    log = Log(Path(path))
     try:
         with f:
-            for record in reader.iter_metadata():
-                log.metadata[record.name] = dict(record.metadata)
             last: dict[str, int] = {}
             for schema, channel, message in reader.iter_messages(log_time_order=False):
                 stats = log.channels.get(channel.topic)
@@ -102,9 +115,6 @@ def read_log(path: str | Path) -> Log:
                 stats.count += 1
     except (McapError, EOFError, ValueError, struct.error) as e:
         raise ReplayError(f"{path}: cut off or damaged ({e}): a recording that was not finished") from None
-    if log.metadata.get("run", {}).get("recorder") != "roar":
-        topics = ", ".join(sorted(log.channels)[:5]) or "none"
-        raise ReplayError(f"{path}: not a roar recording (no run metadata from roar; its channels: {topics})")
     if log.channels:
         log.start_ns = min(c.first_ns for c in log.channels.values())
         log.end_ns = max(c.last_ns for c in log.channels.values())
@@ -243,7 +253,7 @@ def localize(path: str | Path, known) -> list[tuple[tuple[float, float, float], 
 
     from roar.localization import LaserScan, ParticleFilter
 
-    setup = {k: json.loads(v) for k, v in read_log(path).metadata.get("localization", {}).items()}
+    setup = {k: json.loads(v) for k, v in metadata(path).get("localization", {}).items()}
     if not setup:
         raise ReplayError(f"{path}: no particle filter ran in this recording (roar race --localize --log)")
     scans = {t: m for _, t, m in messages(path, ["/lidar"])}
