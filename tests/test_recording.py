@@ -476,12 +476,12 @@ def test_a_lane_driver_race_records_its_frames_and_what_it_saw_in_them(tmp_path)
     race(get("oval"), laps=1, lateral="lane", timeout_s=1.0, log=path)
     c = read_log(path).channels
     frames = c["/camera/image"].count
-    assert frames >= 45 and c["/perception/lanes"].count == frames and c["/autopilot/lane_state"].count >= frames
+    assert frames >= 45 and c["/perception/lanes"].count == frames and c["/autopilot/state"].count >= frames
     seen = [m for _, _, m in messages(path, ["/perception/lanes"])]
     assert sum(m["lines"] != "none" for m in seen) >= frames - 2 and all("offset_m" in m for m in seen)
     from roar.autopilot.lane_agent import LaneState
 
-    states = [m["state"] for _, _, m in messages(path, ["/autopilot/lane_state"])]
+    states = [m["state"] for _, _, m in messages(path, ["/autopilot/state"])]
     assert set(states) <= {s.value for s in LaneState} and states[-1] == LaneState.FOLLOWING.value
 
 
@@ -525,3 +525,16 @@ def test_every_robots_drive_becomes_a_dataset(robot, tmp_path):
     want = [500 * (k + 1) / spec.SETPOINT_MAX_SPEED_MM_S for k in range(4)] if robot == "iarrc" else \
         [0.2 * (k + 1) for k in range(4)]
     assert [th for _, _, _, th in rows] == pytest.approx(want, abs=0.01)
+
+
+def test_the_drag_race_is_recorded_too(tmp_path):
+    pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
+    from roar.tracks import get
+    from roar_sim.runs.drag import drag_race
+
+    path = tmp_path / "drag.mcap"
+    drag_race(get("drag:20"), top_speed_m_s=3.0, timeout_s=2.0, log=path)
+    c = read_log(path).channels
+    assert c["/camera/image"].count == c["/autopilot/state"].count == c["/sim/firmware"].count >= 90
+    assert {m["result"] for _, _, m in messages(path, ["/control"])} == {"setpoint"}
+    assert c["/car/telemetry"].rate_hz == pytest.approx(10, abs=0.5)  # the IARRC car's TEL lines

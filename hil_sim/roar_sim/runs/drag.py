@@ -78,11 +78,13 @@ class DragResult:
 
 def drag_race(track: Track, top_speed_m_s: float = 4.0, blank_s: tuple[float, float] | None = None,
               timeout_s: float | None = None, renderer: str | None = None, seed: int = 0,
-              servo_trim_us: int = 0, bump_deg: float = 0.0) -> DragResult:
+              servo_trim_us: int = 0, bump_deg: float = 0.0, log=None) -> DragResult:
     """One run down the strip `track` (a drag:... track) at top_speed_m_s; with blank_s the camera
     gives black frames from blank_s[0] to blank_s[1] [s] after the start, and as it goes dark
     a bump turns the car by bump_deg [deg] (left +); servo_trim_us: [us] the steering servo's
-    mechanical offset (a real car's is never quite centred)."""
+    mechanical offset (a real car's is never quite centred); log: an MCAP file the run is recorded
+    into (roar_sim.runs.run_log: the firmware's side, the frames, the lane detector's view and the
+    driver's state)."""
     from roar.autopilot.drag import DragState, drag_agent
     from roar.vision.geometry import SIMULATED_CAR_CAMERA, BirdsEye
     from roar.vision.lanes import LaneDetector
@@ -94,6 +96,13 @@ def drag_race(track: Track, top_speed_m_s: float = 4.0, blank_s: tuple[float, fl
     timeout_s = timeout_s or 10.0 + 3 * spec.end_m / top_speed_m_s
     with renderers.chosen(renderer), IarrcCar(track, servo=SteeringServo(trim_us=servo_trim_us)) as car:
         laser = Tfmini(car.plant, seed)
+        sim_log = None
+        if log is not None:
+            import sys
+
+            from roar_sim.runs.run_log import SimLog
+
+            sim_log = SimLog(car, log, {"command": " ".join(sys.argv), "driver": "drag"})
 
         bumped = [False]
 
@@ -105,6 +114,8 @@ def drag_race(track: Track, top_speed_m_s: float = 4.0, blank_s: tuple[float, fl
                 if not bumped[0]:
                     _turn(car.plant, math.radians(bump_deg))
                     bumped[0] = True
+            if sim_log is not None:
+                sim_log.image(rgb)
             return rgb, depth
 
         detector = LaneDetector(BirdsEye(SIMULATED_CAR_CAMERA.model(*LANE_CAMERA)))
@@ -125,10 +136,17 @@ def drag_race(track: Track, top_speed_m_s: float = 4.0, blank_s: tuple[float, fl
             if result.brake_x_m is None and planner.state is DragState.BRAKE:
                 result.brake_x_m = obs.x
             result.wall_contacts += car.touching_wall()
+            if sim_log is not None:
+                sim_log.step()
+                sim_log.driver_state(planner.state.name.lower())
 
         car.arm()
-        Runner(car, agent, PERIOD_S).run(
-            until=lambda obs: planner.state is DragState.STOPPED or obs.t_s >= timeout_s, on_step=on_step)
+        try:
+            Runner(car, agent, PERIOD_S).run(
+                until=lambda obs: planner.state is DragState.STOPPED or obs.t_s >= timeout_s, on_step=on_step)
+        finally:
+            if sim_log is not None:
+                sim_log.close()
     return result
 
 

@@ -321,7 +321,7 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
             def on_lane_step(obs: Observation, command: Command) -> None:
                 on_step(obs, command)
                 if sim_log is not None:
-                    sim_log.lane_state(planner.state.value)
+                    sim_log.driver_state(planner.state.value)
                 stopped = planner.state.name in ("STOPPED", "OBSTACLE")
                 open_stop = result.stops and result.stops[-1].until_s is None
                 if stopped and not open_stop:
@@ -615,7 +615,7 @@ def _drag(p, args) -> int:
         p.error("--event drag is the IARRC car's (its speed PID, encoder, gyro and TFmini): add --robot iarrc")
     lane_only = {"--driver lane": args.driver == "lane", "--start-lights": args.start_lights is not None,
                  "--boxes": bool(args.boxes), "--avoid": args.avoid, "--frames": args.frames is not None,
-                 "--log": args.log is not None, "--foxglove": args.foxglove is not None,
+                 "--foxglove": args.foxglove is not None,
                  "--shaky-camera": args.shaky_camera is not None, "--waypoints": args.waypoints is not None,
                  "--line": args.line != "centre", "--k-dd": args.k_dd is not None,
                  "--car-profile": args.car_profile is not None, "--follow": args.follow}
@@ -626,7 +626,7 @@ def _drag(p, args) -> int:
     track = get("drag:40" if args.track is None else args.track)
     if not track.name.startswith("drag:"):
         raise TrackError(f"--event drag runs on a drag strip: --track drag:LENGTH[,width=M,stop=M], not {track.name!r}")
-    result = drag.drag_race(track, args.top_speed, timeout_s=args.seconds, renderer=args.renderer)
+    result = drag.drag_race(track, args.top_speed, timeout_s=args.seconds, renderer=args.renderer, log=args.log)
     print(drag.report(result))
     if args.plot and result.x and not plotting.save(lambda: drag.plot(result), args.plot):
         return ExitStatus.ERROR

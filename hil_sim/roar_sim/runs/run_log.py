@@ -30,7 +30,7 @@ CONES = "/perception/cones"
 MARKERS = "/perception/markers"
 LOCAL_GRID = "/localization/local_grid"
 GRID_EVERY_S = 0.5  # [s] between recorded trees and local grids
-LANE_STATE = "/autopilot/lane_state"
+DRIVER_STATE = "/autopilot/state"
 PARTICLES_EVERY_S = 0.2  # [s] between recorded particle clouds (a cloud is ~40 bytes a particle)
 MAX_PARTICLES = 300  # recorded of a cloud, evenly picked
 
@@ -135,9 +135,10 @@ class SimLog:
         self.rec.fields(LANES, {"lines": lanes.source, "offset_m": lanes.offset_m if centre else None,
                                 "heading_rad": lanes.heading_rad if centre else None}, self.t_ns(), "roar.Lanes")
 
-    def lane_state(self, state: str) -> None:
-        """The lane driver's state this period (following, stopped, ...)."""
-        self.rec.fields(LANE_STATE, {"state": state}, self.t_ns(), "roar.LaneState")
+    def driver_state(self, state: str) -> None:
+        """The driver's state this period (the lane driver's following, stopped, ...; the drag
+        racer's)."""
+        self.rec.fields(DRIVER_STATE, {"state": state}, self.t_ns(), "roar.DriverState")
 
     def planning(self, driver, local=None) -> None:
         """The challenge's driver (roar.planning.course_driver.CourseDriver) this period: each new
