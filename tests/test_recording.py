@@ -537,4 +537,4 @@ def test_the_drag_race_is_recorded_too(tmp_path):
     c = read_log(path).channels
     assert c["/camera/image"].count == c["/autopilot/state"].count == c["/sim/firmware"].count >= 90
     assert {m["result"] for _, _, m in messages(path, ["/control"])} == {"setpoint"}
-    assert c["/car/telemetry"].rate_hz == pytest.approx(10, abs=0.5)  # the IARRC car's TEL lines
+    assert c["/car/telemetry"].rate_hz == pytest.approx(10, abs=1.0)  # the IARRC car's TEL lines, 10 Hz
