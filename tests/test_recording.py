@@ -538,3 +538,25 @@ def test_the_drag_race_is_recorded_too(tmp_path):
     assert c["/camera/image"].count == c["/autopilot/state"].count == c["/sim/firmware"].count >= 90
     assert {m["result"] for _, _, m in messages(path, ["/control"])} == {"setpoint"}
     assert c["/car/telemetry"].rate_hz == pytest.approx(10, abs=1.0)  # the IARRC car's TEL lines, 10 Hz
+
+
+def test_the_iarrc_car_over_a_serial_link_is_recorded_with_setpoints_and_telemetry(tmp_path):
+    from roar import Vehicle
+
+    sim = subprocess.Popen([sys.executable, "-m", "roar.cli", "sim", "--serial", "--robot", "iarrc", "--seconds", "60"],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    path = tmp_path / "run.mcap"
+    try:
+        port = sim.stdout.readline().split(" on ")[1].split(" ")[0]
+        with Vehicle(f"serial://{port}", record=path) as car:
+            car.drive(speed=0.8, steering=0.1)
+            time.sleep(1.0)
+    finally:
+        sim.send_signal(signal.SIGINT)
+        sim.communicate(timeout=30)
+    log = read_log(path)
+    assert log.metadata["run"]["clock"] == "monotonic" and log.metadata["car"]["protocol_version"] == "2"
+    setpoints = [m for _, _, m in messages(path, ["/control"]) if m.get("result") == "setpoint"]
+    assert 800 in {m["speed_mm_s"] for m in setpoints} and setpoints[-1]["speed_mm_s"] == 0
+    telemetry = [m for _, _, m in messages(path, ["/car/telemetry"])]
+    assert len(telemetry) >= 5 and telemetry[-1]["mode"] in ("autonomous", "disarmed", "manual", "boot")
