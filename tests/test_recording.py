@@ -560,3 +560,19 @@ def test_the_iarrc_car_over_a_serial_link_is_recorded_with_setpoints_and_telemet
     assert 800 in {m["speed_mm_s"] for m in setpoints} and setpoints[-1]["speed_mm_s"] == 0
     telemetry = [m for _, _, m in messages(path, ["/car/telemetry"])]
     assert len(telemetry) >= 5 and telemetry[-1]["mode"] in ("autonomous", "disarmed", "manual", "boot")
+
+
+def test_the_combined_driver_behind_its_leader_is_recorded(tmp_path):
+    pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
+    from roar.tracks import get
+    from roar_sim.runs.combined import combined_race
+
+    path = tmp_path / "combined.mcap"
+    combined_race(get("course"), distance_m=3.0, log=path)
+    c = read_log(path).channels
+    periods = c["/sim/firmware"].count
+    assert periods >= 20 and c["/camera/image"].count == c["/autopilot/state"].count == c["/sim/leader"].count == periods
+    assert 0 < c["/v2v/leader"].count <= periods
+    heard = [(m.pose.position.x, m.pose.position.y) for _, _, m in messages(path, ["/v2v/leader"])]
+    truth = [(m.pose.position.x, m.pose.position.y) for _, _, m in messages(path, ["/sim/leader"])]
+    assert math.dist(heard[-1], truth[-1]) < 0.5  # what it heard is where the leader was, a few periods ago

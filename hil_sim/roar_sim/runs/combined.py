@@ -72,10 +72,16 @@ def leader_line(track: Track, boxes: Sequence[tuple[float, float]]) -> np.ndarra
     return track.centerline + offset[:, None] * track.normals
 
 
+HEARD_LEADER = "/v2v/leader"  # the leader's pose as the follower last heard it
+TRUE_LEADER = "/sim/leader"  # ... and where it was
+
+
 def combined_race(track: Track, laps: int = 1, boxes: Sequence[tuple[float, float]] = (), timeout_s: float | None = None,
-                  margin: float = 0.9, progress: bool = False, distance_m: float | None = None) -> CombinedResult:
+                  margin: float = 0.9, progress: bool = False, distance_m: float | None = None,
+                  log=None) -> CombinedResult:
     """The follower's laps (or, with distance_m, that many metres) behind the leader, with boxes at
-    (distance along the centre line, offset to its left) [m]."""
+    (distance along the centre line, offset to its left) [m]. log: an MCAP file the follower's run
+    is recorded into (roar_sim.runs.run_log), with the leader as it was heard over V2V and as it was."""
     from roar.vision.geometry import SIMULATED_CAR_CAMERA, BirdsEye
     from roar.vision.lanes import LaneDetector
 
@@ -89,6 +95,19 @@ def combined_race(track: Track, laps: int = 1, boxes: Sequence[tuple[float, floa
         laser = Tfmini(follow.plant)
         camera_model = SIMULATED_CAR_CAMERA.model(*LANE_CAMERA)
         hint: dict[str, int | None] = {"lead": None, "follow": None, "heard": None}
+        sim_log = None
+        if log is not None:
+            import sys
+
+            from roar_sim.runs.run_log import SimLog
+
+            sim_log = SimLog(follow, log, {"command": " ".join(sys.argv), "driver": "combined"})
+
+        def camera():
+            frame = follow.plant.camera(*LANE_CAMERA)
+            if sim_log is not None:
+                sim_log.image(frame[0])
+            return frame
 
         def where(name: str, x: float, y: float) -> tuple[float, float]:
             hint[name], s, left = track.project((x, y), hint[name])
@@ -102,7 +121,7 @@ def combined_race(track: Track, laps: int = 1, boxes: Sequence[tuple[float, floa
             s_self, _ = where("follow", obs.x, obs.y)
             return Leader(track.arc_delta(s_self, s_lead), left, heard.speed)
 
-        follower = lane_agent(lambda: follow.plant.camera(*LANE_CAMERA), LaneDetector(BirdsEye(camera_model)), MODEL,
+        follower = lane_agent(camera, LaneDetector(BirdsEye(camera_model)), MODEL,
                               PERIOD_S, margin, depth_camera=camera_model, laser=laser.read, leader=leader)
         leader_agent = cruise_agent(leader_line(track, boxes), MODEL, PERIOD_S, LEADER_SPEED_M_S)
         for car in fleet.cars:  # each boots latched until it hears neutral
@@ -141,10 +160,19 @@ def combined_race(track: Track, laps: int = 1, boxes: Sequence[tuple[float, floa
             result.leader_box_contacts += touching(lead.plant, bodies) > 0
             result.car_contacts += fleet.touching(0, 1)
             result.wall_contacts += follow.touching_wall()
+            if sim_log is not None:
+                sim_log.step()
+                sim_log.driver_state(planner.state.value)
+                sim_log.pose(TRUE_LEADER, (there.x, there.y, there.yaw))
+                heard = follow_link.latest.get(LEADER_ID)
+                if heard is not None:
+                    sim_log.pose(HEARD_LEADER, (heard.x, heard.y, heard.yaw))
             if bar:
                 bar.update(max(0.0, min(laps, travelled / track.length_m) - bar.n))
         if bar:
             bar.close()
+        if sim_log is not None:
+            sim_log.close()
         result.laps = int(travelled // track.length_m)
         result.travelled_m = travelled
     return result

@@ -525,9 +525,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.follow and (args.driver != "lane" or not args.avoid):
         p.error("--follow is ROAR's combined driver: it needs --driver lane --avoid")
     if args.follow and (args.start_lights is not None or args.frames or args.shaky_camera is not None or args.renderer
-                        or args.log or args.foxglove):
-        p.error("--follow runs two cars: not with --start-lights, --frames, --shaky-camera, --renderer, --log or "
-                "--foxglove")
+                        or args.foxglove):
+        p.error("--follow runs two cars: not with --start-lights, --frames, --shaky-camera, --renderer or --foxglove")
     if args.shaky_camera is not None and args.driver != "lane":
         p.error("--shaky-camera shakes the lane driver's camera: it needs --driver lane")
     if args.renderer and args.driver != "lane":  # (the drag race's camera is the IARRC car's)
@@ -595,7 +594,8 @@ def _combined(args, track: Track, boxes) -> int:
     """roar race --driver lane --avoid --follow: the combined driver behind a leader."""
     from roar_sim.runs import combined
 
-    result = combined.combined_race(track, args.laps, boxes, timeout_s=args.seconds, margin=args.margin, progress=True)
+    result = combined.combined_race(track, args.laps, boxes, timeout_s=args.seconds, margin=args.margin, progress=True,
+                                    log=args.log)
     print(combined.report(result))
     if args.plot and result.t and not plotting.save(lambda: combined.plot(result), args.plot):
         return ExitStatus.ERROR

@@ -125,6 +125,10 @@ class SimLog:
             self.rec.poses(PARTICLES, np.asarray(f.poses)[pick], t)
             self._next_cloud_s = self.robot.time_s + PARTICLES_EVERY_S
 
+    def pose(self, topic: str, pose) -> None:
+        """Another pose (x, y, yaw) [m, m, rad] now: another car's, say."""
+        self.rec.pose(topic, pose, self.t_ns())
+
     def image(self, rgb) -> None:
         """A frame the driver's camera took now."""
         self.rec.image(rgb, self.t_ns())
