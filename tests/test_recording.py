@@ -576,3 +576,27 @@ def test_the_combined_driver_behind_its_leader_is_recorded(tmp_path):
     heard = [(m.pose.position.x, m.pose.position.y) for _, _, m in messages(path, ["/v2v/leader"])]
     truth = [(m.pose.position.x, m.pose.position.y) for _, _, m in messages(path, ["/sim/leader"])]
     assert math.dist(heard[-1], truth[-1]) < 0.5  # what it heard is where the leader was, a few periods ago
+
+
+def test_a_served_junior_is_live_too(tmp_path):
+    from roar import Vehicle
+
+    port, http = free_port(), free_port()
+    sim = subprocess.Popen([sys.executable, "-m", "roar.cli", "sim", "--robot", "junior", "--http",
+                            f"127.0.0.1:{http}", "--foxglove", str(port), "--seconds", "60"], stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True)
+    try:
+        lines = [sim.stdout.readline() for _ in range(4)]
+        assert any(f"ws://127.0.0.1:{port}" in line for line in lines), lines
+        with Vehicle(f"http://127.0.0.1:{http}") as car:
+            car.drive(0.5, 0.0)
+            time.sleep(0.3)
+            events = foxglove_client(port, ["/control", "/sim/firmware", "/car/state"], 10)
+    finally:
+        sim.send_signal(signal.SIGINT)
+        sim.communicate(timeout=30)
+    got = {}
+    for e in events[1:]:
+        got.setdefault(e["topic"], []).append(e)
+    assert all(e["json"]["result"] == "http" and e["json"]["text"].startswith("GET /") for e in got["/control"])
+    assert any(max(e["json"]["duty_permille"]) > 0 for e in got["/sim/firmware"])  # it drives its motors

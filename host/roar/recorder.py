@@ -150,7 +150,9 @@ class Recorder:
 
         msg: dict = {"text": bytes(data).decode("ascii", "replace").strip()}
         events = StreamDecoder().feed(bytes(data))
-        if events:  # what the car's own parser makes of it (the twin of the firmware's)
+        if bytes(data).startswith(b"GET "):  # the Junior's HTTP request: its first line says it
+            msg = {"text": msg["text"].splitlines()[0], "result": "http"}
+        elif events:  # what the car's own parser makes of it (the twin of the firmware's)
             e = events[-1]
             msg["result"] = str(e.result)
             if e.command is not None:

@@ -24,9 +24,10 @@ import threading
 from dataclasses import dataclass
 
 from roar.tracks.names import FORMS
-from roar.cli.errors import ArgumentParser, ExitStatus, UserError, run_command, seconds_option
+from roar.cli.errors import ArgumentParser, ExitStatus, UserError, add_foxglove_option, run_command, seconds_option
 from roar.protocol import spec
 from roar.transports.http_junior import host_port
+from roar_sim.clock.lockstep import CONTROL_PERIOD_S
 from roar_sim.core.junior import HttpRequestReader
 from roar_sim.core.library import HttpRead
 from roar_sim.links.junior_camera import RENDER_WORKERS, Camera, CameraError
@@ -63,10 +64,13 @@ class JuniorServer:
     """The simulated Junior with its two HTTP ports, in real time on its own thread."""
 
     def __init__(self, track: Track | None = None, host: str = "127.0.0.1", port: int = 8081,
-                 camera_port: int | None = None, gui: bool = False, render_workers: int = RENDER_WORKERS) -> None:
+                 camera_port: int | None = None, gui: bool = False, render_workers: int = RENDER_WORKERS,
+                 log=None) -> None:
+        """log: a roar_sim.runs.run_log.SimLog maker (robot -> SimLog) to record or serve the run live."""
         self.host, self.port = host, port
         self.camera_port = port - 1 if camera_port is None and port else (camera_port or 0)
         self.sim = Junior(track, realtime=True, gui=gui)
+        self.log = log(self.sim) if log is not None else None
         self.camera = Camera(track, lambda: self.sim.pose, render_workers)
         self._served: dict[str, int] = {}  # route -> the latest frame it served
         self._running = threading.Event()
@@ -78,8 +82,12 @@ class JuniorServer:
     # --- the simulation ------------------------------------------------------------------------
 
     def _simulate(self) -> None:
+        next_log_s = 0.0
         while self._running.is_set():
             self.sim.run(CHUNK_S)
+            if self.log is not None and self.sim.time_s + 1e-9 >= next_log_s:
+                self.log.step()
+                next_log_s = self.sim.time_s + CONTROL_PERIOD_S
 
     # --- control port: the firmware's own HTTP ---------------------------------------------------
 
@@ -90,6 +98,8 @@ class JuniorServer:
                 data = await _read(reader)
                 if not data:
                     break
+                if self.log is not None:
+                    self.log.link_bytes(data)
                 for reply in connection.feed(data):
                     writer.write(reply)
                 await writer.drain()
@@ -197,6 +207,8 @@ class JuniorServer:
         if self._thread is not None:
             self._thread.join()
         self.camera.close()
+        if self.log is not None:
+            self.log.close()
         self.sim.close()
 
 
@@ -222,8 +234,8 @@ def parse_address(text: str) -> tuple[str, int]:
 
 
 async def serve(track: Track | None, host: str, port: int, seconds: float, gui: bool,
-                camera_port: int | None = None, on_ready=print) -> None:
-    server = JuniorServer(track, host, port, camera_port, gui)
+                camera_port: int | None = None, on_ready=print, log=None) -> None:
+    server = JuniorServer(track, host, port, camera_port, gui, log=log)
     try:
         urls = await server.start()
         others = ", ".join(r for r in (*ROUTES, spec.JUNIOR_ROUTE_CAMERA_STREAM) if r != spec.JUNIOR_ROUTE_CAMERA_LOW)
@@ -246,6 +258,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--track", default=None, help=f"{FORMS} (default: open floor)")
     p.add_argument("--seconds", type=seconds_option, default=0.0, metavar="S", help="stop after this long (default: Ctrl-C)")
     p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
+    add_foxglove_option(p, "the Junior's channels")
     return p
 
 
@@ -255,9 +268,16 @@ def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
     host, port = parse_address(args.http)
     track = get(args.track) if args.track is not None else None
+    log = None
+    if args.foxglove is not None:
+        from roar_sim.runs.run_log import SimLog
+
+        log = lambda robot: SimLog(robot, None, {"command": " ".join(sys.argv)}, args.foxglove,  # noqa: E731
+                                   drain_lines=False)
+        print(f"its channels live: Foxglove, Open connection, ws://127.0.0.1:{args.foxglove}", flush=True)
     try:
         asyncio.run(serve(track, host, port, args.seconds, args.gui, camera_port=0 if port == 0 else None,
-                          on_ready=lambda text: print(text, flush=True)))
+                          on_ready=lambda text: print(text, flush=True), log=log))
     except OSError as e:
         raise UserError(f"cannot serve on {args.http}: {e.strerror or e}") from None
     return ExitStatus.OK

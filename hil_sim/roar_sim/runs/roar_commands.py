@@ -51,7 +51,7 @@ def _sim_parser() -> argparse.ArgumentParser:
                    help="with --serial or --http: stop after this long (default: Ctrl-C)")
     p.add_argument("--laps", type=int, default=None, help="without a link: laps to drive (default 2)")
     p.add_argument("--plot", type=path_option, metavar="PNG", help="without a link: write the driven path to this PNG")
-    add_foxglove_option(p, "the car's channels", when="without a link (then in real time) or with --serial: ")
+    add_foxglove_option(p, "the car's channels", when="without a link (then in real time), with --serial or --http: ")
     return p
 
 
@@ -86,14 +86,12 @@ def _sim(argv: list[str]) -> int:
                         "(roar race --seconds sets its time limit)")
     gui = ["--gui"] if args.gui else []
     foxglove = ["--foxglove", str(args.foxglove)] if args.foxglove is not None else []
-    if foxglove and args.http is not None:
-        raise UserError("--foxglove serves a race's or a serial car's channels (not --http's yet)")
     seconds = ["--seconds", str(args.seconds)] if args.seconds is not None else []
     if args.http is not None:
         from roar_sim.links.junior_http import main as serve_junior
 
         track = ["--track", args.track] if args.track is not None else []
-        return serve_junior(["--http", args.http, *seconds, *track, *gui])
+        return serve_junior(["--http", args.http, *seconds, *track, *gui, *foxglove])
     args.track = "oval" if args.track is None else args.track
     if args.serial:
         from roar_sim.links.pty import main as serve

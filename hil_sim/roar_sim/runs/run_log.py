@@ -125,6 +125,11 @@ class SimLog:
             self.rec.poses(PARTICLES, np.asarray(f.poses)[pick], t)
             self._next_cloud_s = self.robot.time_s + PARTICLES_EVERY_S
 
+    def link_bytes(self, data: bytes) -> None:
+        """Bytes that reached the robot on a link the wrappers do not see (the Junior's HTTP
+        port, served), as they came."""
+        self.rec.control(data, self.t_ns())
+
     def pose(self, topic: str, pose) -> None:
         """Another pose (x, y, yaw) [m, m, rad] now: another car's, say."""
         self.rec.pose(topic, pose, self.t_ns())
