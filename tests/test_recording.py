@@ -600,3 +600,22 @@ def test_a_served_junior_is_live_too(tmp_path):
         got.setdefault(e["topic"], []).append(e)
     assert all(e["json"]["result"] == "http" and e["json"]["text"].startswith("GET /") for e in got["/control"])
     assert any(max(e["json"]["duty_permille"]) > 0 for e in got["/sim/firmware"])  # it drives its motors
+
+
+def test_the_phone_streaming_car_is_live_too(tmp_path):
+    port = free_port()
+    ports = [free_port() for _ in range(4)]
+    sim = subprocess.Popen([sys.executable, "-m", "roar.cli", "sim", "--stream", "--ports", ",".join(map(str, ports)),
+                            "--foxglove", str(port), "--seconds", "60", "--rate", "10"], stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True)
+    try:
+        lines = [sim.stdout.readline() for _ in range(2)]
+        assert any(f"ws://127.0.0.1:{port}" in line for line in lines), (lines, sim.stderr.read() if sim.poll() else "")
+        events = foxglove_client(port, ["/camera/image", "/sim/firmware", "/car/state"], 5)
+    finally:
+        sim.send_signal(signal.SIGINT)
+        sim.communicate(timeout=30)
+    got = {}
+    for e in events[1:]:
+        got.setdefault(e["topic"], []).append(e)
+    assert all(e["bytes"] > 1000 for e in got["/camera/image"]) and len(got["/car/state"]) == 5

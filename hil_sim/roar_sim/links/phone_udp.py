@@ -24,9 +24,11 @@ import numpy as np
 
 from roar.tracks.names import FORMS
 from roar.protocol import encode, spec
-from roar.cli.errors import ArgumentParser, ExitStatus, UserError, run_command, seconds_option, stopped_status
+from roar.cli.errors import (ArgumentParser, ExitStatus, UserError, add_foxglove_option, run_command, seconds_option,
+                             stopped_status)
 from roar.vision.geometry import SIMULATED_CAR_CAMERA
 from roar.stream import UnknownHost, peer
+from roar_sim.clock.lockstep import CONTROL_PERIOD_S
 from roar_wire import stream as wire
 
 PORTS = {"rgb": spec.UDP_PORT_RGB, "depth": spec.UDP_PORT_DEPTH, "state": spec.UDP_PORT_VEHICLE_STATE}
@@ -108,6 +110,7 @@ class Phone:
         self.render_s = 0.0  # [s] wall time spent rendering and encoding
         self.bad_control = 0
         self.sent = 0
+        self.log = None  # a roar_sim.runs.run_log.SimLog: the run recorded or served live
 
     async def start(self) -> Phone:
         loop = asyncio.get_running_loop()
@@ -151,6 +154,8 @@ class Phone:
         start = time.perf_counter()
         s = self.sim.state()
         rgb, depth = self.sim.plant.camera(self.config.width, self.config.height)
+        if self.log is not None:
+            self.log.image(rgb)
         state = {"x": s.x, "y": s.y, "yaw": math.degrees(s.yaw), "vx": s.speed * math.cos(s.yaw),
                  "vy": s.speed * math.sin(s.yaw), "gz": s.yaw_rate, "hall_effect_sensor_velocity": s.speed,
                  "recv_time": self.sim.time_s}
@@ -181,7 +186,7 @@ class Phone:
     async def serve(self, seconds: float = 0.0) -> None:
         """Run the simulated car in real time, render at rate_hz and forward control at 100 Hz,
         for `seconds` (0: until cancelled)."""
-        next_frame = next_forward = self.sim.time_s
+        next_frame = next_forward = next_log = self.sim.time_s
         wall0, sim0 = time.monotonic(), self.sim.time_s
         while seconds <= 0 or self.sim.time_s - sim0 < seconds:
             if self.sim.time_s >= next_forward:
@@ -192,6 +197,9 @@ class Phone:
                 next_frame += 1.0 / self.config.rate_hz
             self.sim.run(SIM_STEP_S)
             self.sim.read()
+            if self.log is not None and self.sim.time_s + 1e-9 >= next_log:
+                self.log.step()
+                next_log += CONTROL_PERIOD_S
             ahead = (self.sim.time_s - sim0) - (time.monotonic() - wall0)
             await asyncio.sleep(max(0.0, ahead))  # keeps real time, and lets the datagrams in
 
@@ -228,6 +236,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--ports", type=parse_ports, default=None, metavar="RGB,DEPTH,STATE,CONTROL",
                    help=f"the four ports (default ROAR's {','.join(str(v) for v in PORTS.values())},{spec.UDP_PORT_CONTROL})")
     p.add_argument("--seconds", type=seconds_option, default=0.0, metavar="S", help="stop after this long (default: Ctrl-C)")
+    add_foxglove_option(p, "the car's channels")
     return p
 
 
@@ -249,6 +258,15 @@ def main(argv: list[str] | None = None) -> int:
     config = StreamConfig(width=args.size[0], height=args.size[1], rate_hz=args.rate, push_to=push_to,
                           host=args.host, ports=args.ports)
     phone = Phone(sim, config)
+    if args.foxglove is not None:
+        from roar_sim.runs.run_log import SimLog
+
+        try:
+            phone.log = SimLog(sim, None, {"command": " ".join(sys.argv)}, args.foxglove, drain_lines=False)
+        except BaseException:
+            sim.close()
+            raise
+        print(f"its channels live: Foxglove, Open connection, ws://127.0.0.1:{args.foxglove}", flush=True)
 
     async def run() -> None:
         try:
@@ -268,6 +286,8 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt as e:
         return stopped_status(e)
     finally:
+        if phone.log is not None:
+            phone.log.close()
         sim.close()
     print(f"rendered {phone.frames_rendered} frames, {phone.render_s / max(1, phone.frames_rendered) * 1000:.1f} ms each")
     return ExitStatus.OK
