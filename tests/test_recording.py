@@ -619,3 +619,4 @@ def test_the_phone_streaming_car_is_live_too(tmp_path):
     for e in events[1:]:
         got.setdefault(e["topic"], []).append(e)
     assert all(e["bytes"] > 1000 for e in got["/camera/image"]) and len(got["/car/state"]) == 5
+

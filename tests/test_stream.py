@@ -3,6 +3,7 @@ delivers a corrupt frame (unit cases, random fault sequences, and 10,000 frames 
 impaired relay on real loopback sockets), and the original receiver's stitching for contrast."""
 
 import asyncio
+import importlib.util
 import json
 import random
 
@@ -267,8 +268,8 @@ def test_roar_stream_reports_and_writes_pngs_headless(tmp_path):
     try:
         assert "streaming the simulated car" in sim.stdout.readline()
         out = subprocess.run([_sys.executable, "-m", "roar.cli", "stream", "udp://127.0.0.1", "--seconds", "3",
-                              "--out", str(tmp_path)], cwd=ROOT, capture_output=True, text=True, timeout=60,
-                             env={**__import__("os").environ, "DISPLAY": ""})
+                              "--out", str(tmp_path), "--log", str(tmp_path / "phone.mcap")], cwd=ROOT,
+                             capture_output=True, text=True, timeout=60, env={**__import__("os").environ, "DISPLAY": ""})
     finally:
         sim.kill()
         sim.communicate()
@@ -276,6 +277,16 @@ def test_roar_stream_reports_and_writes_pngs_headless(tmp_path):
     rates = [float(line.split()[1].removesuffix("/s")) for line in out.stdout.splitlines() if line.startswith("rgb ")]
     assert rates and max(rates) > 10  # 20 frames/s asked of the simulator
     assert (tmp_path / "last.png").stat().st_size > 5_000
+    if importlib.util.find_spec("foxglove") is not None:  # --log: every frame and each second's figures recorded
+        from roar.replay import messages, read_log
+
+        c = read_log(tmp_path / "phone.mcap").channels
+        assert min(c["/camera/image"].count, c["/camera/depth"].count, c["/stream/state"].count) >= 20
+        assert c["/stream/statistics"].count >= 2
+        depth = next(m for _, _, m in messages(tmp_path / "phone.mcap", ["/camera/depth"]))
+        assert (depth.width, depth.height, depth.encoding) == (160, 120, "32FC1")
+        stats = [m for _, _, m in messages(tmp_path / "phone.mcap", ["/stream/statistics"])][-1]
+        assert stats["rgb"]["frames_per_s"] > 10
     bad = subprocess.run([_sys.executable, "-m", "roar.cli", "stream", "udp://127.0.0.1", "--seconds", "0.5"],
                          cwd=ROOT, capture_output=True, text=True, timeout=60, env={**__import__("os").environ, "DISPLAY": ""})
     assert bad.returncode == 1 and "no frame from udp://127.0.0.1" in bad.stderr  # nothing streaming now

@@ -42,8 +42,9 @@ POSE = "/car/pose"
 TF = "/tf"
 SCAN = "/lidar"
 IMAGE = "/camera/image"
+DEPTH = "/camera/depth"
 CALIBRATION = "/camera/calibration"
-TOPICS = (CONTROL, LINES, TELEMETRY, STATE, POSE, TF, SCAN, IMAGE, CALIBRATION)
+TOPICS = (CONTROL, LINES, TELEMETRY, STATE, POSE, TF, SCAN, IMAGE, DEPTH, CALIBRATION)
 WORLD_FRAME, CAR_FRAME, LIDAR_FRAME, CAMERA_FRAME = "world", "base_link", "lidar", "camera"
 SERVE_HOST = "127.0.0.1"  # live channels are served on loopback only
 FOXGLOVE_PORT = 8765  # Foxglove's own default
@@ -280,6 +281,18 @@ class Recorder:
             if not self.closed and self._writer is not None:
                 self._writer.write_metadata(name, {k: str(v) for k, v in fields.items()})
 
+    def depth(self, depth, t_ns: int) -> None:
+        """A depth image (H x W, metres) as foxglove.RawImage, 32FC1 (4 bytes a pixel: recorded
+        only where a link carries depth and it is asked for)."""
+        from foxglove.messages import RawImage
+
+        import numpy as np
+
+        d = np.ascontiguousarray(np.asarray(depth, dtype="<f4"))
+        self._log(DEPTH, RawImage(timestamp=self._stamp(t_ns), frame_id=CAMERA_FRAME, width=d.shape[1],
+                                  height=d.shape[0], encoding="32FC1", step=d.shape[1] * 4, data=d.tobytes()),
+                  t_ns, "RawImage")
+
     # -- the end ----------------------------------------------------------------------------------
 
     def close(self) -> None:
@@ -352,7 +365,10 @@ class RecordingTransport:
     def camera(self, width: int, height: int):
         frame = self.inner.camera(width, height)
         if frame is not None:
-            self.recorder.image(frame[0], self.now_ns())
+            t = self.now_ns()
+            self.recorder.image(frame[0], t)
+            if frame[1] is not None:
+                self.recorder.depth(frame[1], t)
         return frame
 
     def close(self) -> None:

@@ -63,7 +63,7 @@ def send(args) -> int:
 def stream(args) -> int:
     from roar.cli.stream_view import run
 
-    return run(args.url, args.seconds, args.push, args.out)
+    return run(args.url, args.seconds, args.push, args.out, args.log)
 
 
 def vision(args) -> int:

@@ -138,6 +138,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="listen on ports 8001-8003 for pushed frames instead of asking for each with 'ack'")
     p.add_argument("--out", type=path_option, default=None, metavar="DIR",
                    help="write PNGs here (one a second, and the last) instead of opening a window")
+    p.add_argument("--log", type=path_option, metavar="MCAP",
+                   help="record every frame (camera JPEG, depth, state) and each second's figures into this MCAP file")
 
     p = sub.add_parser("vision", help="lane detection and obstacles over a folder of recorded frames",
                        description="Run the car's perception over recorded frames (a real car's or the "

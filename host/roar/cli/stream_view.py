@@ -86,7 +86,8 @@ class _Window:
         return path
 
 
-async def watch(host: str, seconds: float, push: bool, out: Path | None, window: bool = True) -> int:
+async def watch(host: str, seconds: float, push: bool, out: Path | None, window: bool = True, log=None) -> int:
+    """log: a roar.recorder.Recorder each frame (camera, depth, state) and each second's figures go to."""
     address, listen = peer(host)
     receivers = {}
     for kind, port in KINDS.items():
@@ -111,10 +112,15 @@ async def watch(host: str, seconds: float, push: bool, out: Path | None, window:
                     latest[kind] = frame
                     counts[kind] += 1
                     latencies[kind].append(frame.received_at - frame.first_chunk_at)
+                    if log is not None:
+                        _record(log, kind, frame, int((time.monotonic() - start) * 1e9))
             now = time.monotonic()
             if now - last_report >= REPORT_PERIOD_S:
                 line = report(receivers, counts, latencies, now - last_report, latest.get("state"))
                 print(line, flush=True)
+                if log is not None:
+                    log.fields(STATS_TOPIC, figures(receivers, counts, latencies, now - last_report),
+                               int((now - start) * 1e9), "roar.StreamStatistics")
                 if view is not None and latest:
                     view.show(_image(latest, "rgb"), _image(latest, "depth"), line)
                     if view.headless:
@@ -136,6 +142,32 @@ async def watch(host: str, seconds: float, push: bool, out: Path | None, window:
     return 0
 
 
+STATS_TOPIC = "/stream/statistics"
+STATE_TOPIC = "/stream/state"
+
+
+def _record(log, kind: str, frame, t_ns: int) -> None:
+    if kind == "rgb":
+        log.image(frame.image, t_ns)
+    elif kind == "depth":
+        log.depth(frame.image, t_ns)
+    else:
+        log.fields(STATE_TOPIC, frame.state, t_ns, "roar.StreamState")
+
+
+def figures(receivers, counts, latencies, period_s) -> dict:
+    """Per stream: frames a second, latency p50 and p99 [ms], frames lost so far."""
+    out = {}
+    for kind, rx in receivers.items():
+        lat = sorted(latencies[kind])
+        c = rx.counters
+        out[kind] = {"frames_per_s": counts[kind] / period_s,
+                     "latency_p50_ms": lat[len(lat) // 2] * 1000 if lat else None,
+                     "latency_p99_ms": lat[min(len(lat) - 1, int(len(lat) * 0.99))] * 1000 if lat else None,
+                     "lost": c.incomplete + c.malformed + c.undecodable}
+    return out
+
+
 def _image(latest: dict, kind: str):
     frame = latest.get(kind)
     return None if frame is None else frame.image
@@ -143,20 +175,17 @@ def _image(latest: dict, kind: str):
 
 def report(receivers, counts, latencies, period_s, state_frame) -> str:
     parts = []
-    for kind, rx in receivers.items():
-        lat = sorted(latencies[kind])
-        p50 = f"{lat[len(lat) // 2] * 1000:.1f}" if lat else "-"
-        p99 = f"{lat[min(len(lat) - 1, int(len(lat) * 0.99))] * 1000:.1f}" if lat else "-"
-        c = rx.counters
-        lost = c.incomplete + c.malformed + c.undecodable
-        parts.append(f"{kind} {counts[kind] / period_s:4.1f}/s (latency p50 {p50} p99 {p99} ms, lost {lost})")
+    for kind, f in figures(receivers, counts, latencies, period_s).items():
+        p50 = "-" if f["latency_p50_ms"] is None else f"{f['latency_p50_ms']:.1f}"
+        p99 = "-" if f["latency_p99_ms"] is None else f"{f['latency_p99_ms']:.1f}"
+        parts.append(f"{kind} {f['frames_per_s']:4.1f}/s (latency p50 {p50} p99 {p99} ms, lost {f['lost']})")
     if state_frame is not None:
         s = state_frame.state
         parts.append(f"car x {s['x']:.2f} y {s['y']:.2f} m, {s['hall_effect_sensor_velocity']:.2f} m/s")
     return "; ".join(parts)
 
 
-def run(url: str, seconds: float, push: bool, out: Path | None) -> int:
+def run(url: str, seconds: float, push: bool, out: Path | None, log: Path | None = None) -> int:
     host, url_push = target(url)
     push = push or url_push
     if not 0 <= seconds <= 86400:  # also refuses nan
@@ -172,7 +201,12 @@ def run(url: str, seconds: float, push: bool, out: Path | None) -> int:
     peer(host)  # a host that does not resolve is an error now, not after --seconds of silence
     print(f"receiving from udp://{host} ({'pushed to this machine' if push else 'asking with ' + repr(spec.UDP_REQUEST_PAYLOAD)}); "
           f"Ctrl-C stops", flush=True)
-    return asyncio.run(watch(host, seconds, push, out))
+    if log is None:
+        return asyncio.run(watch(host, seconds, push, out))
+    from roar.recorder import Recorder
+
+    with Recorder(log, {"car": url, "command": " ".join(sys.argv)}) as recorder:
+        return asyncio.run(watch(host, seconds, push, out, log=recorder))
 
 
 if __name__ == "__main__":
