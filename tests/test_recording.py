@@ -502,6 +502,9 @@ def test_a_challenge_run_records_its_detections_plans_trees_and_grid(tmp_path):
     cones = [m for _, _, m in messages(path, ["/perception/cones"])]
     found = [(p.position.x, p.position.y) for p in cones[-1].poses]
     assert found and all(min(math.dist(f, o[:2]) for o in result.course.cones) < 0.4 for f in found)
+    scene = [m for _, _, m in messages(path, ["/perception/scene"])][-1]  # the same, for Foxglove's 3D panel
+    assert [(round(c.pose.position.x, 6), round(c.pose.position.y, 6)) for c in scene.entities[0].cylinders] == \
+        [(round(x, 6), round(y, 6)) for x, y in found]
 
 
 @pytest.mark.parametrize("robot", ["iarrc", "junior"])

@@ -222,6 +222,22 @@ class Recorder:
         self._log(topic, PoseInFrame(timestamp=self._stamp(t_ns), frame_id=WORLD_FRAME, pose=_pose(*pose)), t_ns,
                   "PoseInFrame")
 
+    def objects(self, topic: str, cones, markers, t_ns: int, cone_radius_m: float = 0.1,
+                cone_height_m: float = 0.3, marker_size_m: tuple[float, float] = (0.5, 0.3)) -> None:
+        """Cones (orange cones) and floor markers (green tiles), (x, y) [m] each, as one
+        foxglove.SceneUpdate entity that replaces the last: what the camera has found so far."""
+        from foxglove.messages import Color, CubePrimitive, CylinderPrimitive, SceneEntity, SceneUpdate, Vector3
+
+        orange, green = Color(r=1.0, g=0.45, b=0.0, a=1.0), Color(r=0.1, g=0.8, b=0.2, a=0.8)
+        cylinders = [CylinderPrimitive(pose=_pose(x, y, 0.0, z=cone_height_m / 2), bottom_scale=1.0, top_scale=0.2,
+                                       size=Vector3(x=2 * cone_radius_m, y=2 * cone_radius_m, z=cone_height_m),
+                                       color=orange) for x, y in cones]
+        cubes = [CubePrimitive(pose=_pose(x, y, 0.0, z=0.005), color=green,
+                               size=Vector3(x=marker_size_m[0], y=marker_size_m[1], z=0.01)) for x, y in markers]
+        entity = SceneEntity(timestamp=self._stamp(t_ns), frame_id=WORLD_FRAME, id="found", frame_locked=False,
+                             cylinders=cylinders, cubes=cubes)
+        self._log(topic, SceneUpdate(entities=[entity]), t_ns, "SceneUpdate")
+
     def grid(self, topic: str, cells, corner_xy: tuple[float, float], resolution_m: float, t_ns: int) -> None:
         """An occupancy grid as foxglove.Grid (field "occupancy", 0..100 as ROS maps have it):
         cells (nx, ny), [i, j] the cell i along x and j along y from the world corner corner_xy [m]."""
@@ -378,10 +394,10 @@ class RecordingTransport:
             self.recorder.close()
 
 
-def _pose(x: float, y: float, yaw: float):
+def _pose(x: float, y: float, yaw: float, z: float = 0.0):
     from foxglove.messages import Pose, Quaternion, Vector3
 
-    return Pose(position=Vector3(x=float(x), y=float(y), z=0.0),
+    return Pose(position=Vector3(x=float(x), y=float(y), z=float(z)),
                 orientation=Quaternion(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2)))
 
 

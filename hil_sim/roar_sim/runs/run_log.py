@@ -16,6 +16,7 @@ import json
 import numpy as np
 
 from roar.recorder import Recorder
+from roar.tracks.tunnel import CONE_HEIGHT_M, CONE_RADIUS_M, MARKER_SIZE_M
 
 FIRMWARE = "/sim/firmware"
 CONTACTS = "/sim/contacts"
@@ -28,6 +29,7 @@ PATH = "/planning/path"
 TREE = "/planning/tree"
 CONES = "/perception/cones"
 MARKERS = "/perception/markers"
+SCENE = "/perception/scene"
 LOCAL_GRID = "/localization/local_grid"
 GRID_EVERY_S = 0.5  # [s] between recorded trees and local grids
 DRIVER_STATE = "/autopilot/state"
@@ -157,11 +159,15 @@ class SimLog:
         for poses in driver.paths[self._paths:]:
             self.rec.poses(PATH, poses[:: max(1, len(poses) // 200)], t)
         self._paths = len(driver.paths)
+        changed = False
         for kind, topic in (("cone", CONES), ("marker", MARKERS)):
             found = driver.objects(kind)
             if found != self._objects.get(kind):
-                self._objects[kind] = found
+                self._objects[kind], changed = found, True
                 self.rec.poses(topic, [(x, y, 0.0) for x, y in found] or np.zeros((0, 3)), t)
+        if changed:  # the same for Foxglove's 3D panel: cones and floor markers drawn as what they are
+            self.rec.objects(SCENE, self._objects["cone"], self._objects["marker"], t, CONE_RADIUS_M, CONE_HEIGHT_M,
+                             MARKER_SIZE_M)
         if self.robot.time_s + 1e-9 < self._next_grid_s:
             return
         self._next_grid_s = self.robot.time_s + GRID_EVERY_S
