@@ -135,3 +135,18 @@ def test_state_reads_the_velocity_and_state_characteristics(car):
         assert state.speed_m_s == 0.0 and state.throttle_out_us == 1750.0
         assert state.x_m is None and state.yaw_rad is None and host.lidar() is None
         assert host.wait_for(timeout_s=0.2) is None  # BLE carries no reply lines
+
+
+def test_a_ble_car_is_recorded_like_any_other(car, tmp_path):
+    pytest.importorskip("foxglove", reason="pip install foxglove-sdk (the project's record extra)")
+    from roar.replay import messages, read_log
+
+    path = tmp_path / "ble.mcap"
+    with Vehicle("ble://", record=path, **BACKENDS) as v:
+        v.drive(throttle=0.5, steering=-0.5)
+        assert wait_for(lambda: outputs(car) == (1750, 1250))
+        time.sleep(0.1)
+    sent = [(m["throttle_us"], m["steering_us"]) for _, _, m in messages(path, ["/control"])]
+    assert (1750, 1250) in sent and sent[-1] == (1500, 1500)  # what went over the air, neutral last
+    assert len(sent) == len(car.writes)  # every write the car got, recorded once
+    assert read_log(path).metadata["run"]["clock"] == "monotonic"
