@@ -268,14 +268,19 @@ class Recorder:
                                   start_angle=float(start_rad), end_angle=float(end_rad), ranges=r.tolist(),
                                   intensities=[]), t_ns, "LaserScan")
 
-    def image(self, rgb, t_ns: int, fx_px: float | None = None) -> None:
-        """A camera frame (RGB, H x W x 3, uint8) as JPEG; its calibration (a pinhole of focal
-        length fx_px, or 70 degrees vertical) once per size."""
+    def image(self, rgb, t_ns: int, fx_px: float | None = None, lossless: bool = False) -> None:
+        """A camera frame (RGB, H x W x 3, uint8) as JPEG (lossless: PNG, the exact pixels, for a
+        replay that must see what the driver saw); its calibration (a pinhole of focal length
+        fx_px, or 70 degrees vertical) once per size."""
         from foxglove.messages import CameraCalibration, CompressedImage
+
+        import numpy as np
 
         from roar.vision.geometry import cv2
 
-        ok, jpeg = cv2().imencode(".jpg", rgb[:, :, ::-1], [cv2().IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
+        bgr = np.ascontiguousarray(rgb[:, :, ::-1])
+        ok, jpeg = (cv2().imencode(".png", bgr, [cv2().IMWRITE_PNG_COMPRESSION, 1]) if lossless else
+                    cv2().imencode(".jpg", bgr, [cv2().IMWRITE_JPEG_QUALITY, JPEG_QUALITY]))
         if not ok:
             raise RecordError("a camera frame could not be encoded as JPEG")
         h, w = rgb.shape[:2]
@@ -288,8 +293,8 @@ class Recorder:
                 K=[f, 0.0, cx, 0.0, f, cy, 0.0, 0.0, 1.0], R=[1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0],
                 P=[f, 0.0, cx, 0.0, 0.0, f, cy, 0.0, 0.0, 0.0, 1.0, 0.0]), t_ns, "CameraCalibration")
             self._calibrated = (w, h)
-        self._log(IMAGE, CompressedImage(timestamp=stamp, frame_id=CAMERA_FRAME, data=jpeg.tobytes(), format="jpeg"),
-                  t_ns, "CompressedImage")
+        self._log(IMAGE, CompressedImage(timestamp=stamp, frame_id=CAMERA_FRAME, data=jpeg.tobytes(),
+                                         format="png" if lossless else "jpeg"), t_ns, "CompressedImage")
 
     def note(self, name: str, fields: dict[str, str]) -> None:
         """A metadata record (strings) learnt during the run: the car's protocol version..."""

@@ -275,3 +275,33 @@ def localize(path: str | Path, known) -> list[tuple[tuple[float, float, float], 
                                 s["range_min_m"], s["range_max_m"]))
         out.append((tuple(step["pose"]), tuple(float(v) for v in f.pose)))
     return out
+
+
+def lanes(path: str | Path, camera=None) -> list[tuple[dict, dict]]:
+    """Run a recorded lane driver's detector again, open loop, over the frames it saw (recorded
+    losslessly), with the simulated car's camera unless `camera` (a roar.vision.geometry
+    CameraPreset) says otherwise. Returns (recorded, replayed) per frame, each {lines, offset_m,
+    heading_rad}: equal, bit for bit, when the detector is the one that ran."""
+    import numpy as np
+
+    from roar.vision.geometry import SIMULATED_CAR_CAMERA, BirdsEye, cv2
+    from roar.vision.lanes import LaneDetector
+
+    camera = camera or SIMULATED_CAR_CAMERA
+    seen = [m for _, _, m in messages(path, ["/perception/lanes"], as_written=True)]
+    if not seen:
+        raise ReplayError(f"{path}: no lane detections in this recording (roar race --driver lane --log)")
+    detector, out = None, []
+    frames = [m for _, _, m in messages(path, ["/camera/image"], as_written=True)]
+    if len(frames) != len(seen) or any(m.format != "png" for m in frames):
+        raise ReplayError(f"{path}: the lane driver's frames are not all here losslessly ({len(frames)} frames, "
+                          f"{len(seen)} detections)")
+    for frame, recorded in zip(frames, seen):
+        rgb = np.ascontiguousarray(cv2().imdecode(np.frombuffer(frame.data, np.uint8), cv2().IMREAD_COLOR)[:, :, ::-1])
+        if detector is None:
+            detector = LaneDetector(BirdsEye(camera.model(rgb.shape[1], rgb.shape[0])))
+        found = detector.detect(rgb)
+        centre = found.centre is not None
+        out.append((recorded, {"lines": found.source, "offset_m": found.offset_m if centre else None,
+                               "heading_rad": found.heading_rad if centre else None}))
+    return out

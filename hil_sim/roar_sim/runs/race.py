@@ -86,8 +86,8 @@ class LaneCourse:
         """The lane driver's frame (RGB, depth); with frames, also written as NNNNNN.png and
         NNNNNN_depth.npy (metres), the folder `roar vision` reads."""
         rgb, depth = self._frame()
-        if self.log is not None:
-            self.log.image(rgb)
+        if self.log is not None:  # the exact pixels: roar.replay.lanes feeds them to the detector again
+            self.log.image(rgb, lossless=True)
         if self.frames is not None:
             from roar.vision.geometry import cv2
 

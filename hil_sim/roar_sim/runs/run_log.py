@@ -136,9 +136,9 @@ class SimLog:
         """Another pose (x, y, yaw) [m, m, rad] now: another car's, say."""
         self.rec.pose(topic, pose, self.t_ns())
 
-    def image(self, rgb) -> None:
-        """A frame the driver's camera took now."""
-        self.rec.image(rgb, self.t_ns())
+    def image(self, rgb, lossless: bool = False) -> None:
+        """A frame the driver's camera took now (lossless: as PNG, for a replay of the detector)."""
+        self.rec.image(rgb, self.t_ns(), lossless=lossless)
 
     def lanes(self, lanes) -> None:
         """What the lane detector made of the frame (roar.vision.lanes.Lanes)."""
