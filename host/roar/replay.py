@@ -177,8 +177,8 @@ def commands(path: str | Path) -> list[tuple[float, dict]]:
     out, last, t0 = [], None, None
     for _, t, msg in messages(path, ["/control"]):
         t0 = t if t0 is None else t0
-        said = {k: msg.get(k) for k in ("throttle_us", "steering_us", "speed_mm_s")}
-        if msg.get("result") in ("ok", "setpoint") and said != last:
+        said = {k: msg.get(k) for k in ("throttle_us", "steering_us", "speed_mm_s", "throttle", "steering")}
+        if msg.get("result") in ("ok", "setpoint", "fractions") and said != last:
             out.append(((t - t0) / 1e9, msg))
             last = said
     return out
@@ -198,6 +198,8 @@ def play(path: str | Path, car, on_command=None) -> int:
         time.sleep(max(0.0, at_s - (time.monotonic() - start)))
         if msg.get("result") == "setpoint":
             car.drive(speed=msg["speed_mm_s"] / 1000, steering=(msg["steering_us"] - 1500) / 500)
+        elif msg.get("result") == "fractions":  # a link that carried fractions (the Junior's duties)
+            car.drive(msg["throttle"], msg["steering"])
         else:
             car.send_pulses(msg["throttle_us"], msg["steering_us"])
         if on_command is not None:
