@@ -416,3 +416,17 @@ def test_roar_stream_without_matplotlib_names_the_extra(capsys, monkeypatch):
     assert main(["stream", "udp://127.0.0.1", "--seconds", "1"]) == 1
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "pip install 'roar-platform[camera,vision]'" in err, err
+
+
+def test_roar_stream_leaves_no_figure_open_in_the_calling_process(tmp_path, monkeypatch, capsys):
+    """A program (or the suite) calling roar stream again and again must not pile up figures."""
+    import matplotlib.pyplot as plt
+
+    from roar.cli import main
+
+    monkeypatch.setenv("DISPLAY", "")
+    before = len(plt.get_fignums())
+    for _ in range(3):
+        assert main(["stream", "udp://127.0.0.1", "--seconds", "0.2", "--out", str(tmp_path)]) == 1  # nothing there
+    assert len(plt.get_fignums()) == before
+    assert "no frame from udp://127.0.0.1" in capsys.readouterr().err

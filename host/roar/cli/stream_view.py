@@ -79,6 +79,9 @@ class _Window:
         if not self.headless:
             self.plt.pause(0.001)
 
+    def close(self) -> None:
+        self.plt.close(self.fig)
+
     def save(self, name: str) -> Path:
         self.out.mkdir(parents=True, exist_ok=True)
         path = self.out / name
@@ -99,6 +102,14 @@ async def watch(host: str, seconds: float, push: bool, out: Path | None, window:
             raise StreamError(f"cannot listen for the {kind} stream: {e.strerror or e}") from None
         receivers[kind] = rx
     view = _Window(out) if window else None
+    try:
+        return await _watch(host, seconds, receivers, view, log)
+    finally:
+        if view is not None:
+            view.close()  # its figure too: a program calling this again leaks none
+
+
+async def _watch(host: str, seconds: float, receivers: dict, view, log) -> int:
     latest: dict = {}
     latencies: dict[str, list[float]] = {k: [] for k in KINDS}
     counts = dict.fromkeys(KINDS, 0)
