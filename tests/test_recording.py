@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -258,8 +259,9 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def foxglove_client(port: int, topics: list[str], count: int, seconds: float = 30.0) -> list[dict]:
-    """The npm @foxglove/ws-protocol client's events (tests/foxglove_client/client.mjs)."""
+def foxglove_client(port: int, topics: list[str], count: int, seconds: float = 30.0) -> tuple[dict, dict]:
+    """What the npm @foxglove/ws-protocol client (tests/foxglove_client/client.mjs) saw:
+    (advertised channels by topic, the messages it received by topic)."""
     import shutil
 
     if shutil.which("node") is None or not (CLIENT / "node_modules" / "@foxglove" / "ws-protocol").exists():
@@ -268,32 +270,38 @@ def foxglove_client(port: int, topics: list[str], count: int, seconds: float = 3
                            str(seconds)], capture_output=True, text=True, timeout=seconds + 30)
     events = [json.loads(line) for line in done.stdout.splitlines() if line.startswith("{")]
     assert done.returncode == 0, (done.stdout[-2000:], done.stderr[-2000:])
-    return events
+    got: dict[str, list[dict]] = {}
+    for e in events[1:]:
+        got.setdefault(e["topic"], []).append(e)
+    return {c["topic"]: c for c in events[0]["advertised"]}, got
+
+
+@contextmanager
+def served(*argv: str, lines: int):
+    """`roar sim ...` in a subprocess: yields its first `lines` lines of output; Ctrl-C at the end."""
+    sim = subprocess.Popen([sys.executable, "-m", "roar.cli", "sim", *argv], stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True)
+    try:
+        yield [sim.stdout.readline() for _ in range(lines)]
+    finally:
+        sim.send_signal(signal.SIGINT)
+        sim.communicate(timeout=30)
 
 
 def test_a_served_car_is_live_in_an_independent_foxglove_client(tmp_path):
     from roar import Vehicle
 
     port = free_port()
-    sim = subprocess.Popen([sys.executable, "-m", "roar.cli", "sim", "--serial", "--foxglove", str(port),
-                            "--seconds", "60"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        path = sim.stdout.readline().split(" on ")[1].split(" ")[0]
-        assert "ws://127.0.0.1" in sim.stdout.readline()
+    with served("--serial", "--foxglove", str(port), "--seconds", "60", lines=2) as said:
+        path = said[0].split(" on ")[1].split(" ")[0]
+        assert "ws://127.0.0.1" in said[1]
         with Vehicle(f"serial://{path}") as car:
             car.send_pulses(1600, 1300)
             assert car.flush(2.0)
             time.sleep(0.1)  # the simulator has it (its pty pumped)
-            events = foxglove_client(port, ["/control", "/sim/firmware", "/car/state", "/car/pose"], 25)
-    finally:
-        sim.send_signal(signal.SIGINT)
-        sim.communicate(timeout=30)
-    advertised = {c["topic"]: c for c in events[0]["advertised"]}
+            advertised, got = foxglove_client(port, ["/control", "/sim/firmware", "/car/state", "/car/pose"], 25)
     assert advertised["/car/pose"]["schemaName"] == "foxglove.PoseInFrame"
     assert advertised["/sim/firmware"]["encoding"] == "json"
-    got = {}
-    for e in events[1:]:
-        got.setdefault(e["topic"], []).append(e)
     assert all(len(got[t]) == 25 for t in ("/control", "/sim/firmware", "/car/state", "/car/pose"))
     said = [(e["json"].get("throttle_us"), e["json"].get("steering_us")) for e in got["/control"]]
     assert said[-10:] == [(1600, 1300)] * 10, [(e["logTime"], e["json"]["text"]) for e in got["/control"]]  # as the firmware got it
@@ -585,22 +593,13 @@ def test_a_served_junior_is_live_too(tmp_path):
     from roar import Vehicle
 
     port, http = free_port(), free_port()
-    sim = subprocess.Popen([sys.executable, "-m", "roar.cli", "sim", "--robot", "junior", "--http",
-                            f"127.0.0.1:{http}", "--foxglove", str(port), "--seconds", "60"], stdout=subprocess.PIPE,
-                           stderr=subprocess.PIPE, text=True)
-    try:
-        lines = [sim.stdout.readline() for _ in range(4)]
+    with served("--robot", "junior", "--http", f"127.0.0.1:{http}", "--foxglove", str(port), "--seconds", "60",
+                lines=4) as lines:
         assert any(f"ws://127.0.0.1:{port}" in line for line in lines), lines
         with Vehicle(f"http://127.0.0.1:{http}") as car:
             car.drive(0.5, 0.0)
             time.sleep(0.3)
-            events = foxglove_client(port, ["/control", "/sim/firmware", "/car/state"], 10)
-    finally:
-        sim.send_signal(signal.SIGINT)
-        sim.communicate(timeout=30)
-    got = {}
-    for e in events[1:]:
-        got.setdefault(e["topic"], []).append(e)
+            _, got = foxglove_client(port, ["/control", "/sim/firmware", "/car/state"], 10)
     assert all(e["json"]["result"] == "http" and e["json"]["text"].startswith("GET /") for e in got["/control"])
     assert any(max(e["json"]["duty_permille"]) > 0 for e in got["/sim/firmware"])  # it drives its motors
 
@@ -608,19 +607,10 @@ def test_a_served_junior_is_live_too(tmp_path):
 def test_the_phone_streaming_car_is_live_too(tmp_path):
     port = free_port()
     ports = [free_port() for _ in range(4)]
-    sim = subprocess.Popen([sys.executable, "-m", "roar.cli", "sim", "--stream", "--ports", ",".join(map(str, ports)),
-                            "--foxglove", str(port), "--seconds", "60", "--rate", "10"], stdout=subprocess.PIPE,
-                           stderr=subprocess.PIPE, text=True)
-    try:
-        lines = [sim.stdout.readline() for _ in range(2)]
-        assert any(f"ws://127.0.0.1:{port}" in line for line in lines), (lines, sim.stderr.read() if sim.poll() else "")
-        events = foxglove_client(port, ["/camera/image", "/sim/firmware", "/car/state"], 5)
-    finally:
-        sim.send_signal(signal.SIGINT)
-        sim.communicate(timeout=30)
-    got = {}
-    for e in events[1:]:
-        got.setdefault(e["topic"], []).append(e)
+    with served("--stream", "--ports", ",".join(map(str, ports)), "--foxglove", str(port), "--seconds", "60",
+                "--rate", "10", lines=2) as lines:
+        assert any(f"ws://127.0.0.1:{port}" in line for line in lines), lines
+        _, got = foxglove_client(port, ["/camera/image", "/sim/firmware", "/car/state"], 5)
     assert all(e["bytes"] > 1000 for e in got["/camera/image"]) and len(got["/car/state"]) == 5
 
 

@@ -71,8 +71,9 @@ def _command(msg: dict, angle: float, throttle: float) -> tuple[float, float]:
     return float(angle), float(throttle)
 
 
-def _mode(path) -> str:
-    return "local" if metadata(path).get("run", {}).get("driver") else "user"
+def _mode(run: dict) -> str:
+    """A tub's user/mode for a recording's "run" record: an autopilot's race says its driver."""
+    return "local" if run.get("driver") else "user"
 
 
 def write_npz(path: str | Path, out: str | Path) -> int:
@@ -95,7 +96,7 @@ def write_donkey(path: str | Path, out: str | Path) -> int:
     (out / "images").mkdir(parents=True, exist_ok=True)
     run = metadata(path).get("run", {})
     offset_ms = int(run.get("wall_clock_offset_ns", 0)) // 1_000_000  # monotonic -> wall clock (0: simulated)
-    mode = _mode(path)
+    mode = _mode(run)
     day = time.strftime("%y-%m-%d")
     session = f"{day}_0"
     catalogs: list[str] = []

@@ -31,6 +31,7 @@ from roar.tracks.track import Track, TrackError
 from roar.tracks.tunnel import MARKER_SIZE_M
 from roar.vision.geometry import SIMULATED_CAR_CAMERA
 from roar.vision.tracking import CONFIRM_HITS
+from roar.vision.view import CameraView
 from roar_sim.clock.lockstep import CONTROL_PERIOD_S
 from roar_sim.runs.localize import PARTICLES, LocalizedCar
 from roar_sim.sensors.camera_noise import ShakyCamera
@@ -258,12 +259,12 @@ class _Referee:
     had in view in the frames the detector received."""
 
     def __init__(self, track: Track, bot, camera, result: ChallengeResult) -> None:
-        self.bot, self.camera, self.result = bot, camera, result
+        self.bot, self.result = bot, result
         self.course = track.course
         self.markers = _marker_polygons(self.course)
         self.open_floor = track.region.buffer(0.02)
         self.cone_bodies = list(bot.plant.world.cones)
-        self.half_fov = math.atan(camera.width / 2 / camera.fx)  # [rad]
+        self.view = CameraView(camera, None, near_m=0.5, far_m=SEEN_WITHIN_M, fov_share=0.9)  # the geometry
         self.in_frames = {"cone": {}, "marker": {}}  # kind -> index -> frames received with it in view
         self.touched_wall = False
         self.outline = Footprint(margin_m=0.0).corners()  # [m] the car's, about its rear axle
@@ -304,13 +305,10 @@ class _Referee:
 
     def _in_view(self, pose, x: float, y: float) -> bool:
         """Whether the camera at the true pose sees (x, y): in its field of view, within
-        SEEN_WITHIN_M, no wall of the world between."""
-        cx = pose[0] + self.camera.x_m * math.cos(pose[2])
-        cy = pose[1] + self.camera.x_m * math.sin(pose[2])
-        bearing = math.remainder(math.atan2(y - cy, x - cx) - pose[2], math.tau)
-        if not (abs(bearing) < self.half_fov * 0.9 and 0.5 < math.hypot(x - cx, y - cy) < SEEN_WITHIN_M):
+        SEEN_WITHIN_M, no wall of the world (the truth, not the map) between."""
+        if not self.view.sees(pose, x, y):
             return False
-        return self.open_floor.contains(shapely.LineString([(cx, cy), (x, y)]))
+        return self.open_floor.contains(shapely.LineString([self.view.camera_xy(pose), (x, y)]))
 
 
 DESCRIPTION = """The MIT challenge on the simulated car: from a tunnel world's start to its goal as fast as

@@ -32,11 +32,16 @@ class CameraView:
 
             self._rays = RayMarcher(known, far_m + 1.0)
 
+    def camera_xy(self, pose) -> tuple[float, float]:
+        """[m] where the camera is when the car is at pose (x, y, yaw)."""
+        px, py, yaw = pose
+        return (px + self.camera.x_m * math.cos(yaw) - self.camera.y_m * math.sin(yaw),
+                py + self.camera.x_m * math.sin(yaw) + self.camera.y_m * math.cos(yaw))
+
     def sees(self, pose, x: float, y: float) -> bool:
         """Whether the camera at pose (x, y, yaw) [m, m, rad] sees the floor point (x, y) [m]."""
-        px, py, yaw = pose
-        cx = px + self.camera.x_m * math.cos(yaw) - self.camera.y_m * math.sin(yaw)
-        cy = py + self.camera.x_m * math.sin(yaw) + self.camera.y_m * math.cos(yaw)
+        yaw = pose[2]
+        cx, cy = self.camera_xy(pose)
         distance = math.hypot(x - cx, y - cy)
         heading = math.atan2(y - cy, x - cx)
         if not (self.near_m < distance < self.far_m and abs(math.remainder(heading - yaw, math.tau)) < self.half_fov_rad):
