@@ -37,6 +37,7 @@ BASE = {
     "replay": ["{recording}"],
     "dataset": ["{recording}", "--out", "{tmp}/tub"],
     "calibrate": ["loop://", "--file", "{tmp}/calibration.toml"],
+    "web": ["loop://", "--port", "18887", "--for", "0.3"],
     "scan": ["--timeout", "0.1"],
     "ports": [],
     "stream": ["udp://127.0.0.1", "--seconds", "0.3"],
@@ -90,7 +91,7 @@ RUNS = {
     ("calibrate", "--file", "99999999999999999999"): "a calibration file named 999...",
 }
 # names and paths: any word is a name (a file to write, a folder): a run, if it is writable
-NAMES = {"--out", "--plot", "--video", "--record", "--file", "--calibration", "--log"}
+NAMES = {"--out", "--plot", "--video", "--record", "--file", "--calibration", "--log", "--record-dir"}
 
 
 def commands() -> dict[str, tuple[list[str], argparse.ArgumentParser]]:

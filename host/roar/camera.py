@@ -52,6 +52,14 @@ def decode_image(data: bytes) -> np.ndarray | None:
         return None
 
 
+def encode_jpeg(rgb: np.ndarray, quality: int = 80) -> bytes:
+    """An HxWx3 uint8 RGB array as JPEG bytes."""
+    Image, _ = _pillow()
+    out = io.BytesIO()
+    Image.fromarray(np.ascontiguousarray(rgb)).save(out, format="JPEG", quality=quality)
+    return out.getvalue()
+
+
 def _connect(url: str, timeout_s: float) -> tuple[http.client.HTTPConnection, str]:
     parts = urlsplit(url)
     if parts.scheme != "http" or not parts.hostname:

@@ -339,9 +339,10 @@ LIDAR_FOV_RAD = math.radians(270)  # [rad] a Transport's lidar(): distances from
 
 class RecordingTransport:
     """A transport whose every write, reply line, state, scan and camera frame is also recorded:
-    what Vehicle(..., record=PATH) drives through. Everything else is the link's own."""
+    what Vehicle(..., record=PATH) drives through. Everything else is the link's own. The
+    recorder may be swapped or set to None (nothing recorded) at any time (Vehicle.record)."""
 
-    def __init__(self, inner, recorder: Recorder) -> None:
+    def __init__(self, inner, recorder: Recorder | None) -> None:
         self.inner, self.recorder = inner, recorder
         self._t0 = time.monotonic_ns()
         self._simulated = getattr(inner, "scheme", "") == "sim"
@@ -363,40 +364,47 @@ class RecordingTransport:
 
     def write(self, data: bytes) -> None:
         self.inner.write(data)
+        rec = self.recorder  # read once: Vehicle.record(None) may take it away meanwhile
+        if rec is None:
+            return
         state = self.inner.state()  # one snapshot: its time is the record's
         t = self.now_ns(state)
-        self.recorder.control(data, t)
+        rec.control(data, t)
         if state is not None:
-            self.recorder.state(state, t)
+            rec.state(state, t)
 
     def read_lines(self) -> list[str]:
         lines = self.inner.read_lines()
-        if lines:
+        rec = self.recorder
+        if lines and rec is not None:
             t = self.now_ns()
             for line in lines:
-                self.recorder.line(line, t)
+                rec.line(line, t)
         return lines
 
     def lidar(self):
         ranges = self.inner.lidar()
-        if ranges is not None:
-            self.recorder.scan(ranges, -LIDAR_FOV_RAD / 2, LIDAR_FOV_RAD / 2, self.now_ns())
+        rec = self.recorder
+        if ranges is not None and rec is not None:
+            rec.scan(ranges, -LIDAR_FOV_RAD / 2, LIDAR_FOV_RAD / 2, self.now_ns())
         return ranges
 
     def camera(self, width: int, height: int):
         frame = self.inner.camera(width, height)
-        if frame is not None:
+        rec = self.recorder
+        if frame is not None and rec is not None:
             t = self.now_ns()
-            self.recorder.image(frame[0], t)
+            rec.image(frame[0], t)
             if frame[1] is not None:
-                self.recorder.depth(frame[1], t)
+                rec.depth(frame[1], t)
         return frame
 
     def close(self) -> None:
         try:
             self.inner.close()
         finally:
-            self.recorder.close()
+            if self.recorder is not None:
+                self.recorder.close()
 
 
 def _pose(x: float, y: float, yaw: float, z: float = 0.0):

@@ -72,10 +72,9 @@ class Vehicle:
         self.transport: Transport = open_url(url, **transport_options)
         self.recorder = None
         if record is not None:
-            from roar.recorder import Recorder, RecordingTransport
+            from roar.recorder import RecordingTransport
 
-            self.recorder = record if isinstance(record, Recorder) else Recorder(
-                record, {"car": url, "command": " ".join(sys.argv)}, simulated=self.transport.scheme == "sim")
+            self.recorder = self._new_recorder(record)
             self.transport = RecordingTransport(self.transport, self.recorder)
         try:
             self.transport.open()
@@ -303,6 +302,32 @@ class Vehicle:
     def camera_stream(self) -> Any:
         """An iterator of RGB frames (a Junior's MJPEG stream), or None where there is none."""
         return self.transport.camera_stream()
+
+    def _new_recorder(self, record):
+        from roar.recorder import Recorder
+
+        return record if isinstance(record, Recorder) else Recorder(
+            record, {"car": self.url, "command": " ".join(sys.argv)},
+            simulated=getattr(self.transport, "scheme", "") == "sim")
+
+    def record(self, target=None):
+        """Start recording the run from now into `target` (an MCAP path or a roar.recorder.Recorder),
+        finishing any recording under way; None: stop recording (the file is finished). Returns
+        the recorder (None when stopped)."""
+        from roar.recorder import RecordingTransport
+
+        self._check_usable()
+        recorder = None if target is None else self._new_recorder(target)
+        if not isinstance(self.transport, RecordingTransport):
+            wrapped = RecordingTransport(self.transport, None)
+            self.transport = self._sender.transport = wrapped  # one reference swap: the sender's next write records
+        previous, self.recorder = self.recorder, recorder
+        self.transport.recorder = recorder
+        if previous is not None:
+            if self.protocol_version is not None:
+                previous.note("car", {"protocol_version": str(self.protocol_version)})
+            previous.close()
+        return recorder
 
     def close(self) -> None:
         """Send neutral and release the link. Safe to call twice."""

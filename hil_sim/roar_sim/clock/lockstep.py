@@ -12,6 +12,11 @@ LOOP_US = 1_000  # [us] the firmware's main-loop period
 PHYSICS_US = 5_000  # [us] one PyBullet step
 CONTROL_PERIOD_S = spec.TIMING_HOST_SEND_PERIOD_US / 1e6  # [s] a host's command period (50 Hz)
 SLACK_S = 0.002  # [s] ahead by less than this, carry on without sleeping
+# [s] behind the wall clock by more than this (the process was busy: a camera frame rendered, a
+# browser starting), simulated time slips rather than catching up in a burst: a real car's time
+# never jumps, and a burst would run the firmware through the host's commands still to come,
+# tripping its failsafe for a gap the host never left
+MAX_BEHIND_S = 0.05
 
 
 def loops_until(t_us: int, end_us: int) -> int:
@@ -24,6 +29,7 @@ class Pacer:
     def __init__(self, speedup: float = 1.0) -> None:
         self.speedup = speedup
         self._wall_start: float | None = None  # [s] perf_counter when simulated time was 0
+        self.slips = 0  # times simulated time fell behind by more than MAX_BEHIND_S and slipped
 
     def keep_pace(self, sim_s: float) -> None:
         """Sleep until the wall clock reaches simulated time sim_s [s] (scaled by speedup)."""
@@ -34,6 +40,9 @@ class Pacer:
         ahead = wall_s - (now - self._wall_start)
         if ahead > SLACK_S:
             time.sleep(ahead)
+        elif ahead < -MAX_BEHIND_S:
+            self._wall_start += -ahead - MAX_BEHIND_S
+            self.slips += 1
 
 
 class Lockstep:

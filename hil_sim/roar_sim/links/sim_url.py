@@ -148,6 +148,19 @@ class SimTransport(Transport):
     def camera(self, width: int = 160, height: int = 120):
         return self._ask(lambda sim: sim.plant.camera(width, height))
 
+    @property
+    def autopilots(self) -> tuple[str, ...]:
+        """What autopilot(name) offers this robot (roar web's choice): roar_sim.links.autopilots."""
+        from roar_sim.links.autopilots import available
+
+        return available(self)
+
+    def autopilot(self, name: str):
+        """A driver of the robot's own, stepped by the host on what it reads over sim://."""
+        from roar_sim.links.autopilots import SimAutopilot
+
+        return SimAutopilot(self, name)
+
     def write(self, data: bytes) -> None:
         if not self._running.is_set():
             raise LinkLost(f"simulator stopped: {self._error}" if self._error else "simulator is not running")

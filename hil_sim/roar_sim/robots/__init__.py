@@ -98,6 +98,11 @@ class Robot(Lockstep):
         """One command in [-1, 1] each (steering +1 full right), as a host sends it."""
         raise NotImplementedError
 
+    def host_drive(self, throttle: float, steering: float) -> dict:
+        """A command of its agent as the keywords of roar.Vehicle.drive() for a host driving it
+        over sim:// (the same command drive() delivers)."""
+        return {"throttle": throttle, "steering": steering}
+
     def write(self, data: bytes) -> None:
         """Bytes a host sends on the robot's link, arriving now."""
         raise NotImplementedError

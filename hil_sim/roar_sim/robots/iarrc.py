@@ -130,6 +130,9 @@ class IarrcCar(Robot):
         speed_mm_s = round(throttle * FULL_SCALE_M_S * 1000)
         self.host(encode_setpoint(speed_mm_s, self.calibration.steering.to_us(steering)))
 
+    def host_drive(self, throttle: float, steering: float) -> dict:
+        return {"speed": throttle * FULL_SCALE_M_S, "steering": steering}
+
     @property
     def throttle_out_us(self) -> int:
         """[us] the throttle pulse the control task last wrote."""

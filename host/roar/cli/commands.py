@@ -203,3 +203,27 @@ def dataset(args) -> int:
     count = (write_donkey if args.format == "donkey" else write_npz)(args.file, args.out)
     print(f"{count} frames with their commands into {args.out} ({args.format})")
     return 0
+
+
+def web(args) -> int:
+    """Serve the browser controller for the car until Ctrl-C (or --for); neutral at the end."""
+    try:
+        from roar.web.server import WebServer
+        import websockets  # noqa: F401  (the page's socket)
+    except ImportError as e:
+        raise UserError(f"roar web needs {e.name}: pip install 'roar-platform[web]'") from None
+    with _vehicle(args) as car:
+        server = WebServer(car, host=args.host, port=args.port, record_dir=args.record_dir,
+                           max_speed_m_s=args.max_speed)
+        server.start()
+        try:
+            where = "" if server.loopback else " (anyone with this URL can drive: its token is the key)"
+            print(f"roar web: open {server.url}{where}; Ctrl-C ends (the car goes to neutral)", flush=True)
+            end = None if args.seconds is None else time.monotonic() + args.seconds
+            while server.serving and (end is None or time.monotonic() < end):
+                time.sleep(0.1)
+        finally:
+            server.stop()
+    print(f"served {server.pages_served} page(s); {server.ignored_total()} message(s) ignored, "
+          f"{sum(server.refused.values())} request(s) refused; the car was left at neutral")
+    return 0

@@ -15,8 +15,8 @@ from pathlib import Path
 from roar.calibration import default_path
 from roar.cli import plugins
 from roar.checks import MAX_SCAN_S
-from roar.cli.errors import (ArgumentParser, UserError, add_foxglove_option, number_option, path_option, run_command,
-                             seconds_option)
+from roar.cli.errors import (ArgumentParser, UserError, add_foxglove_option, number_option, path_option, port_option,
+                             run_command, seconds_option)
 from roar.transports.registry import url_help
 from roar.vision.geometry import SIMULATED_CAR_CAMERA
 
@@ -30,6 +30,7 @@ EXAMPLES = """examples:
   roar record sim://oval --out run.mcap  drive with the keyboard, everything recorded (open it in Foxglove)
   roar replay run.mcap                   what a recording holds: duration, channels, rates, gaps
   roar dataset run.mcap --out tub        its camera frames and commands as a DonkeyCar tub
+  roar web sim://oval                    drive from a browser: http://127.0.0.1:8887
   roar calibrate ble://                  set trim and end-points, saved for next time
   roar <command> --help                  more about one command
 """
@@ -47,6 +48,18 @@ def _add_calibration(p: argparse.ArgumentParser) -> None:
 def _add_log(p: argparse.ArgumentParser) -> None:
     p.add_argument("--log", type=path_option, metavar="MCAP",
                    help="record the run into this MCAP file (every message sent and line received, the state)")
+
+
+def _listen_address(text: str) -> str:
+    """An argparse type: an IP address to listen on (or localhost), not a name to look up."""
+    import ipaddress
+
+    if text != "localhost":
+        try:
+            ipaddress.ip_address(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be an IP address such as 127.0.0.1 or 0.0.0.0, got {text!r}") from None
+    return text
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -111,6 +124,27 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("file", type=path_option, metavar="MCAP", help="the recording (with camera frames)")
     p.add_argument("--format", choices=["donkey", "npz"], default="donkey", help="default donkey")
     p.add_argument("--out", type=path_option, required=True, metavar="PATH", help="the tub's folder, or the .npz")
+
+    p = sub.add_parser("web", help="drive and watch a car from a browser (phone or laptop)",
+                       description="Serve a page that drives the car (on-screen joystick, keys, gamepad; a "
+                                   "max-throttle limit; a stop button) and shows its camera, state and link, "
+                                   "with rolling plots; record on/off, and an autopilot on the simulator. One "
+                                   "page drives, others watch until they press Drive. The car goes to neutral "
+                                   "when the driver's page is hidden, closed, loses its socket or is silent "
+                                   "for 250 ms. Bound to 127.0.0.1 unless --host says otherwise; then a "
+                                   "token is needed, printed in the URL.")
+    p.add_argument("url", metavar="URL", nargs="?", default="sim://",
+                   help="the car (default sim://, the simulator: sim://oval gives it a track to follow)")
+    p.add_argument("--host", type=_listen_address, default="127.0.0.1",
+                   help="the IP address to listen on (default 127.0.0.1; 0.0.0.0: every interface, with a token)")
+    p.add_argument("--port", type=port_option, default=8887, help="default 8887")
+    p.add_argument("--record-dir", type=path_option, default=Path("out/web"), metavar="DIR",
+                   help="where the record button writes its MCAP files (default out/web)")
+    p.add_argument("--max-speed", type=number_option(0.1, 10, "m/s"), default=2.0, metavar="M/S",
+                   help="full stick on a car driven by speed (the IARRC car; default 2)")
+    p.add_argument("--for", dest="seconds", type=number_option(0, 86400, "s", low_open=True), default=None,
+                   metavar="SECONDS", help="stop serving after this long (default: Ctrl-C)")
+    _add_calibration(p)
 
     p = sub.add_parser("calibrate", help="set trim and end-points interactively",
                        description="Walk through steering and throttle trim and end-points with the car "
