@@ -109,6 +109,30 @@ def test_a_vehicle_records_what_it_sends_and_hears_in_simulated_time(tmp_path):
     assert log.metadata["run"]["clock"] == "simulated" and log.metadata["car"]["protocol_version"] == "1"
 
 
+def test_recording_starts_and_stops_mid_run_into_finished_files(tmp_path):
+    from roar import Vehicle
+
+    first, second = tmp_path / "first.mcap", tmp_path / "second.mcap"
+    with Vehicle("loop://") as car:
+        car.drive(0.2, 0.0)
+        assert car.flush()
+        before = len(car.transport.writes)
+        assert car.record(first) is car.recorder
+        car.drive(0.4, 0.0)
+        time.sleep(0.2)
+        car.record(second)  # the first is finished, the second begins
+        car.drive(-0.4, 0.0)
+        time.sleep(0.2)
+        assert car.record(None) is None and car.recorder is None
+        car.drive(0.0, 0.0)
+        time.sleep(0.1)
+        after = len(car.transport.inner.writes)
+    got = {p: [m["throttle_us"] for _, _, m in messages(p, ["/control"])] for p in (first, second)}
+    assert got[first] and set(got[first]) == {1700}  # nothing from before it started
+    assert got[second] and set(got[second]) == {1300}  # nothing after it stopped
+    assert before > 0 and after > before + len(got[first]) + len(got[second])  # the link saw every message
+
+
 def test_a_car_over_a_serial_link_is_recorded_on_the_hosts_clock(pty_car, tmp_path):
     from roar import Vehicle
 

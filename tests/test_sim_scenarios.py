@@ -205,3 +205,23 @@ def test_the_floor_is_painted_where_the_track_is():
     for d, rgb in ((floor.EDGE_LINE_WIDTH_M / 2 - 0.001, floor.EDGE_LINE_RGB),
                    (floor.EDGE_LINE_WIDTH_M / 2 + 0.001, floor.ASPHALT_RGB)):
         assert floor.colour_at(track, middle + d * across) == rgb and floor.colour_at(track, middle - d * across) == rgb
+
+
+def test_a_busy_simulator_slips_rather_than_tripping_the_failsafe_on_catch_up():
+    """Real time: when the simulator's thread is held up (a frame rendered, a browser starting),
+    simulated time slips; catching up in a burst would run the firmware past commands the host
+    has not sent yet, and its failsafe would trip on a gap no real car sees."""
+    import time
+
+    from roar import Vehicle
+    from roar.telemetry import EventKind
+
+    with Vehicle("sim://") as car:
+        assert car.wait_armed()
+        car.drive(0.2, 0.0)
+        time.sleep(0.1)
+        car.transport._ask(lambda sim: time.sleep(1.5))  # the simulator's thread busy for 1.5 s
+        time.sleep(0.3)
+        assert not any(e.kind is EventKind.FAILSAFE for e in car.events), list(car.events)
+        assert car.latched is False
+        assert car.transport.sim._pacer.slips >= 1

@@ -325,6 +325,29 @@ def test_cli_serves_for_a_while_and_leaves_the_car_at_neutral():
     assert r.returncode == 0 and "?token=" in r.stdout and "its token is the key" in r.stdout
 
 
+def test_ctrl_c_ends_at_once_with_a_page_connected():
+    import signal
+
+    port = free_port()
+    proc = subprocess.Popen([sys.executable, "-m", "roar.cli", "web", "loop://", "--port", str(port)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert "roar web: open" in proc.stdout.readline()
+        from websockets.sync.client import connect
+
+        with connect(f"ws://127.0.0.1:{port}/ws", origin=f"http://127.0.0.1:{port}") as ws:
+            ws.recv(timeout=5)
+            ws.send(drive(0.5))
+            time.sleep(0.2)
+            began = time.monotonic()
+            proc.send_signal(signal.SIGINT)
+            out, err = proc.communicate(timeout=10)
+            assert time.monotonic() - began < 3.0
+    finally:
+        proc.kill()
+    assert proc.returncode == 130 and "Traceback" not in err, err
+
+
 # --- the page in a real browser --------------------------------------------------------------------------
 
 
@@ -630,30 +653,38 @@ def test_record_button_writes_an_mcap_the_library_reads(page_on, sim_web):
     assert not server.problem
 
 
-def test_screenshot_is_not_blank_and_the_plot_draws(page_on, sim_web):
-    car, server, log = sim_web
+def test_screenshot_is_not_blank_and_the_plot_draws(browser):
+    """The page as a user sees it, the autopilot lapping the oval: written to out/roar_web.png
+    (the README's picture is one of these)."""
+    import io
+
     import numpy as np
     from PIL import Image
 
-    page = page_on()
-    page.keyboard.down("ArrowUp")
-    time.sleep(1.5)
-    page.keyboard.up("ArrowUp")
-    assert wait_for(lambda: page.evaluate("roar.plotted") > 20 and page.evaluate("roar.frames") > 5, 5.0)
-    out = ROOT / "out" / "roar_web.png"
-    out.parent.mkdir(exist_ok=True)
-    page.screenshot(path=str(out))
-    shot = np.asarray(Image.open(out).convert("RGB")).astype(int)
-    assert shot.std() > 20  # not one colour
-    plot = page.locator("#plot").screenshot()
-    import io
-
-    pixels = np.asarray(Image.open(io.BytesIO(plot)).convert("RGB")).astype(int)
-    for colour in ((0x4f, 0xc3, 0xf7), (0x81, 0xc7, 0x84)):  # the speed and throttle lines
-        near = (np.abs(pixels - colour).sum(axis=2) < 40).sum()
-        assert near > 50, f"no line of colour {colour} in the plot"
-    camera = page.locator("#camera").screenshot()
-    assert np.asarray(Image.open(io.BytesIO(camera)).convert("RGB")).std() > 10
+    with Vehicle("sim://oval", calibration=Calibration()) as car:
+        server = WebServer(car, port=0)
+        server.start()
+        context = browser.new_context(viewport={"width": 1280, "height": 800}, bypass_csp=True)
+        try:
+            page = context.new_page()
+            page.goto(server.url)
+            page.wait_for_function("window.roar && roar.state !== null", timeout=10_000)
+            page.select_option("#autopilot", "pose")
+            assert wait_for(lambda: page.evaluate("roar.plotted") > 60 and page.evaluate("roar.frames") > 20, 10.0)
+            out = ROOT / "out" / "roar_web.png"
+            out.parent.mkdir(exist_ok=True)
+            page.screenshot(path=str(out), full_page=True)
+            shot = np.asarray(Image.open(out).convert("RGB")).astype(int)
+            assert shot.std() > 20  # not one colour
+            assert "m/s" in page.inner_text("#speed") and "pose" in page.inner_text("#sent")
+            pixels = np.asarray(Image.open(io.BytesIO(page.locator("#plot").screenshot())).convert("RGB")).astype(int)
+            for colour in ((0x4f, 0xc3, 0xf7), (0x81, 0xc7, 0x84), (0xff, 0xb7, 0x4d)):  # speed, throttle, steering
+                assert (np.abs(pixels - colour).sum(axis=2) < 40).sum() > 50, f"no line of colour {colour} in the plot"
+            camera = np.asarray(Image.open(io.BytesIO(page.locator("#camera").screenshot())).convert("RGB"))
+            assert camera.std() > 10
+        finally:
+            context.close()
+            server.stop()
 
 
 def test_page_beyond_loopback_needs_the_token(browser):
@@ -703,3 +734,96 @@ def test_pose_autopilot_drives_the_track_while_the_page_holds_on(browser):
         finally:
             context.close()
             server.stop()
+
+
+def test_lane_autopilot_drives_by_camera_alone(browser):
+    from roar.tracks import get
+
+    line = get("oval").centerline
+    with Vehicle("sim://oval", calibration=Calibration()) as car:
+        server = WebServer(car, port=0)
+        server.start()
+        context = browser.new_context(bypass_csp=True)
+        try:
+            page = context.new_page()
+            page.goto(server.url)
+            page.wait_for_function("window.roar && roar.hello !== null && roar.state !== null", timeout=10_000)
+            start = car.state()
+            page.select_option("#autopilot", "lane")
+            worst = 0.0
+
+            def driven() -> bool:
+                nonlocal worst
+                s = car.state()
+                worst = max(worst, float(min(math.hypot(x - s.x_m, y - s.y_m) for x, y in line)))
+                return math.hypot(s.x_m - start.x_m, s.y_m - start.y_m) > 1.5
+            assert wait_for(driven, 15.0) and not server.problem, server.problem
+            assert worst < 0.4  # on the road (0.6 m each side of the centre line)
+        finally:
+            context.close()
+            server.stop()
+
+
+def two_free_ports() -> int:
+    """P with P and P - 1 free (a served Junior's control and camera ports)."""
+    for _ in range(50):
+        p = free_port()
+        with socket.socket() as s:
+            try:
+                s.bind(("127.0.0.1", p - 1))
+            except OSError:
+                continue
+        return p
+    raise RuntimeError("no two free ports in a row")
+
+
+def served(*argv: str, lines: int):
+    """`roar sim ...` in a subprocess, after it printed `lines` lines; Ctrl-C at the end."""
+    import contextlib
+    import signal
+
+    @contextlib.contextmanager
+    def run():
+        sim = subprocess.Popen([sys.executable, "-m", "roar.cli", "sim", *argv], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+        try:
+            yield [sim.stdout.readline() for _ in range(lines)]
+        finally:
+            sim.send_signal(signal.SIGINT)
+            sim.communicate(timeout=30)
+    return run()
+
+
+def frames_on_a_page(browser, car, count: int = 3) -> tuple[int, float]:
+    """Serve car, open the page, wait for `count` camera frames: (frames, the fps it shows)."""
+    server = WebServer(car, port=0)
+    server.start()
+    context = browser.new_context(bypass_csp=True)
+    try:
+        page = context.new_page()
+        page.goto(server.url)
+        page.wait_for_function("window.roar && roar.state !== null", timeout=10_000)
+        wait_for(lambda: page.evaluate("roar.frames") >= count, 10.0)
+        page.keyboard.down("ArrowUp")  # it drives too
+        assert wait_for(lambda: server.applied[0] > 0 and server.sent_commands >= 1, 2.0)
+        page.keyboard.up("ArrowUp")
+        assert not server.problem, server.problem
+        return page.evaluate("roar.frames"), float(page.inner_text("#fps").split()[0])
+    finally:
+        context.close()
+        server.stop()
+
+
+def test_a_juniors_mjpeg_stream_reaches_the_page(browser):
+    port = two_free_ports()
+    with served("--robot", "junior", "--http", f"127.0.0.1:{port}", "--seconds", "60", lines=2):
+        with Vehicle(f"http://127.0.0.1:{port}", calibration=Calibration()) as car:
+            frames, fps = frames_on_a_page(browser, car)
+    assert frames >= 3 and fps > 1
+
+
+def test_a_phones_udp_stream_reaches_the_page(browser):
+    with served("--stream", "--seconds", "60", "--rate", "10", lines=1):
+        with Vehicle("udp://127.0.0.1", calibration=Calibration()) as car:
+            frames, fps = frames_on_a_page(browser, car)
+    assert frames >= 3 and fps > 1

@@ -158,7 +158,7 @@ class WebServer:
         self._stopping, self._tick = asyncio.Event(), asyncio.Condition()
         try:
             server = await serve(self._client, self.host, self.port, process_request=self._http,
-                                 max_size=MAX_MESSAGE_CHARS * 4, ping_interval=5, ping_timeout=5,
+                                 max_size=MAX_MESSAGE_CHARS * 4, ping_interval=5, ping_timeout=5, close_timeout=1,
                                  server_header=None, logger=_QUIET)
         except OSError as e:
             self._start_error = WebError(f"cannot serve on {self.host}:{self.port}: "
@@ -211,6 +211,8 @@ class WebServer:
                 return self._refuse(connection, http.HTTPStatus.UNAUTHORIZED, "no token",
                                     "no token: open the URL `roar web` printed")
             return None  # the WebSocket handshake goes on
+        if path.path == "/favicon.ico":  # browsers ask; the page has none
+            return connection.respond(http.HTTPStatus.NO_CONTENT, "")
         if path.path not in STATIC:
             return self._refuse(connection, http.HTTPStatus.NOT_FOUND, "not found", "not found")
         if path.path == "/" and self.token:
