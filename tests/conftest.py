@@ -1,3 +1,4 @@
+import contextlib
 import os
 import shutil
 import socket
@@ -96,3 +97,25 @@ def virtual_display(tmp_path_factory):
     yield f":{number}"
     server.terminate()
     server.wait(timeout=10)
+
+
+def free_port() -> int:
+    """A TCP port on 127.0.0.1 nobody listens on now."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@contextlib.contextmanager
+def served(*argv: str, lines: int):
+    """`roar sim ...` in a subprocess: yields its first `lines` lines of output; Ctrl-C at the end."""
+    import signal
+    import sys
+
+    sim = subprocess.Popen([sys.executable, "-m", "roar.cli", "sim", *argv], stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True)
+    try:
+        yield [sim.stdout.readline() for _ in range(lines)]
+    finally:
+        sim.send_signal(signal.SIGINT)
+        sim.communicate(timeout=30)

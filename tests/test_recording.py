@@ -10,11 +10,12 @@ import signal
 import subprocess
 import sys
 import time
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+from conftest import free_port, served
 
 pytest.importorskip("foxglove", reason="pip install foxglove-sdk (the project's record extra)")
 pytest.importorskip("mcap", reason="pip install mcap (the project's record extra)")
@@ -275,14 +276,6 @@ def test_a_race_on_the_filters_pose_records_what_only_the_simulator_knows(tmp_pa
 CLIENT = Path(__file__).parent / "foxglove_client"
 
 
-def free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def foxglove_client(port: int, topics: list[str], count: int, seconds: float = 30.0) -> tuple[dict, dict]:
     """What the npm @foxglove/ws-protocol client (tests/foxglove_client/client.mjs) saw:
     (advertised channels by topic, the messages it received by topic)."""
@@ -298,18 +291,6 @@ def foxglove_client(port: int, topics: list[str], count: int, seconds: float = 3
     for e in events[1:]:
         got.setdefault(e["topic"], []).append(e)
     return {c["topic"]: c for c in events[0]["advertised"]}, got
-
-
-@contextmanager
-def served(*argv: str, lines: int):
-    """`roar sim ...` in a subprocess: yields its first `lines` lines of output; Ctrl-C at the end."""
-    sim = subprocess.Popen([sys.executable, "-m", "roar.cli", "sim", *argv], stdout=subprocess.PIPE,
-                           stderr=subprocess.PIPE, text=True)
-    try:
-        yield [sim.stdout.readline() for _ in range(lines)]
-    finally:
-        sim.send_signal(signal.SIGINT)
-        sim.communicate(timeout=30)
 
 
 def test_a_served_car_is_live_in_an_independent_foxglove_client(tmp_path):

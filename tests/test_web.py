@@ -4,9 +4,9 @@ the simulated car."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
-import shutil
 import socket
 import subprocess
 import sys
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import ROOT, wait_for
+from conftest import ROOT, free_port, served, wait_for
 
 pytest.importorskip("websockets", reason="roar web needs websockets: pip install 'roar-platform[web]'")
 
@@ -311,12 +311,6 @@ def test_cli_one_line_errors_for_a_port_in_use_and_an_unknown_car():
     assert r.returncode == 1 and r.stderr.count("\n") == 1 and "must be a port" in r.stderr, r.stderr
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def test_cli_serves_for_a_while_and_leaves_the_car_at_neutral():
     r = roar("web", "loop://", "--port", str(free_port()), "--for", "0.5")
     assert r.returncode == 0, r.stderr
@@ -512,10 +506,7 @@ def test_a_hidden_page_brings_neutral(page_on, sim_web):
     page = page_on()
     _drive_forward(page, car)
     hidden = time.monotonic()
-    page.evaluate("""() => {
-        Object.defineProperty(document, 'hidden', {value: true, configurable: true});
-        document.dispatchEvent(new Event('visibilitychange'));
-    }""")
+    hide(page)
     assert wait_for(lambda: log.first(hidden, NEUTRAL), 2.0)
     assert log.first(hidden, NEUTRAL) - hidden <= DEAD_MAN_S
     time.sleep(0.3)
@@ -653,6 +644,32 @@ def test_record_button_writes_an_mcap_the_library_reads(page_on, sim_web):
     assert not server.problem
 
 
+@contextlib.contextmanager
+def page_for(browser, car, wait: bool = True, host: str = "127.0.0.1", **context_options):
+    """roar web serving `car`, and a new page on it (once it has heard the server, unless not
+    `wait`): yields (server, page); the page closed and the server stopped after."""
+    server = WebServer(car, host=host, port=0)
+    server.start()
+    context = browser.new_context(bypass_csp=True, **context_options)
+    try:
+        page = context.new_page()
+        if wait:
+            page.goto(server.url)
+            page.wait_for_function("window.roar && roar.hello !== null && roar.state !== null", timeout=10_000)
+        yield server, page
+    finally:
+        context.close()
+        server.stop()
+
+
+def hide(page) -> None:
+    """The page as a browser hides it (another tab in front, the phone locked)."""
+    page.evaluate("""() => {
+        Object.defineProperty(document, 'hidden', {value: true, configurable: true});
+        document.dispatchEvent(new Event('visibilitychange'));
+    }""")
+
+
 def test_screenshot_is_not_blank_and_the_plot_draws(browser):
     """The page as a user sees it, the autopilot lapping the oval: written to out/roar_web.png
     (the README's picture is one of these)."""
@@ -661,107 +678,69 @@ def test_screenshot_is_not_blank_and_the_plot_draws(browser):
     import numpy as np
     from PIL import Image
 
-    with Vehicle("sim://oval", calibration=Calibration()) as car:
-        server = WebServer(car, port=0)
-        server.start()
-        context = browser.new_context(viewport={"width": 1280, "height": 800}, bypass_csp=True)
-        try:
-            page = context.new_page()
-            page.goto(server.url)
-            page.wait_for_function("window.roar && roar.state !== null", timeout=10_000)
-            page.select_option("#autopilot", "pose")
-            assert wait_for(lambda: page.evaluate("roar.plotted") > 60 and page.evaluate("roar.frames") > 20, 10.0)
-            out = ROOT / "out" / "roar_web.png"
-            out.parent.mkdir(exist_ok=True)
-            page.screenshot(path=str(out), full_page=True)
-            shot = np.asarray(Image.open(out).convert("RGB")).astype(int)
-            assert shot.std() > 20  # not one colour
-            assert "m/s" in page.inner_text("#speed") and "pose" in page.inner_text("#sent")
-            pixels = np.asarray(Image.open(io.BytesIO(page.locator("#plot").screenshot())).convert("RGB")).astype(int)
-            for colour in ((0x4f, 0xc3, 0xf7), (0x81, 0xc7, 0x84), (0xff, 0xb7, 0x4d)):  # speed, throttle, steering
-                assert (np.abs(pixels - colour).sum(axis=2) < 40).sum() > 50, f"no line of colour {colour} in the plot"
-            camera = np.asarray(Image.open(io.BytesIO(page.locator("#camera").screenshot())).convert("RGB"))
-            assert camera.std() > 10
-        finally:
-            context.close()
-            server.stop()
+    with Vehicle("sim://oval", calibration=Calibration()) as car, \
+            page_for(browser, car, viewport={"width": 1280, "height": 800}) as (server, page):
+        page.select_option("#autopilot", "pose")
+        assert wait_for(lambda: page.evaluate("roar.plotted") > 60 and page.evaluate("roar.frames") > 20, 10.0)
+        out = ROOT / "out" / "roar_web.png"
+        out.parent.mkdir(exist_ok=True)
+        page.screenshot(path=str(out), full_page=True)
+        shot = np.asarray(Image.open(out).convert("RGB")).astype(int)
+        assert shot.std() > 20  # not one colour
+        assert "m/s" in page.inner_text("#speed") and "pose" in page.inner_text("#sent")
+        pixels = np.asarray(Image.open(io.BytesIO(page.locator("#plot").screenshot())).convert("RGB")).astype(int)
+        for colour in ((0x4f, 0xc3, 0xf7), (0x81, 0xc7, 0x84), (0xff, 0xb7, 0x4d)):  # speed, throttle, steering
+            assert (np.abs(pixels - colour).sum(axis=2) < 40).sum() > 50, f"no line of colour {colour} in the plot"
+        camera = np.asarray(Image.open(io.BytesIO(page.locator("#camera").screenshot())).convert("RGB"))
+        assert camera.std() > 10
 
 
 def test_page_beyond_loopback_needs_the_token(browser):
-    with Vehicle("loop://", calibration=Calibration()) as car:
-        server = WebServer(car, host="0.0.0.0", port=0)
-        server.start()
-        context = browser.new_context(bypass_csp=True)
-        try:
-            page = context.new_page()
-            response = page.goto(f"http://127.0.0.1:{server.port}/")
-            assert response.status == 401 and "token" in page.inner_text("body")
-            page.goto(server.url)
-            page.wait_for_function("window.roar && roar.state !== null", timeout=10_000)
-            assert page.url == f"http://127.0.0.1:{server.port}/"  # the token is in a cookie now
-            assert page.evaluate("roar.role") == "driver"
-            page.keyboard.down("ArrowUp")
-            assert wait_for(lambda: car.pulses_us() == (1750, 1500), 2.0)
-            page.keyboard.up("ArrowUp")
-        finally:
-            context.close()
-            server.stop()
+    with Vehicle("loop://", calibration=Calibration()) as car, \
+            page_for(browser, car, wait=False, host="0.0.0.0") as (server, page):
+        response = page.goto(f"http://127.0.0.1:{server.port}/")
+        assert response.status == 401 and "token" in page.inner_text("body")
+        page.goto(server.url)
+        page.wait_for_function("window.roar && roar.state !== null", timeout=10_000)
+        assert page.url == f"http://127.0.0.1:{server.port}/"  # the token is in a cookie now
+        assert page.evaluate("roar.role") == "driver"
+        page.keyboard.down("ArrowUp")
+        assert wait_for(lambda: car.pulses_us() == (1750, 1500), 2.0)
+        page.keyboard.up("ArrowUp")
 
 
 def test_pose_autopilot_drives_the_track_while_the_page_holds_on(browser):
-    with Vehicle("sim://oval", calibration=Calibration()) as car:
-        server = WebServer(car, port=0)
-        server.start()
-        context = browser.new_context(bypass_csp=True)
-        try:
-            page = context.new_page()
-            page.goto(server.url)
-            page.wait_for_function("window.roar && roar.hello !== null && roar.state !== null", timeout=10_000)
-            assert page.evaluate("roar.hello.autopilots") == ["none", "pose", "lane"]
-            start = car.state()
-            page.select_option("#autopilot", "pose")
-            assert wait_for(lambda: math.hypot(car.state().x_m - start.x_m, car.state().y_m - start.y_m) > 2.0, 10.0)
-            assert server.controls.autopilot == "pose" and not server.problem
-            s = car.state()
-            assert abs(s.y_m - start.y_m) < 0.5  # along the straight, on the line
-            hidden = time.monotonic()
-            page.evaluate("""() => {
-                Object.defineProperty(document, 'hidden', {value: true, configurable: true});
-                document.dispatchEvent(new Event('visibilitychange'));
-            }""")
-            assert wait_for(lambda: car.pulses_us() == NEUTRAL, 2.0)
-            assert server.controls.autopilot == "none" and time.monotonic() - hidden < 1.0
-        finally:
-            context.close()
-            server.stop()
+    with Vehicle("sim://oval", calibration=Calibration()) as car, page_for(browser, car) as (server, page):
+        assert page.evaluate("roar.hello.autopilots") == ["none", "pose", "lane"]
+        start = car.state()
+        page.select_option("#autopilot", "pose")
+        assert wait_for(lambda: math.hypot(car.state().x_m - start.x_m, car.state().y_m - start.y_m) > 2.0, 10.0)
+        assert server.controls.autopilot == "pose" and not server.problem
+        assert abs(car.state().y_m - start.y_m) < 0.5  # along the straight, on the line
+        hidden = time.monotonic()
+        hide(page)
+        assert wait_for(lambda: car.pulses_us() == NEUTRAL, 2.0)
+        assert server.controls.autopilot == "none" and time.monotonic() - hidden < 1.0
 
 
 def test_lane_autopilot_drives_by_camera_alone(browser):
     from roar.tracks import get
 
     line = get("oval").centerline
-    with Vehicle("sim://oval", calibration=Calibration()) as car:
-        server = WebServer(car, port=0)
-        server.start()
-        context = browser.new_context(bypass_csp=True)
-        try:
-            page = context.new_page()
-            page.goto(server.url)
-            page.wait_for_function("window.roar && roar.hello !== null && roar.state !== null", timeout=10_000)
-            start = car.state()
-            page.select_option("#autopilot", "lane")
-            worst = 0.0
+    with Vehicle("sim://oval", calibration=Calibration()) as car, page_for(browser, car) as (server, page):
+        start = car.state()
+        page.select_option("#autopilot", "lane")
+        worst = 0.0
 
-            def driven() -> bool:
-                nonlocal worst
-                s = car.state()
-                worst = max(worst, float(min(math.hypot(x - s.x_m, y - s.y_m) for x, y in line)))
-                return math.hypot(s.x_m - start.x_m, s.y_m - start.y_m) > 1.5
-            assert wait_for(driven, 15.0) and not server.problem, server.problem
-            assert worst < 0.4  # on the road (0.6 m each side of the centre line)
-        finally:
-            context.close()
-            server.stop()
+        def driven() -> bool:
+            nonlocal worst
+            s = car.state()
+            worst = max(worst, float(min(math.hypot(x - s.x_m, y - s.y_m) for x, y in line)))
+            return math.hypot(s.x_m - start.x_m, s.y_m - start.y_m) > 1.5
+        moved = wait_for(driven, 15.0)
+        s = car.state()
+        assert moved and not server.problem, (server.problem, s, server.applied, server.controls.autopilot)
+        assert worst < 0.4, worst  # on the road (0.6 m each side of the centre line)
 
 
 def two_free_ports() -> int:
@@ -777,41 +756,15 @@ def two_free_ports() -> int:
     raise RuntimeError("no two free ports in a row")
 
 
-def served(*argv: str, lines: int):
-    """`roar sim ...` in a subprocess, after it printed `lines` lines; Ctrl-C at the end."""
-    import contextlib
-    import signal
-
-    @contextlib.contextmanager
-    def run():
-        sim = subprocess.Popen([sys.executable, "-m", "roar.cli", "sim", *argv], stdout=subprocess.PIPE,
-                               stderr=subprocess.PIPE, text=True)
-        try:
-            yield [sim.stdout.readline() for _ in range(lines)]
-        finally:
-            sim.send_signal(signal.SIGINT)
-            sim.communicate(timeout=30)
-    return run()
-
-
 def frames_on_a_page(browser, car, count: int = 3) -> tuple[int, float]:
     """Serve car, open the page, wait for `count` camera frames: (frames, the fps it shows)."""
-    server = WebServer(car, port=0)
-    server.start()
-    context = browser.new_context(bypass_csp=True)
-    try:
-        page = context.new_page()
-        page.goto(server.url)
-        page.wait_for_function("window.roar && roar.state !== null", timeout=10_000)
+    with page_for(browser, car) as (server, page):
         wait_for(lambda: page.evaluate("roar.frames") >= count, 10.0)
         page.keyboard.down("ArrowUp")  # it drives too
         assert wait_for(lambda: server.applied[0] > 0 and server.sent_commands >= 1, 2.0)
         page.keyboard.up("ArrowUp")
         assert not server.problem, server.problem
         return page.evaluate("roar.frames"), float(page.inner_text("#fps").split()[0])
-    finally:
-        context.close()
-        server.stop()
 
 
 def test_a_juniors_mjpeg_stream_reaches_the_page(browser):
