@@ -190,6 +190,11 @@ class Vehicle:
         return self._sender.connected and not self._closed and not self._sender.main_ended
 
     @property
+    def messages_sent(self) -> int:
+        """Control messages written to the link so far (each re-send counts)."""
+        return self._sender.sent
+
+    @property
     def link_error(self) -> TransportError | None:
         """Why the link is down, while it is (None when connected)."""
         return self._sender.error

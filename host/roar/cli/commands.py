@@ -219,6 +219,8 @@ def web(args) -> int:
         try:
             where = "" if server.loopback else " (anyone with this URL can drive: its token is the key)"
             print(f"roar web: open {server.url}{where}; Ctrl-C ends (the car goes to neutral)", flush=True)
+            if server.lan_url:
+                print(f"roar web: from another machine (a phone on this network): {server.lan_url}", flush=True)
             end = None if args.seconds is None else time.monotonic() + args.seconds
             while server.serving and (end is None or time.monotonic() < end):
                 time.sleep(0.1)

@@ -32,7 +32,6 @@ class Client:
 
     id: str
     joined_s: float
-    token_ok: bool = True  # it showed the token (or none is needed): it may drive
 
 
 class Controls:
@@ -56,10 +55,11 @@ class Controls:
 
     # --- pages -----------------------------------------------------------------------------------
 
-    def join(self, client_id: str, now_s: float, token_ok: bool = True) -> str:
-        """A page connected: it drives if nobody does (and it may), else it watches. Its role."""
-        self.clients[client_id] = Client(client_id, now_s, token_ok)
-        if self.driver is None and token_ok:
+    def join(self, client_id: str, now_s: float) -> str:
+        """A page connected: it drives if nobody does, else it watches. Its role. (A page without
+        the token, where one is needed, never gets here: the server refuses its socket.)"""
+        self.clients[client_id] = Client(client_id, now_s)
+        if self.driver is None:
             self._set_driver(client_id)
         return self.role(client_id)
 
@@ -95,8 +95,6 @@ class Controls:
         if client_id not in self.clients:
             return self._ignore("unknown page")
         if kind == "take":
-            if not self.clients[client_id].token_ok:
-                return self._ignore("no token")
             if self.driver != client_id:
                 self._set_driver(client_id)
             return "role"

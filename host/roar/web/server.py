@@ -119,6 +119,24 @@ class WebServer:
         host = f"[{host}]" if ":" in host else host
         return f"http://{host}:{self.port}/" + (f"?token={self.token}" if self.token else "")
 
+    @property
+    def lan_url(self) -> str | None:
+        """The page's address for other machines, when listening on every interface (None when
+        this machine has no route out, or listens on one address only)."""
+        if self.host not in ("0.0.0.0", "::"):
+            return None
+        import socket
+
+        try:
+            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+                s.connect(("10.255.255.255", 1))  # picks the outgoing interface; sends nothing
+                address = s.getsockname()[0]
+        except OSError:
+            return None
+        if is_loopback(address):
+            return None
+        return f"http://{address}:{self.port}/?token={self.token}"
+
     # --- running -----------------------------------------------------------------------------------
 
     def run(self) -> None:
@@ -310,7 +328,6 @@ class WebServer:
     def _state(self, cid: str) -> dict:
         v, c = self.vehicle, self.controls
         s = v.state()
-        sender = v._sender
         return {
             "t": "state", "role": c.role(cid), "driver": c.driver is not None, "pages": len(c.clients),
             "speed_m_s": s.speed_m_s, "x_m": s.x_m, "y_m": s.y_m, "time_s": s.time_s,
@@ -318,7 +335,7 @@ class WebServer:
             "pulses_us": list(v.pulses_us()), "latched": v.latched, "failsafe": s.failsafe, "mode": s.mode,
             "battery_v": s.battery_v, "battery_low": s.battery_low, "range_m": _finite(s.range_m),
             "throttle_out_us": s.throttle_out_us, "setpoint_m_s": s.setpoint_m_s,
-            "link": {"connected": v.connected, "error": str(v.link_error or ""), "sent": sender.sent,
+            "link": {"connected": v.connected, "error": str(v.link_error or ""), "sent": v.messages_sent,
                      "car_errors": v.errors, "protocol": v.protocol_version},
             "max_throttle": c.max_throttle, "autopilot": c.autopilot, "recording": str(self.record_path or ""),
             "dead_man_trips": c.dead_man_trips, "ignored": sum(c.ignored.values()),
