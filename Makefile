@@ -2,12 +2,13 @@
 # make trace  set up what a race needs, then drive the firmware logic through a scripted session; plot
 # make test   set up everything, then run the whole suite
 # make bench  set up, then print the benchmarks
+# make fuzz   set up, then fuzz every target for minutes, the corpora grown and minimised into fuzz/corpus
 # make gen    regenerate protocol files from protocol/spec.toml
 # make firmware  build the Nano and AnyFC F7 firmware offline; print flash/RAM per target
 # make deploy BOARD=junior|car [PORT=...]            MicroPython program onto a board (mpremote)
 # make flash-micropython IMAGE=file.bin [PORT=...]   MicroPython itself onto an ESP32 (esptool)
 # make upload ENV=nanoatmega328 [PORT=...]           a C++ board through PlatformIO
-.PHONY: setup setup-run run trace test bench gen core firmware deploy flash-micropython upload clean
+.PHONY: setup setup-run run trace test bench fuzz gen core firmware deploy flash-micropython upload clean
 
 PY := .venv/bin/python
 
@@ -31,6 +32,10 @@ test: setup
 
 bench: setup
 	@$(PY) -m benchmarks
+
+# FUZZ_SECONDS=120 per target by default; the suite runs each for 2 s (tests/test_fuzz.py)
+fuzz: setup
+	@$(PY) -m fuzz run --seconds $(or $(FUZZ_SECONDS),120)
 
 gen: setup
 	@$(PY) protocol/generate.py

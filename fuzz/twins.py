@@ -1,0 +1,66 @@
+# What the portable protocol package (roar_wire) answers for a fuzz input: written once, in the
+# Python both CPython and MicroPython run, so the differential runner (fuzz/differential.py)
+# asks the same questions of the C++ core, CPython and MicroPython. Run as a MicroPython
+# program, it reads /inputs.json ({"control"|"sbus"|"junior": [hex, ...]}) and prints one JSON
+# line of the answers.
+import json
+
+from roar_wire import control, junior, sbus
+
+
+def control_events(data):
+    """[at, result, a, b] per message event: a, b = throttle, steering (ok) or speed, steering
+    (setpoint), else None, None."""
+    p, out = control.Parser(), []
+    for at in range(len(data)):
+        r = p.feed(data[at])
+        if r == control.OK:
+            out.append([at, r, p.throttle_us, p.steering_us])
+        elif r == control.SETPOINT:
+            out.append([at, r, p.speed_mm_s, p.setpoint_steering_us])
+        elif r != control.NONE:
+            out.append([at, r, None, None])
+    return out
+
+
+def sbus_trace(data):
+    """The decoder on (pause / 25 us, byte) pairs: [i, result, channels, flags, end] per byte
+    that finished something (the frame's fields for a good frame, else None), then the counters
+    [good, lost, failsafe, dropped, locked, last_good_us]."""
+    d, now, out = sbus.Decoder(), 1000, []
+    for i in range(0, len(data) - 1, 2):
+        now += 25 * data[i]
+        r = d.feed(data[i + 1], now)
+        if r == sbus.FRAME:
+            out.append([i, r, list(d.channels), d.flags, d.end])
+        elif r != sbus.NONE:
+            out.append([i, r, None, None, None])
+    out.append([d.good_frames, d.lost_frames, d.failsafe_frames, d.dropped, 1 if d.locked else 0, d.last_good_us])
+    return out
+
+
+REASONS = {junior.UNKNOWN_NAME: 1, junior.BAD_FLAG: 2, junior.BAD_SPEED: 3}  # the core's JuniorQueryError codes
+
+
+def junior_answer(data):
+    """[parameters applied, 0] or [0, the refusal's code] for a query's bytes (one char each)."""
+    actions, reason = junior.parse_query("".join(chr(b) for b in data))
+    if reason is None:
+        return [len(actions), 0]
+    return [0, REASONS[reason.split(":")[0]]]
+
+
+ANSWERS = {"control": control_events, "sbus": sbus_trace, "junior": junior_answer}
+
+
+def answer_all(inputs):
+    return {kind: [ANSWERS[kind](bytes.fromhex(h)) for h in items] for kind, items in inputs.items()}
+
+
+def main():
+    with open("/inputs.json") as f:
+        print(json.dumps(answer_all(json.load(f))))
+
+
+if __name__ == "__main__":
+    main()
