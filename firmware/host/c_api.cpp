@@ -11,6 +11,7 @@
 #include "roar/junior_control.h"
 #include "roar/l298n_driver.h"
 #include "roar/sbus.h"
+#include "roar/siphash.h"
 
 using namespace roar;
 
@@ -321,6 +322,10 @@ uint8_t roar_sbus_feed(void* decoder, uint8_t byte, uint64_t now_us) {
 void roar_sbus_last_frame(const void* decoder, roar_sbus_frame_t* frame) {
   *frame = to_c(static_cast<const SbusDecoder*>(decoder)->frame());
 }
+uint64_t roar_siphash24(const uint8_t* key, const uint8_t* data, size_t n) {
+  return roar::SipHash24::mac(key, data, n);
+}
+
 void roar_sbus_status(const void* decoder, roar_sbus_status_t* status) {
   const SbusDecoder* d = static_cast<const SbusDecoder*>(decoder);
   *status = roar_sbus_status_t{};

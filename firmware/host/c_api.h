@@ -17,7 +17,7 @@
 extern "C" {
 #endif
 
-#define ROAR_CORE_ABI_VERSION 7
+#define ROAR_CORE_ABI_VERSION 8
 
 uint32_t roar_core_abi_version(void);
 uint32_t roar_protocol_version(void);
@@ -252,6 +252,10 @@ void roar_sbus_decoder_init(void* decoder);
 uint8_t roar_sbus_feed(void* decoder, uint8_t byte, uint64_t now_us);
 void roar_sbus_last_frame(const void* decoder, roar_sbus_frame_t* frame);
 void roar_sbus_status(const void* decoder, roar_sbus_status_t* status);
+
+/* --- SipHash-2-4, the MAC of the signed control mode (roar/siphash.h) ------------------------ */
+/* The 64-bit MAC of n bytes under a 16-byte key, the bytes fed one at a time as a parser would. */
+uint64_t roar_siphash24(const uint8_t* key, const uint8_t* data, size_t n);
 
 /* --- the IARRC car's controller (IarrcController, default configuration) ------------------- */
 typedef struct {

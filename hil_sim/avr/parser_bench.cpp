@@ -6,13 +6,16 @@
 // PB5, whose width in cycles the simavr harness measures: cycles per message = width /
 // kMessages. Every loop branches on the parser's result, as a caller does. A fourth run feeds
 // kSbusFrames SBUS frames (25 bytes each, 120 us apart as at 100 kbaud, frames 7 ms apart) to
-// the core's SbusDecoder: cycles per frame = width / kSbusFrames. No Arduino core, no interrupts.
+// the core's SbusDecoder: cycles per frame = width / kSbusFrames. A fifth computes kMacs SipHash-2-4
+// MACs (roar/siphash.h, the signed mode's MAC) of kMacBytes each, byte by byte as a parser
+// would: cycles per MAC = width / kMacs. No Arduino core, no interrupts.
 #include <avr/io.h>
 
 #include "../sbus_feed.h"
 #include "roar/car.h"
 #include "roar/control_parser.h"
 #include "roar/sbus.h"
+#include "roar/siphash.h"
 
 namespace {
 constexpr uint8_t kMessages = 100;
@@ -85,6 +88,20 @@ __attribute__((noinline)) void run_car() {  // one clock reading per message, as
   }
 }
 
+constexpr uint8_t kMacs = 10;
+constexpr uint8_t kMacBytes = 24;  // a control message with its counter: the bytes a MAC covers
+volatile uint64_t mac_out;
+
+__attribute__((noinline)) void run_siphash() {
+  static const uint8_t key[roar::kSipKeyBytes] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
+  for (uint8_t i = 0; i < kMacs; ++i) {
+    roar::SipHash24 h;
+    h.begin(key);
+    for (uint8_t k = 0; k < kMacBytes; ++k) h.add(static_cast<uint8_t>(text[i * kMacBytes + k]));
+    mac_out = h.finish();
+  }
+}
+
 template <typename Run>
 void timed(Run run) {
   PORTB |= _BV(PB5);
@@ -111,6 +128,7 @@ int main() {
     roar::sbus_encode(frame, sbus_bytes[f]);
   }
   timed([] { accepted[2] = feed_sbus_frames<uint8_t>(sbus, sbus_bytes); });
+  timed(run_siphash);
   for (;;) {
   }
 }

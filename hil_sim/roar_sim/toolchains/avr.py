@@ -119,6 +119,7 @@ BENCH_SOURCE = ROOT / "hil_sim" / "avr" / "parser_bench.cpp"
 BENCH_ELF = ROOT / "build" / "avr" / "parser_bench.elf"
 BENCH_MESSAGES = 100  # messages per timed run in parser_bench.cpp
 BENCH_SBUS_FRAMES = 10  # SBUS frames in its fourth timed run
+BENCH_MACS, BENCH_MAC_BYTES = 10, 24  # SipHash-2-4 MACs of so many bytes in its fifth
 
 
 def build_parser_bench() -> Path:
