@@ -5,6 +5,8 @@ must be equal, compared as JSON text.
     families: control  the control and setpoint parser   corpora control_parser, py_control
               sbus     the SBUS decoder                    corpora sbus, py_sbus
               junior   the Junior's query string           corpora junior_query, py_junior_query
+              http     the Junior's HTTP reader and board  corpus http_junior (the twin: the
+                       MicroPython board's roar_junior.py)
 """
 
 from __future__ import annotations
@@ -19,7 +21,8 @@ from fuzz import twins
 ROOT = Path(__file__).resolve().parent.parent
 CORPUS = ROOT / "fuzz" / "corpus"
 FAMILIES = {"control": ("control_parser", "py_control"), "sbus": ("sbus", "py_sbus"),
-            "junior": ("junior_query", "py_junior_query")}
+            "junior": ("junior_query", "py_junior_query"), "http": ("http_junior",)}
+BOARD_LIB = ROOT / "firmware" / "micropython" / "lib"  # roar_junior.py and roar_clock.py, the HTTP twin
 MAX_INPUT_BYTES = 4096  # what libFuzzer makes by default; longer stored inputs are cut
 
 
@@ -79,7 +82,25 @@ def core_junior(data: bytes) -> list:
     return [r, 0] if r >= 0 else [0, -r]
 
 
-CORE = {"control": core_control, "sbus": core_sbus, "junior": core_junior}
+def core_http(data: bytes) -> list:
+    from roar_sim.core.junior import HttpRequestReader, JuniorBoard
+
+    board, out, at = JuniorBoard(), [], 0
+    board.distance_cm = twins.DISTANCE_CM
+    while at < len(data):
+        reader = HttpRequestReader()
+        used, state = reader.feed(data[at:])
+        at += used
+        if state == 0:
+            break
+        reply, keep = board.respond(reader)
+        out.append([used, int(state), reply.hex(), 1 if keep else 0])
+        if not keep or used == 0:
+            break
+    return out
+
+
+CORE = {"control": core_control, "sbus": core_sbus, "junior": core_junior, "http": core_http}
 
 
 @dataclass
@@ -100,6 +121,10 @@ def _line(family: str, data: bytes, who: str, a, b) -> str:
 def compare(families: tuple[str, ...] = tuple(FAMILIES), micropython: bool = True) -> Report:
     """Every corpus input of each family to the core, CPython's roar_wire and (when Node.js and
     the MicroPython runtime are there) MicroPython's; a divergence is one line in the report."""
+    import sys
+
+    if str(BOARD_LIB) not in sys.path:  # the HTTP twin, as CPython imports it
+        sys.path.append(str(BOARD_LIB))
     report = Report()
     inputs = {f: corpus(f) for f in families}
     mp_answers = None
@@ -131,7 +156,9 @@ def _micropython(inputs: dict[str, list[bytes]]):
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "inputs.json"
         path.write_text(json.dumps({f: [d.hex() for d in items] for f, items in inputs.items()}))
-        result = micropython.run(Path(twins.__file__), {**micropython.portable_files(), "/inputs.json": path})
+        board_lib = {f"/lib/{name}": BOARD_LIB / name for name in ("roar_junior.py", "roar_clock.py")}
+        result = micropython.run(Path(twins.__file__),
+                                 {**micropython.portable_files(), **board_lib, "/inputs.json": path})
     if result.returncode != 0:
         return None, f"MicroPython failed: {result.stderr.strip().splitlines()[-1:]}"
     return json.loads(result.stdout), ""

@@ -1,8 +1,9 @@
 # What the portable protocol package (roar_wire) answers for a fuzz input: written once, in the
 # Python both CPython and MicroPython run, so the differential runner (fuzz/differential.py)
 # asks the same questions of the C++ core, CPython and MicroPython. Run as a MicroPython
-# program, it reads /inputs.json ({"control"|"sbus"|"junior": [hex, ...]}) and prints one JSON
-# line of the answers.
+# program, it reads /inputs.json ({"control"|"sbus"|"junior"|"http": [hex, ...]}) and prints one
+# JSON line of the answers. The Junior's HTTP side is the MicroPython board's own library
+# (firmware/micropython/lib/roar_junior.py, the twin of the core's reader and board).
 import json
 
 from roar_wire import control, junior, sbus
@@ -50,7 +51,29 @@ def junior_answer(data):
     return [0, REASONS[reason.split(":")[0]]]
 
 
-ANSWERS = {"control": control_events, "sbus": sbus_trace, "junior": junior_answer}
+DISTANCE_CM = 42  # what the ultrasonic ranger reads in every reply
+
+
+def http_exchange(data):
+    """One connection's bytes, request by request: [bytes taken, reader state, the reply (hex),
+    kept open] for each decided request, until the bytes run out or the board closes."""
+    import roar_junior
+
+    board, out, at = roar_junior.JuniorBoard(), [], 0
+    while at < len(data):
+        reader = roar_junior.HttpRequestReader()
+        used, state = reader.feed(data[at:])
+        at += used
+        if state == roar_junior.INCOMPLETE:
+            break
+        reply, keep = board.respond(reader, DISTANCE_CM, 0)
+        out.append([used, state, reply.hex(), 1 if keep else 0])
+        if not keep or used == 0:
+            break
+    return out
+
+
+ANSWERS = {"control": control_events, "sbus": sbus_trace, "junior": junior_answer, "http": http_exchange}
 
 
 def answer_all(inputs):
