@@ -89,6 +89,7 @@ class WebServer:
         self.refused: dict[str, int] = {}  # HTTP/socket requests refused, by reason
         self.sent_commands = 0  # commands handed to the Vehicle
         self.applied = (0.0, 0.0)  # (throttle, steering) the Vehicle is sending now
+        self._submitted = (0.0, 0.0)  # the last stick handed to the car's thread
         self.problem = ""  # the last thing that went wrong driving, recording or seeing (shown on the page)
         self.record_path: Path | None = None
         self.pages_served = 0  # sockets opened by pages
@@ -367,8 +368,8 @@ class WebServer:
                 self._autopilot_busy = True
                 self._car.submit(self._autopilot_step)
             return
-        if command != self.applied:
-            self.applied = command
+        if command != self._submitted:
+            self._submitted = command
             self._car.submit(self._drive, *command)
 
     def _drive(self, throttle: float, steering: float) -> None:
@@ -378,6 +379,7 @@ class WebServer:
                 self.vehicle.drive(speed=throttle * self.max_speed_m_s, steering=steering)
             else:
                 self.vehicle.drive(throttle=throttle, steering=steering)
+            self.applied = (throttle, steering)
             self.sent_commands += 1
         except (RoarError, ValueError) as e:
             self.problem = str(e)
@@ -392,8 +394,7 @@ class WebServer:
             except (RoarError, ValueError) as e:
                 self.problem = f"autopilot {name}: {e}"
         if name == AUTOPILOT_NONE or self._autopilot is None:
-            self._drive(0.0, 0.0)
-            self.applied = (0.0, 0.0)
+            self._drive(0.0, 0.0)  # whatever the autopilot left the car doing
 
     def _autopilot_step(self) -> None:
         """On the car's thread: one step of the autopilot, limited as the stick is."""
