@@ -110,6 +110,33 @@ def test_a_vehicle_records_what_it_sends_and_hears_in_simulated_time(tmp_path):
     assert log.metadata["run"]["clock"] == "simulated" and log.metadata["car"]["protocol_version"] == "1"
 
 
+def test_a_simulated_links_messages_before_its_first_step_are_not_stamped_on_another_clock(tmp_path):
+    """A sim:// link whose simulator has not stepped yet: what is written then is at simulated
+    time 0, not on the host's clock, which (the simulator slipping behind a busy host) sorted it
+    among later messages and made a neutral appear between two commands in replay."""
+    from roar.recorder import RecordingTransport
+
+    class NotYetStepped:
+        scheme = "sim"
+        state_now = None
+
+        def write(self, data):
+            pass
+
+        def state(self):
+            return self.state_now
+
+    inner, path = NotYetStepped(), tmp_path / "run.mcap"
+    link = RecordingTransport(inner, Recorder(path, simulated=True))
+    link.write(encode(1500, 1500))
+    time.sleep(0.05)  # the host's clock runs on; the simulator has not started
+    inner.state_now = VehicleState(time_s=0.002, x_m=0.0, y_m=0.0, yaw_rad=0.0)
+    link.write(encode(1600, 1500))
+    link.recorder.close()
+    stamped = [(t, m["throttle_us"]) for _, t, m in messages(path, ["/control"])]
+    assert stamped == [(0, 1500), (2_000_000, 1600)]
+
+
 def test_recording_starts_and_stops_mid_run_into_finished_files(tmp_path):
     from roar import Vehicle
 

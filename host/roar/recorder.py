@@ -351,12 +351,12 @@ class RecordingTransport:
         return getattr(self.inner, name)
 
     def now_ns(self, state=None) -> int:
-        """[ns] the simulator's clock on sim:// (of `state` if given), else the host's monotonic
-        clock since the start."""
+        """[ns] the simulator's clock on sim:// (of `state` if given; 0 before its first step, so
+        the two clocks are never mixed in one file), else the host's monotonic clock since the
+        start."""
         if self._simulated:
             state = state if state is not None else self.inner.state()
-            if state is not None and state.time_s is not None:
-                return int(round(state.time_s * 1e9))
+            return 0 if state is None or state.time_s is None else int(round(state.time_s * 1e9))
         return time.monotonic_ns() - self._t0
 
     def open(self) -> None:
