@@ -125,6 +125,13 @@ def check_consistency(constants: list[Constant]) -> None:
         need(c["parse_result", "none"] == 0 and c["parse_result", "ok"] == 1, "parse_result: none must be 0 and ok 1")
         need(c["control", "min_us"] <= c["timing", "brake_tap_us"] < c["control", "neutral_us"], "timing.brake_tap_us must be a slight reverse")
         need(c["timing", "host_send_period_us"] * 2 <= c["timing", "failsafe_timeout_us"], "host_send_period_us must fit twice in failsafe_timeout_us")
+        signed = 1 + 1 + 2 * c["control", "max_digits"] + 3 + c["signed", "counter_digits"] + c["signed", "mac_digits"] + 1
+        need(c["signed", "max_message_bytes"] == signed, f"signed.max_message_bytes must be {signed}")
+        need(c["signed", "mac_bits"] == 4 * c["signed", "mac_digits"] <= 64, "signed.mac_bits must be 4 x mac_digits, at most 64")
+        need(c["signed", "counter_digits"] <= 8 and c["signed", "key_bytes"] == 16, "signed: a 32-bit counter and a 128-bit key")
+        longest_err = len(c["serial", "reply_error"]) + 2 + max(len(t) for t in ("unsigned", "forged", "replay")) \
+            + c["signed", "session_digits"] + len(c["serial", "reply_line_end"])
+        need(longest_err <= c["serial", "max_reply_bytes"], f"serial.max_reply_bytes must hold an ERR line with a session ({longest_err})")
         hdr = c["udp", "index_digits"] + c["udp", "total_digits"] + c["udp", "reserved_digits"]
         need(c["udp", "header_bytes"] == hdr, f"udp.header_bytes must be {hdr}")
     except KeyError as e:
@@ -265,6 +272,8 @@ def load_vectors(path: Path = VECTORS) -> list[dict]:
                 raise SpecError(f"{where}: ok events (and only they) carry throttle and steering")
             if (ev["result"] == "setpoint") != ("speed" in ev) or ("speed" in ev and "steering" not in ev):
                 raise SpecError(f"{where}: setpoint events (and only they) carry speed and steering")
+            if ("counter" in ev) != ("mac" in ev) or ("counter" in ev and ev["result"] not in ("ok", "setpoint")):
+                raise SpecError(f"{where}: a signed ok or setpoint event carries counter and mac (hex)")
     return cases
 
 
@@ -284,16 +293,18 @@ def render_cpp_vectors(cases: list[dict]) -> str:
         "namespace roar_vectors {",
         "",
         "// first: the throttle [us] of an ok event, the speed [mm/s] of a setpoint event",
-        "struct Event { uint16_t at; roar::ParseResult result; int16_t first; uint16_t steering; };",
+        "// is_signed: the message carried counter and mac",
+        "struct Event { uint16_t at; roar::ParseResult result; int16_t first; uint16_t steering; bool is_signed; uint32_t counter; uint64_t mac; };",
         "struct Case { const char* name; const char* input; size_t length; const Event* events; size_t n_events; };",
         "",
     ]
     for i, case in enumerate(cases):
         evs = ", ".join(
             f"{{{ev['at']}, roar::ParseResult::{_camel(ev['result'])}, {ev.get('throttle', ev.get('speed', 0))}, "
-            f"{ev.get('steering', 0)}}}"
+            f"{ev.get('steering', 0)}, {'true' if 'mac' in ev else 'false'}, {ev.get('counter', 0)}u, "
+            f"0x{ev.get('mac', '0')}ull}}"
             for ev in case["events"]
-        ) or "{0, roar::ParseResult::None, 0, 0}"
+        ) or "{0, roar::ParseResult::None, 0, 0, false, 0u, 0x0ull}"
         lines.append(f"static const Event kEvents{i}[] = {{{evs}}};")
     lines += ["", "static const Case kCases[] = {"]
     for i, case in enumerate(cases):

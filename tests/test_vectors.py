@@ -13,7 +13,8 @@ PARSERS = {"python": StreamDecoder, "cpp": car.ControlParser}
 
 
 def expected(case):
-    return [(ev["at"], ev["result"], ev.get("throttle", ev.get("speed")), ev.get("steering")) for ev in case["events"]]
+    return [(ev["at"], ev["result"], ev.get("throttle", ev.get("speed")), ev.get("steering"),
+             (ev["counter"], int(ev["mac"], 16)) if "mac" in ev else None) for ev in case["events"]]
 
 
 def run(parser, case):
@@ -23,7 +24,7 @@ def run(parser, case):
             cmd, sp = ev.command, ev.setpoint
             first = cmd.throttle_us if cmd else (sp.speed_mm_s if sp else None)
             steering = cmd.steering_us if cmd else (sp.steering_us if sp else None)
-            got.append((ev.at, str(ev.result), first, steering))
+            got.append((ev.at, str(ev.result), first, steering, ev.signature))
     return got
 
 
@@ -34,8 +35,11 @@ def test_vector(impl, case):
 
 
 def test_vectors_cover_every_rejection_reason():
+    """Every result the parser gives (the rest, unsigned .. nokey, are the authenticator's:
+    protocol/vectors/signed_messages.json)."""
     seen = {ev["result"] for case in CASES for ev in case["events"]}
-    assert seen == {str(r) for r in ParseResult if r != ParseResult.NONE}
+    assert seen == {str(r) for r in ParseResult if ParseResult.NONE < r <= ParseResult.SETPOINT}
+    assert any("mac" in ev for case in CASES for ev in case["events"])
 
 
 @pytest.mark.parametrize("impl", sorted(PARSERS))
@@ -45,6 +49,6 @@ def test_all_vectors_through_one_parser(impl):
     parser = PARSERS[impl]()
     for case in CASES:
         start = parser.offset
-        got = [(at - start, r, t, s) for at, r, t, s in run(parser, case)]
+        got = [(at - start, r, t, s, sig) for at, r, t, s, sig in run(parser, case)]
         parser.feed(b"\n")
         assert got == expected(case), case["name"]

@@ -11,6 +11,7 @@
 #include "roar/junior_control.h"
 #include "roar/l298n_driver.h"
 #include "roar/sbus.h"
+#include "roar/signing.h"
 #include "roar/siphash.h"
 
 using namespace roar;
@@ -98,6 +99,11 @@ size_t roar_parser_feed_buffer(void* parser, const uint8_t* data, size_t n, roar
       } else if (r == ParseResult::Setpoint) {
         e.speed_mm_s = p->setpoint().speed_mm_s;
         e.steering = p->setpoint().steering_us;
+      }
+      if (r == ParseResult::Ok || r == ParseResult::Setpoint) {
+        e.is_signed = p->signature().present ? 1 : 0;
+        e.counter = p->signature().counter;
+        e.mac = p->signature().mac;
       }
     }
     ++count;
@@ -322,6 +328,20 @@ uint8_t roar_sbus_feed(void* decoder, uint8_t byte, uint64_t now_us) {
 void roar_sbus_last_frame(const void* decoder, roar_sbus_frame_t* frame) {
   *frame = to_c(static_cast<const SbusDecoder*>(decoder)->frame());
 }
+uint64_t roar_message_mac(const uint8_t* key, uint32_t session, uint8_t start, int16_t first, uint16_t steering,
+                          uint32_t counter) {
+  return message_mac(key, session, start, first, steering, counter);
+}
+uint32_t roar_key_fingerprint(const uint8_t* key) { return key_fingerprint(key); }
+size_t roar_auth_size(void) { return sizeof(Authenticator); }
+void roar_auth_init(void* auth) { new (auth) Authenticator(); }
+void roar_auth_set_key(void* auth, const uint8_t* key, uint32_t session) { as<Authenticator>(auth)->set_key(key, session); }
+uint8_t roar_auth_check(void* auth, uint8_t kind, const void* parser) {
+  return static_cast<uint8_t>(
+      as<Authenticator>(auth)->check(static_cast<ParseResult>(kind), *static_cast<const ControlParser*>(parser)));
+}
+uint32_t roar_auth_last_counter(const void* auth) { return static_cast<const Authenticator*>(auth)->last_counter(); }
+
 uint64_t roar_siphash24(const uint8_t* key, const uint8_t* data, size_t n) {
   return roar::SipHash24::mac(key, data, n);
 }

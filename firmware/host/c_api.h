@@ -17,7 +17,7 @@
 extern "C" {
 #endif
 
-#define ROAR_CORE_ABI_VERSION 8
+#define ROAR_CORE_ABI_VERSION 9
 
 uint32_t roar_core_abi_version(void);
 uint32_t roar_protocol_version(void);
@@ -63,10 +63,12 @@ enum roar_iarrc_task {
 typedef struct {
   uint32_t at;         /* index of the byte in this buffer that produced the event */
   uint8_t result;      /* ParseResult code, never 0 (none) */
-  uint8_t reserved;
+  uint8_t is_signed;   /* ok or setpoint: 1 when the message carried COUNTER and MAC */
   uint16_t throttle;   /* [us] valid when result is ok */
   uint16_t steering;   /* [us] valid when result is ok or setpoint */
   int16_t speed_mm_s;  /* [mm/s] valid when result is setpoint */
+  uint32_t counter;    /* a signed message's COUNTER */
+  uint64_t mac;        /* a signed message's MAC */
 } roar_parse_event_t;
 
 size_t roar_parser_size(void);
@@ -76,6 +78,19 @@ uint8_t roar_parser_feed(void* parser, uint8_t byte, uint16_t* throttle, uint16_
 /* Feeds n bytes; stores up to max_events events and returns how many there were in all. */
 size_t roar_parser_feed_buffer(void* parser, const uint8_t* data, size_t n, roar_parse_event_t* events,
                                size_t max_events);
+
+/* --- signed control (roar/signing.h) ------------------------------------------------------------ */
+/* The MAC a signed message carries (start: '(' or '['; first: throttle [us] or speed [mm/s]). */
+uint64_t roar_message_mac(const uint8_t* key, uint32_t session, uint8_t start, int16_t first, uint16_t steering,
+                          uint32_t counter);
+uint32_t roar_key_fingerprint(const uint8_t* key);
+size_t roar_auth_size(void);
+void roar_auth_init(void* auth);
+void roar_auth_set_key(void* auth, const uint8_t* key, uint32_t session); /* key NULL: none */
+/* The verdict on the message a parser just finished with kind (ok or setpoint): kind, or
+ * unsigned, forged, replay or nokey. */
+uint8_t roar_auth_check(void* auth, uint8_t kind, const void* parser);
+uint32_t roar_auth_last_counter(const void* auth);
 
 /* --- command watchdog (failsafe) ----------------------------------------------------------- */
 size_t roar_watchdog_size(void);
@@ -152,7 +167,7 @@ size_t roar_car_size(void);
 /* Returns 0, or -1 when a channel calibration is invalid (the car is then not initialised). */
 int roar_car_init(void* car, const roar_car_config_t* config);
 void roar_car_boot(void* car);
-void roar_car_feed(void* car, const uint8_t* data, size_t n, uint64_t now_us);
+void roar_car_feed(void* car, const uint8_t* data, size_t n, uint64_t now_us); /* serial bytes */
 void roar_car_rc_pulse(void* car, uint8_t channel, uint16_t width_us, uint64_t now_us);
 void roar_car_step(void* car, uint64_t now_us, uint32_t frames_started, roar_car_outputs_t* out);
 size_t roar_car_take_reply(void* car, char* buf, size_t cap);
@@ -167,6 +182,8 @@ size_t roar_car_take_reply(void* car, char* buf, size_t cap);
  *   3. now_us advances by loop_us (wrapping at 2^32, like micros()). */
 #define ROAR_HOST_RX_BYTES 256
 #define ROAR_HOST_TX_BYTES 256
+/* the board's non-volatile memory (EEPROM): key and session */
+#define ROAR_HOST_NVM_BYTES 32
 
 typedef struct {
   uint32_t now_us;                  /* in: [us] the board's free-running 32-bit counter */
@@ -181,16 +198,17 @@ typedef struct {
   uint16_t rx_len;                  /* in: bytes waiting in rx */
   uint16_t rx_pos;                  /* out: how many of them the loop has read */
   uint16_t tx_len;                  /* out: reply bytes in tx (the caller empties it) */
-  uint16_t reserved;
+  uint16_t nvm_writes;              /* out: bytes written to nvm that changed (wear) */
   roar_car_outputs_t outputs;       /* out: the car's outputs in the last loop iteration */
   uint8_t rx[ROAR_HOST_RX_BYTES];   /* in: received serial bytes */
   char tx[ROAR_HOST_TX_BYTES];      /* out: reply lines written by the loop */
+  uint8_t nvm[ROAR_HOST_NVM_BYTES]; /* in/out: kept by the caller across reboots (0xFF: blank) */
 } roar_host_hal_t;
 
 size_t roar_board_size(void);
 /* The board keeps a pointer to hal. Returns 0, or -1 for an invalid calibration. */
 int roar_board_init(void* board, roar_host_hal_t* hal, const roar_car_config_t* config);
-void roar_board_begin(void* board);                                 /* queues the boot banner */
+void roar_board_begin(void* board);  /* queues the boot banner; reads nvm (key, next session) */
 void roar_board_feed(void* board, const uint8_t* data, size_t n);   /* bytes of a BLE write */
 void roar_board_run(void* board, uint32_t loops);
 

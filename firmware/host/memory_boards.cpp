@@ -20,6 +20,17 @@ void CarMemoryHal::write(const char* text, size_t length) {
   for (size_t i = 0; i < length && m_->tx_len < sizeof(m_->tx); ++i) m_->tx[m_->tx_len++] = text[i];
 }
 
+void CarMemoryHal::read(uint16_t at, uint8_t* data, uint8_t n) {
+  for (uint8_t i = 0; i < n; ++i) data[i] = at + i < sizeof(m_->nvm) ? m_->nvm[at + i] : 0xFF;
+}
+
+void CarMemoryHal::write(uint16_t at, const uint8_t* data, uint8_t n) {
+  for (uint8_t i = 0; i < n && at + i < sizeof(m_->nvm); ++i) {
+    if (m_->nvm[at + i] != data[i]) ++m_->nvm_writes;  // as eeprom_update_block: only changed bytes
+    m_->nvm[at + i] = data[i];
+  }
+}
+
 HostCarBoard::HostCarBoard(roar_host_hal_t* m, const CarConfig& cfg) : hal(m), board(hal, cfg) {
   for (uint8_t ch = 0; ch < 2; ++ch) m->pending_us[ch] = m->wire_us[ch] = proto::kControlNeutralUs;  // as at boot
 }

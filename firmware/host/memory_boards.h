@@ -18,9 +18,12 @@ roar_side_pins_t to_c(const SidePins& s);
 roar_car_outputs_t to_c(const CarOutputs& o, const Car& car);
 
 // --- the ESC car: CarBoard on roar_host_hal_t ------------------------------------------------
-class CarMemoryHal : public Hal {
+class CarMemoryHal : public Hal, public Nvm {
  public:
   explicit CarMemoryHal(roar_host_hal_t* m) : m_(m) {}
+  Nvm* nvm() override { return this; }
+  void read(uint16_t at, uint8_t* data, uint8_t n) override;
+  void write(uint16_t at, const uint8_t* data, uint8_t n) override;
   roar_host_hal_t& memory() { return *m_; }
   RawMicros now_us() override { return m_->now_us; }
   void write_pulses(uint16_t throttle_us, uint16_t steering_us) override;

@@ -9,6 +9,10 @@ parser (protocol/PROTOCOL.md section 1.1); both run the golden vectors in protoc
         r = p.feed(byte)               # a spec.PARSE_RESULT_* code
         if r == OK: p.throttle_us, p.steering_us
         if r == SETPOINT: p.speed_mm_s, p.setpoint_steering_us
+        p.signature                    # (counter, mac) a signed message carried, else None
+
+Signed messages "(T,S,COUNTER,MAC)" parse to OK / SETPOINT too; whether the MAC is right is
+roar_wire.signing's question.
 
 Runs unchanged on CPython and MicroPython.
 """
@@ -32,6 +36,8 @@ STEERING = 3  # inside the second field
 SKIP = 4  # after an error inside a message, until its end
 SPEED = 5  # inside a setpoint's first field
 SET_STEERING = 6  # inside a setpoint's second field
+COUNTER = 7  # inside a signed message's COUNTER (hex)
+MAC = 8  # inside a signed message's MAC (hex)
 
 _START = ord(spec.CONTROL_START_CHAR)
 _SEPARATOR = ord(spec.CONTROL_SEPARATOR_CHAR)
@@ -94,10 +100,16 @@ class Parser:
         self.speed_mm_s = 0  # the last valid setpoint
         self.setpoint_steering_us = spec.CONTROL_NEUTRAL_US
         self._first = 0  # the first field of the message being read
+        self._second = 0  # a signed message's steering
         self._negative = False  # a setpoint's speed with a leading '-'
+        self._setpoint_kind = False  # in COUNTER or MAC: the message began with '['
+        self._counter = 0
+        self.signature = None  # (counter, mac) of the last valid message when it was signed
 
     def feed(self, byte):
         state = self.state
+        if state >= COUNTER:
+            return self._hex(byte, state)
         if state >= THROTTLE and state != SKIP:
             if _ZERO <= byte <= _NINE:
                 if self.digits == spec.CONTROL_MAX_DIGITS:
@@ -133,9 +145,13 @@ class Parser:
         if byte == _MINUS and state == SPEED and not self.digits and not self._negative:
             self._negative = True
             return NONE
-        if byte == _SEPARATOR and first and self.digits:
-            self._first = self.value
-            self.state = SET_STEERING if setpoint else STEERING
+        if byte == _SEPARATOR and self.digits:
+            if first:
+                self._first = self.value
+                self.state = SET_STEERING if setpoint else STEERING
+            else:  # after the steering: a signed message's COUNTER follows
+                self._setpoint_kind, self._second = setpoint, self.value
+                self.state, self._counter = COUNTER, 0
             self.digits = 0
             self.value = 0
             return NONE
@@ -143,17 +159,7 @@ class Parser:
             self.state = IDLE
             if first or not self.digits or (byte == _SET_END) != setpoint:
                 return SYNTAX
-            lo, hi = spec.CONTROL_MIN_US, spec.CONTROL_MAX_US
-            if setpoint:
-                if self._first > spec.SETPOINT_MAX_SPEED_MM_S or not lo <= self.value <= hi:
-                    return RANGE
-                self.speed_mm_s = -self._first if self._negative else self._first
-                self.setpoint_steering_us = self.value
-                return SETPOINT
-            if not (lo <= self._first <= hi and lo <= self.value <= hi):
-                return RANGE
-            self.throttle_us, self.steering_us = self._first, self.value
-            return OK
+            return self._finish(setpoint, self.value, None)
         if byte == _START or byte == _SET_START:
             self._start(byte)
             return UNTERMINATED
@@ -162,6 +168,48 @@ class Parser:
             return UNTERMINATED
         self.state = SKIP
         return SYNTAX
+
+
+    def _hex(self, byte, state):
+        nibble = byte - _ZERO if _ZERO <= byte <= _NINE else byte - 87 if 97 <= byte <= 102 else -1
+        if nibble >= 0:
+            if self.digits == (spec.SIGNED_COUNTER_DIGITS if state == COUNTER else spec.SIGNED_MAC_DIGITS):
+                self.state = SKIP
+                return TOO_LONG
+            self.digits += 1
+            self.value = (self.value << 4) | nibble
+            return NONE
+        if byte == _SEPARATOR and state == COUNTER and self.digits:
+            self._counter = self.value
+            self.state, self.digits, self.value = MAC, 0, 0
+            return NONE
+        if byte == _END or byte == _SET_END:
+            self.state = IDLE
+            if state == COUNTER or self.digits != spec.SIGNED_MAC_DIGITS or (byte == _SET_END) != self._setpoint_kind:
+                return SYNTAX  # no MAC, a truncated one, or the other kind's end
+            return self._finish(self._setpoint_kind, self._second, (self._counter, self.value))
+        if byte == _START or byte == _SET_START:
+            self._start(byte)
+            return UNTERMINATED
+        if byte == _CR or byte == _LF:
+            self.state = IDLE
+            return UNTERMINATED
+        self.state = SKIP
+        return SYNTAX
+
+    def _finish(self, setpoint, second, signature):
+        lo, hi = spec.CONTROL_MIN_US, spec.CONTROL_MAX_US
+        if setpoint:
+            if self._first > spec.SETPOINT_MAX_SPEED_MM_S or not lo <= second <= hi:
+                return RANGE
+            self.speed_mm_s = -self._first if self._negative else self._first
+            self.setpoint_steering_us = second
+        else:
+            if not (lo <= self._first <= hi and lo <= second <= hi):
+                return RANGE
+            self.throttle_us, self.steering_us = self._first, second
+        self.signature = signature
+        return SETPOINT if setpoint else OK
 
 
 def decode(message):

@@ -34,6 +34,23 @@ PARSE_RESULT_TOO_LONG = 4  # A field with more than max_digits digits
 PARSE_RESULT_UNTERMINATED = 5  # A message cut short by a new start_char or a line end before end_char
 PARSE_RESULT_GARBAGE = 6  # Bytes outside any message (reported once, when the run of garbage ends)
 PARSE_RESULT_SETPOINT = 7  # A valid setpoint message finished with this byte
+PARSE_RESULT_UNSIGNED = 8  # A car with a key refused a message without a counter and MAC (the reply adds the session, 8 hex digits)
+PARSE_RESULT_FORGED = 9  # A car with a key refused a signed message whose MAC is not the one its key and session give (another key, an old session, an altered byte; the reply adds the session)
+PARSE_RESULT_REPLAY = 10  # A car with a key refused a signed message whose counter is not above the last accepted one (replayed or reordered; the reply adds that counter in hex)
+PARSE_RESULT_NOKEY = 11  # A car without a key refused a signed message (set one over USB serial, or send unsigned)
+
+# [signed]
+SIGNED_COUNTER_DIGITS = 8  # [digits] Most hex digits of COUNTER (a 32-bit counter)
+SIGNED_MAC_DIGITS = 12  # [digits] Hex digits of MAC, exactly: fewer is a truncated message (syntax)
+SIGNED_MAC_BITS = 48  # [bits] Bits of the SipHash-2-4 MAC that are sent (MAVLink v2 signing also sends 48)
+SIGNED_MAC_INPUT_BYTES = 13  # [bytes] Length of what the MAC covers: session 4, start character 1, first field 2, steering 2, counter 4
+SIGNED_KEY_BYTES = 16  # [bytes] The shared key (SipHash-2-4's 128 bits), 32 hex digits in key_command and key files
+SIGNED_MAX_MESSAGE_BYTES = 34  # [bytes] Longest signed message, e.g. [-5000,1500,ffffffff,0123456789ab]
+SIGNED_SESSION_DIGITS = 8  # [digits] Hex digits of the session in the session reply and after ERR unsigned / ERR forged
+SIGNED_REPLY_SESSION = 'SESSION'  # Line a car with a key prints after READY: SESSION and its session in session_digits hex digits
+SIGNED_KEY_COMMAND = 'KEY'  # Serial-only command line (at a line's start or right after a message): <32 hex digits> sets the key, KEY - clears it, KEY ? asks; the car answers KEY and the key's fingerprint (8 hex digits) or KEY none. BLE, Wi-Fi and the link module never take it
+SIGNED_KEY_NONE = 'none'  # What follows KEY in the answer of a car without a key
+SIGNED_FINGERPRINT_DIGITS = 8  # [digits] The key's fingerprint: the low 32 bits of SipHash-2-4 under the key of the 4 bytes ROAR, in hex; it names a key without revealing it
 
 # [serial]
 SERIAL_BAUD = 115200  # [baud] 8N1
@@ -122,6 +139,7 @@ BLE_PID_UUID = '19b10011-e8f2-537e-4f6c-d104768a1216'  # Speed PID gains: 3 x fl
 BLE_STATE_UUID = '19b10011-e8f2-537e-4f6c-d104768a1217'  # 8 bytes: float32 speed m/s, float32 throttle output (read)
 BLE_NAME_UUID = '19b10012-e8f2-537e-4f6c-d104768a1214'  # Device name stored on the car (write)
 BLE_OVERRIDE_UUID = '19b10015-e8f2-537e-4f6c-d104768a1214'  # Any write toggles the override output (write)
+BLE_SESSION_UUID = '19b10011-e8f2-537e-4f6c-d104768a1218'  # The car's signing session, uint32 little-endian, 0 when it has no key (read): what a BLE host signs with (see signed)
 BLE_LOCAL_NAME = 'ROAR Car'  # Default advertised name
 
 # [udp]
@@ -177,7 +195,7 @@ JUNIOR_FAILSAFE_TIMEOUT_US = 500000  # [us] No control request for longer than t
 JUNIOR_IDLE_CLOSE_US = 2000000  # [us] A connection (either port) that sends nothing for this long is closed, so idle clients cannot hold the robot's few connections
 
 # The word of each parse_result code, indexed by the code
-PARSE_RESULT_TOKENS = ('none', 'ok', 'syntax', 'range', 'too_long', 'unterminated', 'garbage', 'setpoint',)
+PARSE_RESULT_TOKENS = ('none', 'ok', 'syntax', 'range', 'too_long', 'unterminated', 'garbage', 'setpoint', 'unsigned', 'forged', 'replay', 'nokey',)
 
 # The word of each sbus_result code, indexed by the code
 SBUS_RESULT_TOKENS = ('none', 'frame', 'failsafe', 'dropped',)

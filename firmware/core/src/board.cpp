@@ -4,7 +4,7 @@ namespace roar {
 
 void CarBoard::feed(const uint8_t* data, size_t length) {
   const Micros t = now();
-  for (size_t i = 0; i < length; ++i) car_.feed(data[i], t);
+  for (size_t i = 0; i < length; ++i) car_.feed(data[i], t, Link::Radio);
 }
 
 CarOutputs CarBoard::poll() {

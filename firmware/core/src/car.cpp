@@ -10,14 +10,19 @@ Car::Car(const CarConfig& config)
       brake_(config.brake),
       host_command_(neutral_command()) {}
 
-void Car::boot() { queue(Reply::Ready); }
+void Car::boot(Nvm* nvm) {
+  nvm_ = nvm;
+  start_session(nvm, auth_);
+  queue(Reply::Ready);
+  if (auth_.keyed()) queue(Reply::Session, ParseResult::None, auth_.session());
+}
 
-void Car::queue(Reply kind, ParseResult detail) {
+void Car::queue(Reply kind, ParseResult detail, uint32_t value) {
   if (reply_count_ == kQueue) {
     ++replies_dropped_;
     return;
   }
-  replies_[(reply_head_ + reply_count_) % kQueue] = QueuedReply{kind, detail};
+  replies_[(reply_head_ + reply_count_) % kQueue] = QueuedReply{kind, detail, value};
   ++reply_count_;
 }
 
@@ -31,9 +36,58 @@ void Car::on_watchdog(WatchdogEvent ev) {
   }
 }
 
-void Car::feed(uint8_t byte, Micros now_us) {
+void Car::feed(uint8_t byte, Micros now_us, Link link) {
+  if (link == Link::Serial) {
+    const KeyLine::Event ev = key_line_.feed(byte);
+    if (ev != KeyLine::Event::NotMine) {
+      on_key_line(ev);
+      if (ev != KeyLine::Event::Bad) return;
+    }
+  }
   const ParseResult r = parser_.feed(byte);
-  if (r == ParseResult::None) return;
+  if (r != ParseResult::None) on_message(r, now_us);
+}
+
+void Car::on_key_line(KeyLine::Event ev) {
+  switch (ev) {
+    case KeyLine::Event::Set:
+    case KeyLine::Event::Clear: {
+      if (nvm_ == nullptr) {  // nowhere to keep a key: refuse rather than forget it at reboot
+        queue(Reply::Error, ParseResult::Nokey);
+        return;
+      }
+      KeyRecord record = KeyRecord::load(*nvm_);
+      record.keyed = ev == KeyLine::Event::Set;
+      for (uint8_t i = 0; i < proto::kSignedKeyBytes; ++i) record.key[i] = record.keyed ? key_line_.key()[i] : 0;
+      if (++record.session == 0) record.session = 1;  // a new key starts a new session
+      record.store(*nvm_);
+      auth_.set_key(record.keyed ? record.key : nullptr, record.session);
+      queue(Reply::Key, auth_.keyed() ? ParseResult::Ok : ParseResult::None, auth_.fingerprint());
+      if (auth_.keyed()) queue(Reply::Session, ParseResult::None, auth_.session());
+      return;
+    }
+    case KeyLine::Event::Ask:
+      queue(Reply::Key, auth_.keyed() ? ParseResult::Ok : ParseResult::None, auth_.fingerprint());
+      return;
+    case KeyLine::Event::Bad:
+      queue(Reply::Error, ParseResult::Syntax);
+      return;
+    default:
+      return;
+  }
+}
+
+void Car::on_message(ParseResult r, Micros now_us) {
+  if (r == ParseResult::Ok || r == ParseResult::Setpoint) {
+    const ParseResult verdict = auth_.check(r, parser_);
+    if (verdict != r) {  // refused: nothing changes, the failsafe is not fed
+      const uint32_t value = verdict == ParseResult::Replay ? auth_.last_counter()
+                             : verdict == ParseResult::Nokey ? 0u
+                                                             : auth_.session();
+      queue(Reply::Error, verdict, value);
+      return;
+    }
+  }
   if (r == ParseResult::Setpoint) {  // a valid message, but this car drives by throttle, not speed
     queue(Reply::Unsupported);
     return;
@@ -86,6 +140,20 @@ size_t Car::take_reply(char* buf, size_t cap) {
     case Reply::Error:
       ok = append(buf, cap, &len, proto::kSerialReplyError) && append(buf, cap, &len, " ") &&
            append(buf, cap, &len, parse_result_token(q.detail));
+      if (q.detail == ParseResult::Unsigned || q.detail == ParseResult::Forged) {
+        ok = ok && append(buf, cap, &len, " ") && append_hex(buf, cap, &len, q.value, proto::kSignedSessionDigits);
+      } else if (q.detail == ParseResult::Replay) {
+        ok = ok && append(buf, cap, &len, " ") && append_hex(buf, cap, &len, q.value, 1);
+      }
+      break;
+    case Reply::Session:
+      ok = append(buf, cap, &len, proto::kSignedReplySession) && append(buf, cap, &len, " ") &&
+           append_hex(buf, cap, &len, q.value, proto::kSignedSessionDigits);
+      break;
+    case Reply::Key:
+      ok = append(buf, cap, &len, proto::kSignedKeyCommand) && append(buf, cap, &len, " ") &&
+           (q.detail != ParseResult::Ok ? append(buf, cap, &len, proto::kSignedKeyNone)
+                         : append_hex(buf, cap, &len, q.value, proto::kSignedFingerprintDigits));
       break;
     case Reply::Failsafe:
       ok = append(buf, cap, &len, proto::kSerialReplyFailsafe);

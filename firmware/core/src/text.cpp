@@ -22,6 +22,17 @@ bool append_uint(char* buf, size_t cap, size_t* len, uint32_t value) {
   return append(buf, cap, len, digits + n);
 }
 
+bool append_hex(char* buf, size_t cap, size_t* len, uint32_t value, uint8_t min_digits) {
+  char digits[9];  // ffffffff and the NUL
+  uint8_t n = sizeof(digits) - 1;
+  digits[n] = '\0';
+  do {
+    digits[--n] = "0123456789abcdef"[value & 0xFu];
+    value >>= 4;
+  } while (n > 0 && (value || sizeof(digits) - 1 - n < min_digits));
+  return append(buf, cap, len, digits + n);
+}
+
 bool append_int(char* buf, size_t cap, size_t* len, int32_t value) {
   if (value >= 0) return append_uint(buf, cap, len, static_cast<uint32_t>(value));
   // -2147483648 has no positive int32_t: negate in unsigned arithmetic

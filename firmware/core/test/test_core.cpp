@@ -67,7 +67,10 @@ static void test_vectors() {
                               ? p.command().throttle_us == e.first && p.command().steering_us == e.steering
                               : r != ParseResult::Setpoint ||
                                     (p.setpoint().speed_mm_s == e.first && p.setpoint().steering_us == e.steering);
-      const bool same = e.at == i && e.result == r && values;
+      const Signature& sig = p.signature();
+      const bool signature = (r != ParseResult::Ok && r != ParseResult::Setpoint) ||
+                             (sig.present == e.is_signed && sig.counter == e.counter && sig.mac == e.mac);
+      const bool same = e.at == i && e.result == r && values && signature;
       if (!same) {
         ok = false;
         printf("FAIL vector %s: got %s at %u, want %s at %u\n", tc.name, parse_result_token(r), (unsigned)i,

@@ -8,62 +8,78 @@
 namespace roar_vectors {
 
 // first: the throttle [us] of an ok event, the speed [mm/s] of a setpoint event
-struct Event { uint16_t at; roar::ParseResult result; int16_t first; uint16_t steering; };
+// is_signed: the message carried counter and mac
+struct Event { uint16_t at; roar::ParseResult result; int16_t first; uint16_t steering; bool is_signed; uint32_t counter; uint64_t mac; };
 struct Case { const char* name; const char* input; size_t length; const Event* events; size_t n_events; };
 
-static const Event kEvents0[] = {{10, roar::ParseResult::Ok, 1500, 1500}};
-static const Event kEvents1[] = {{10, roar::ParseResult::Ok, 1000, 2000}};
-static const Event kEvents2[] = {{10, roar::ParseResult::Ok, 2000, 1000}};
-static const Event kEvents3[] = {{10, roar::ParseResult::Ok, 1200, 1800}, {21, roar::ParseResult::Ok, 1800, 1200}};
-static const Event kEvents4[] = {{10, roar::ParseResult::Ok, 1500, 1500}, {23, roar::ParseResult::Ok, 1600, 1400}};
-static const Event kEvents5[] = {{10, roar::ParseResult::Ok, 1500, 1500}};
-static const Event kEvents6[] = {{10, roar::ParseResult::Ok, 1734, 1266}};
-static const Event kEvents7[] = {{10, roar::ParseResult::Ok, 1500, 1500}};
-static const Event kEvents8[] = {{10, roar::ParseResult::Garbage, 0, 0}};
-static const Event kEvents9[] = {{10, roar::ParseResult::Unterminated, 0, 0}};
-static const Event kEvents10[] = {{10, roar::ParseResult::Unterminated, 0, 0}, {20, roar::ParseResult::Ok, 1600, 1400}};
-static const Event kEvents11[] = {{6, roar::ParseResult::Unterminated, 0, 0}};
-static const Event kEvents12[] = {{9, roar::ParseResult::Range, 0, 0}};
-static const Event kEvents13[] = {{10, roar::ParseResult::Range, 0, 0}};
-static const Event kEvents14[] = {{10, roar::ParseResult::Range, 0, 0}};
-static const Event kEvents15[] = {{10, roar::ParseResult::Range, 0, 0}};
-static const Event kEvents16[] = {{7, roar::ParseResult::Range, 0, 0}};
-static const Event kEvents17[] = {{3, roar::ParseResult::Syntax, 0, 0}};
-static const Event kEvents18[] = {{1, roar::ParseResult::Syntax, 0, 0}};
-static const Event kEvents19[] = {{5, roar::ParseResult::Syntax, 0, 0}};
-static const Event kEvents20[] = {{1, roar::ParseResult::Syntax, 0, 0}};
-static const Event kEvents21[] = {{5, roar::ParseResult::Syntax, 0, 0}};
-static const Event kEvents22[] = {{1, roar::ParseResult::Syntax, 0, 0}};
-static const Event kEvents23[] = {{6, roar::ParseResult::Syntax, 0, 0}};
-static const Event kEvents24[] = {{1, roar::ParseResult::Syntax, 0, 0}};
-static const Event kEvents25[] = {{5, roar::ParseResult::Syntax, 0, 0}};
-static const Event kEvents26[] = {{6, roar::ParseResult::Syntax, 0, 0}};
-static const Event kEvents27[] = {{10, roar::ParseResult::Syntax, 0, 0}};
-static const Event kEvents28[] = {{5, roar::ParseResult::TooLong, 0, 0}};
-static const Event kEvents29[] = {{10, roar::ParseResult::TooLong, 0, 0}};
-static const Event kEvents30[] = {{5, roar::ParseResult::TooLong, 0, 0}};
-static const Event kEvents31[] = {{3, roar::ParseResult::Garbage, 0, 0}, {13, roar::ParseResult::Ok, 1500, 1500}};
-static const Event kEvents32[] = {{3, roar::ParseResult::Garbage, 0, 0}, {13, roar::ParseResult::Ok, 1200, 1300}};
-static const Event kEvents33[] = {{5, roar::ParseResult::Garbage, 0, 0}, {16, roar::ParseResult::Ok, 1500, 1500}};
-static const Event kEvents34[] = {{3, roar::ParseResult::Syntax, 0, 0}, {21, roar::ParseResult::Ok, 1400, 1600}};
-static const Event kEvents35[] = {{5, roar::ParseResult::TooLong, 0, 0}, {24, roar::ParseResult::Ok, 1999, 1001}};
-static const Event kEvents36[] = {{10, roar::ParseResult::TooLong, 0, 0}};
-static const Event kEvents37[] = {{2, roar::ParseResult::Syntax, 0, 0}, {13, roar::ParseResult::Ok, 1500, 1500}};
-static const Event kEvents38[] = {{10, roar::ParseResult::Ok, 1500, 1500}};
-static const Event kEvents39[] = {{10, roar::ParseResult::Setpoint, 2000, 1500}};
-static const Event kEvents40[] = {{10, roar::ParseResult::Setpoint, -750, 1200}};
-static const Event kEvents41[] = {{7, roar::ParseResult::Setpoint, 0, 1000}, {18, roar::ParseResult::Setpoint, 5000, 2000}, {30, roar::ParseResult::Setpoint, -5000, 1500}};
-static const Event kEvents42[] = {{10, roar::ParseResult::Range, 0, 0}};
-static const Event kEvents43[] = {{8, roar::ParseResult::Range, 0, 0}};
-static const Event kEvents44[] = {{2, roar::ParseResult::Syntax, 0, 0}};
-static const Event kEvents45[] = {{2, roar::ParseResult::Syntax, 0, 0}};
-static const Event kEvents46[] = {{2, roar::ParseResult::Syntax, 0, 0}};
-static const Event kEvents47[] = {{5, roar::ParseResult::TooLong, 0, 0}};
-static const Event kEvents48[] = {{10, roar::ParseResult::Syntax, 0, 0}, {21, roar::ParseResult::Ok, 1500, 1500}};
-static const Event kEvents49[] = {{9, roar::ParseResult::Syntax, 0, 0}};
-static const Event kEvents50[] = {{10, roar::ParseResult::Setpoint, 1000, 1500}, {21, roar::ParseResult::Ok, 1600, 1400}};
-static const Event kEvents51[] = {{7, roar::ParseResult::Unterminated, 0, 0}, {17, roar::ParseResult::Ok, 1500, 1500}};
-static const Event kEvents52[] = {{2, roar::ParseResult::Garbage, 0, 0}, {11, roar::ParseResult::Setpoint, 100, 1500}};
+static const Event kEvents0[] = {{10, roar::ParseResult::Ok, 1500, 1500, false, 0u, 0x0ull}};
+static const Event kEvents1[] = {{10, roar::ParseResult::Ok, 1000, 2000, false, 0u, 0x0ull}};
+static const Event kEvents2[] = {{10, roar::ParseResult::Ok, 2000, 1000, false, 0u, 0x0ull}};
+static const Event kEvents3[] = {{10, roar::ParseResult::Ok, 1200, 1800, false, 0u, 0x0ull}, {21, roar::ParseResult::Ok, 1800, 1200, false, 0u, 0x0ull}};
+static const Event kEvents4[] = {{10, roar::ParseResult::Ok, 1500, 1500, false, 0u, 0x0ull}, {23, roar::ParseResult::Ok, 1600, 1400, false, 0u, 0x0ull}};
+static const Event kEvents5[] = {{10, roar::ParseResult::Ok, 1500, 1500, false, 0u, 0x0ull}};
+static const Event kEvents6[] = {{10, roar::ParseResult::Ok, 1734, 1266, false, 0u, 0x0ull}};
+static const Event kEvents7[] = {{10, roar::ParseResult::Ok, 1500, 1500, false, 0u, 0x0ull}};
+static const Event kEvents8[] = {{10, roar::ParseResult::Garbage, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents9[] = {{10, roar::ParseResult::Unterminated, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents10[] = {{10, roar::ParseResult::Unterminated, 0, 0, false, 0u, 0x0ull}, {20, roar::ParseResult::Ok, 1600, 1400, false, 0u, 0x0ull}};
+static const Event kEvents11[] = {{6, roar::ParseResult::Unterminated, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents12[] = {{9, roar::ParseResult::Range, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents13[] = {{10, roar::ParseResult::Range, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents14[] = {{10, roar::ParseResult::Range, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents15[] = {{10, roar::ParseResult::Range, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents16[] = {{7, roar::ParseResult::Range, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents17[] = {{3, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents18[] = {{1, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents19[] = {{5, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents20[] = {{1, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents21[] = {{5, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents22[] = {{1, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents23[] = {{6, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents24[] = {{1, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents25[] = {{5, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents26[] = {{6, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents27[] = {{15, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents28[] = {{5, roar::ParseResult::TooLong, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents29[] = {{10, roar::ParseResult::TooLong, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents30[] = {{5, roar::ParseResult::TooLong, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents31[] = {{3, roar::ParseResult::Garbage, 0, 0, false, 0u, 0x0ull}, {13, roar::ParseResult::Ok, 1500, 1500, false, 0u, 0x0ull}};
+static const Event kEvents32[] = {{3, roar::ParseResult::Garbage, 0, 0, false, 0u, 0x0ull}, {13, roar::ParseResult::Ok, 1200, 1300, false, 0u, 0x0ull}};
+static const Event kEvents33[] = {{5, roar::ParseResult::Garbage, 0, 0, false, 0u, 0x0ull}, {16, roar::ParseResult::Ok, 1500, 1500, false, 0u, 0x0ull}};
+static const Event kEvents34[] = {{3, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}, {21, roar::ParseResult::Ok, 1400, 1600, false, 0u, 0x0ull}};
+static const Event kEvents35[] = {{5, roar::ParseResult::TooLong, 0, 0, false, 0u, 0x0ull}, {24, roar::ParseResult::Ok, 1999, 1001, false, 0u, 0x0ull}};
+static const Event kEvents36[] = {{10, roar::ParseResult::TooLong, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents37[] = {{2, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}, {13, roar::ParseResult::Ok, 1500, 1500, false, 0u, 0x0ull}};
+static const Event kEvents38[] = {{10, roar::ParseResult::Ok, 1500, 1500, false, 0u, 0x0ull}};
+static const Event kEvents39[] = {{10, roar::ParseResult::Setpoint, 2000, 1500, false, 0u, 0x0ull}};
+static const Event kEvents40[] = {{10, roar::ParseResult::Setpoint, -750, 1200, false, 0u, 0x0ull}};
+static const Event kEvents41[] = {{7, roar::ParseResult::Setpoint, 0, 1000, false, 0u, 0x0ull}, {18, roar::ParseResult::Setpoint, 5000, 2000, false, 0u, 0x0ull}, {30, roar::ParseResult::Setpoint, -5000, 1500, false, 0u, 0x0ull}};
+static const Event kEvents42[] = {{10, roar::ParseResult::Range, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents43[] = {{8, roar::ParseResult::Range, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents44[] = {{2, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents45[] = {{2, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents46[] = {{2, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents47[] = {{5, roar::ParseResult::TooLong, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents48[] = {{10, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}, {21, roar::ParseResult::Ok, 1500, 1500, false, 0u, 0x0ull}};
+static const Event kEvents49[] = {{9, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents50[] = {{10, roar::ParseResult::Setpoint, 1000, 1500, false, 0u, 0x0ull}, {21, roar::ParseResult::Ok, 1600, 1400, false, 0u, 0x0ull}};
+static const Event kEvents51[] = {{7, roar::ParseResult::Unterminated, 0, 0, false, 0u, 0x0ull}, {17, roar::ParseResult::Ok, 1500, 1500, false, 0u, 0x0ull}};
+static const Event kEvents52[] = {{2, roar::ParseResult::Garbage, 0, 0, false, 0u, 0x0ull}, {11, roar::ParseResult::Setpoint, 100, 1500, false, 0u, 0x0ull}};
+static const Event kEvents53[] = {{25, roar::ParseResult::Ok, 1600, 1400, true, 1u, 0x010c7155e0c7ull}};
+static const Event kEvents54[] = {{26, roar::ParseResult::Setpoint, -750, 1500, true, 42u, 0x0710d3710cd5ull}};
+static const Event kEvents55[] = {{32, roar::ParseResult::Ok, 2000, 1000, true, 4294967295u, 0xe596eb13a315ull}};
+static const Event kEvents56[] = {{25, roar::ParseResult::Ok, 1600, 1400, true, 1u, 0x010c7155e0c7ull}};
+static const Event kEvents57[] = {{25, roar::ParseResult::Ok, 1600, 1400, true, 1u, 0x010c7155e0c7ull}, {36, roar::ParseResult::Ok, 1500, 1500, false, 0u, 0x0ull}};
+static const Event kEvents58[] = {{24, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents59[] = {{25, roar::ParseResult::TooLong, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents60[] = {{19, roar::ParseResult::TooLong, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents61[] = {{11, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents62[] = {{16, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents63[] = {{26, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents64[] = {{16, roar::ParseResult::Unterminated, 0, 0, false, 0u, 0x0ull}, {42, roar::ParseResult::Ok, 1600, 1400, true, 1u, 0x010c7155e0c7ull}};
+static const Event kEvents65[] = {{16, roar::ParseResult::Unterminated, 0, 0, false, 0u, 0x0ull}, {41, roar::ParseResult::Ok, 1600, 1400, true, 1u, 0x010c7155e0c7ull}};
+static const Event kEvents66[] = {{25, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
+static const Event kEvents67[] = {{11, roar::ParseResult::Syntax, 0, 0, false, 0u, 0x0ull}};
 
 static const Case kCases[] = {
     {"neutral", "(1500,1500)", 11, kEvents0, 1},
@@ -93,7 +109,7 @@ static const Case kCases[] = {
     {"empty_message", "()", 2, kEvents24, 1},
     {"missing_comma_short", "(1500)", 6, kEvents25, 1},
     {"double_comma", "(1500,,1500)", 12, kEvents26, 1},
-    {"three_fields", "(1500,1500,1500)", 16, kEvents27, 1},
+    {"three_fields_is_a_counter_without_mac", "(1500,1500,1500)", 16, kEvents27, 1},
     {"overlong_throttle", "(15000,1500)", 12, kEvents28, 1},
     {"overlong_steering", "(1500,1500000)", 14, kEvents29, 1},
     {"missing_comma_overlong", "(15001500)", 10, kEvents30, 1},
@@ -119,6 +135,21 @@ static const Case kCases[] = {
     {"setpoint_then_control", "[1000,1500](1600,1400)", 22, kEvents50, 2},
     {"setpoint_cut_by_control", "[100,15(1500,1500)", 18, kEvents51, 2},
     {"garbage_then_setpoint", "xy[100,1500]", 12, kEvents52, 2},
+    {"signed_control", "(1600,1400,1,010c7155e0c7)", 26, kEvents53, 1},
+    {"signed_setpoint", "[-750,1500,2a,0710d3710cd5]", 27, kEvents54, 1},
+    {"signed_longest_counter", "(2000,1000,ffffffff,e596eb13a315)", 33, kEvents55, 1},
+    {"signed_split_across_reads", "(1600,1400,1,010c7155e0c7)", 26, kEvents56, 1},
+    {"signed_then_unsigned", "(1600,1400,1,010c7155e0c7)(1500,1500)", 37, kEvents57, 2},
+    {"signed_truncated_mac", "(1600,1400,1,010c7155e0c)", 25, kEvents58, 1},
+    {"signed_mac_one_digit_too_many", "(1600,1400,1,010c7155e0c70)", 27, kEvents59, 1},
+    {"signed_counter_nine_digits", "(1500,1500,123456789,010c7155e0c7)", 34, kEvents60, 1},
+    {"signed_empty_counter", "(1500,1500,,010c7155e0c7)", 25, kEvents61, 1},
+    {"signed_uppercase_hex", "(1600,1400,1,010C7155E0C7)", 26, kEvents62, 1},
+    {"signed_setpoint_ended_by_parenthesis", "[-750,1500,2a,0710d3710cd5)", 27, kEvents63, 1},
+    {"signed_line_end_inside_mac", "(1600,1400,1,010\012(1600,1400,1,010c7155e0c7)", 43, kEvents64, 2},
+    {"signed_cut_by_a_new_message", "(1600,1400,1,010(1600,1400,1,010c7155e0c7)", 42, kEvents65, 2},
+    {"signed_fifth_field", "(1600,1400,1,010c7155e0c7,1)", 28, kEvents66, 1},
+    {"signed_negative_counter", "(1500,1500,-1,010c7155e0c7)", 27, kEvents67, 1},
 };
 
 static const size_t kCaseCount = sizeof(kCases) / sizeof(kCases[0]);

@@ -32,7 +32,8 @@ class ControlParser:
             result = ParseResult(ev.result)
             command = ControlCommand(ev.throttle, ev.steering) if result == ParseResult.OK else None
             setpoint = Setpoint(ev.speed_mm_s, ev.steering) if result == ParseResult.SETPOINT else None
-            events.append(ParseEvent(self.offset + ev.at, result, command, setpoint))
+            signature = (ev.counter, ev.mac) if ev.is_signed else None
+            events.append(ParseEvent(self.offset + ev.at, result, command, setpoint, signature))
         self.offset += len(data)
         return events
 
@@ -40,6 +41,33 @@ class ControlParser:
         """Feed without collecting events; returns how many there were (for benchmarks)."""
         self.offset += len(data)
         return self._lib.roar_parser_feed_buffer(self._mem, as_bytes(data), len(data), ffi.NULL, 0)
+
+
+class Authenticator:
+    """The firmware's verdict on signed messages (roar/signing.h), beside a ControlParser."""
+
+    def __init__(self) -> None:
+        self._lib = lib()
+        self._mem = new_object("roar_auth_size")
+        self._lib.roar_auth_init(self._mem)
+
+    def set_key(self, key: bytes | None, session: int) -> None:
+        self._lib.roar_auth_set_key(self._mem, ffi.NULL if key is None else as_bytes(key), session)
+
+    def check(self, kind: ParseResult, parser: ControlParser) -> ParseResult:
+        return ParseResult(self._lib.roar_auth_check(self._mem, kind, parser._mem))
+
+    @property
+    def last_counter(self) -> int:
+        return self._lib.roar_auth_last_counter(self._mem)
+
+
+def message_mac(key: bytes, session: int, start: int, first: int, steering: int, counter: int) -> int:
+    return lib().roar_message_mac(as_bytes(key), session, start, first, steering, counter)
+
+
+def key_fingerprint(key: bytes) -> str:
+    return "%08x" % lib().roar_key_fingerprint(as_bytes(key))
 
 
 class CommandWatchdog:
@@ -208,10 +236,14 @@ class CarBoard:
     """
 
     def __init__(self, config: CarConfig | None = None, loop_us: int = 1_000,
-                 frame_us: int = spec.TIMING_SERVO_FRAME_US, start_us: int = 0) -> None:
+                 frame_us: int = spec.TIMING_SERVO_FRAME_US, start_us: int = 0, nvm: bytes | None = None) -> None:
+        """nvm: the board's non-volatile memory as a previous board left it (`.nvm`), so a new
+        board is that board rebooted; None: blank, as from the factory."""
         self._lib = lib()
         self.config = config or CarConfig()
         self.hal = ffi.new("roar_host_hal_t *")
+        blank = bytes([0xFF]) * len(self.hal.nvm)
+        ffi.memmove(self.hal.nvm, (blank if nvm is None else bytes(nvm)).ljust(len(blank), b"\xff"), len(blank))
         self.hal.now_us = self.hal.next_frame_us = start_us & U32_MASK
         self.hal.loop_us, self.hal.frame_us = loop_us, frame_us
         self._mem = new_object("roar_board_size")
@@ -222,6 +254,11 @@ class CarBoard:
 
     def begin(self) -> None:
         self._lib.roar_board_begin(self._mem)
+
+    @property
+    def nvm(self) -> bytes:
+        """The board's non-volatile memory now (key and session: roar/signing.h)."""
+        return ffi.unpack(ffi.cast("char *", self.hal.nvm), len(self.hal.nvm))
 
     def ble_write(self, data: bytes) -> None:
         """One BLE write to the control characteristic, fed to the loop at once."""

@@ -95,6 +95,7 @@ class ParseEvent:
     result: ParseResult
     command: ControlCommand | None = None  # set when result is OK
     setpoint: Setpoint | None = None  # set when result is SETPOINT
+    signature: tuple[int, int] | None = None  # (counter, mac) of a signed OK or SETPOINT message
 
 
 _RESULTS = tuple(ParseResult)
@@ -119,7 +120,8 @@ class StreamDecoder:
                     command = ControlCommand(p.throttle_us, p.steering_us)
                 elif result == wire.SETPOINT:
                     setpoint = Setpoint(p.speed_mm_s, p.setpoint_steering_us)
-                events.append(ParseEvent(self.offset + i, _RESULTS[result], command, setpoint))
+                signature = p.signature if command or setpoint else None
+                events.append(ParseEvent(self.offset + i, _RESULTS[result], command, setpoint, signature))
         self.offset += len(data)
         return events
 

@@ -19,6 +19,10 @@ class ParseResult(IntEnum):
     UNTERMINATED = 5  # A message cut short by a new start_char or a line end before end_char
     GARBAGE = 6  # Bytes outside any message (reported once, when the run of garbage ends)
     SETPOINT = 7  # A valid setpoint message finished with this byte
+    UNSIGNED = 8  # A car with a key refused a message without a counter and MAC (the reply adds the session, 8 hex digits)
+    FORGED = 9  # A car with a key refused a signed message whose MAC is not the one its key and session give (another key, an old session, an altered byte; the reply adds the session)
+    REPLAY = 10  # A car with a key refused a signed message whose counter is not above the last accepted one (replayed or reordered; the reply adds that counter in hex)
+    NOKEY = 11  # A car without a key refused a signed message (set one over USB serial, or send unsigned)
 
     def __str__(self) -> str:
         return self.name.lower()

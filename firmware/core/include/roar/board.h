@@ -24,6 +24,9 @@ class Hal {
   virtual size_t write_room() = 0;        // bytes the serial port takes now without blocking
   virtual void write(const char* text, size_t length) = 0;
   virtual void feed_watchdog() = 0;       // the loop is alive: restart the hardware watchdog
+  // Where the signing key and session counter live (roar/signing.h); nullptr: nowhere, so the
+  // board can never be given a key.
+  virtual Nvm* nvm() { return nullptr; }
 
  protected:
   ~Hal() = default;
@@ -35,10 +38,10 @@ class CarBoard {
 
   CarBoard(Hal& hal, const CarConfig& config = CarConfig()) : hal_(hal), car_(config) {}
 
-  // Call once the serial port is up: queues the boot banner.
-  void begin() { car_.boot(); }
+  // Call once the serial port is up: queues the boot banner (and the session, with a key).
+  void begin() { car_.boot(hal_.nvm()); }
 
-  // Bytes from another link (a BLE write), in order.
+  // Bytes from another link (a BLE write), in order. They can drive, never set a key.
   void feed(const uint8_t* data, size_t length);
 
   // One RC receiver pulse measured by the board's input capture.

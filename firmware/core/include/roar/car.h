@@ -1,6 +1,9 @@
 // The board logic of a servo/ESC car, the same on every board and in the simulator:
 //
-//   bytes -> ControlParser -> CommandWatchdog -> RcOverride -> BrakeFsm -> map_pulse -> pulses
+//   bytes -> ControlParser -> Authenticator -> CommandWatchdog -> RcOverride -> BrakeFsm -> map_pulse -> pulses
+//
+// With a key (roar/signing.h, set over serial only) the car acts only on signed messages; the
+// failsafe counts only messages that passed.
 //
 // Board glue calls feed() for every received byte, rc_pulse() for every measured receiver
 // pulse, step() every loop (>= 1 kHz is ideal) and writes the returned pulses to the outputs,
@@ -15,6 +18,7 @@
 #include "roar/failsafe.h"
 #include "roar/rc_override.h"
 #include "roar/servo_output.h"
+#include "roar/signing.h"
 
 namespace roar {
 
@@ -41,17 +45,21 @@ struct CarOutputs {
   BrakePhase brake_phase;
 };
 
-enum class Reply : uint8_t { Ready, Error, Failsafe, Armed, Unsupported };
+enum class Reply : uint8_t { Ready, Error, Failsafe, Armed, Unsupported, Session, Key };
+
+// Where a byte came from: only the serial link (USB) may set or clear the key.
+enum class Link : uint8_t { Serial, Radio };
 
 class Car {
  public:
   explicit Car(const CarConfig& config = CarConfig());
 
-  // Queue the boot banner. Call once when the serial port is up.
-  void boot();
+  // Queue the boot banner. Call once when the serial port is up. nvm: where the key and the
+  // session counter live (nullptr: the board has none, so it can never have a key).
+  void boot(Nvm* nvm = nullptr);
 
-  // One received byte (serial or a BLE write, byte by byte).
-  void feed(uint8_t byte, Micros now_us);
+  // One received byte (serial, or a BLE write byte by byte).
+  void feed(uint8_t byte, Micros now_us, Link link = Link::Serial);
 
   // One measured RC receiver pulse.
   void rc_pulse(RcChannel channel, uint16_t width_us, Micros now_us) { rc_.on_pulse(channel, width_us, now_us); }
@@ -66,6 +74,7 @@ class Car {
   // Replies dropped because the queue was full (the host is not reading).
   uint32_t replies_dropped() const { return replies_dropped_; }
   const ControlParser& parser() const { return parser_; }
+  const Authenticator& auth() const { return auth_; }
   bool latched() const { return config_.failsafe_enabled && watchdog_.latched(); }
 
  private:
@@ -73,12 +82,18 @@ class Car {
   struct QueuedReply {
     Reply kind;
     ParseResult detail;
+    uint32_t value;  // the session or a counter after ERR; the fingerprint after KEY (detail Ok: keyed)
   };
-  void queue(Reply kind, ParseResult detail = ParseResult::None);
+  void queue(Reply kind, ParseResult detail = ParseResult::None, uint32_t value = 0);
   void on_watchdog(WatchdogEvent ev);
+  void on_key_line(KeyLine::Event ev);
+  void on_message(ParseResult r, Micros now_us);
 
   CarConfig config_;
   ControlParser parser_;
+  Authenticator auth_;
+  KeyLine key_line_;
+  Nvm* nvm_ = nullptr;
   CommandWatchdog watchdog_;
   RcOverride rc_;
   BrakeFsm brake_;

@@ -7,6 +7,11 @@
 // of digits it may still take (left_), which is non-zero only inside a field, so that test is
 // "a digit, and room for it". feed() is always inlined, so that a caller's loop keeps the
 // parser in registers (one copy per call site: the Car and the C ABI).
+//
+// Signed messages "(T,S,COUNTER,MAC)" and "[V,S,COUNTER,MAC]" (protocol/spec.toml [signed]) parse
+// to the same results, with signature() saying what they carried; whether the MAC is right is
+// the Authenticator's question (roar/signing.h), not the parser's. The two hex fields take the
+// switch, not the decimal hot path (left_ stays 0 in them).
 #pragma once
 #include <stdint.h>
 
@@ -30,6 +35,13 @@ struct Setpoint {
   uint16_t steering_us;  // [us]
 };
 
+// What a signed message carried after its two fields (present false for an unsigned one).
+struct Signature {
+  bool present;
+  uint32_t counter;  // COUNTER
+  uint64_t mac;      // MAC, the low kSignedMacBits bits
+};
+
 class ControlParser {
  public:
   // Consume one byte. On ParseResult::Ok, command() holds the new control message; on
@@ -40,6 +52,8 @@ class ControlParser {
   const ControlCommand& command() const { return command_; }
   // The last valid setpoint message (stopped and centred until one has been parsed).
   const Setpoint& setpoint() const { return setpoint_; }
+  // What the last valid message (control or setpoint) carried after its two fields.
+  const Signature& signature() const { return signature_; }
 
   void reset() {
     state_ = State::Idle;
@@ -48,7 +62,8 @@ class ControlParser {
 
  private:
   // Fields: Throttle and Steering of "(T,S)", Speed and SetSteering of "[V,S]".
-  enum class State : uint8_t { Idle, Garbage, Skip, Throttle, Steering, Speed, SetSteering };
+  // Counter and Mac are a signed message's hex fields.
+  enum class State : uint8_t { Idle, Garbage, Skip, Throttle, Steering, Speed, SetSteering, Counter, Mac };
 
   __attribute__((always_inline)) static bool is_line_end(uint8_t b) { return b == '\r' || b == '\n'; }
   __attribute__((always_inline)) static bool is_separator(uint8_t b) { return b == ' ' || is_line_end(b) || b == '\t' || b == '\0'; }
@@ -67,12 +82,21 @@ class ControlParser {
     return result;
   }
   __attribute__((always_inline)) ParseResult field_end(uint8_t byte);
+  ParseResult hex_field(uint8_t byte);
+  // The message ends: range checks, then the values become command() or setpoint().
+  ParseResult finish(bool setpoint, uint16_t second, bool is_signed);
 
   State state_ = State::Idle;
   uint8_t left_ = 0;     // digits the current field may still take; 0 outside a field
   uint16_t value_ = 0;   // the current field's value so far
   uint16_t throttle_ = 0;  // the first field: a throttle, or a setpoint's speed magnitude
   bool negative_ = false;  // a setpoint's speed had a leading '-'
+  bool setpoint_kind_ = false;  // in Counter or Mac: the message began with '['
+  uint8_t hex_left_ = 0;   // hex digits the current hex field may still take
+  uint16_t second_ = 0;    // a signed message's steering
+  uint32_t counter_ = 0;   // COUNTER so far
+  uint64_t mac_ = 0;       // MAC so far
+  Signature signature_ = {false, 0, 0};
   ControlCommand command_ = {proto::kControlNeutralUs, proto::kControlNeutralUs};
   Setpoint setpoint_ = {0, proto::kControlNeutralUs};
 };
@@ -90,6 +114,9 @@ inline ParseResult ControlParser::feed(uint8_t byte) {
     case State::Speed:
     case State::SetSteering:
       return field_end(byte);
+    case State::Counter:
+    case State::Mac:
+      return hex_field(byte);
     case State::Idle:
       if (is_start(byte)) return start_message(byte, ParseResult::None);
       if (!is_separator(byte)) state_ = State::Garbage;
@@ -120,20 +147,25 @@ inline ParseResult ControlParser::field_end(uint8_t byte) {
       value_ = 0;
       return ParseResult::None;
     }
+    if (has_digits) {  // after the steering: a signed message's COUNTER follows
+      setpoint_kind_ = state == State::SetSteering;
+      second_ = value_;
+      state_ = State::Counter;
+      left_ = 0;
+      hex_left_ = proto::kSignedCounterDigits;
+      counter_ = 0;
+      return ParseResult::None;
+    }
   } else if (byte == proto::kControlEndChar) {
     left_ = 0;
     state_ = State::Idle;
     if (state != State::Steering || !has_digits) return ParseResult::Syntax;
-    if (!in_range(throttle_) || !in_range(value_)) return ParseResult::Range;
-    command_ = ControlCommand{throttle_, value_};
-    return ParseResult::Ok;
+    return finish(false, value_, false);
   } else if (byte == proto::kSetpointEndChar) {
     left_ = 0;
     state_ = State::Idle;
     if (state != State::SetSteering || !has_digits) return ParseResult::Syntax;
-    if (throttle_ > proto::kSetpointMaxSpeedMmS || !in_range(value_)) return ParseResult::Range;
-    setpoint_ = Setpoint{static_cast<int16_t>(negative_ ? -static_cast<int16_t>(throttle_) : throttle_), value_};
-    return ParseResult::Setpoint;
+    return finish(true, value_, false);
   } else if (static_cast<uint8_t>(byte - '0') <= 9) {  // a digit beyond kControlMaxDigits
     state_ = State::Skip;
     return ParseResult::TooLong;
@@ -150,6 +182,18 @@ inline ParseResult ControlParser::field_end(uint8_t byte) {
   left_ = 0;
   state_ = State::Skip;
   return ParseResult::Syntax;
+}
+
+inline ParseResult ControlParser::finish(bool setpoint, uint16_t second, bool is_signed) {
+  if (setpoint) {
+    if (throttle_ > proto::kSetpointMaxSpeedMmS || !in_range(second)) return ParseResult::Range;
+    setpoint_ = Setpoint{static_cast<int16_t>(negative_ ? -static_cast<int16_t>(throttle_) : throttle_), second};
+  } else {
+    if (!in_range(throttle_) || !in_range(second)) return ParseResult::Range;
+    command_ = ControlCommand{throttle_, second};
+  }
+  signature_ = Signature{is_signed, is_signed ? counter_ : 0u, is_signed ? mac_ : 0u};
+  return setpoint ? ParseResult::Setpoint : ParseResult::Ok;
 }
 
 }  // namespace roar

@@ -27,6 +27,19 @@ static constexpr char kSetpointEndChar = ']';  // Last byte of a setpoint messag
 static constexpr uint16_t kSetpointMaxSpeedMmS = 5000u;  // [mm/s] Highest speed a setpoint may ask, forward or (with a leading minus) backward
 static constexpr char kSetpointExample[] = "[2000,1500]";  // 2 m/s forward, centred steering
 
+// [signed]
+static constexpr uint16_t kSignedCounterDigits = 8u;  // [digits] Most hex digits of COUNTER (a 32-bit counter)
+static constexpr uint16_t kSignedMacDigits = 12u;  // [digits] Hex digits of MAC, exactly: fewer is a truncated message (syntax)
+static constexpr uint16_t kSignedMacBits = 48u;  // [bits] Bits of the SipHash-2-4 MAC that are sent (MAVLink v2 signing also sends 48)
+static constexpr uint16_t kSignedMacInputBytes = 13u;  // [bytes] Length of what the MAC covers: session 4, start character 1, first field 2, steering 2, counter 4
+static constexpr uint16_t kSignedKeyBytes = 16u;  // [bytes] The shared key (SipHash-2-4's 128 bits), 32 hex digits in key_command and key files
+static constexpr uint16_t kSignedMaxMessageBytes = 34u;  // [bytes] Longest signed message, e.g. [-5000,1500,ffffffff,0123456789ab]
+static constexpr uint16_t kSignedSessionDigits = 8u;  // [digits] Hex digits of the session in the session reply and after ERR unsigned / ERR forged
+static constexpr char kSignedReplySession[] = "SESSION";  // Line a car with a key prints after READY: SESSION and its session in session_digits hex digits
+static constexpr char kSignedKeyCommand[] = "KEY";  // Serial-only command line (at a line's start or right after a message): <32 hex digits> sets the key, KEY - clears it, KEY ? asks; the car answers KEY and the key's fingerprint (8 hex digits) or KEY none. BLE, Wi-Fi and the link module never take it
+static constexpr char kSignedKeyNone[] = "none";  // What follows KEY in the answer of a car without a key
+static constexpr uint16_t kSignedFingerprintDigits = 8u;  // [digits] The key's fingerprint: the low 32 bits of SipHash-2-4 under the key of the 4 bytes ROAR, in hex; it names a key without revealing it
+
 // [serial]
 static constexpr uint32_t kSerialBaud = 115200ul;  // [baud] 8N1
 static constexpr char kSerialReplyReady[] = "READY";  // Line printed once at boot, followed by a space and the protocol version
@@ -94,6 +107,7 @@ static constexpr char kBlePidUuid[] = "19b10011-e8f2-537e-4f6c-d104768a1216";  /
 static constexpr char kBleStateUuid[] = "19b10011-e8f2-537e-4f6c-d104768a1217";  // 8 bytes: float32 speed m/s, float32 throttle output (read)
 static constexpr char kBleNameUuid[] = "19b10012-e8f2-537e-4f6c-d104768a1214";  // Device name stored on the car (write)
 static constexpr char kBleOverrideUuid[] = "19b10015-e8f2-537e-4f6c-d104768a1214";  // Any write toggles the override output (write)
+static constexpr char kBleSessionUuid[] = "19b10011-e8f2-537e-4f6c-d104768a1218";  // The car's signing session, uint32 little-endian, 0 when it has no key (read): what a BLE host signs with (see signed)
 static constexpr char kBleLocalName[] = "ROAR Car";  // Default advertised name
 
 // [udp]
@@ -160,9 +174,13 @@ enum class ParseResult : uint8_t {
   Unterminated = 5,  // A message cut short by a new start_char or a line end before end_char
   Garbage = 6,  // Bytes outside any message (reported once, when the run of garbage ends)
   Setpoint = 7,  // A valid setpoint message finished with this byte
+  Unsigned = 8,  // A car with a key refused a message without a counter and MAC (the reply adds the session, 8 hex digits)
+  Forged = 9,  // A car with a key refused a signed message whose MAC is not the one its key and session give (another key, an old session, an altered byte; the reply adds the session)
+  Replay = 10,  // A car with a key refused a signed message whose counter is not above the last accepted one (replayed or reordered; the reply adds that counter in hex)
+  Nokey = 11,  // A car without a key refused a signed message (set one over USB serial, or send unsigned)
 };
 
-static constexpr uint8_t kParseResultCount = 8;
+static constexpr uint8_t kParseResultCount = 12;
 
 inline const char* parse_result_token(ParseResult code) {
   switch (code) {
@@ -174,6 +192,10 @@ inline const char* parse_result_token(ParseResult code) {
     case ParseResult::Unterminated: return "unterminated";
     case ParseResult::Garbage: return "garbage";
     case ParseResult::Setpoint: return "setpoint";
+    case ParseResult::Unsigned: return "unsigned";
+    case ParseResult::Forged: return "forged";
+    case ParseResult::Replay: return "replay";
+    case ParseResult::Nokey: return "nokey";
   }
   return "unknown";
 }

@@ -9,6 +9,8 @@ namespace roar {
 
 bool append(char* buf, size_t cap, size_t* len, const char* text);
 bool append_uint(char* buf, size_t cap, size_t* len, uint32_t value);  // decimal
+// Lowercase hex, at least min_digits digits (zero-padded).
+bool append_hex(char* buf, size_t cap, size_t* len, uint32_t value, uint8_t min_digits);
 bool append_int(char* buf, size_t cap, size_t* len, int32_t value);    // decimal, '-' when negative
 
 // True when text[0..length) is exactly the NUL-terminated word.

@@ -1,0 +1,101 @@
+// Signed control (protocol/spec.toml [signed]): only the holder of the car's key drives it.
+//
+//   Authenticator  the verdict on each message the parser accepted: a car without a key takes
+//                  unsigned messages (and refuses signed ones: nokey); a car with a key takes only
+//                  signed ones whose MAC its key and session give and whose counter is above the
+//                  last it took (unsigned, forged, replay otherwise). A refused message changes
+//                  nothing: it neither drives nor feeds the failsafe.
+//   KeyRecord      the key and the session counter in the board's non-volatile memory (Nvm, a
+//                  few bytes of EEPROM, NVS or flash behind the board's HAL). Each boot with a key
+//                  draws the next session and stores it before using it, so no session (and no
+//                  message signed in one) is ever valid twice, across any number of reboots.
+//   KeyLine        the serial-only command line "KEY <32 hex>" / "KEY -" / "KEY ?" (at the start
+//                  of a line or right after a message), read as it arrives (no line buffer): the
+//                  only way a key is set or cleared.
+#pragma once
+#include <stddef.h>
+#include <stdint.h>
+
+#include "roar/control_parser.h"
+#include "roar/protocol.h"
+
+namespace roar {
+
+// A few bytes of non-volatile memory, from address 0 of the area the board gives the core.
+class Nvm {
+ public:
+  virtual void read(uint16_t at, uint8_t* data, uint8_t n) = 0;
+  virtual void write(uint16_t at, const uint8_t* data, uint8_t n) = 0;  // only bytes that change need a write
+
+ protected:
+  ~Nvm() = default;
+};
+
+// The MAC a signed message carries: the low kSignedMacBits bits of SipHash-2-4 under key over
+// session, start character, first field, steering and counter (kSignedMacInputBytes bytes).
+uint64_t message_mac(const uint8_t key[proto::kSignedKeyBytes], uint32_t session, uint8_t start, int16_t first,
+                     uint16_t steering, uint32_t counter);
+// The key's name: the low 32 bits of SipHash-2-4 under the key of "ROAR".
+uint32_t key_fingerprint(const uint8_t key[proto::kSignedKeyBytes]);
+
+class Authenticator {
+ public:
+  // Use this key (nullptr: none) from a new session on; the counter starts again.
+  void set_key(const uint8_t* key, uint32_t session);
+
+  // The verdict on a message the parser finished with Ok or Setpoint (passed as `kind`): `kind`
+  // when it may act, else Unsigned, Forged, Replay or Nokey.
+  ParseResult check(ParseResult kind, const ControlParser& parser);
+
+  bool keyed() const { return keyed_; }
+  uint32_t session() const { return session_; }
+  uint32_t last_counter() const { return last_counter_; }
+  uint32_t fingerprint() const { return keyed_ ? key_fingerprint(key_) : 0u; }
+
+ private:
+  uint8_t key_[proto::kSignedKeyBytes] = {};
+  bool keyed_ = false;
+  uint32_t session_ = 0;
+  uint32_t last_counter_ = 0;  // the last counter accepted in this session (0: none yet)
+};
+
+// The record in Nvm: magic "RK", flags (bit 0: a key is set), the key, the last session
+// (uint32 LE), and a check (16 bits of SipHash-2-4 under a zero key over the bytes before it).
+struct KeyRecord {
+  static const uint8_t kBytes = 2 + 1 + proto::kSignedKeyBytes + 4 + 2;  // [bytes] of Nvm used
+
+  bool keyed = false;
+  uint8_t key[proto::kSignedKeyBytes] = {};
+  uint32_t session = 0;  // the last session drawn (0: never)
+
+  // The stored record, or none (blank or damaged memory: no key, no session yet).
+  static KeyRecord load(Nvm& nvm);
+  void store(Nvm& nvm) const;
+};
+
+// Boot: the key in nvm (if any) with a fresh session, stored before it is used.
+void start_session(Nvm* nvm, Authenticator& auth);
+
+// "KEY ..." on the serial link. feed() takes a byte and says what became of it.
+class KeyLine {
+ public:
+  enum class Event : uint8_t {
+    NotMine,   // not a key line: the byte goes to the control parser
+    Taken,     // part of a key line
+    Set,       // "KEY <32 hex>" ended: key() holds the new key
+    Clear,     // "KEY -" ended
+    Ask,       // "KEY ?" ended
+    Bad,       // a line that began "K" but is not a key command (answered ERR syntax); this
+               // byte goes to the control parser too, so stray bytes never hold control back
+  };
+  Event feed(uint8_t byte);
+  const uint8_t* key() const { return key_; }
+
+ private:
+  enum class State : uint8_t { LineStart, Other, Word, Hex, Clear, Ask };
+  State state_ = State::LineStart;
+  uint8_t at_ = 0;  // characters of "KEY " matched, then hex digits taken
+  uint8_t key_[proto::kSignedKeyBytes] = {};
+};
+
+}  // namespace roar
