@@ -283,3 +283,76 @@ def test_a_board_without_non_volatile_memory_refuses_a_key():
     car.boot()
     car.feed(b"KEY " + KEY.hex().encode() + b"\n", 0)
     assert car.replies() == ["READY 1\n", "ERR nokey\n"]
+
+
+# --- the host: key file, roar key, Vehicle(key=) over the simulated car -------------------------
+
+def roar(capsys, *argv):
+    from roar.cli import main
+
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out + err
+
+
+def drive_for(url: str, seconds: float = 1.2, **kw):
+    import time
+
+    from roar import Vehicle
+
+    with Vehicle(url, **kw) as car:
+        car.drive(throttle=0.4)
+        time.sleep(seconds)
+        return car.state().speed_m_s, list(car.replies), car.errors, car.signer
+
+
+def test_one_line_turns_it_on_and_only_the_key_drives(capsys, tmp_path):
+    """`roar key set` keys the (simulated) car; from then on the Vehicle signs with the key file
+    and drives, a Vehicle without the key cannot, and the car keeps its key across runs."""
+    pytest.importorskip("pybullet", reason="the simulated car needs roar-platform[sim]")
+    from roar.signing import default_path, read_key_file
+
+    url = f"sim://?eeprom={tmp_path / 'car.eeprom'}"
+    code, out = roar(capsys, "key", "set", url)
+    assert code == 0 and "now takes only messages signed with key" in out
+    fingerprint = signing.fingerprint(read_key_file(default_path()))
+    assert roar(capsys, "key", "show", url) == (0, f"your key: {fingerprint} ({default_path()})\n"
+                                                   f"{url}: {fingerprint} (yours)\n")
+    speed, replies, errors, signer = drive_for(url)  # the key file is used without being named
+    assert speed > 0.5 and errors == 0 and signer.session and signer.refused == 0
+    assert replies[:3] == ["READY 1", f"SESSION {signer.session:08x}", "ARMED"]
+    speed, replies, errors, _ = drive_for(url, key=False)  # unsigned: refused, the car stays put
+    assert speed < 0.05 and errors > 10 and all(r.startswith("ERR unsigned") for r in replies[2:])
+    speed, replies, errors, signer = drive_for(url, key=bytes(16))  # another key: forged
+    assert speed < 0.05 and signer.refused > 10 and "ERR forged" in " ".join(replies)
+    assert roar(capsys, "key", "clear", url)[0] == 0
+    speed, replies, errors, signer = drive_for(url)  # no key in the car: the Vehicle goes unsigned
+    assert speed > 0.5 and signer.unkeyed and errors == 0
+
+
+def test_a_car_without_a_key_is_driven_unsigned_by_a_host_with_one(tmp_path):
+    pytest.importorskip("pybullet", reason="the simulated car needs roar-platform[sim]")
+    speed, replies, errors, signer = drive_for("sim://", key=KEY)
+    assert speed > 0.5 and errors == 0 and signer.unkeyed and replies[:2] == ["READY 1", "ARMED"]
+
+
+def test_key_commands_refuse_in_one_line(capsys, tmp_path):
+    from roar.signing import default_path
+
+    for argv, words in ((["key", "set", "ble://"], "USB serial link only"),
+                        (["key", "set"], "needs the car's URL"),
+                        (["key", "show", "--file", str(tmp_path / "none")], "your key: none")):
+        code, out = roar(capsys, *argv)
+        assert words in out and "Traceback" not in out, argv
+    code, out = roar(capsys, "key", "new")
+    assert code == 0, out
+    mode = default_path().stat().st_mode & 0o777
+    assert mode == 0o600
+    code, out = roar(capsys, "key", "new")
+    assert code != 0 and "already holds a key" in out and "--force" in out
+    (tmp_path / "bad").write_text("not a key\n")
+    from roar import Vehicle
+    from roar.signing import SigningError
+
+    with pytest.raises(SigningError, match="one key of 32 hex digits"):
+        Vehicle("loop://", key=tmp_path / "bad")

@@ -59,17 +59,27 @@ class Vehicle:
     record: an MCAP file to record the run into (roar.recorder: every message sent, every line
     received, the state, and the scans and frames asked for), finished when the vehicle closes;
     or a roar.recorder.Recorder (one that also serves the channels live, say).
+    key: sign every message (roar.signing) with this key (bytes, 32 hex digits or a key file);
+    None (default): with the user's key file (`roar key new` / `roar key set URL`) if there is
+    one, else unsigned; False: never sign.
     """
 
     def __init__(self, url: str = "sim://", calibration: Calibration | str | Path | None = None,
-                 rate_hz: float | None = None, reconnect: bool = True, record=None,
+                 rate_hz: float | None = None, reconnect: bool = True, record=None, key=None,
                  **transport_options) -> None:
         if isinstance(calibration, (str, Path)):
             calibration = Calibration.load(calibration)
         self.calibration = calibration if calibration is not None else load_default()
         period_s = DEFAULT_PERIOD_S if rate_hz is None else 1.0 / _check_rate(rate_hz)
         self.url = url
+        from roar.signing import SigningTransport, resolve_key
+
+        signing_key = resolve_key(key)
         self.transport: Transport = open_url(url, **transport_options)
+        self.signer: SigningTransport | None = None  # the signing layer, when the Vehicle signs
+        if signing_key is not None:
+            self.signer = SigningTransport(self.transport, signing_key)
+            self.transport = self.signer
         self.recorder = None
         if record is not None:
             from roar.recorder import RecordingTransport

@@ -45,12 +45,16 @@ class SimTransport(Transport):
     min_period_s = 0.002
 
     def __init__(self, track: str = "", speedup: float = 1.0, gui: bool = False,
-                 trace: Path | None = None, plot: Path | None = None, robot: str = "esc") -> None:
+                 trace: Path | None = None, plot: Path | None = None, robot: str = "esc",
+                 eeprom: Path | None = None) -> None:
         from roar_sim import robots
 
         self.track_name, self.speedup, self.gui = track, speedup, gui
         self.trace_path, self.plot_path = trace, plot
         self.kind = robots.get(robot)  # the robot's class (UnknownRobot, one line, for a name there is not)
+        if eeprom is not None and not hasattr(self.kind, "nvm"):
+            raise TransportError(f"eeprom= keeps a board's key between runs: the {self.kind.title} has none here")
+        self.eeprom = eeprom  # the board's EEPROM (signing key, session) kept in this file between runs
         self.replies = self.kind.replies  # the ESC and IARRC cars answer with lines, the Junior not
         self.sim = None  # the roar_sim.robots.Robot once open
         self.trace: list[tuple[float, float, float, float, float]] = []  # (t, x, y, yaw, speed)
@@ -84,8 +88,11 @@ class SimTransport(Transport):
         if named is not None and track:
             raise TransportError(f"sim://{target}?track={named}: name the track once (sim://NAME or sim://?track=NAME)")
         track = named if named is not None else track
+        eeprom = pop_option(options, "eeprom", Path, None)
+        if eeprom is not None and (problem := unwritable(eeprom)):
+            raise TransportError(f"eeprom: {problem}")
         try:
-            return cls(track, speedup, pop_option(options, "gui", bool, False), trace, plot, robot)
+            return cls(track, speedup, pop_option(options, "gui", bool, False), trace, plot, robot, eeprom)
         except ImportError as e:
             raise TransportError(missing_simulator(e)) from None
         except RoarError as e:
@@ -96,7 +103,10 @@ class SimTransport(Transport):
 
         try:
             track = get(self.track_name) if self.track_name else None
-            self.sim = self.kind(track, realtime=True, speedup=self.speedup, gui=self.gui)
+            extra = {}
+            if self.eeprom is not None and self.eeprom.exists():
+                extra["nvm"] = self.eeprom.read_bytes()
+            self.sim = self.kind(track, realtime=True, speedup=self.speedup, gui=self.gui, **extra)
         except RoarError as e:
             raise TransportError(str(e)) from None
         self._running.set()
@@ -106,12 +116,16 @@ class SimTransport(Transport):
     def _pump(self) -> None:
         sim = self.sim
         next_trace = 0.0
+        saved_nvm = self.eeprom.read_bytes() if self.eeprom is not None and self.eeprom.exists() else None
         try:
             while self._running.is_set():
                 while self._inbox:
                     sim.write(self._inbox.popleft())
                 sim.run(CHUNK_S)
                 self._outbox.extend(sim.read())
+                if self.eeprom is not None and sim.nvm != saved_nvm:  # a key was set: keep it
+                    saved_nvm = sim.nvm
+                    self.eeprom.write_bytes(saved_nvm)
                 s = self._state = sim.vehicle_state()
                 if sim.time_s >= next_trace:
                     self.trace.append((sim.time_s, s.x_m, s.y_m, s.yaw_rad, s.speed_m_s))

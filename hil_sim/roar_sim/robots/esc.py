@@ -58,14 +58,15 @@ class EscCar(Robot):
     def __init__(self, track: Track | None = None, pose: Pose | None = None, realtime: bool = False,
                  speedup: float = 1.0, gui: bool = False, firmware: CarConfig | None = None,
                  esc: HobbyEsc | None = None, servo: SteeringServo | None = None, world: World | None = None,
-                 profile: CarProfile | str | None = None) -> None:
-        """firmware: the core's configuration; world: one car more in a world that another steps
+                 profile: CarProfile | str | None = None, nvm: bytes | None = None) -> None:
+        """nvm: the board's EEPROM as a previous run left it (`.nvm`: its signing key and session),
+        None: blank; firmware: the core's configuration; world: one car more in a world that another steps
         (roar_sim.runs.fleet), which then calls firmware(), actuate() and plant.tick(); profile:
         the car's own numbers (roar_sim.plants.car_profile: a name, a file or a CarProfile;
         default the ROAR car's)."""
         super().__init__(track, realtime, speedup)
         self.firmware_config = firmware or CarConfig()
-        self.board = CarBoard(self.firmware_config, loop_us=LOOP_US, frame_us=FRAME_US)
+        self.board = CarBoard(self.firmware_config, loop_us=LOOP_US, frame_us=FRAME_US, nvm=nvm)
         self.profile = profile = car_profile.load(profile) if isinstance(profile, str) else profile or car_profile.load()
         self.esc = esc or HobbyEsc()
         self.servo = servo or SteeringServo(max_angle_rad=profile.max_steer_rad, rate_rad_s=profile.steer_rate_rad_s)
@@ -90,6 +91,11 @@ class EscCar(Robot):
 
     def read(self) -> list[str]:
         return self._replies.take()
+
+    @property
+    def nvm(self) -> bytes:
+        """The board's EEPROM now (signing key and session)."""
+        return self.board.nvm
 
     def rc_transmitter(self, pulses: tuple[int, int] | None) -> None:
         """(throttle, steering) pulses from an RC receiver from now on at 50 Hz; None = switched off."""

@@ -27,6 +27,14 @@ def _vehicle(args, record=None) -> Vehicle:
                    record=record if record is not None else getattr(args, "log", None))
 
 
+def key(args) -> int:
+    from roar.cli.keys import key as run
+
+    if args.action in ("set", "clear") and not args.url:
+        raise UserError(f"roar key {args.action} needs the car's URL, e.g. serial:///dev/ttyACM0")
+    return run(args)
+
+
 def send(args) -> int:
     if not 0 < args.seconds <= MAX_SEND_S:
         raise UserError(f"--for must be more than 0 and at most {MAX_SEND_S:g} s, got {args.seconds:g}")

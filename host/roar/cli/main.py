@@ -32,6 +32,7 @@ EXAMPLES = """examples:
   roar dataset run.mcap --out tub        its camera frames and commands as a DonkeyCar tub
   roar web sim://oval                    drive from a browser: http://127.0.0.1:8887
   roar calibrate ble://                  set trim and end-points, saved for next time
+  roar key set serial:///dev/ttyACM0     only you drive it from now on (signed messages)
   roar <command> --help                  more about one command
 """
 
@@ -152,6 +153,20 @@ def build_parser() -> argparse.ArgumentParser:
     _add_url(p)
     p.add_argument("--file", type=path_option, default=None, metavar="TOML",
                    help=f"where to save (default: {default_path()})")
+
+    p = sub.add_parser("key", help="signed control: only the holder of the key drives the car",
+                       description="Signed control (off until you set a key). `roar key set URL` puts your key "
+                                   "(made if you have none) into the car over its USB serial link; the car then "
+                                   "acts only on messages signed with it and refuses the rest (unsigned, forged, "
+                                   "replayed), and every Vehicle and roar command signs with your key file. "
+                                   "Keys are set and cleared over USB serial only.")
+    p.add_argument("action", choices=("new", "set", "show", "clear"),
+                   help="new: a new key in your key file; set URL: put it in the car; show [URL]: the "
+                        "fingerprints of yours and the car's; clear URL: the car takes unsigned messages again")
+    p.add_argument("url", metavar="URL", nargs="?", default=None, help="the car, on its serial link (serial://PORT)")
+    p.add_argument("--file", type=path_option, default=None, metavar="KEYFILE",
+                   help="the key file (default: ~/.config/roar/key)")
+    p.add_argument("--force", action="store_true", help="new: replace the key in the key file")
 
     p = sub.add_parser("scan", help="list Bluetooth LE cars nearby",
                        description="Scan for cars advertising the ROAR service (or every device with --all).")

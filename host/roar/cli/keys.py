@@ -1,0 +1,112 @@
+"""`roar key`: the signing key (roar.signing) in your key file and in a car.
+
+    roar key new                         a new key in your key file (~/.config/roar/key)
+    roar key set serial:///dev/ttyACM0   put it in the car (making one first if you have none)
+    roar key show [URL]                  its fingerprint, and the car's
+    roar key clear serial:///dev/ttyACM0 the car takes unsigned messages again
+
+A key is set or cleared over the car's USB serial link only (the car refuses KEY lines on BLE,
+Wi-Fi and its radio link), so only someone holding the car can change it.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from roar.cli.errors import UserError
+from roar.protocol import spec
+from roar.signing import SigningError, default_path, new_key, read_key_file, write_key_file
+from roar.transports import TransportError, open_url
+from roar_wire import signing as wire
+
+ANSWER_WAIT_S = 0.5  # [s] for the car's KEY line before asking again
+ANSWER_TIMEOUT_S = 5.0  # [s] in all (a Nano resets when its port opens and boots in ~2 s)
+SERIAL_SCHEMES = ("serial", "sim")  # links whose bytes reach the car's serial port
+
+
+def key(args) -> int:
+    path = Path(args.file) if args.file else default_path()
+    try:
+        return ACTIONS[args.action](args, path)
+    except SigningError as e:
+        raise UserError(str(e)) from None
+
+
+def _new(args, path: Path) -> int:
+    if path.exists() and not args.force:
+        raise UserError(f"{path} already holds a key ({wire.fingerprint(read_key_file(path))}); "
+                        f"--force replaces it (cars with the old key then refuse you until you set it again)")
+    key_bytes = new_key()
+    write_key_file(path, key_bytes)
+    print(f"new key {wire.fingerprint(key_bytes)} in {path}; put it in a car with: roar key set URL")
+    return 0
+
+
+def _set(args, path: Path) -> int:
+    _check_serial(args.url)
+    if not path.exists():
+        write_key_file(path, new_key())
+        print(f"made a new key in {path}")
+    key_bytes = read_key_file(path)
+    answer = _ask_car(args.url, f"{spec.SIGNED_KEY_COMMAND} {key_bytes.hex()}")
+    want = wire.fingerprint(key_bytes)
+    if answer != want:
+        raise UserError(f"{args.url} answered KEY {answer}, not {want}: the key was not stored")
+    print(f"{args.url} now takes only messages signed with key {want}; every Vehicle (and roar command) "
+          f"signs with {path} from now on")
+    return 0
+
+
+def _show(args, path: Path) -> int:
+    mine = wire.fingerprint(read_key_file(path)) if path.exists() else None
+    print(f"your key: {mine} ({path})" if mine else f"your key: none ({path} does not exist; roar key new)")
+    if args.url:
+        car = _ask_car(args.url, f"{spec.SIGNED_KEY_COMMAND} ?")
+        match = "" if car == spec.SIGNED_KEY_NONE else " (yours)" if car == mine else " (not yours)"
+        print(f"{args.url}: {car}{match}")
+    return 0
+
+
+def _clear(args, path: Path) -> int:
+    answer = _ask_car(args.url, f"{spec.SIGNED_KEY_COMMAND} -")
+    if answer != spec.SIGNED_KEY_NONE:
+        raise UserError(f"{args.url} answered KEY {answer}: the key was not cleared")
+    print(f"{args.url} has no key: it takes unsigned messages from anyone again")
+    return 0
+
+
+def _check_serial(url: str) -> None:
+    scheme = url.split("://", 1)[0].lower()
+    if scheme not in SERIAL_SCHEMES:
+        raise UserError(f"a car's key is set over its USB serial link only (serial://PORT), not {scheme}://")
+
+
+def _ask_car(url: str, line: str) -> str:
+    """Send one KEY line on the car's serial link; the word after KEY in its answer."""
+    _check_serial(url)
+    try:
+        link = open_url(url)
+        link.open()
+    except TransportError as e:
+        raise UserError(str(e)) from None
+    try:
+        deadline = time.monotonic() + ANSWER_TIMEOUT_S
+        while time.monotonic() < deadline:
+            link.write(f"\n{line}\n".encode("ascii"))
+            asked = time.monotonic()
+            while time.monotonic() - asked < ANSWER_WAIT_S:
+                for reply in link.read_lines():
+                    words = reply.split()
+                    if len(words) == 2 and words[0] == spec.SIGNED_KEY_COMMAND:
+                        return words[1]
+                    if words[:2] == [spec.SERIAL_REPLY_ERROR, "nokey"]:
+                        raise UserError(f"{url} has nowhere to keep a key (no EEPROM on this board)")
+                time.sleep(0.02)
+        raise UserError(f"{url} did not answer {line.split()[0]} in {ANSWER_TIMEOUT_S:g} s: "
+                        f"is its firmware recent enough to take keys?")
+    finally:
+        link.close()
+
+
+ACTIONS = {"new": _new, "set": _set, "show": _show, "clear": _clear}
