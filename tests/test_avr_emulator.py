@@ -231,3 +231,96 @@ def test_the_normal_build_does_not_reset_when_it_outputs_that_throttle(nano):
     stream(nano, avr.HANG_THROTTLE_US, N, 0.6)
     assert [text for _, text in nano.lines()].count("READY 1") == 1
     assert_holds(widths(nano, "D5", start + 3 * FRAME_S), avr.HANG_THROTTLE_US)
+
+
+# --- signed control on the Nano: key in its EEPROM, attacks refused, a reset opens no replay ----
+
+def _signed_nano_lines(nano, since_s):
+    return [text for _, text in nano.lines(since_s)]
+
+
+def test_signed_control_on_the_emulated_nano_refuses_every_attack_and_survives_a_reset(nano):
+    import random
+
+    from roar_wire import signing
+
+    key = bytes(range(16))
+    nano.write(b"KEY " + key.hex().encode() + b"\n")
+    nano.run(0.2)
+    assert _signed_nano_lines(nano, 0.05)[-2:] == [f"KEY {signing.fingerprint(key)}", "SESSION 00000001"]
+    stored = nano.eeprom()
+    assert stored[:2] == b"RK" and key in stored
+
+    rng = random.Random(30)
+    sent, counter, t0 = [], 0, nano.time_s
+    for _ in range(10):  # the owner drives: signed, in order
+        counter += rng.randint(1, 5)
+        message = signing.sign(encode(1500 if not sent else 1650, 1500), key, 1, counter)
+        sent.append(message)
+        nano.write(message)
+        nano.run(SEND_S)
+    assert "ARMED" in _signed_nano_lines(nano, t0)
+    assert_holds(widths(nano, "D5", t0 + 0.1), 1650)
+
+    # an attacker, for longer than the failsafe timeout: replays, reordered, forged, unsigned
+    t1 = nano.time_s
+    attacks = [rng.choice(sent) for _ in range(8)] + [sent[3], sent[1]]
+    attacks += [signing.sign(encode(2000, 1000), bytes(16), 1, counter + 1 + i) for i in range(5)]
+    attacks += [signing.sign(encode(2000, 1000), key, 2, counter + 1 + i) for i in range(5)]
+    attacks += [sent[-1].replace(b"(1650", b"(1950")] + [encode(2000, 1000)] * 5
+    for message in attacks:
+        nano.write(message)
+        nano.run(SEND_S)
+    refusals = [t for t in _signed_nano_lines(nano, t1) if t.startswith("ERR")]
+    assert len(refusals) == len(attacks)  # every one refused, each with its reason
+    assert {t.split()[1] for t in refusals} == {"replay", "forged", "unsigned"}
+    assert "FAILSAFE" in _signed_nano_lines(nano, t1)  # refused messages do not feed the failsafe
+    assert max(widths(nano, "D5", t1)) <= 1650 + TOLERANCE_US  # never 1950 or 2000
+    assert_holds(widths(nano, "D5", t1 + FAILSAFE_S + 0.1), N)
+
+    # a reset draws a new session from the EEPROM: the old messages are forged now
+    nano.reset()
+    t2 = nano.time_s
+    nano.run(0.3)
+    assert _signed_nano_lines(nano, t2)[:2] == ["READY 1", "SESSION 00000002"]
+    for message in sent:
+        nano.write(message)
+        nano.run(SEND_S)
+    assert all(t.startswith("ERR forged") for t in _signed_nano_lines(nano, t2)[2:])
+    assert_holds(widths(nano, "D5", t2 + 0.05), N)
+
+
+def test_roar_key_set_and_a_signed_vehicle_on_the_emulated_nano_over_its_pty(capsys):
+    """The user's path, in real time over the pty: `roar key set` stores the key in the Nano's
+    EEPROM; a Vehicle (with the key file) drives it; one without the key cannot."""
+    from roar import Vehicle
+    from roar.cli import main
+
+    proc, path = simavr.EmulatedNano.serve_pty(7.0)
+    marks = {}
+    started = time.monotonic()
+    try:
+        assert main(["key", "set", f"serial://{path}"]) == 0
+        assert "now takes only messages signed" in capsys.readouterr().out
+        with Vehicle(f"serial://{path}") as car:
+            car.drive(throttle=0.4)
+            assert wait_for(lambda: "ARMED" in car.replies, timeout_s=2)
+            marks["signed"] = time.monotonic() - started
+            time.sleep(1.0)
+            marks["signed_end"] = time.monotonic() - started
+        with Vehicle(f"serial://{path}", key=False) as car:
+            car.drive(throttle=0.4)
+            marks["unsigned"] = time.monotonic() - started
+            time.sleep(1.2)
+            marks["unsigned_end"] = time.monotonic() - started
+            assert car.errors > 10 and any(r.startswith("ERR unsigned") for r in car.replies)
+        out, _ = proc.communicate(timeout=15)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    d5 = [(int(r) / simavr.F_CPU, int(w) / simavr.CYCLES_PER_US)
+          for kind, pin, r, w in (ln.split(" ", 3) for ln in out.splitlines() if ln.startswith("P ")) if pin == "D5"]
+    # (emulated time runs a little behind the wall clock: compare with margins)
+    assert_holds([w for t, w in d5 if marks["signed"] + 0.3 < t < marks["signed_end"] - 0.1], 1700)
+    assert_holds([w for t, w in d5 if marks["unsigned"] + 0.3 < t < marks["unsigned_end"] - 0.1], N)

@@ -4,9 +4,12 @@
 //   - 50 Hz pulse outputs for the ESC (D5) and the steering servo (D6), with a count of the
 //     frames really started (the brake sequence relies on it);
 //   - RC receiver pulse capture on D3/D4;
-//   - the hardware watchdog.
+//   - the hardware watchdog;
+//   - non-volatile memory for the signing key and session (roar/signing.h).
 #pragma once
 #include <stdint.h>
+
+#include "roar/signing.h"
 
 namespace outputs {
 void begin();                                     // start frames at neutral, start RC capture
@@ -21,3 +24,10 @@ namespace watchdog {
 void start();  // reset the chip if feed() is not called for timing.loop_watchdog_us
 void feed();
 }  // namespace watchdog
+
+namespace storage {
+// The chip's non-volatile memory for the core (EEPROM on the ATmega328P), or nullptr where this
+// glue has none yet (the Nano 33 BLE: its flash needs a page kept for it), so that car can
+// never be given a key.
+roar::Nvm* nvm();
+}  // namespace storage

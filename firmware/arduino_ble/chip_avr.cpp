@@ -6,6 +6,7 @@
 // The chip's watchdog (WDT) resets it when the loop stops feeding it.
 #if defined(ARDUINO_ARCH_AVR)
 #include <Arduino.h>
+#include <avr/eeprom.h>
 #include <avr/wdt.h>
 #include <util/atomic.h>
 
@@ -121,6 +122,23 @@ void roar_watchdog_off_at_reset() {
   MCUSR = 0;
   wdt_disable();
 }
+
+namespace storage {
+namespace {
+class Eeprom : public roar::Nvm {
+ public:
+  void read(uint16_t at, uint8_t* data, uint8_t n) override {
+    eeprom_read_block(data, reinterpret_cast<const void*>(at), n);
+  }
+  // Only the bytes that change are written (3.4 ms each): a boot's new session is a few bytes.
+  void write(uint16_t at, const uint8_t* data, uint8_t n) override {
+    eeprom_update_block(data, reinterpret_cast<void*>(at), n);
+  }
+};
+Eeprom eeprom;
+}  // namespace
+roar::Nvm* nvm() { return &eeprom; }
+}  // namespace storage
 
 namespace watchdog {
 static_assert(roar::proto::kTimingLoopWatchdogUs == 250000ul, "WDTO_250MS below must match the spec");

@@ -83,6 +83,10 @@ uint16_t take_rc_pulse(uint8_t channel) {
 
 }  // namespace outputs
 
+namespace storage {
+roar::Nvm* nvm() { return nullptr; }  // no key on the Nano 33 BLE yet: its flash needs a page kept for it
+}  // namespace storage
+
 namespace watchdog {
 void start() { mbed::Watchdog::get_instance().start(roar::proto::kTimingLoopWatchdogUs / 1000); }  // [ms]
 void feed() { mbed::Watchdog::get_instance().kick(); }

@@ -29,6 +29,7 @@ class ArduinoHal : public roar::Hal {
   }
   void write(const char* text, size_t length) override { Serial.write(text, length); }
   void feed_watchdog() override { watchdog::feed(); }
+  roar::Nvm* nvm() override { return storage::nvm(); }
 };
 
 ArduinoHal hal;

@@ -5,6 +5,9 @@
  *   send HEX          queue bytes (hex) for UART0; they enter as fast as the UART takes them
  *   run US            run US emulated microseconds, then print what happened, then "T <cycle>"
  *   rc PIN WIDTH_US   50 Hz pulses of WIDTH_US on input pin D<PIN> (3 or 4); 0 stops them
+ *   eeprom HEX        write bytes (hex) into the EEPROM from address 0 (before a run: as flashed)
+ *   eeprom?           print "E <hex>": the first 64 bytes of the EEPROM
+ *   reset             reset the chip (as its reset pin or a power cycle: the EEPROM stays)
  *   quit
  *
  * Output lines (cycles count from reset; 16 cycles per microsecond):
@@ -25,6 +28,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "avr_eeprom.h"
 #include "avr_ioport.h"
 #include "avr_uart.h"
 #include "sim_avr.h"
@@ -218,6 +222,26 @@ int main(int argc, char **argv)
 			int was_running = r->width_us != 0;
 			r->width_us = width;
 			if (!was_running && width) avr_cycle_timer_register(avr, 1, rc_edge, r);
+		} else if (!strncmp(cmd, "eeprom?", 7)) {
+			uint8_t ee[64];
+			avr_eeprom_desc_t d = { .ee = ee, .offset = 0, .size = sizeof ee };
+			avr_ioctl(avr, AVR_IOCTL_EEPROM_GET, &d);
+			printf("E ");
+			for (unsigned i = 0; i < sizeof ee; i++) printf("%02x", d.ee[i]);
+			printf("\n");
+			fflush(stdout);
+		} else if (!strncmp(cmd, "eeprom ", 7)) {
+			uint8_t ee[1024];
+			unsigned n = 0;
+			for (char *h = cmd + 7; h[0] && h[1] && h[0] != '\n' && n < sizeof ee; h += 2) {
+				unsigned byte;
+				if (sscanf(h, "%2x", &byte) != 1) break;
+				ee[n++] = (uint8_t)byte;
+			}
+			avr_eeprom_desc_t d = { .ee = ee, .offset = 0, .size = n };
+			avr_ioctl(avr, AVR_IOCTL_EEPROM_SET, &d);
+		} else if (!strncmp(cmd, "reset", 5)) {
+			avr_reset(avr);
 		} else if (!strncmp(cmd, "quit", 4)) {
 			break;
 		} else {

@@ -74,6 +74,21 @@ class EmulatedNano:
         """50 Hz RC pulses of width_us into D3 (throttle) or D4 (steering); None switches off."""
         self._command(f"rc {pin} {width_us or 0}")
 
+    def eeprom(self, data: bytes | None = None) -> bytes:
+        """Write data into the EEPROM from address 0 (as a previous run left it); returns the
+        first 64 bytes of the EEPROM now."""
+        if data is not None:
+            self._command(f"eeprom {bytes(data).hex()}")
+        self._command("eeprom?")
+        for line in self._proc.stdout:  # (simavr's own log lines may come first)
+            if line.startswith("E "):
+                return bytes.fromhex(line[2:].strip())
+        raise CoreBuildError(f"the AVR emulator stopped (exit {self._proc.wait()})")
+
+    def reset(self) -> None:
+        """Reset the chip (its EEPROM stays, as through a power cycle)."""
+        self._command("reset")
+
     def run(self, seconds: float) -> None:
         self._command(f"run {int(round(seconds * 1e6))}")
         for line in self._proc.stdout:
