@@ -1,12 +1,12 @@
-"""What authenticating a control message would cost the smallest board: SipHash-2-4 (the MAC
-chosen for the signed control mode, roar/siphash.h) of a 24-byte message on the ATmega328P in
-simavr (exact cycles), fed byte by byte as the parser would. Target: <= 5 % of the CPU at 50
-messages a second."""
+"""What signed control costs the smallest board: Car::feed of a signed control message
+"(1500,1500,COUNTER,MAC)" on a car with a key (parser, SipHash-2-4 MAC check, counter,
+failsafe) on the ATmega328P in simavr (exact cycles), beside the same path for an unsigned
+message. Target: the signed path <= 5 % of the CPU at 50 messages a second."""
 
 from roar_sim.emulators import simavr
 from roar_sim.toolchains import avr
 
-TITLE = "SipHash-2-4 MAC per control message on the ATmega328P (<= 5 % of the CPU at 50 messages/s)"
+TITLE = "Signed control message on the ATmega328P (<= 5 % of the CPU at 50 messages/s)"
 MESSAGES_PER_S = 50
 TARGET_SHARE = 0.05
 
@@ -17,12 +17,22 @@ def run() -> None:
         print(f"  skipped ({missing})")
         return
     with simavr.EmulatedNano(avr.build_parser_bench()) as bench:
-        bench.run(0.3)
-        cycles = bench.pulse_cycles("B5")[4][1] / avr.BENCH_MACS
-    share = cycles * MESSAGES_PER_S / simavr.F_CPU
+        bench.run(0.5)
+        pulses = bench.pulse_cycles("B5")
+    if len(pulses) < 6:
+        print("  FAILED: the keyed car did not take every signed message (see hil_sim/avr/parser_bench.cpp)")
+        return
+    unsigned = pulses[2][1] / avr.BENCH_MESSAGES
+    signed = pulses[4][1] / avr.BENCH_MACS
+    share = signed * MESSAGES_PER_S / simavr.F_CPU
     verdict = "ok" if share <= TARGET_SHARE else f"MISSED by {share - TARGET_SHARE:.3f}"
-    print(f"  {cycles:,.0f} cycles per {avr.BENCH_MAC_BYTES}-byte MAC ({cycles / simavr.CYCLES_PER_US:.0f} us at "
-          f"16 MHz); {share:.3f} of the CPU at {MESSAGES_PER_S} messages/s (target <= {TARGET_SHARE}: {verdict})")
+    print(f"  signed ({avr.BENCH_MAC_BYTES} bytes): {signed:,.0f} cycles per message ({signed / simavr.CYCLES_PER_US:.0f} us "
+          f"at 16 MHz); unsigned (11 bytes): {unsigned:,.0f} cycles")
+    print(f"  signed: {share:.3f} of the CPU at {MESSAGES_PER_S} messages/s (target <= {TARGET_SHARE}: {verdict})")
+    if share > TARGET_SHARE:
+        print("  cause: avr-gcc 5.4 does 64-bit shifts in library loops: SipHash's byte-wise add() and the")
+        print("  parser's MAC digits shift 64-bit words byte by byte and digit by digit; next: word-wise add of")
+        print("  the 13-byte input and the MAC kept as bytes")
 
 
 if __name__ == "__main__":

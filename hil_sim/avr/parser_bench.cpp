@@ -6,19 +6,20 @@
 // PB5, whose width in cycles the simavr harness measures: cycles per message = width /
 // kMessages. Every loop branches on the parser's result, as a caller does. A fourth run feeds
 // kSbusFrames SBUS frames (25 bytes each, 120 us apart as at 100 kbaud, frames 7 ms apart) to
-// the core's SbusDecoder: cycles per frame = width / kSbusFrames. A fifth computes kMacs SipHash-2-4
-// MACs (roar/siphash.h, the signed mode's MAC) of kMacBytes each, byte by byte as a parser
-// would: cycles per MAC = width / kMacs. No Arduino core, no interrupts.
+// the core's SbusDecoder: cycles per frame = width / kSbusFrames. A fifth feeds kMacs signed
+// messages "(1500,1500,COUNTER,MAC)" to Car::feed on a car with a key (roar/signing.h: parser,
+// SipHash-2-4 MAC check, counter, failsafe): cycles per signed message = width / kMacs, beside
+// the third run's unsigned ones. No Arduino core, no interrupts.
 #include <avr/io.h>
 
 #include "../sbus_feed.h"
 #include "roar/car.h"
 #include "roar/control_parser.h"
 #include "roar/sbus.h"
-#include "roar/siphash.h"
+#include "roar/signing.h"
 
 namespace {
-constexpr uint8_t kMessages = 100;
+constexpr uint8_t kMessages = 60;  // (the chip has 2 KB of RAM: room for the stack of the signed run)
 constexpr char kMessage[] = "(1500,1500)";
 constexpr uint8_t kMessageBytes = sizeof(kMessage) - 1;
 char text[kMessages * kMessageBytes + 1];
@@ -89,16 +90,53 @@ __attribute__((noinline)) void run_car() {  // one clock reading per message, as
 }
 
 constexpr uint8_t kMacs = 10;
-constexpr uint8_t kMacBytes = 24;  // a control message with its counter: the bytes a MAC covers
-volatile uint64_t mac_out;
+constexpr uint8_t kSignedBytes = 33;  // the longest signed control message: 8 counter digits
+// The signed messages reuse text (the first runs are over by then): the chip has 2 KB of RAM.
+static_assert(kMacs * kSignedBytes < sizeof(text), "signed messages fit in text");
+char* signed_message(uint8_t m) { return text + m * kSignedBytes; }
 
-__attribute__((noinline)) void run_siphash() {
-  static const uint8_t key[roar::kSipKeyBytes] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
-  for (uint8_t i = 0; i < kMacs; ++i) {
-    roar::SipHash24 h;
-    h.begin(key);
-    for (uint8_t k = 0; k < kMacBytes; ++k) h.add(static_cast<uint8_t>(text[i * kMacBytes + k]));
-    mac_out = h.finish();
+class RamNvm : public roar::Nvm {
+ public:
+  void read(uint16_t at, uint8_t* data, uint8_t n) override {
+    for (uint8_t i = 0; i < n; ++i) data[i] = bytes_[at + i];
+  }
+  void write(uint16_t at, const uint8_t* data, uint8_t n) override {
+    for (uint8_t i = 0; i < n; ++i) bytes_[at + i] = data[i];
+  }
+
+ private:
+  uint8_t bytes_[roar::KeyRecord::kBytes] = {};
+};
+RamNvm nvm;
+roar::Car& keyed_car = car;  // the third run's car, booted again with a key (RAM is short)
+
+void put_hex(char* out, uint64_t v, uint8_t digits) {
+  for (uint8_t i = 0; i < digits; ++i) out[digits - 1 - i] = "0123456789abcdef"[(v >> (4 * i)) & 0xF];
+}
+
+void sign_messages() {
+  roar::KeyRecord record;
+  record.keyed = true;
+  for (uint8_t i = 0; i < roar::proto::kSignedKeyBytes; ++i) record.key[i] = i;
+  record.store(nvm);
+  keyed_car.boot(&nvm);  // session 1
+  for (uint8_t m = 0; m < kMacs; ++m) {
+    const uint32_t counter = 0x10000000ul + 1 + m;  // 8 digits: the longest
+    char* t = signed_message(m);
+    const char head[] = "(1500,1500,";
+    for (uint8_t k = 0; k < sizeof(head) - 1; ++k) t[k] = head[k];
+    put_hex(t + 11, counter, 8);
+    t[19] = ',';
+    put_hex(t + 20, roar::message_mac(record.key, 1, '(', 1500, 1500, counter), 12);
+    t[32] = ')';
+  }
+}
+
+__attribute__((noinline)) void run_signed() {
+  roar::Micros now = 0;
+  for (uint8_t m = 0; m < kMacs; ++m) {
+    now += 2870;  // [us] 33 bytes at 115200 baud
+    for (uint8_t k = 0; k < kSignedBytes; ++k) keyed_car.feed(static_cast<uint8_t>(signed_message(m)[k]), now);
   }
 }
 
@@ -128,7 +166,15 @@ int main() {
     roar::sbus_encode(frame, sbus_bytes[f]);
   }
   timed([] { accepted[2] = feed_sbus_frames<uint8_t>(sbus, sbus_bytes); });
-  timed(run_siphash);
+  sign_messages();
+  timed(run_signed);
+  // A sixth, empty pulse says the car took every signed message (its counter reached the last).
+  if (keyed_car.auth().last_counter() == 0x10000000ul + kMacs) {
+    timed([] {
+      for (volatile uint8_t i = 0; i < 10; ++i) {
+      }
+    });
+  }
   for (;;) {
   }
 }

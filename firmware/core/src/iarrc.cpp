@@ -88,7 +88,10 @@ IarrcController::IarrcController(const IarrcConfig& config)
       brake_(config.brake) {}
 
 ParseResult IarrcController::host_byte(uint8_t byte, Micros now_us) {
-  const ParseResult r = parser_.feed(byte);
+  ParseResult r = parser_.feed(byte);
+  // This board keeps no key yet: the authenticator takes unsigned messages and refuses signed
+  // ones (nokey), as every board without a key does.
+  if (r == ParseResult::Ok || r == ParseResult::Setpoint) r = auth_.check(r, parser_);
   if (r == ParseResult::Setpoint) {
     setpoint_ = parser_.setpoint();
     host_heard_ = true;

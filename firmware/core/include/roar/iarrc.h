@@ -24,6 +24,7 @@
 #include "roar/protocol.h"
 #include "roar/sbus.h"
 #include "roar/servo_output.h"
+#include "roar/signing.h"
 
 namespace roar {
 
@@ -178,6 +179,7 @@ class IarrcController {
   IarrcConfig config_;
   SbusDecoder sbus_;
   ControlParser parser_;
+  Authenticator auth_;
   SpeedEstimator speed_;
   SpeedPid pid_;
   BatteryMonitor battery_;
