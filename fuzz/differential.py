@@ -40,17 +40,24 @@ def corpus(family: str) -> list[bytes]:
 
 
 def core_control(data: bytes) -> list:
+    from fuzz.twins import SIGNING_KEY, SIGNING_SESSION
     from roar.protocol.spec import ParseResult
-    from roar_sim.core.car import ControlParser
+    from roar_sim.core.car import Authenticator, ControlParser
 
     out = []
-    for e in ControlParser().feed(data):
-        if e.result == ParseResult.OK:
-            out.append([e.at, int(e.result), e.command.throttle_us, e.command.steering_us])
-        elif e.result == ParseResult.SETPOINT:
-            out.append([e.at, int(e.result), e.setpoint.speed_mm_s, e.setpoint.steering_us])
-        else:
-            out.append([e.at, int(e.result), None, None])
+    parser, auth = ControlParser(), Authenticator()
+    auth.set_key(SIGNING_KEY, SIGNING_SESSION)
+    for i in range(len(data)):  # a byte at a time: the authenticator reads the parser after each message
+        for e in parser.feed(data[i:i + 1]):
+            counter, mac = e.signature if e.signature else (None, None)
+            if e.result == ParseResult.OK:
+                out.append([e.at, int(e.result), e.command.throttle_us, e.command.steering_us, counter, mac,
+                            int(auth.check(e.result, parser))])
+            elif e.result == ParseResult.SETPOINT:
+                out.append([e.at, int(e.result), e.setpoint.speed_mm_s, e.setpoint.steering_us, counter, mac,
+                            int(auth.check(e.result, parser))])
+            else:
+                out.append([e.at, int(e.result), None, None, None, None, None])
     return out
 
 

@@ -32,7 +32,14 @@ def sbus_pairs(frame: bytes, pause: int = 200) -> bytes:
 
 def control_messages() -> list[bytes]:
     cases = json.loads((VECTORS / "control_messages.json").read_text())["cases"]
-    return ["".join(c["chunks"]).encode() for c in cases]
+    signed = json.loads((VECTORS / "signed_messages.json").read_text())["cases"]
+    return ["".join(c["chunks"]).encode() for c in cases] + ["".join(c["messages"]).encode() for c in signed]
+
+
+def signed_session() -> list[bytes]:
+    """The golden vectors' in-order messages, signed under their key for their session."""
+    case = next(c for c in json.loads((VECTORS / "signed_messages.json").read_text())["cases"] if c["name"] == "in_order")
+    return [m.encode() for m in case["messages"]]
 
 
 def sbus_frames() -> list[bytes]:
@@ -62,8 +69,12 @@ def car_board_inputs() -> list[bytes]:
     def ble(text: bytes) -> bytes:
         return bytes((len(text) | 0x40,)) + text
 
+    key = json.loads((VECTORS / "signed_messages.json").read_text())["key"].encode()
+    signed = signed_session()
     return [serial(b"(1500,1500)\n") + serial(b"(1800,1200)\n", True) + serial(b"(1200,1500)\n", True),
-            ble(b"(1500,1500)") + ble(b"(2000,2000)"), serial(b"(1500,15"), serial(b"[1000,1500]\n")]
+            ble(b"(1500,1500)") + ble(b"(2000,2000)"), serial(b"(1500,15"), serial(b"[1000,1500]\n"),
+            serial(b"KEY " + key[:28]) + serial(key[28:] + b"\n") + serial(signed[0], True) + ble(signed[1])
+            + serial(b"KEY ?\n", True) + ble(b"KEY -\n") + serial(b"KEY -\n", True)]
 
 
 def iarrc_board_inputs() -> list[bytes]:

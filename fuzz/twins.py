@@ -6,21 +6,29 @@
 # (firmware/micropython/lib/roar_junior.py, the twin of the core's reader and board).
 import json
 
-from roar_wire import control, junior, sbus
+from roar_wire import control, junior, sbus, signing
+
+# The signed golden vectors' key and session (protocol/vectors/signed_messages.json), so that
+# their messages in the corpus pass and the authenticator's every verdict is reached.
+SIGNING_KEY = bytes(range(16))
+SIGNING_SESSION = 0x2A
 
 
 def control_events(data):
-    """[at, result, a, b] per message event: a, b = throttle, steering (ok) or speed, steering
-    (setpoint), else None, None."""
+    """[at, result, a, b, counter, mac, verdict] per message event: a, b = throttle, steering
+    (ok) or speed, steering (setpoint), counter and mac those of a signed message, verdict a
+    keyed authenticator's; else None."""
     p, out = control.Parser(), []
+    auth = signing.Authenticator()
+    auth.set_key(SIGNING_KEY, SIGNING_SESSION)
     for at in range(len(data)):
         r = p.feed(data[at])
-        if r == control.OK:
-            out.append([at, r, p.throttle_us, p.steering_us])
-        elif r == control.SETPOINT:
-            out.append([at, r, p.speed_mm_s, p.setpoint_steering_us])
+        if r == control.OK or r == control.SETPOINT:
+            a, b = (p.throttle_us, p.steering_us) if r == control.OK else (p.speed_mm_s, p.setpoint_steering_us)
+            counter, mac = p.signature if p.signature else (None, None)
+            out.append([at, r, a, b, counter, mac, auth.check(r, p)])
         elif r != control.NONE:
-            out.append([at, r, None, None])
+            out.append([at, r, None, None, None, None, None])
     return out
 
 
