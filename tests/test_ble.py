@@ -2,6 +2,7 @@
 virtual controllers to a bumble GATT server with the ROAR layout, whose control writes feed the
 firmware core (host build) on the wall clock."""
 
+import re
 import time
 
 import pytest
@@ -79,7 +80,7 @@ def test_the_car_has_the_roar_gatt_layout(car):
     chars = run_sync(layout())
     assert chars[spec.BLE_CONTROL_UUID] == ["read", "write", "write-without-response"]
     assert set(chars) == {spec.BLE_CONTROL_UUID, spec.BLE_VELOCITY_UUID, spec.BLE_PID_UUID, spec.BLE_STATE_UUID,
-                          spec.BLE_NAME_UUID, spec.BLE_OVERRIDE_UUID}
+                          spec.BLE_NAME_UUID, spec.BLE_OVERRIDE_UUID, spec.BLE_SESSION_UUID}
 
 
 def test_link_loss_is_survived(car):
@@ -150,3 +151,87 @@ def test_a_ble_car_is_recorded_like_any_other(car, tmp_path):
     assert (1750, 1250) in sent and sent[-1] == (1500, 1500)  # what went over the air, neutral last
     assert len(sent) == len(car.writes)  # every write the car got, recorded once
     assert read_log(path).metadata["run"]["clock"] == "monotonic"
+
+
+# --- signed control and pairing over BLE ---------------------------------------------------------
+
+KEY = bytes(range(16))
+
+
+def start_car(radio, **kw):
+    async def start():
+        c = BleCar(radio, **kw)
+        await c.start()
+        return c
+
+    return run_sync(start())
+
+
+def keyed_car(radio, **kw):
+    """A car whose key was set over its USB serial port (then rebooted: its session is 2)."""
+    from roar_sim.core.car import CarBoard
+
+    board = CarBoard()
+    board.begin()
+    board.serial_in(b"KEY " + KEY.hex().encode() + b"\n")
+    board.run(3)
+    assert board.serial_out().decode().splitlines()[-2].startswith("KEY ")
+    return start_car(radio, nvm=board.nvm, **kw)
+
+
+def test_a_keyed_car_over_ble_takes_only_signed_messages_in_pieces(radio):
+    """The host reads the session from the session characteristic and signs; a signed message
+    (up to 34 bytes) longer than a default link's 20-byte writes goes in pieces."""
+    car = keyed_car(radio)
+    try:
+        assert car.board.session == 2
+        with Vehicle("ble://", key=KEY, **BACKENDS) as v:
+            v.drive(throttle=0.5, steering=-0.5)
+            assert wait_for(lambda: outputs(car) == (1750, 1250))
+            assert v.signer.session == 2 and v.signer.refused == 0
+        assert car.writes and all(re.fullmatch(rb"\(\d{4},\d{4},[0-9a-f]{1,8},[0-9a-f]{12}\)", w) for w in car.writes)
+        with Vehicle("ble://", key=False, **BACKENDS) as v:  # an unsigned host: refused
+            v.drive(throttle=0.5)
+            time.sleep(0.6)
+            assert outputs(car) == (1500, 1500) and car.outputs.latched
+        assert "ERR unsigned 00000002" in car.replies
+        with Vehicle("ble://", key=bytes(16), **BACKENDS) as v:  # another key: forged
+            v.drive(throttle=0.5)
+            time.sleep(0.6)
+            assert outputs(car) == (1500, 1500)
+        assert "ERR forged 00000002" in car.replies
+        # ATT payloads of 20 bytes (a link without an MTU exchange): the pieces join
+        class SmallMtu(BumbleClient):
+            @property
+            def mtu_size(self):
+                return 23
+
+        time.sleep(0.2)  # (the last host's last messages are answered)
+        before, replies_before = len(car.writes), len(car.replies)
+        with Vehicle("ble://", key=KEY, scanner_backend=BumbleScanner, client_backend=SmallMtu) as v:
+            v.drive(throttle=0.2)
+            assert wait_for(lambda: outputs(car) == (1600, 1500))
+        assert max(len(w) for w in car.writes[before:]) == 20
+        assert not [r for r in car.replies[replies_before:] if r.startswith("ERR")]
+        # BLE cannot clear the key
+        with Vehicle("ble://", key=KEY, **BACKENDS) as v:
+            v.transport.inner.write(b"\nKEY -\n")
+            time.sleep(0.1)
+        assert car.board.session == 2
+    finally:
+        run_sync(car.stop())
+
+
+def test_a_car_that_asks_for_encryption_pairs_with_le_secure_connections(radio):
+    car = start_car(radio, secure=True)
+    try:
+        with Vehicle("ble://", reconnect=False, **BACKENDS) as v:  # not paired: the car drops every write
+            v.drive(throttle=0.5)
+            time.sleep(0.5)
+        assert car.writes == [] and outputs(car) == (1500, 1500)
+        with Vehicle("ble://?pair=1", **BACKENDS) as v:
+            v.drive(throttle=0.5)
+            assert wait_for(lambda: outputs(car) == (1750, 1500))
+        assert car.write_links and set(car.write_links) == {(True, True)}  # encrypted, Secure Connections
+    finally:
+        run_sync(car.stop())

@@ -5,6 +5,7 @@
 //   state     read: float32 speed (0), float32 throttle output [us]
 //   name      write: the name advertised from the next advertisement on (not persisted)
 //   override  write: accepted; this board has no override output
+//   session   read: uint32 session, uint32 last counter accepted (signed control; 0, 0 without a key)
 #include "ble_link.h"
 
 #if defined(ARDUINO_ARCH_MBED)
@@ -14,10 +15,13 @@
 #include "roar/protocol.h"
 
 namespace {
-constexpr int kMaxWrite = 20;          // [bytes] one control message (11) with room for line ends
+constexpr int kMaxWrite = 20;          // [bytes] a name; control writes come in pieces of at most this on
+                                       // a link without an MTU exchange
+constexpr int kMaxControlWrite = roar::proto::kSignedMaxMessageBytes + 2;  // [bytes] a signed message and line end
 constexpr unsigned long kStatePeriodMs = 100;  // [ms] state characteristic refresh
 BLEService service(roar::proto::kBleServiceUuid);
-BLECharacteristic control(roar::proto::kBleControlUuid, BLERead | BLEWrite | BLEWriteWithoutResponse, kMaxWrite);
+BLECharacteristic control(roar::proto::kBleControlUuid, BLERead | BLEWrite | BLEWriteWithoutResponse, kMaxControlWrite);
+BLECharacteristic session(roar::proto::kBleSessionUuid, BLERead, 2 * sizeof(uint32_t), true);
 BLEFloatCharacteristic velocity(roar::proto::kBleVelocityUuid, BLERead);
 BLECharacteristic pid(roar::proto::kBlePidUuid, BLEWrite, 3 * sizeof(float), true);
 BLECharacteristic state(roar::proto::kBleStateUuid, BLERead, 2 * sizeof(float), true);
@@ -36,7 +40,7 @@ void begin() {
   BLE.setLocalName(roar::proto::kBleLocalName);
   BLE.setAdvertisedService(service);
   for (BLECharacteristic* c : {&control, static_cast<BLECharacteristic*>(&velocity), &pid, &state, &name,
-                               static_cast<BLECharacteristic*>(&override_toggle)}) {
+                               static_cast<BLECharacteristic*>(&override_toggle), &session}) {
     service.addCharacteristic(*c);
   }
   BLE.addService(service);
@@ -64,11 +68,13 @@ void poll(roar::CarBoard& board) {
   }
 }
 
-void publish(const roar::CarOutputs& outputs) {
+void publish(const roar::CarBoard& board, const roar::CarOutputs& outputs) {
   if (!started || millis() - last_state_ms < kStatePeriodMs) return;
   last_state_ms = millis();
   const float payload[2] = {0.0f, static_cast<float>(outputs.throttle_us)};
   state.writeValue(reinterpret_cast<const uint8_t*>(payload), sizeof(payload));
+  const uint32_t signing[2] = {board.car().auth().session(), board.car().auth().last_counter()};  // little-endian
+  session.writeValue(reinterpret_cast<const uint8_t*>(signing), sizeof(signing));
 }
 
 }  // namespace ble_link
@@ -78,7 +84,7 @@ void publish(const roar::CarOutputs& outputs) {
 namespace ble_link {
 void begin() {}
 void poll(roar::CarBoard&) {}
-void publish(const roar::CarOutputs&) {}
+void publish(const roar::CarBoard&, const roar::CarOutputs&) {}
 }  // namespace ble_link
 
 #endif

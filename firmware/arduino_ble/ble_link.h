@@ -5,5 +5,5 @@
 namespace ble_link {
 void begin();                                   // advertise the ROAR service as "ROAR Car"
 void poll(roar::CarBoard& board);               // hand every control write to the board
-void publish(const roar::CarOutputs& outputs);  // refresh the readable state characteristic
+void publish(const roar::CarBoard& board, const roar::CarOutputs& outputs);  // refresh the readable state and session characteristics
 }  // namespace ble_link

@@ -26,8 +26,7 @@ void feed();
 }  // namespace watchdog
 
 namespace storage {
-// The chip's non-volatile memory for the core (EEPROM on the ATmega328P), or nullptr where this
-// glue has none yet (the Nano 33 BLE: its flash needs a page kept for it), so that car can
-// never be given a key.
+// The chip's non-volatile memory for the core: EEPROM on the ATmega328P, the last flash sector on
+// the nRF52840; nullptr when it cannot be used (that car can then never be given a key).
 roar::Nvm* nvm();
 }  // namespace storage

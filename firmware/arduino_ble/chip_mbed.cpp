@@ -3,9 +3,11 @@
 // for the falling edge and raises both outputs (edges come from timer interrupts, like the
 // Servo library's, so a pulse may run a few microseconds long). RC pulses are timed with
 // attachInterrupt on both edges. The nRF52 watchdog (mbed::Watchdog) resets the chip when the
-// loop stops feeding it.
+// loop stops feeding it. The signing key and session live in the last flash sector (mbed's
+// FlashIAP), read once at boot and rewritten whole when they change (a boot's session, a key).
 #if defined(ARDUINO_ARCH_MBED)
 #include <Arduino.h>
+#include <FlashIAP.h>
 #include <mbed.h>
 
 #include <chrono>
@@ -84,7 +86,43 @@ uint16_t take_rc_pulse(uint8_t channel) {
 }  // namespace outputs
 
 namespace storage {
-roar::Nvm* nvm() { return nullptr; }  // no key on the Nano 33 BLE yet: its flash needs a page kept for it
+namespace {
+class FlashSector : public roar::Nvm {
+ public:
+  bool begin() {
+    if (flash_.init() != 0) return false;
+    const uint32_t end = flash_.get_flash_start() + flash_.get_flash_size();
+    address_ = end - flash_.get_sector_size(end - 1);
+    return flash_.read(bytes_, address_, sizeof(bytes_)) == 0;  // erased flash reads 0xFF: no key
+  }
+  void read(uint16_t at, uint8_t* data, uint8_t n) override {
+    for (uint8_t i = 0; i < n; ++i) data[i] = at + i < sizeof(bytes_) ? bytes_[at + i] : 0xFF;
+  }
+  // Erase and program the sector (~90 ms: within the loop watchdog; at boot and on KEY only).
+  void write(uint16_t at, const uint8_t* data, uint8_t n) override {
+    for (uint8_t i = 0; i < n && at + i < sizeof(bytes_); ++i) bytes_[at + i] = data[i];
+    flash_.erase(address_, flash_.get_sector_size(address_));
+    flash_.program(bytes_, address_, sizeof(bytes_));
+  }
+
+ private:
+  static constexpr uint32_t kProgramUnit = 4;  // [bytes] the nRF52's flash word
+  mbed::FlashIAP flash_;
+  uint32_t address_ = 0;
+  uint8_t bytes_[(roar::KeyRecord::kBytes + kProgramUnit - 1) / kProgramUnit * kProgramUnit];
+};
+FlashSector sector;
+bool usable = false;
+}  // namespace
+
+roar::Nvm* nvm() {
+  static bool tried = false;
+  if (!tried) {
+    tried = true;
+    usable = sector.begin();
+  }
+  return usable ? &sector : nullptr;
+}
 }  // namespace storage
 
 namespace watchdog {

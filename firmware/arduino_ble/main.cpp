@@ -52,7 +52,7 @@ void loop() {
   }
   ble_link::poll(board);
   const roar::CarOutputs out = board.poll();
-  ble_link::publish(out);
+  ble_link::publish(board, out);
 #ifdef ROAR_TEST_HANG_ON_THROTTLE_US
   // Test builds only (the suite's emulator proves the watchdog): hang the loop for good once
   // the car outputs this throttle, as a firmware bug would.

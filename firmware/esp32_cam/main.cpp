@@ -12,10 +12,13 @@
 // The ROAR GATT layout (PROTOCOL.md section 4): control (write, write without response),
 // velocity (read, 0: no speedometer here), pid (write, 3 x float32, kept), state (read: speed 0,
 // throttle output [us] as float32), name (write: advertised from the next start of advertising,
-// not persisted), override (write: accepted; this board has no override output).
+// not persisted), override (write: accepted; this board has no override output), session (read:
+// uint32 session, uint32 last counter: signed control). The signing key and session live in NVS
+// (the Preferences library, namespace "roar"), behind the core's Nvm.
 #include <Arduino.h>
 #include <BLEDevice.h>
 #include <BLEServer.h>
+#include <Preferences.h>
 #include <driver/ledc.h>
 #include <esp_gap_ble_api.h>
 #include <esp_task_wdt.h>
@@ -55,6 +58,30 @@ uint32_t duty_for(uint16_t pulse_us) {  // [LEDC counts] for a pulse in a 20 ms 
   return static_cast<uint32_t>(pulse_us) * kLedcFullScale / roar::proto::kTimingServoFrameUs;
 }
 
+// The core's few bytes of non-volatile memory as one NVS blob, read once at boot and written whole
+// when they change (a boot's new session, a key set over serial): NVS spreads the wear.
+class NvsStore : public roar::Nvm {
+ public:
+  void begin() {
+    memset(bytes_, 0xFF, sizeof(bytes_));  // blank, as an erased EEPROM
+    prefs_.begin("roar", false);
+    prefs_.getBytes("signing", bytes_, sizeof(bytes_));
+  }
+  void read(uint16_t at, uint8_t* data, uint8_t n) override {
+    for (uint8_t i = 0; i < n; ++i) data[i] = at + i < sizeof(bytes_) ? bytes_[at + i] : 0xFF;
+  }
+  void write(uint16_t at, const uint8_t* data, uint8_t n) override {
+    for (uint8_t i = 0; i < n && at + i < sizeof(bytes_); ++i) bytes_[at + i] = data[i];
+    prefs_.putBytes("signing", bytes_, sizeof(bytes_));
+  }
+
+ private:
+  Preferences prefs_;
+  uint8_t bytes_[roar::KeyRecord::kBytes];
+};
+
+NvsStore nvs;
+
 class Esp32Hal : public roar::Hal {
  public:
   void begin() {
@@ -78,6 +105,7 @@ class Esp32Hal : public roar::Hal {
   size_t write_room() override { return static_cast<size_t>(Serial.availableForWrite()); }
   void write(const char* text, size_t length) override { Serial.write(text, length); }
   void feed_watchdog() override { esp_task_wdt_reset(); }
+  roar::Nvm* nvm() override { return &nvs; }
 };
 
 Esp32Hal hal;
@@ -96,6 +124,7 @@ class ControlWrites : public BLECharacteristicCallbacks {
 
 float pid_gains[3] = {0, 0, 0};  // kp, kd, ki, as the host packs them (little-endian float32)
 BLECharacteristic* state_characteristic = nullptr;
+BLECharacteristic* session_characteristic = nullptr;
 uint32_t last_state_ms = 0;
 constexpr uint32_t kStatePeriodMs = 100;  // [ms]
 
@@ -125,7 +154,7 @@ void ble_begin() {
   BLEDevice::init(roar::proto::kBleLocalName);
   BLEServer* server = BLEDevice::createServer();
   server->setCallbacks(new Connections());
-  // 6 characteristics x 2 handles + the service: within the default 15 handles.
+  // 7 characteristics x 2 handles + the service: the default 15 handles.
   BLEService* service = server->createService(roar::proto::kBleServiceUuid);
   BLECharacteristic* control = service->createCharacteristic(
       roar::proto::kBleControlUuid, BLECharacteristic::PROPERTY_READ | BLECharacteristic::PROPERTY_WRITE |
@@ -140,6 +169,7 @@ void ble_begin() {
   service->createCharacteristic(roar::proto::kBleNameUuid, BLECharacteristic::PROPERTY_WRITE)
       ->setCallbacks(new NameWrites());
   service->createCharacteristic(roar::proto::kBleOverrideUuid, BLECharacteristic::PROPERTY_WRITE);
+  session_characteristic = service->createCharacteristic(roar::proto::kBleSessionUuid, BLECharacteristic::PROPERTY_READ);
   service->start();
   BLEAdvertising* advertising = BLEDevice::getAdvertising();
   advertising->addServiceUUID(roar::proto::kBleServiceUuid);
@@ -151,6 +181,7 @@ void ble_begin() {
 void setup() {
   pinMode(pins::kStatusLed, OUTPUT);
   hal.begin();
+  nvs.begin();
   Serial.begin(roar::proto::kSerialBaud);
   ble_begin();
   board.begin();
@@ -167,6 +198,8 @@ void loop() {
     last_state_ms = millis();
     float payload[2] = {0.0f, static_cast<float>(out.throttle_us)};
     state_characteristic->setValue(reinterpret_cast<uint8_t*>(payload), sizeof(payload));
+    uint32_t signing[2] = {board.car().auth().session(), board.car().auth().last_counter()};  // little-endian
+    session_characteristic->setValue(reinterpret_cast<uint8_t*>(signing), sizeof(signing));
   }
   digitalWrite(pins::kStatusLed, connected ? LOW : HIGH);
 }

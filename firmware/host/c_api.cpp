@@ -242,6 +242,12 @@ int roar_board_init(void* board, roar_host_hal_t* hal, const roar_car_config_t* 
 void roar_board_begin(void* board) { as<HostCarBoard>(board)->board.begin(); }
 void roar_board_feed(void* board, const uint8_t* data, size_t n) { as<HostCarBoard>(board)->board.feed(data, n); }
 void roar_board_run(void* board, uint32_t loops) { as<HostCarBoard>(board)->run(loops); }
+uint32_t roar_board_session(const void* board) {
+  return static_cast<const HostCarBoard*>(board)->board.car().auth().session();
+}
+uint32_t roar_board_last_counter(const void* board) {
+  return static_cast<const HostCarBoard*>(board)->board.car().auth().last_counter();
+}
 
 
 size_t roar_junior_board_size(void) { return sizeof(HostJuniorBoard); }

@@ -211,6 +211,8 @@ int roar_board_init(void* board, roar_host_hal_t* hal, const roar_car_config_t* 
 void roar_board_begin(void* board);  /* queues the boot banner; reads nvm (key, next session) */
 void roar_board_feed(void* board, const uint8_t* data, size_t n);   /* bytes of a BLE write */
 void roar_board_run(void* board, uint32_t loops);
+uint32_t roar_board_session(const void* board); /* the signing session; 0 when the car has no key */
+uint32_t roar_board_last_counter(const void* board); /* the last counter the car accepted in it */
 
 /* --- the Junior's loop (JuniorBoard) and its HTTP requests, on a HAL of plain memory -----------
  * roar_junior_board_run: each loop iteration runs JuniorBoard::poll() (failsafe, L298N pins with

@@ -161,19 +161,24 @@ class SigningTransport(Transport):
         self.inner.close()
 
     def _ask_session(self) -> None:
+        """A link without reply lines says (session, last counter) when asked (Transport.session)."""
         ask = getattr(self.inner, "session", None)
-        session = ask() if callable(ask) else None
-        if session is not None:
-            self._learn(session)
+        answer = ask() if callable(ask) else None
+        if answer is not None:
+            self._learn(*answer)
 
-    def _learn(self, session: int) -> None:
+    def _learn(self, session: int, last_counter: int = 0) -> None:
+        """The car's session, and the last counter it took in it: we count on from there (another
+        host may have driven it in this session)."""
         with self._lock:
             if session == 0:  # the link says: this car has no key
                 self.unkeyed = True
                 return
             self.unkeyed = False
             if session != self.session:
-                self.session, self.counter, self._fresh = session, 0, True
+                self.session, self.counter, self._fresh = session, last_counter, True
+            else:
+                self.counter = max(self.counter, last_counter)
 
     def sign(self, data: bytes) -> bytes:
         """The signed form of a message (unchanged while the session is unknown or the car has no key)."""
@@ -237,8 +242,8 @@ class SigningTransport(Transport):
             log.warning("%s refused a signed message as forged: is this the car's key? (roar key show URL)", self.url)
         elif reason == str(ParseResult.REPLAY) and value is not None:
             self.refused += 1
-            with self._lock:  # another sender used the key in this session: go past its counter
-                self.counter = max(self.counter, value)
+            if self.session is not None:  # another sender used the key in this session: go past its counter
+                self._learn(self.session, value)
         return False
 
     # everything else passes through

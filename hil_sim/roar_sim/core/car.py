@@ -256,6 +256,16 @@ class CarBoard:
         self._lib.roar_board_begin(self._mem)
 
     @property
+    def session(self) -> int:
+        """The signing session the car booted into (0: it has no key)."""
+        return self._lib.roar_board_session(self._mem)
+
+    @property
+    def last_counter(self) -> int:
+        """The last counter the car accepted in its session."""
+        return self._lib.roar_board_last_counter(self._mem)
+
+    @property
     def nvm(self) -> bytes:
         """The board's non-volatile memory now (key and session: roar/signing.h)."""
         return ffi.unpack(ffi.cast("char *", self.hal.nvm), len(self.hal.nvm))

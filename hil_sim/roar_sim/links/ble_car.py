@@ -7,6 +7,9 @@ spec [ble]) whose control characteristic feeds the board loop of the firmware co
     ... host drives it over bleak ...
     car.outputs                                  # what the firmware drives on the pins now
     await car.drop_link()                        # the car walks out of range
+
+    BleCar(radio, nvm=...)     # a board whose EEPROM holds a signing key (car.serial_in(b"KEY ..."))
+    BleCar(radio, secure=True) # control writes need an encrypted link: LE Secure Connections pairing
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ import time
 
 from bumble.core import UUID, AdvertisingData
 from bumble.gatt import Characteristic, CharacteristicValue, Service
+from bumble.pairing import PairingConfig, PairingDelegate
 
 from roar.protocol import spec
 from roar_sim.core.car import CarBoard, CarConfig, CarOutputs
@@ -32,10 +36,15 @@ READABLE, WRITEABLE = Characteristic.Permissions.READABLE, Characteristic.Permis
 
 class BleCar:
     def __init__(self, radio: VirtualRadio, name: str = spec.BLE_LOCAL_NAME,
-                 address: str = "F0:00:00:00:00:01", config: CarConfig | None = None) -> None:
-        self.radio, self.name, self.address = radio, name, address
+                 address: str = "F0:00:00:00:00:01", config: CarConfig | None = None, nvm: bytes | None = None,
+                 secure: bool = False) -> None:
+        """nvm: the board's EEPROM (its signing key and session); secure: the control and session
+        characteristics need an encrypted link, which the car pairs with LE Secure Connections
+        only (no legacy pairing), as a stack that can do so should."""
+        self.radio, self.name, self.address, self.secure = radio, name, address, secure
         # The board's clock is set from the wall clock before each loop iteration (loop_us 0).
-        self.board = CarBoard(config or CarConfig(), loop_us=0, frame_us=FRAME_US)
+        self.board = CarBoard(config or CarConfig(), loop_us=0, frame_us=FRAME_US, nvm=nvm)
+        self.write_links: list[tuple[bool, bool]] = []  # (encrypted, LE Secure Connections) of each control write
         self.writes: list[bytes] = []  # every control write, in arrival order
         self.replies: list[str] = []  # lines the firmware printed (it would print them on serial)
         self.history: list[tuple[float, int, int]] = []  # (t [s], throttle_us, steering_us) at each change
@@ -55,9 +64,14 @@ class BleCar:
 
     async def start(self) -> None:
         device = self.device = self.radio.add_device(self.name, self.address)
+        readable = READABLE | (Characteristic.Permissions.READ_REQUIRES_ENCRYPTION if self.secure else 0)
+        writeable = WRITEABLE | (Characteristic.Permissions.WRITE_REQUIRES_ENCRYPTION if self.secure else 0)
         control = Characteristic(spec.BLE_CONTROL_UUID, P.READ | P.WRITE | P.WRITE_WITHOUT_RESPONSE,
-                                 READABLE | WRITEABLE,
+                                 readable | writeable,
                                  CharacteristicValue(read=self._read_control, write=self._on_control))
+        session = Characteristic(spec.BLE_SESSION_UUID, P.READ, readable,
+                                 CharacteristicValue(read=lambda _c: struct.pack("<2I", self.board.session,
+                                                                                         self.board.last_counter)))
         velocity = Characteristic(spec.BLE_VELOCITY_UUID, P.READ, READABLE,
                                   CharacteristicValue(read=lambda _c: struct.pack("<f", 0.0)))
         pid = Characteristic(spec.BLE_PID_UUID, P.WRITE, WRITEABLE, CharacteristicValue(write=self._on_pid))
@@ -65,7 +79,11 @@ class BleCar:
         name = Characteristic(spec.BLE_NAME_UUID, P.WRITE, WRITEABLE, CharacteristicValue(write=lambda _c, _v: None))
         override = Characteristic(spec.BLE_OVERRIDE_UUID, P.WRITE, WRITEABLE,
                                   CharacteristicValue(write=lambda _c, _v: None))
-        device.add_service(Service(spec.BLE_SERVICE_UUID, [control, velocity, pid, state, name, override]))
+        device.add_service(Service(spec.BLE_SERVICE_UUID, [control, velocity, pid, state, name, override, session]))
+        if self.secure:  # Secure Connections only, Just Works (a car has no display or keys)
+            device.pairing_config_factory = lambda _connection: PairingConfig(
+                sc=True, mitm=False, bonding=True,
+                delegate=PairingDelegate(io_capability=PairingDelegate.IoCapability.NO_OUTPUT_NO_INPUT))
         device.advertising_data = bytes(AdvertisingData([
             (AdvertisingData.FLAGS, bytes([0x06])),
             (AdvertisingData.COMPLETE_LOCAL_NAME, self.name.encode()),
@@ -81,8 +99,13 @@ class BleCar:
     def _on_connection(self, _connection) -> None:
         self.connections += 1
 
-    def _on_control(self, _connection, value: bytes) -> None:
+    def serial_in(self, data: bytes) -> None:
+        """Bytes on the car's USB serial port (where a key is set: b"KEY <32 hex>\\n")."""
+        self.board.serial_in(data)
+
+    def _on_control(self, connection, value: bytes) -> None:
         self.writes.append(bytes(value))
+        self.write_links.append((connection.is_encrypted, bool(connection.sc)))
         self.board.set_clock(self.now_us())
         self.board.ble_write(bytes(value))
 

@@ -4,10 +4,14 @@
     ble://ROAR Car         a car by advertised name (spaces are fine; %20 works too)
     ble://AA:BB:CC:DD:EE:FF  a car by address
     ble://?timeout=20      seconds to look for it (default 10)
+    ble://?pair=1          pair first (bonded, encrypted: a car that asks for it gets LE Secure
+                           Connections where the host's stack and the car's can do it)
 
-Each control message is one write-without-response to the control characteristic. The car
-sends nothing back on this link (read_lines() is empty); its own failsafe stops it when writes
-stop arriving.
+Each control message is one write-without-response to the control characteristic (a signed
+message longer than the link's ATT payload goes in pieces, which the car's streaming parser
+joins). The car sends nothing back on this link (read_lines() is empty); its own failsafe stops
+it when writes stop arriving. A signing host reads the car's session from its session
+characteristic.
 """
 
 from __future__ import annotations
@@ -23,7 +27,7 @@ from roar.aio import run_sync
 from roar.checks import MAX_SCAN_S, number
 from roar.protocol import spec
 from roar.telemetry import VehicleState
-from roar.transports.base import LinkLost, Transport, TransportError, pop_number
+from roar.transports.base import LinkLost, Transport, TransportError, pop_number, pop_option
 
 DEFAULT_TIMEOUT_S = 10.0  # [s] to find and connect to the car
 MAX_CONNECT_S = 120.0  # [s] the longest a connection may be given
@@ -72,8 +76,9 @@ class BleTransport(Transport):
     min_period_s = 0.0075  # [s] the shortest BLE connection interval
 
     def __init__(self, target: str = "", timeout_s: float = DEFAULT_TIMEOUT_S, scanner_backend=None,
-                 client_backend=None) -> None:
+                 client_backend=None, pair: bool = False) -> None:
         self.target = target
+        self.pair = pair
         self.timeout_s = number("timeout_s", timeout_s, 0, MAX_CONNECT_S, "s", low_open=True)
         self.scanner_backend, self.client_backend = scanner_backend, client_backend
         self._client: BleakClient | None = None
@@ -83,7 +88,7 @@ class BleTransport(Transport):
     def from_url(cls, target: str, options: dict[str, str], scanner_backend=None,
                  client_backend=None) -> BleTransport:
         timeout = pop_number(options, "timeout", DEFAULT_TIMEOUT_S, 0, MAX_CONNECT_S, "s", low_open=True)
-        return cls(target.strip("/"), timeout, scanner_backend, client_backend)
+        return cls(target.strip("/"), timeout, scanner_backend, client_backend, pop_option(options, "pair", bool, False))
 
     def describe_target(self) -> str:
         if not self.target:
@@ -109,6 +114,8 @@ class BleTransport(Transport):
         client = BleakClient(device, disconnected_callback=self._on_disconnect, timeout=self.timeout_s,
                              backend=self.client_backend)
         await client.connect()
+        if self.pair:
+            await client.pair()
         if client.services.get_characteristic(spec.BLE_CONTROL_UUID) is None:
             await client.disconnect()
             raise TransportError(f"{device.name or device.address} has no ROAR control characteristic "
@@ -132,11 +139,28 @@ class BleTransport(Transport):
         client = self._client
         if client is None or not self._connected:
             raise LinkLost(f"BLE link to {self.describe_target()} lost")
+        piece = max(1, client.mtu_size - 3)  # [bytes] one write's payload
         try:
-            run_sync(client.write_gatt_char(spec.BLE_CONTROL_UUID, data, response=False), WRITE_TIMEOUT_S)
+            for at in range(0, len(data), piece):
+                run_sync(client.write_gatt_char(spec.BLE_CONTROL_UUID, data[at:at + piece], response=False),
+                         WRITE_TIMEOUT_S)
         except (BleakError, OSError, TimeoutError) as e:
             self._connected = False
             raise LinkLost(f"BLE link to {self.describe_target()} lost: {e or type(e).__name__}") from None
+
+    def session(self) -> tuple[int, int] | None:
+        """(session, last counter accepted) from the car's session characteristic (session 0: no
+        key, or a car too old to have the characteristic); None when the link cannot tell now."""
+        client = self._client
+        if client is None or not self._connected:
+            return None
+        if client.services.get_characteristic(spec.BLE_SESSION_UUID) is None:
+            return 0, 0
+        try:
+            value = run_sync(client.read_gatt_char(spec.BLE_SESSION_UUID), WRITE_TIMEOUT_S)
+        except (BleakError, OSError, TimeoutError):
+            return None
+        return struct.unpack("<2I", bytes(value[:8])) if len(value) >= 8 else (0, 0)
 
     def state(self) -> VehicleState | None:
         """Speed from the velocity characteristic, the throttle output from the state one."""

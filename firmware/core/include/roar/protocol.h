@@ -107,7 +107,7 @@ static constexpr char kBlePidUuid[] = "19b10011-e8f2-537e-4f6c-d104768a1216";  /
 static constexpr char kBleStateUuid[] = "19b10011-e8f2-537e-4f6c-d104768a1217";  // 8 bytes: float32 speed m/s, float32 throttle output (read)
 static constexpr char kBleNameUuid[] = "19b10012-e8f2-537e-4f6c-d104768a1214";  // Device name stored on the car (write)
 static constexpr char kBleOverrideUuid[] = "19b10015-e8f2-537e-4f6c-d104768a1214";  // Any write toggles the override output (write)
-static constexpr char kBleSessionUuid[] = "19b10011-e8f2-537e-4f6c-d104768a1218";  // The car's signing session, uint32 little-endian, 0 when it has no key (read): what a BLE host signs with (see signed)
+static constexpr char kBleSessionUuid[] = "19b10011-e8f2-537e-4f6c-d104768a1218";  // 8 bytes: the car's signing session and the last counter it accepted in it, each uint32 little-endian; session 0 when it has no key (read): what a BLE host signs with, from above that counter (see signed)
 static constexpr char kBleLocalName[] = "ROAR Car";  // Default advertised name
 
 // [udp]
