@@ -90,9 +90,17 @@ def core_junior(data: bytes) -> list:
 
 
 def core_http(data: bytes) -> list:
+    return [_core_http(data, False), _core_http(data, True)]
+
+
+def _core_http(data: bytes, keyed: bool) -> list:
     from roar_sim.core.junior import HttpRequestReader, JuniorBoard
 
     board, out, at = JuniorBoard(), [], 0
+    if keyed:  # the key set over its serial port: session 1
+        board.serial_in(b"KEY " + twins.SIGNING_KEY.hex().encode() + b"\n")
+        board.run(2)
+        assert board.serial_out().endswith(b"SESSION %08x\n" % twins.JUNIOR_SESSION)
     board.distance_cm = twins.DISTANCE_CM
     while at < len(data):
         reader = HttpRequestReader()

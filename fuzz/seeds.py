@@ -52,8 +52,17 @@ QUERIES = ["forward=True", "backward=True&left_spd=0.5&right_spd=0.5", "stop=Tru
 
 
 def http_requests() -> list[bytes]:
+    from roar_wire import signing
+
+    from fuzz.twins import JUNIOR_SESSION, SIGNING_KEY
+
     get = "GET /?{} HTTP/1.1\r\nHost: junior\r\nConnection: keep-alive\r\n\r\n"
+    signed = [signing.sign_query(q, SIGNING_KEY, JUNIOR_SESSION, n + 1) for n, q in enumerate(QUERIES[:3])]
     return [get.format(q).encode() for q in QUERIES[:3]] + [
+        "".join(get.format(q) for q in signed + signed[:1]).encode(),  # signed, then one replayed
+        get.format(signed[0].replace("ctr=1", "ctr=9")).encode(),  # altered
+        get.format("forward=True&ctr=1&mac=0").encode(),  # truncated
+    ] + [
         (get.format(QUERIES[0]) + get.format(QUERIES[2])).encode(),  # pipelined
         b"GET /cam-lo.jpg HTTP/1.0\r\n\r\n",
         b"POST /?forward=True HTTP/1.1\r\nContent-Length: 3\r\n\r\nabc",

@@ -62,12 +62,22 @@ def junior_answer(data):
 DISTANCE_CM = 42  # what the ultrasonic ranger reads in every reply
 
 
+JUNIOR_SESSION = 1  # the session of a board whose key was just set (blank memory before)
+
+
 def http_exchange(data):
-    """One connection's bytes, request by request: [bytes taken, reader state, the reply (hex),
-    kept open] for each decided request, until the bytes run out or the board closes."""
+    """One connection's bytes, request by request, to a board without a key and to one with
+    SIGNING_KEY: for each, [bytes taken, reader state, the reply (hex), kept open] per decided
+    request, until the bytes run out or the board closes."""
+    return [_http_exchange(data, False), _http_exchange(data, True)]
+
+
+def _http_exchange(data, keyed):
     import roar_junior
 
     board, out, at = roar_junior.JuniorBoard(), [], 0
+    if keyed:
+        board.auth.set_key(SIGNING_KEY, JUNIOR_SESSION)
     while at < len(data):
         reader = roar_junior.HttpRequestReader()
         used, state = reader.feed(data[at:])

@@ -570,3 +570,30 @@ def test_a_stream_frame_is_handed_on_before_the_next_part_starts():
     finally:
         done.set()
         listener.close()
+
+
+def test_signed_control_on_the_junior_over_http(junior):
+    """A Junior with a key (set on its serial port) drives only for signed queries; a host
+    without the key is refused 403 with the reason and the robot stays put; a second host with
+    the key counts on past the first one's counter."""
+    from roar_wire import signing
+
+    sim, key = junior.server.sim, bytes(range(16))
+    sim.write(b"KEY " + key.hex().encode() + b"\n")
+    assert wait_for(lambda: (lines := sim.read()) and lines[0] == f"KEY {signing.fingerprint(key)}")
+    try:
+        for attempt, (k, moves) in enumerate([(key, True), (False, False), (bytes(16), False), (key, True)]):
+            assert wait_for(lambda: abs(sim.state().speed) < 0.05, timeout_s=5)
+            with Vehicle(junior.urls.vehicle_url, key=k) as car:
+                car.drive(throttle=0.6)
+                moved = wait_for(lambda: sim.state().speed > 0.15, timeout_s=1.5)
+                assert moved == moves, (attempt, k)
+                if k is not False:
+                    assert car.signer.session == sim.board.session
+                if attempt == 3:  # past the first host's counter after at most one refusal
+                    assert car.signer.refused <= 1
+        status, body = sim.get("forward=True")
+        assert (status, body) == (403, f"unsigned {sim.board.session:08x}\n")
+    finally:
+        sim.write(b"KEY -\n")
+        assert wait_for(lambda: "KEY none" in sim.read())

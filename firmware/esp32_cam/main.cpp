@@ -18,7 +18,6 @@
 #include <Arduino.h>
 #include <BLEDevice.h>
 #include <BLEServer.h>
-#include <Preferences.h>
 #include <driver/ledc.h>
 #include <esp_gap_ble_api.h>
 #include <esp_task_wdt.h>
@@ -27,6 +26,7 @@
 
 #include <atomic>
 
+#include "nvs_store.h"
 #include "pins.h"
 #include "roar/board.h"
 #include "roar/protocol.h"
@@ -58,29 +58,7 @@ uint32_t duty_for(uint16_t pulse_us) {  // [LEDC counts] for a pulse in a 20 ms 
   return static_cast<uint32_t>(pulse_us) * kLedcFullScale / roar::proto::kTimingServoFrameUs;
 }
 
-// The core's few bytes of non-volatile memory as one NVS blob, read once at boot and written whole
-// when they change (a boot's new session, a key set over serial): NVS spreads the wear.
-class NvsStore : public roar::Nvm {
- public:
-  void begin() {
-    memset(bytes_, 0xFF, sizeof(bytes_));  // blank, as an erased EEPROM
-    prefs_.begin("roar", false);
-    prefs_.getBytes("signing", bytes_, sizeof(bytes_));
-  }
-  void read(uint16_t at, uint8_t* data, uint8_t n) override {
-    for (uint8_t i = 0; i < n; ++i) data[i] = at + i < sizeof(bytes_) ? bytes_[at + i] : 0xFF;
-  }
-  void write(uint16_t at, const uint8_t* data, uint8_t n) override {
-    for (uint8_t i = 0; i < n && at + i < sizeof(bytes_); ++i) bytes_[at + i] = data[i];
-    prefs_.putBytes("signing", bytes_, sizeof(bytes_));
-  }
-
- private:
-  Preferences prefs_;
-  uint8_t bytes_[roar::KeyRecord::kBytes];
-};
-
-NvsStore nvs;
+roar_esp32::NvsStore nvs;
 
 class Esp32Hal : public roar::Hal {
  public:

@@ -10,7 +10,8 @@
 // does (HTTP/1.1 keep-alive). When every slot is taken, a new connection replaces the one that
 // has been quiet longest, so idle connections cannot lock a driver out. roar::JuniorBoard::poll()
 // runs every iteration, so the failsafe fires even while a request is still arriving. The task
-// watchdog resets the chip when the loop stops feeding it.
+// watchdog resets the chip when the loop stops feeding it. Signed control: a KEY line on the USB
+// serial port sets the key, kept in NVS with the session (../esp32_cam/nvs_store.h).
 #include <Arduino.h>
 #include <WiFi.h>
 #include <errno.h>
@@ -19,6 +20,7 @@
 #include <lwip/sockets.h>
 #include <unistd.h>
 
+#include "../esp32_cam/nvs_store.h"
 #include "pins.h"
 #include "roar/junior_board.h"
 #include "roar/protocol.h"
@@ -66,6 +68,8 @@ void apply(const roar::SidePins& side, uint8_t in1, uint8_t in2, uint8_t channel
   ledcWrite(channel, side.duty * kPwmFullScale / roar::proto::kL298nDutyFullScale);
 }
 
+roar_esp32::NvsStore nvs;
+
 class JuniorPins : public roar::JuniorHal {
  public:
   roar::RawMicros now_us() override { return micros(); }
@@ -74,6 +78,11 @@ class JuniorPins : public roar::JuniorHal {
     apply(pins.right, pins::kRightIn1, pins::kRightIn2, pins::kRightChannel);
   }
   void feed_watchdog() override { esp_task_wdt_reset(); }
+  int read_byte() override { return Serial.read(); }
+  void write(const char* text, size_t length) override {
+    if (Serial.availableForWrite() >= static_cast<int>(length)) Serial.write(text, length);  // never block
+  }
+  roar::Nvm* nvm() override { return &nvs; }
 };
 
 JuniorPins hal;
@@ -157,6 +166,9 @@ void setup() {
   pinMode(pins::kUltrasonicEcho, INPUT);
   attachInterrupt(digitalPinToInterrupt(pins::kUltrasonicEcho), on_echo, CHANGE);
 
+  Serial.begin(roar::proto::kSerialBaud);
+  nvs.begin();
+  board.begin();
   WiFi.begin(ROAR_WIFI_SSID, ROAR_WIFI_PASSWORD);
   for (int i = 0; i < 100 && WiFi.status() != WL_CONNECTED; ++i) delay(100);
   if (WiFi.status() != WL_CONNECTED) WiFi.softAP(ROAR_WIFI_SSID, ROAR_WIFI_PASSWORD);

@@ -253,6 +253,10 @@ uint32_t roar_board_last_counter(const void* board) {
 size_t roar_junior_board_size(void) { return sizeof(HostJuniorBoard); }
 void roar_junior_board_init(void* board, roar_junior_hal_t* hal) { new (board) HostJuniorBoard(hal); }
 void roar_junior_board_run(void* board, uint32_t loops) { as<HostJuniorBoard>(board)->run(loops); }
+void roar_junior_board_begin(void* board) { as<HostJuniorBoard>(board)->board.begin(); }
+uint32_t roar_junior_board_session(const void* board) {
+  return static_cast<const HostJuniorBoard*>(board)->board.auth().session();
+}
 size_t roar_junior_board_respond(void* board, const void* reader, char* out, size_t cap, uint8_t* keep_open) {
   HostJuniorBoard* j = as<HostJuniorBoard>(board);
   bool keep = false;

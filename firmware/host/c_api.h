@@ -225,10 +225,17 @@ typedef struct {
   uint32_t distance_cm;         /* in: [cm] the ultrasonic reading replies report */
   uint32_t watchdog_feeds;      /* out */
   roar_side_pins_t left, right; /* out: the L298N inputs after the last loop iteration */
+  uint16_t rx_len, rx_pos;      /* in / out: bytes waiting in rx (its USB serial port), and read */
+  uint16_t tx_len, nvm_writes;  /* out: reply bytes in tx (the caller empties it); nvm bytes changed */
+  uint8_t rx[ROAR_HOST_RX_BYTES];   /* in: received serial bytes (key lines) */
+  char tx[ROAR_HOST_TX_BYTES];      /* out: lines the board wrote */
+  uint8_t nvm[ROAR_HOST_NVM_BYTES]; /* in/out: kept by the caller across reboots (0xFF: blank) */
 } roar_junior_hal_t;
 
 size_t roar_junior_board_size(void);
 void roar_junior_board_init(void* board, roar_junior_hal_t* hal);   /* keeps the pointer */
+void roar_junior_board_begin(void* board);  /* reads nvm (key, next session) */
+uint32_t roar_junior_board_session(const void* board); /* the signing session; 0 without a key */
 void roar_junior_board_run(void* board, uint32_t loops);
 /* The response to a decided request (its reader's state is not incomplete), NUL-terminated;
  * returns its length. *keep_open: 1 when the connection stays open for the next request. */

@@ -20,14 +20,14 @@ void CarMemoryHal::write(const char* text, size_t length) {
   for (size_t i = 0; i < length && m_->tx_len < sizeof(m_->tx); ++i) m_->tx[m_->tx_len++] = text[i];
 }
 
-void CarMemoryHal::read(uint16_t at, uint8_t* data, uint8_t n) {
-  for (uint8_t i = 0; i < n; ++i) data[i] = at + i < sizeof(m_->nvm) ? m_->nvm[at + i] : 0xFF;
+void MemoryNvm::read(uint16_t at, uint8_t* data, uint8_t n) {
+  for (uint8_t i = 0; i < n; ++i) data[i] = at + i < size_ ? bytes_[at + i] : 0xFF;
 }
 
-void CarMemoryHal::write(uint16_t at, const uint8_t* data, uint8_t n) {
-  for (uint8_t i = 0; i < n && at + i < sizeof(m_->nvm); ++i) {
-    if (m_->nvm[at + i] != data[i]) ++m_->nvm_writes;  // as eeprom_update_block: only changed bytes
-    m_->nvm[at + i] = data[i];
+void MemoryNvm::write(uint16_t at, const uint8_t* data, uint8_t n) {
+  for (uint8_t i = 0; i < n && at + i < size_; ++i) {
+    if (bytes_[at + i] != data[i]) ++*writes_;  // as eeprom_update_block: only changed bytes
+    bytes_[at + i] = data[i];
   }
 }
 
@@ -59,6 +59,10 @@ void HostCarBoard::run(uint32_t loops) {
 void JuniorMemoryHal::write_motors(const DrivePins& pins) {
   m_->left = to_c(pins.left);
   m_->right = to_c(pins.right);
+}
+
+void JuniorMemoryHal::write(const char* text, size_t length) {
+  for (size_t i = 0; i < length && m_->tx_len < sizeof(m_->tx); ++i) m_->tx[m_->tx_len++] = text[i];
 }
 
 void HostJuniorBoard::run(uint32_t loops) {

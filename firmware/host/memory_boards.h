@@ -17,13 +17,25 @@ namespace roar {
 roar_side_pins_t to_c(const SidePins& s);
 roar_car_outputs_t to_c(const CarOutputs& o, const Car& car);
 
-// --- the ESC car: CarBoard on roar_host_hal_t ------------------------------------------------
-class CarMemoryHal : public Hal, public Nvm {
+// A board's non-volatile memory as bytes of the caller's struct, counting the bytes that change
+// (as eeprom_update_block writes only those).
+class MemoryNvm : public Nvm {
  public:
-  explicit CarMemoryHal(roar_host_hal_t* m) : m_(m) {}
-  Nvm* nvm() override { return this; }
+  MemoryNvm(uint8_t* bytes, uint16_t size, uint16_t* writes) : bytes_(bytes), size_(size), writes_(writes) {}
   void read(uint16_t at, uint8_t* data, uint8_t n) override;
   void write(uint16_t at, const uint8_t* data, uint8_t n) override;
+
+ private:
+  uint8_t* bytes_;
+  uint16_t size_;
+  uint16_t* writes_;
+};
+
+// --- the ESC car: CarBoard on roar_host_hal_t ------------------------------------------------
+class CarMemoryHal : public Hal {
+ public:
+  explicit CarMemoryHal(roar_host_hal_t* m) : m_(m), nvm_(m->nvm, sizeof(m->nvm), &m->nvm_writes) {}
+  Nvm* nvm() override { return &nvm_; }
   roar_host_hal_t& memory() { return *m_; }
   RawMicros now_us() override { return m_->now_us; }
   void write_pulses(uint16_t throttle_us, uint16_t steering_us) override;
@@ -35,6 +47,7 @@ class CarMemoryHal : public Hal, public Nvm {
 
  private:
   roar_host_hal_t* m_;
+  MemoryNvm nvm_;
 };
 
 // CarBoard with the output timer a board's hardware would run (roar_board_run in c_api.h).
@@ -49,14 +62,18 @@ struct HostCarBoard {
 // --- the ROAR Junior: JuniorBoard on roar_junior_hal_t ----------------------------------------
 class JuniorMemoryHal : public JuniorHal {
  public:
-  explicit JuniorMemoryHal(roar_junior_hal_t* m) : m_(m) {}
+  explicit JuniorMemoryHal(roar_junior_hal_t* m) : m_(m), nvm_(m->nvm, sizeof(m->nvm), &m->nvm_writes) {}
   roar_junior_hal_t& memory() { return *m_; }
   RawMicros now_us() override { return m_->now_us; }
   void write_motors(const DrivePins& pins) override;
   void feed_watchdog() override { ++m_->watchdog_feeds; }
+  int read_byte() override { return m_->rx_pos < m_->rx_len ? m_->rx[m_->rx_pos++] : -1; }
+  void write(const char* text, size_t length) override;
+  Nvm* nvm() override { return &nvm_; }
 
  private:
   roar_junior_hal_t* m_;
+  MemoryNvm nvm_;
 };
 
 struct HostJuniorBoard {

@@ -128,6 +128,11 @@ class SigningTransport(Transport):
         self._lock = threading.Lock()
         self._probe_since: float | None = None  # when the first message went out without a session
         self._fresh = False  # a new session was learnt: its first signed message is neutral
+        # A link whose car takes another form (the Junior's queries) signs that form itself
+        # through our sign_query, and the Vehicle's messages pass to it unsigned.
+        self._link_signs = hasattr(inner, "signer")
+        if self._link_signs:
+            inner.signer = self.sign_query
 
     # the wrapped transport's identity
     @property
@@ -154,6 +159,10 @@ class SigningTransport(Transport):
         self.inner.open()
         with self._lock:
             self.session, self._probe_since = None, None  # a reopened link may lead to a rebooted car
+        refusal = getattr(self.inner, "refusal", None)
+        line = refusal() if callable(refusal) else None  # (the Junior's first request: a refused probe)
+        if line:
+            self._on_line(line)
         if not self.inner.replies:
             self._ask_session()
 
@@ -188,6 +197,14 @@ class SigningTransport(Transport):
             self.counter += 1
             return wire.sign(data, self.key, self.session, self.counter)
 
+    def sign_query(self, query: str) -> str:
+        """The signed form of an HTTP query (unchanged while the session is unknown or the car has no key)."""
+        with self._lock:
+            if self.unkeyed or self.session is None:
+                return query
+            self.counter += 1
+            return wire.sign_query(query, self.key, self.session, self.counter)
+
     def write(self, data: bytes) -> None:
         """Until the session is known, messages go unsigned: a car with a key refuses them and
         says its session (ERR unsigned S), one without takes them. Once it is known, the first
@@ -195,15 +212,19 @@ class SigningTransport(Transport):
         if self.session is None and not self.unkeyed:
             if not self.inner.replies:
                 self._ask_session()
-            elif self._probe_since is None:
-                self._probe_since = time.monotonic()
-            elif time.monotonic() - self._probe_since > PROBE_WAIT_S:
-                self._learn(0)  # no word of a session: a car without a key
+            if self.session is None and not self.unkeyed:
+                if self._probe_since is None:
+                    self._probe_since = time.monotonic()
+                elif time.monotonic() - self._probe_since > PROBE_WAIT_S:
+                    self._learn(0)  # no word of a session: a car without a key
         with self._lock:
             fresh, self._fresh = self._fresh, False
         if fresh:
-            self.inner.write(self.sign(_neutral_like(data)))
-        self.inner.write(self.sign(data))
+            self._write(_neutral_like(data))
+        self._write(data)
+
+    def _write(self, data: bytes) -> None:
+        self.inner.write(data if self._link_signs else self.sign(data))
         refusal = getattr(self.inner, "refusal", None)
         if callable(refusal):  # a link that answers each message (the Junior's HTTP)
             line = refusal()
@@ -239,7 +260,9 @@ class SigningTransport(Transport):
                 self._learn(value)
                 return True
             self.refused += 1
-            log.warning("%s refused a signed message as forged: is this the car's key? (roar key show URL)", self.url)
+            if self.refused == 1:  # (once: every message after it is refused alike)
+                log.warning("%s refused a signed message as forged: is this the car's key? (roar key show URL)",
+                            self.url)
         elif reason == str(ParseResult.REPLAY) and value is not None:
             self.refused += 1
             if self.session is not None:  # another sender used the key in this session: go past its counter

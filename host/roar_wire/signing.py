@@ -34,6 +34,32 @@ def message_mac(key, session, start, first, steering, counter):
     return siphash.mac(key, data) & MAC_MASK
 
 
+def query_mac(key, session, text):
+    """The MAC a signed HTTP query carries (the Junior): over the session and the query's text
+    before "&mac=" (str or bytes)."""
+    if isinstance(text, str):
+        text = text.encode()
+    return siphash.mac(key, _le(session, 4) + bytes(text)) & MAC_MASK
+
+
+def sign_query(query, key, session, counter):
+    """query (without '?') with its counter and MAC appended: "...&ctr=HEX&mac=HEX12"."""
+    if not 1 <= counter <= COUNTER_MAX:
+        raise ValueError("counter %d is outside 1..%d" % (counter, COUNTER_MAX))
+    signed = (query + "&" if query else "") + "ctr=%x" % counter
+    return signed + "&mac=%012x" % query_mac(key, session, signed)
+
+
+_HEX = "0123456789abcdef"
+
+
+def _hex(text, max_digits):
+    """The value of 1..max_digits lowercase hex digits, else None."""
+    if not 0 < len(text) <= max_digits or any(c not in _HEX for c in text):
+        return None
+    return int(text, 16)
+
+
 def fingerprint(key):
     """The key's name (what a car answers to KEY ?): 8 hex digits that do not reveal it."""
     return "%08x" % (siphash.mac(key, b"ROAR") & 0xFFFFFFFF)
@@ -98,7 +124,31 @@ class Authenticator:
             first, steering, start = parser.speed_mm_s, parser.setpoint_steering_us, _SET_START
         else:
             first, steering, start = parser.throttle_us, parser.steering_us, _START
-        if message_mac(self.key, self.session, start, first, steering, counter) != mac:
+        return self._accept(kind, counter, mac, message_mac(self.key, self.session, start, first, steering, counter))
+
+    def check_query(self, query):
+        """(verdict, the part to apply) for an HTTP query (the Junior's): control.OK and the
+        parameters before "&ctr=" when it may act; else UNSIGNED, FORGED, REPLAY, NOKEY or
+        control.SYNTAX (a malformed ctr or mac), and the query."""
+        mac_at = query.rfind("&") + 1
+        if not query.startswith("mac=", mac_at):
+            return (UNSIGNED if self.key is not None else control.OK), query
+        if self.key is None:
+            return NOKEY, query
+        if mac_at == 0:
+            return control.SYNTAX, query
+        signed = query[:mac_at - 1]
+        ctr_at = signed.rfind("&") + 1
+        counter = _hex(signed[ctr_at + 4:], spec.SIGNED_COUNTER_DIGITS) if signed.startswith("ctr=", ctr_at) else None
+        mac_text = query[mac_at + 4:]
+        mac = _hex(mac_text, spec.SIGNED_MAC_DIGITS) if len(mac_text) == spec.SIGNED_MAC_DIGITS else None
+        if counter is None or mac is None:
+            return control.SYNTAX, query
+        verdict = self._accept(control.OK, counter, mac, query_mac(self.key, self.session, signed))
+        return verdict, query[:ctr_at - 1] if ctr_at else ""
+
+    def _accept(self, kind, counter, mac, expected):
+        if mac != expected:  # the MAC first: a forgery learns nothing of the counter
             return FORGED
         if counter <= self.last_counter:
             return REPLAY

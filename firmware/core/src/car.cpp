@@ -11,10 +11,9 @@ Car::Car(const CarConfig& config)
       host_command_(neutral_command()) {}
 
 void Car::boot(Nvm* nvm) {
-  nvm_ = nvm;
-  start_session(nvm, auth_);
+  keys_.boot(nvm);
   queue(Reply::Ready);
-  if (auth_.keyed()) queue(Reply::Session, ParseResult::None, auth_.session());
+  if (keys_.auth().keyed()) queue(Reply::Session);
 }
 
 void Car::queue(Reply kind, ParseResult detail, uint32_t value) {
@@ -49,41 +48,30 @@ void Car::feed(uint8_t byte, Micros now_us, Link link) {
 }
 
 void Car::on_key_line(KeyLine::Event ev) {
-  switch (ev) {
-    case KeyLine::Event::Set:
-    case KeyLine::Event::Clear: {
-      if (nvm_ == nullptr) {  // nowhere to keep a key: refuse rather than forget it at reboot
-        queue(Reply::Error, ParseResult::Nokey);
-        return;
-      }
-      KeyRecord record = KeyRecord::load(*nvm_);
-      record.keyed = ev == KeyLine::Event::Set;
-      for (uint8_t i = 0; i < proto::kSignedKeyBytes; ++i) record.key[i] = record.keyed ? key_line_.key()[i] : 0;
-      if (++record.session == 0) record.session = 1;  // a new key starts a new session
-      record.store(*nvm_);
-      auth_.set_key(record.keyed ? record.key : nullptr, record.session);
-      queue(Reply::Key, auth_.keyed() ? ParseResult::Ok : ParseResult::None, auth_.fingerprint());
-      if (auth_.keyed()) queue(Reply::Session, ParseResult::None, auth_.session());
+  const bool changes = ev == KeyLine::Event::Set || ev == KeyLine::Event::Clear;
+  switch (keys_.on_key_line(ev, key_line_.key())) {
+    case KeyStore::Answer::Key:
+      queue(Reply::Key);
+      if (changes && keys_.auth().keyed()) queue(Reply::Session);
       return;
-    }
-    case KeyLine::Event::Ask:
-      queue(Reply::Key, auth_.keyed() ? ParseResult::Ok : ParseResult::None, auth_.fingerprint());
+    case KeyStore::Answer::NoStorage:
+      queue(Reply::Error, ParseResult::Nokey);
       return;
-    case KeyLine::Event::Bad:
+    case KeyStore::Answer::Syntax:
       queue(Reply::Error, ParseResult::Syntax);
       return;
-    default:
+    case KeyStore::Answer::None:
       return;
   }
 }
 
 void Car::on_message(ParseResult r, Micros now_us) {
   if (r == ParseResult::Ok || r == ParseResult::Setpoint) {
-    const ParseResult verdict = auth_.check(r, parser_);
+    const ParseResult verdict = keys_.auth().check(r, parser_);
     if (verdict != r) {  // refused: nothing changes, the failsafe is not fed
-      const uint32_t value = verdict == ParseResult::Replay ? auth_.last_counter()
+      const uint32_t value = verdict == ParseResult::Replay ? keys_.auth().last_counter()
                              : verdict == ParseResult::Nokey ? 0u
-                                                             : auth_.session();
+                                                             : keys_.auth().session();
       queue(Reply::Error, verdict, value);
       return;
     }
@@ -146,14 +134,11 @@ size_t Car::take_reply(char* buf, size_t cap) {
         ok = ok && append(buf, cap, &len, " ") && append_hex(buf, cap, &len, q.value, 1);
       }
       break;
-    case Reply::Session:
-      ok = append(buf, cap, &len, proto::kSignedReplySession) && append(buf, cap, &len, " ") &&
-           append_hex(buf, cap, &len, q.value, proto::kSignedSessionDigits);
+    case Reply::Session:  // (these two are as they are when taken, with their line end)
+      ok = append_session_reply(buf, cap, &len, keys_.auth());
       break;
     case Reply::Key:
-      ok = append(buf, cap, &len, proto::kSignedKeyCommand) && append(buf, cap, &len, " ") &&
-           (q.detail != ParseResult::Ok ? append(buf, cap, &len, proto::kSignedKeyNone)
-                         : append_hex(buf, cap, &len, q.value, proto::kSignedFingerprintDigits));
+      ok = append_key_reply(buf, cap, &len, keys_.auth());
       break;
     case Reply::Failsafe:
       ok = append(buf, cap, &len, proto::kSerialReplyFailsafe);
@@ -166,7 +151,8 @@ size_t Car::take_reply(char* buf, size_t cap) {
            append(buf, cap, &len, proto::kSerialErrorUnsupported);
       break;
   }
-  if (!ok || !append(buf, cap, &len, proto::kSerialReplyLineEnd)) {
+  const bool ended = q.kind == Reply::Session || q.kind == Reply::Key;
+  if (!ok || (!ended && !append(buf, cap, &len, proto::kSerialReplyLineEnd))) {
     buf[0] = '\0';
     return 0;
   }

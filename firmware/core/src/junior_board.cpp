@@ -1,6 +1,7 @@
 #include "roar/junior_board.h"
 
 #include "roar/protocol.h"
+#include "roar/signing.h"
 #include "roar/text.h"
 
 namespace roar {
@@ -58,9 +59,23 @@ size_t JuniorBoard::respond(const HttpRequestReader& request, uint32_t distance_
   if (!equals(request.path(), request.path_length(), proto::kJuniorControlRoute)) {
     return reply(out, cap, "404 Not Found", "no such route\n", false);
   }
-  const JuniorQueryResult r = control_.apply_query(request.query(), request.query_length(), now());
   char body[kMaxQuotedBytes + 48];
   size_t n = 0;
+  size_t apply_length = 0;
+  const ParseResult verdict = keys_.auth().check_query(request.query(), request.query_length(), &apply_length);
+  if (verdict != ParseResult::Ok) {  // "<reason> [session or counter]": as the serial ERR line says it
+    append(body, sizeof(body), &n, parse_result_token(verdict));
+    if (verdict == ParseResult::Unsigned || verdict == ParseResult::Forged) {
+      append(body, sizeof(body), &n, " ");
+      append_hex(body, sizeof(body), &n, keys_.auth().session(), proto::kSignedSessionDigits);
+    } else if (verdict == ParseResult::Replay) {
+      append(body, sizeof(body), &n, " ");
+      append_hex(body, sizeof(body), &n, keys_.auth().last_counter(), 1);
+    }
+    append(body, sizeof(body), &n, "\n");
+    return reply(out, cap, verdict == ParseResult::Syntax ? "400 Bad Request" : "403 Forbidden", body, false);
+  }
+  const JuniorQueryResult r = control_.apply_query(request.query(), apply_length, now());
   if (r.error != JuniorQueryError::None) {  // "<reason>: '<name=value>'", the parameter cut to fit
     char quoted[kMaxQuotedBytes + 1];
     size_t q = 0;
@@ -77,7 +92,37 @@ size_t JuniorBoard::respond(const HttpRequestReader& request, uint32_t distance_
   return reply(out, cap, "200 OK", body, *keep_open);
 }
 
+void JuniorBoard::begin() {
+  keys_.boot(hal_.nvm());
+  if (keys_.auth().keyed()) {
+    char line[proto::kSerialMaxReplyBytes + 1];
+    size_t n = 0;
+    if (append_session_reply(line, sizeof(line), &n, keys_.auth())) serial_line(line, n);
+  }
+}
+
 DrivePins JuniorBoard::poll() {
+  for (uint8_t i = 0; i < 64; ++i) {  // the serial port carries key lines only
+    const int byte = hal_.read_byte();
+    if (byte < 0) break;
+    const KeyLine::Event ev = key_line_.feed(static_cast<uint8_t>(byte));
+    if (ev == KeyLine::Event::NotMine || ev == KeyLine::Event::Taken) continue;
+    const bool changes = ev == KeyLine::Event::Set || ev == KeyLine::Event::Clear;
+    const KeyStore::Answer answer = keys_.on_key_line(ev, key_line_.key());
+    char line[2 * proto::kSerialMaxReplyBytes + 1];  // KEY and SESSION
+    size_t n = 0;
+    if (answer == KeyStore::Answer::Key) {
+      append_key_reply(line, sizeof(line), &n, keys_.auth());
+      if (changes && keys_.auth().keyed()) append_session_reply(line, sizeof(line), &n, keys_.auth());
+    } else if (answer != KeyStore::Answer::None) {
+      append(line, sizeof(line), &n, proto::kSerialReplyError);
+      append(line, sizeof(line), &n, " ");
+      append(line, sizeof(line), &n,
+             parse_result_token(answer == KeyStore::Answer::NoStorage ? ParseResult::Nokey : ParseResult::Syntax));
+      append(line, sizeof(line), &n, proto::kSerialReplyLineEnd);
+    }
+    if (n) serial_line(line, n);
+  }
   const Micros t = now();
   const DrivePins pins = driver_.step(control_.duties(t), t);
   hal_.write_motors(pins);

@@ -1,6 +1,7 @@
 #include "roar/signing.h"
 
 #include "roar/siphash.h"
+#include "roar/text.h"
 
 namespace roar {
 
@@ -16,7 +17,7 @@ void put_le(uint8_t* out, uint32_t v, uint8_t n) {
 
 bool is_line_end(uint8_t b) { return b == '\r' || b == '\n'; }
 
-int8_t hex_value(uint8_t b) {
+int8_t hex_value(uint8_t b) {  // (a key line also takes uppercase)
   if (static_cast<uint8_t>(b - '0') <= 9) return static_cast<int8_t>(b - '0');
   if (static_cast<uint8_t>(b - 'a') <= 5) return static_cast<int8_t>(b - 'a' + 10);
   if (static_cast<uint8_t>(b - 'A') <= 5) return static_cast<int8_t>(b - 'A' + 10);
@@ -42,6 +43,14 @@ uint32_t key_fingerprint(const uint8_t key[proto::kSignedKeyBytes]) {
   return static_cast<uint32_t>(SipHash24::mac(key, kName, sizeof(kName)));
 }
 
+uint64_t query_mac(const uint8_t key[proto::kSignedKeyBytes], uint32_t session, const char* text, size_t n) {
+  SipHash24 h;
+  h.begin(key);
+  for (uint8_t i = 0; i < 4; ++i) h.add(static_cast<uint8_t>(session >> (8 * i)));
+  for (size_t i = 0; i < n; ++i) h.add(static_cast<uint8_t>(text[i]));
+  return h.finish() & ((static_cast<uint64_t>(1) << proto::kSignedMacBits) - 1);
+}
+
 void Authenticator::set_key(const uint8_t* key, uint32_t session) {
   keyed_ = key != nullptr;
   for (uint8_t i = 0; i < proto::kSignedKeyBytes; ++i) key_[i] = keyed_ ? key[i] : 0;
@@ -57,11 +66,66 @@ ParseResult Authenticator::check(ParseResult kind, const ControlParser& parser) 
   const int16_t first = setpoint ? parser.setpoint().speed_mm_s : static_cast<int16_t>(parser.command().throttle_us);
   const uint16_t steering = setpoint ? parser.setpoint().steering_us : parser.command().steering_us;
   const uint8_t start = setpoint ? proto::kSetpointStartChar : proto::kControlStartChar;
+  return accept(kind, sig.counter, sig.mac, message_mac(key_, session_, start, first, steering, sig.counter));
+}
+
+ParseResult Authenticator::accept(ParseResult kind, uint32_t counter, uint64_t mac, uint64_t expected) {
   // The MAC first: a forged message must not learn whether its counter would have passed.
-  if (message_mac(key_, session_, start, first, steering, sig.counter) != sig.mac) return ParseResult::Forged;
-  if (sig.counter <= last_counter_) return ParseResult::Replay;
-  last_counter_ = sig.counter;
+  if (mac != expected) return ParseResult::Forged;
+  if (counter <= last_counter_) return ParseResult::Replay;
+  last_counter_ = counter;
   return kind;
+}
+
+namespace {
+// Lowercase hex of digits 1..max_digits; false for anything else.
+bool parse_hex(const char* text, size_t n, uint8_t max_digits, uint64_t* value) {
+  if (n == 0 || n > max_digits) return false;
+  uint64_t v = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const uint8_t b = static_cast<uint8_t>(text[i]);
+    if (static_cast<uint8_t>(b - 'A') <= 5) return false;  // lowercase only, as in a message
+    const int8_t h = hex_value(b);
+    if (h < 0) return false;
+    v = (v << 4) | static_cast<uint8_t>(h);
+  }
+  *value = v;
+  return true;
+}
+
+// The start of the last parameter of text[0..n) ('&' excluded), i.e. after its last '&', or 0.
+size_t last_param(const char* text, size_t n) {
+  size_t at = n;
+  while (at > 0 && text[at - 1] != '&') --at;
+  return at;
+}
+
+bool starts_with(const char* text, size_t n, const char* word) {
+  size_t i = 0;
+  for (; word[i]; ++i) {
+    if (i >= n || text[i] != word[i]) return false;
+  }
+  return true;
+}
+}  // namespace
+
+ParseResult Authenticator::check_query(const char* query, size_t length, size_t* apply_length) {
+  *apply_length = length;
+  const size_t mac_at = last_param(query, length);
+  if (!starts_with(query + mac_at, length - mac_at, "mac=")) return keyed_ ? ParseResult::Unsigned : ParseResult::Ok;
+  if (!keyed_) return ParseResult::Nokey;
+  if (mac_at == 0) return ParseResult::Syntax;  // no ctr before it
+  const size_t signed_length = mac_at - 1;      // the text before "&mac="
+  const size_t ctr_at = last_param(query, signed_length);
+  uint64_t mac = 0, counter = 0;
+  if (!starts_with(query + ctr_at, signed_length - ctr_at, "ctr=") ||
+      !parse_hex(query + ctr_at + 4, signed_length - ctr_at - 4, proto::kSignedCounterDigits, &counter) ||
+      length - mac_at - 4 != proto::kSignedMacDigits ||
+      !parse_hex(query + mac_at + 4, length - mac_at - 4, proto::kSignedMacDigits, &mac)) {
+    return ParseResult::Syntax;
+  }
+  *apply_length = ctr_at == 0 ? 0 : ctr_at - 1;
+  return accept(ParseResult::Ok, static_cast<uint32_t>(counter), mac, query_mac(key_, session_, query, signed_length));
 }
 
 KeyRecord KeyRecord::load(Nvm& nvm) {
@@ -103,6 +167,41 @@ void start_session(Nvm* nvm, Authenticator& auth) {
   if (r.session == 0) r.session = 1;  // after 2^32 boots; 0 means "no key" on the wire
   r.store(*nvm);  // before use: a session is never drawn twice
   auth.set_key(r.key, r.session);
+}
+
+KeyStore::Answer KeyStore::on_key_line(KeyLine::Event ev, const uint8_t* key) {
+  switch (ev) {
+    case KeyLine::Event::Set:
+    case KeyLine::Event::Clear: {
+      if (nvm_ == nullptr) return Answer::NoStorage;  // nowhere to keep a key: refuse rather than forget it
+      KeyRecord record = KeyRecord::load(*nvm_);
+      record.keyed = ev == KeyLine::Event::Set;
+      for (uint8_t i = 0; i < proto::kSignedKeyBytes; ++i) record.key[i] = record.keyed ? key[i] : 0;
+      if (++record.session == 0) record.session = 1;  // a new key starts a new session
+      record.store(*nvm_);
+      auth_.set_key(record.keyed ? record.key : nullptr, record.session);
+      return Answer::Key;
+    }
+    case KeyLine::Event::Ask:
+      return Answer::Key;
+    case KeyLine::Event::Bad:
+      return Answer::Syntax;
+    default:
+      return Answer::None;
+  }
+}
+
+bool append_key_reply(char* buf, size_t cap, size_t* len, const Authenticator& auth) {
+  return append(buf, cap, len, proto::kSignedKeyCommand) && append(buf, cap, len, " ") &&
+         (auth.keyed() ? append_hex(buf, cap, len, auth.fingerprint(), proto::kSignedFingerprintDigits)
+                       : append(buf, cap, len, proto::kSignedKeyNone)) &&
+         append(buf, cap, len, proto::kSerialReplyLineEnd);
+}
+
+bool append_session_reply(char* buf, size_t cap, size_t* len, const Authenticator& auth) {
+  return append(buf, cap, len, proto::kSignedReplySession) && append(buf, cap, len, " ") &&
+         append_hex(buf, cap, len, auth.session(), proto::kSignedSessionDigits) &&
+         append(buf, cap, len, proto::kSerialReplyLineEnd);
 }
 
 KeyLine::Event KeyLine::feed(uint8_t byte) {

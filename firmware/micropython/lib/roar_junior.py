@@ -13,7 +13,7 @@ Times are whole milliseconds from roar_clock.Clock; duties are permille (0..1000
 """
 
 from roar_clock import DEAD_TIME_MS, JUNIOR_FAILSAFE_MS
-from roar_wire import junior, spec
+from roar_wire import control, junior, signing, spec
 
 FULL = spec.L298N_DUTY_FULL_SCALE  # [permille]
 
@@ -200,10 +200,13 @@ class L298nSide:
 
 
 class JuniorBoard:
-    """The Junior's loop: requests through JuniorControl, duties through the L298N sides."""
+    """The Junior's loop: requests through JuniorControl, duties through the L298N sides. With a
+    key (auth.set_key(key, session): signed control, PROTOCOL.md 1.3 and 6) only signed queries
+    drive; the rest are refused 403 with the reason."""
 
     def __init__(self):
         self.control = JuniorControl()
+        self.auth = signing.Authenticator()
         self._left = L298nSide()
         self._right = L298nSide()
 
@@ -214,7 +217,16 @@ class JuniorBoard:
             return refused, False
         if request.path != spec.JUNIOR_CONTROL_ROUTE:
             return _reply("404 Not Found", "no such route\n", False), False
-        refused = self.control.apply_query(request.query, now_ms)
+        verdict, query = self.auth.check_query(request.query)
+        if verdict != control.OK:
+            body = control.token(verdict)
+            if verdict == signing.UNSIGNED or verdict == signing.FORGED:
+                body += " %08x" % self.auth.session
+            elif verdict == signing.REPLAY:
+                body += " %x" % self.auth.last_counter
+            status = "400 Bad Request" if verdict == control.SYNTAX else "403 Forbidden"
+            return _reply(status, body + "\n", False), False
+        refused = self.control.apply_query(query, now_ms)
         if refused is not None:
             return _reply("400 Bad Request", refused + "\n", False), False
         keep = request.keep_alive

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 from roar.protocol import spec
 from roar.protocol.control import ControlCommand, ParseEvent, Setpoint
 from roar.protocol.spec import ParseResult
+from roar_sim.core.memory_hal import MemorySerialPort
 from roar_sim.core.library import (U32_MASK, BrakePhase, ControlSource, RcChannel, WatchdogEvent, as_bytes, ffi, lib,
                                    new_object)
 
@@ -223,7 +224,7 @@ class Car:
         return lines
 
 
-class CarBoard:
+class CarBoard(MemorySerialPort):
     """The board loop every car runs (CarBoard::poll), on a HAL of plain memory: a 1 kHz loop
     on the board's wrapping 32-bit microsecond counter, output frames every 20 ms that carry
     the pulses written before they start, a serial port, BLE writes and an RC receiver.
@@ -242,8 +243,7 @@ class CarBoard:
         self._lib = lib()
         self.config = config or CarConfig()
         self.hal = ffi.new("roar_host_hal_t *")
-        blank = bytes([0xFF]) * len(self.hal.nvm)
-        ffi.memmove(self.hal.nvm, (blank if nvm is None else bytes(nvm)).ljust(len(blank), b"\xff"), len(blank))
+        self._init_nvm(nvm)
         self.hal.now_us = self.hal.next_frame_us = start_us & U32_MASK
         self.hal.loop_us, self.hal.frame_us = loop_us, frame_us
         self._mem = new_object("roar_board_size")
@@ -265,27 +265,9 @@ class CarBoard:
         """The last counter the car accepted in its session."""
         return self._lib.roar_board_last_counter(self._mem)
 
-    @property
-    def nvm(self) -> bytes:
-        """The board's non-volatile memory now (key and session: roar/signing.h)."""
-        return ffi.unpack(ffi.cast("char *", self.hal.nvm), len(self.hal.nvm))
-
     def ble_write(self, data: bytes) -> None:
         """One BLE write to the control characteristic, fed to the loop at once."""
         self._lib.roar_board_feed(self._mem, as_bytes(data), len(data))
-
-    def serial_in(self, data: bytes) -> None:
-        """Bytes arriving on the serial port; the loop reads at most 64 per iteration."""
-        self._rx_backlog += bytes(data)
-        self._refill()
-
-    def _refill(self) -> None:
-        hal = self.hal
-        if hal.rx_pos < hal.rx_len or not self._rx_backlog:
-            return
-        chunk, self._rx_backlog = self._rx_backlog[:len(hal.rx)], self._rx_backlog[len(hal.rx):]
-        ffi.memmove(hal.rx, chunk, len(chunk))
-        hal.rx_pos, hal.rx_len = 0, len(chunk)
 
     def rc(self, pulses: tuple[int, int] | None) -> None:
         """RC receiver pulses (throttle, steering) at every frame start from now on; None = off."""
@@ -296,13 +278,6 @@ class CarBoard:
         self.loops += loops
         if self._rx_backlog:
             self._refill()
-
-    def serial_out(self) -> bytes:
-        """Reply bytes the loop wrote since the last call."""
-        hal = self.hal
-        out = ffi.unpack(hal.tx, hal.tx_len)
-        hal.tx_len = 0
-        return out
 
     def set_clock(self, now_us: int) -> None:
         """Set the board's 32-bit counter (a wall-clock loop does this before each run(1))."""

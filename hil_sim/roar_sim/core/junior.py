@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from roar.protocol import spec
+from roar_sim.core.memory_hal import MemorySerialPort
 from roar_sim.core.library import U32_MASK, HttpRead, JuniorQueryError, as_bytes, ffi, lib, new_object
 
 
@@ -87,16 +88,20 @@ class HttpRequestReader:
         return ffi.unpack(out, self._lib.roar_http_refuse(self._mem, out, len(out)))
 
 
-class JuniorBoard:
+class JuniorBoard(MemorySerialPort):
     """The Junior's loop (JuniorBoard::poll) on a HAL of plain memory: the board's wrapping 32-bit
-    microsecond counter, the L298N pins it writes, the distance its replies report."""
+    microsecond counter, the L298N pins it writes, the distance its replies report, its USB
+    serial port (key lines) and its non-volatile memory (nvm: as a previous board left it, so
+    this one is that board rebooted; None: blank)."""
 
-    def __init__(self, loop_us: int = 1_000, start_us: int = 0) -> None:
+    def __init__(self, loop_us: int = 1_000, start_us: int = 0, nvm: bytes | None = None) -> None:
         self._lib = lib()
         self.hal = ffi.new("roar_junior_hal_t *")
         self.hal.now_us, self.hal.loop_us = start_us & U32_MASK, loop_us
+        self._init_nvm(nvm)
         self._mem = new_object("roar_junior_board_size")
         self._lib.roar_junior_board_init(self._mem, self.hal)
+        self._lib.roar_junior_board_begin(self._mem)
         self._reply = ffi.new("char[]", self._lib.roar_junior_reply_max())
         self._keep = ffi.new("uint8_t *")
         self.loops = 0
@@ -106,6 +111,13 @@ class JuniorBoard:
     def run(self, loops: int = 1) -> None:
         self._lib.roar_junior_board_run(self._mem, loops)
         self.loops += loops
+        if self._rx_backlog:
+            self._refill()
+
+    @property
+    def session(self) -> int:
+        """The signing session the board booted into (0: it has no key)."""
+        return self._lib.roar_junior_board_session(self._mem)
 
     def respond(self, reader: HttpRequestReader) -> tuple[bytes, bool]:
         """(the response bytes, keep the connection open) to a decided request."""

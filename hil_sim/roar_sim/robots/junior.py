@@ -24,6 +24,7 @@ import time
 from roar.autopilot import Agent, CarLimits, DiffDriveModel, diff_drive_agent
 from roar.autopilot.limits import HOLDS_LINE, circle, straight_line
 from roar.junior import MIXES, query_for
+from roar.protocol import spec
 from roar.telemetry import VehicleState
 from roar.transports.base import unit_command
 from roar_sim.clock.lockstep import LOOP_US, PHYSICS_US, loops_until
@@ -86,10 +87,11 @@ class Junior(Robot):
     ultrasonic_max_m = MAX_RANGE_M
 
     def __init__(self, track: Track | None = None, pose: Pose | None = None, realtime: bool = False,
-                 speedup: float = 1.0, gui: bool = False, mixing: str = MIXING) -> None:
-        """mixing: how drive() turns throttle and steering into wheel duties (roar.junior.MIXES)."""
+                 speedup: float = 1.0, gui: bool = False, mixing: str = MIXING, nvm: bytes | None = None) -> None:
+        """mixing: how drive() turns throttle and steering into wheel duties (roar.junior.MIXES);
+        nvm: the board's flash as a previous run left it (`.nvm`: its signing key and session)."""
         super().__init__(track, realtime, speedup)
-        self.board = JuniorBoard(loop_us=LOOP_US)
+        self.board = JuniorBoard(loop_us=LOOP_US, nvm=nvm)
         self.plant = JuniorPlant(track, PHYSICS_US / 1e6, gui, pose)
         self.mix = MIXES[mixing]
         # When a list: (simulated t [us], wall clock [s], left, right) each time the firmware's
@@ -122,8 +124,23 @@ class Junior(Robot):
         self.range_m = cm / 100 if cm > 0 else math.inf
 
     def write(self, data: bytes) -> None:
-        """A control message on the link, as the http:// transport takes it: one GET."""
+        """A control message on the link, as the http:// transport takes it: one GET. A KEY line
+        goes to the board's USB serial port instead (where a key is set: `roar key set`)."""
+        if data.lstrip().startswith(spec.SIGNED_KEY_COMMAND.encode()):
+            with self._lock:
+                self.board.serial_in(data)
+            return
         self.drive(*unit_command(data, "sim"))
+
+    def read(self) -> list[str]:
+        """Lines the board wrote on its USB serial port (answers to KEY lines, SESSION)."""
+        with self._lock:
+            return self.board.serial_out().decode("ascii", "replace").splitlines()
+
+    @property
+    def nvm(self) -> bytes:
+        """The board's flash now (signing key and session)."""
+        return self.board.nvm
 
     def state(self) -> JuniorState:
         return self.plant.state()

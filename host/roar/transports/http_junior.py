@@ -9,6 +9,11 @@
 Each command the Vehicle sends becomes one GET of the control route over a kept-alive
 connection; the reply (the ultrasonic distance) is the car's range in state(). The Junior stops
 by itself 500 ms after the last request, so the Vehicle's 50 Hz resend keeps it driving.
+
+Signed control (roar.signing): a signing Vehicle sets `signer`, which appends "&ctr=..&mac=.."
+to each query; a Junior with a key answers other queries 403 with the reason ("unsigned
+SESSION", "forged SESSION", "replay COUNTER", "nokey"), which refusal() hands back as the
+car's ERR line, so the signer learns the session and counter from it.
 """
 
 from __future__ import annotations
@@ -21,9 +26,12 @@ import numpy as np
 
 from roar.checks import printable
 from roar.junior import MIXES, query_for
-from roar.protocol import spec
+from roar.protocol import ParseResult, spec
 from roar.telemetry import VehicleState
 from roar.transports.base import LinkLost, Transport, TransportError, pop_number, pop_option, unit_command
+
+
+SIGNING_REFUSALS = {str(r) for r in (ParseResult.UNSIGNED, ParseResult.FORGED, ParseResult.REPLAY, ParseResult.NOKEY)}
 
 
 def host_port(text: str) -> tuple[str, int] | None:
@@ -47,6 +55,8 @@ class HttpTransport(Transport):
         self._reused = False  # the next request goes on a connection that served one before
         self.range_m: float | None = None  # [m] the latest ultrasonic reading; inf: no echo
         self.requests = 0
+        self.signer = None  # query -> the signed query (set by roar.signing.SigningTransport)
+        self._refusal: str | None = None  # the latest signing refusal, as the car's "ERR ..." line
 
     @classmethod
     def from_url(cls, target: str, options: dict[str, str]) -> HttpTransport:
@@ -67,7 +77,14 @@ class HttpTransport(Transport):
         self._conn = http.client.HTTPConnection(self.host, self.port, timeout=self.timeout_s)
         self._get(query_for(0.0, 0.0), TransportError)  # a Junior answers with its distance
 
+    def refusal(self) -> str | None:
+        """The car's "ERR <reason> ..." for the latest request it refused for signing, once."""
+        line, self._refusal = self._refusal, None
+        return line
+
     def _get(self, query: str, error: type[TransportError]) -> None:
+        if self.signer is not None:
+            query = self.signer(query)
         conn = self._conn
         if conn is None:
             raise LinkLost(f"Junior at {self.host}:{self.port} is not connected")
@@ -88,6 +105,9 @@ class HttpTransport(Transport):
             if isinstance(e, socket.timeout):
                 reason = f"no reply within {self.timeout_s:g} s"
             raise error(f"Junior at {self.host}:{self.port}: {reason}") from None
+        if response.status == 403 and body.split(" ")[0] in SIGNING_REFUSALS:
+            self._refusal = f"{spec.SERIAL_REPLY_ERROR} {body}"  # the car is there and says why: not a link fault
+            return
         if response.status != 200:
             raise TransportError(f"Junior at {self.host}:{self.port} refused {query!r}: {response.status} "
                                  f"{printable(body)}")

@@ -74,7 +74,7 @@ class Car {
   // Replies dropped because the queue was full (the host is not reading).
   uint32_t replies_dropped() const { return replies_dropped_; }
   const ControlParser& parser() const { return parser_; }
-  const Authenticator& auth() const { return auth_; }
+  const Authenticator& auth() const { return keys_.auth(); }
   bool latched() const { return config_.failsafe_enabled && watchdog_.latched(); }
 
  private:
@@ -82,7 +82,7 @@ class Car {
   struct QueuedReply {
     Reply kind;
     ParseResult detail;
-    uint32_t value;  // the session or a counter after ERR; the fingerprint after KEY (detail Ok: keyed)
+    uint32_t value;  // after ERR unsigned / forged: the session; after ERR replay: the last counter
   };
   void queue(Reply kind, ParseResult detail = ParseResult::None, uint32_t value = 0);
   void on_watchdog(WatchdogEvent ev);
@@ -91,9 +91,8 @@ class Car {
 
   CarConfig config_;
   ControlParser parser_;
-  Authenticator auth_;
+  KeyStore keys_;
   KeyLine key_line_;
-  Nvm* nvm_ = nullptr;
   CommandWatchdog watchdog_;
   RcOverride rc_;
   BrakeFsm brake_;

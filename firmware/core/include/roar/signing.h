@@ -37,6 +37,9 @@ uint64_t message_mac(const uint8_t key[proto::kSignedKeyBytes], uint32_t session
                      uint16_t steering, uint32_t counter);
 // The key's name: the low 32 bits of SipHash-2-4 under the key of "ROAR".
 uint32_t key_fingerprint(const uint8_t key[proto::kSignedKeyBytes]);
+// The MAC a signed HTTP query carries (the Junior): the low kSignedMacBits bits of SipHash-2-4
+// under key over the session (uint32 LE) and the query's text before "&mac=".
+uint64_t query_mac(const uint8_t key[proto::kSignedKeyBytes], uint32_t session, const char* text, size_t n);
 
 class Authenticator {
  public:
@@ -47,12 +50,20 @@ class Authenticator {
   // when it may act, else Unsigned, Forged, Replay or Nokey.
   ParseResult check(ParseResult kind, const ControlParser& parser);
 
+  // The verdict on an HTTP query (the Junior's): signed, it ends "ctr=HEX&mac=HEX12" (the two
+  // last parameters, lowercase hex as in a message). Ok when it may act, with *apply_length the
+  // length of the query before its "&ctr=" (the parameters to apply); else Unsigned, Forged,
+  // Replay, Nokey, or Syntax for a malformed ctr or mac.
+  ParseResult check_query(const char* query, size_t length, size_t* apply_length);
+
   bool keyed() const { return keyed_; }
   uint32_t session() const { return session_; }
   uint32_t last_counter() const { return last_counter_; }
   uint32_t fingerprint() const { return keyed_ ? key_fingerprint(key_) : 0u; }
 
  private:
+  ParseResult accept(ParseResult kind, uint32_t counter, uint64_t mac, uint64_t expected);
+
   uint8_t key_[proto::kSignedKeyBytes] = {};
   bool keyed_ = false;
   uint32_t session_ = 0;
@@ -97,5 +108,32 @@ class KeyLine {
   uint8_t at_ = 0;  // characters of "KEY " matched, then hex digits taken
   uint8_t key_[proto::kSignedKeyBytes] = {};
 };
+
+// A board's key: kept in its Nvm, changed only by key lines from its serial link. Every board
+// (the ESC car, the Junior, the IARRC car) holds one and answers the same way.
+class KeyStore {
+ public:
+  enum class Answer : uint8_t {
+    None,       // nothing to say
+    Key,        // "KEY <fingerprint>" or "KEY none" (then "SESSION ..." when keyed and the key changed)
+    NoStorage,  // "ERR nokey": the board has nowhere to keep a key
+    Syntax,     // "ERR syntax": a line that began "K" but is not a key command
+  };
+  void boot(Nvm* nvm) {
+    nvm_ = nvm;
+    start_session(nvm, auth_);
+  }
+  Answer on_key_line(KeyLine::Event ev, const uint8_t* key);
+  Authenticator& auth() { return auth_; }
+  const Authenticator& auth() const { return auth_; }
+
+ private:
+  Nvm* nvm_ = nullptr;
+  Authenticator auth_;
+};
+
+// "KEY <fingerprint>" or "KEY none", and "SESSION <8 hex>", each with the line end.
+bool append_key_reply(char* buf, size_t cap, size_t* len, const Authenticator& auth);
+bool append_session_reply(char* buf, size_t cap, size_t* len, const Authenticator& auth);
 
 }  // namespace roar
