@@ -71,10 +71,11 @@ def test_board_folders_are_thin_glue_with_pins_in_one_place(folder):
         # Wire facts come from the generated protocol header, never typed again here.
         for literal in ("115200", "19b1", "ROAR Car", "(1500", "20000", "\"True\"", "left_spd"):
             assert literal not in text, f"{src.name} types {literal!r}: use roar/protocol.h"
-    lines = sum(len(p.read_text().splitlines()) for p in board.glob("*.cpp"))
+    # Lines of code (comments and blank lines do not count: glue may explain the hardware).
+    lines = sum(1 for p in board.glob("*.cpp") for ln in re.sub(r"//.*", "", p.read_text()).splitlines() if ln.strip())
     # The AnyFC F7 has no vendor framework: its startup code, register-level drivers for five
     # peripherals and two RTOS backends (FreeRTOS, SysTick) are its glue.
-    limit = 600 if folder == "stm32_freertos" else 400
+    limit = 500 if folder == "stm32_freertos" else 350
     assert lines < limit, f"{folder}: {lines} lines of glue; move logic into firmware/core"
 
 

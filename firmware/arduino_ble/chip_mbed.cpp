@@ -87,40 +87,30 @@ uint16_t take_rc_pulse(uint8_t channel) {
 
 namespace storage {
 namespace {
-class FlashSector : public roar::Nvm {
+// The last flash sector (mbed FlashIAP), erased and programmed whole on a write (~90 ms, within
+// the loop watchdog: at boot and on a KEY line only).
+class FlashSector : public roar::CachedNvm {
  public:
   bool begin() {
     if (flash_.init() != 0) return false;
     const uint32_t end = flash_.get_flash_start() + flash_.get_flash_size();
     address_ = end - flash_.get_sector_size(end - 1);
-    return flash_.read(bytes_, address_, sizeof(bytes_)) == 0;  // erased flash reads 0xFF: no key
-  }
-  void read(uint16_t at, uint8_t* data, uint8_t n) override {
-    for (uint8_t i = 0; i < n; ++i) data[i] = at + i < sizeof(bytes_) ? bytes_[at + i] : 0xFF;
-  }
-  // Erase and program the sector (~90 ms: within the loop watchdog; at boot and on KEY only).
-  void write(uint16_t at, const uint8_t* data, uint8_t n) override {
-    for (uint8_t i = 0; i < n && at + i < sizeof(bytes_); ++i) bytes_[at + i] = data[i];
-    flash_.erase(address_, flash_.get_sector_size(address_));
-    flash_.program(bytes_, address_, sizeof(bytes_));
+    return flash_.read(cache(), address_, kBytes) == 0;  // erased flash reads 0xFF: no key
   }
 
  private:
-  static constexpr uint32_t kProgramUnit = 4;  // [bytes] the nRF52's flash word
+  void persist(const uint8_t* data, uint8_t n) override {
+    flash_.erase(address_, flash_.get_sector_size(address_));
+    flash_.program(data, address_, n);
+  }
   mbed::FlashIAP flash_;
   uint32_t address_ = 0;
-  uint8_t bytes_[(roar::KeyRecord::kBytes + kProgramUnit - 1) / kProgramUnit * kProgramUnit];
 };
 FlashSector sector;
-bool usable = false;
 }  // namespace
 
 roar::Nvm* nvm() {
-  static bool tried = false;
-  if (!tried) {
-    tried = true;
-    usable = sector.begin();
-  }
+  static const bool usable = sector.begin();
   return usable ? &sector : nullptr;
 }
 }  // namespace storage

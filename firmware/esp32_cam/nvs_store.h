@@ -10,24 +10,17 @@
 
 namespace roar_esp32 {
 
-class NvsStore : public roar::Nvm {
+class NvsStore : public roar::CachedNvm {
  public:
   void begin() {
-    memset(bytes_, 0xFF, sizeof(bytes_));  // blank, as an erased EEPROM
+    memset(cache(), 0xFF, kBytes);  // blank, as an erased EEPROM
     prefs_.begin("roar", false);
-    prefs_.getBytes("signing", bytes_, sizeof(bytes_));
-  }
-  void read(uint16_t at, uint8_t* data, uint8_t n) override {
-    for (uint8_t i = 0; i < n; ++i) data[i] = at + i < sizeof(bytes_) ? bytes_[at + i] : 0xFF;
-  }
-  void write(uint16_t at, const uint8_t* data, uint8_t n) override {
-    for (uint8_t i = 0; i < n && at + i < sizeof(bytes_); ++i) bytes_[at + i] = data[i];
-    prefs_.putBytes("signing", bytes_, sizeof(bytes_));
+    prefs_.getBytes("signing", cache(), kBytes);
   }
 
  private:
+  void persist(const uint8_t* data, uint8_t n) override { prefs_.putBytes("signing", data, n); }
   Preferences prefs_;
-  uint8_t bytes_[roar::KeyRecord::kBytes];
 };
 
 }  // namespace roar_esp32

@@ -156,6 +156,15 @@ void KeyRecord::store(Nvm& nvm) const {
   nvm.write(0, b, kBytes);
 }
 
+void CachedNvm::read(uint16_t at, uint8_t* data, uint8_t n) {
+  for (uint8_t i = 0; i < n; ++i) data[i] = at + i < kBytes ? bytes_[at + i] : 0xFF;
+}
+
+void CachedNvm::write(uint16_t at, const uint8_t* data, uint8_t n) {
+  for (uint8_t i = 0; i < n && at + i < kBytes; ++i) bytes_[at + i] = data[i];
+  persist(bytes_, kBytes);
+}
+
 void start_session(Nvm* nvm, Authenticator& auth) {
   if (nvm == nullptr) return;
   KeyRecord r = KeyRecord::load(*nvm);

@@ -84,6 +84,23 @@ struct KeyRecord {
   void store(Nvm& nvm) const;
 };
 
+// Non-volatile memory a board reads whole at boot and writes whole (a flash sector, an NVS blob):
+// the board fills cache() at boot (0xFF where blank) and gives persist().
+class CachedNvm : public Nvm {
+ public:
+  static const uint8_t kBytes = (KeyRecord::kBytes + 3) / 4 * 4;  // [bytes] whole 32-bit words, as flash takes them
+  void read(uint16_t at, uint8_t* data, uint8_t n) override;
+  void write(uint16_t at, const uint8_t* data, uint8_t n) override;  // the cache, then persist()
+  uint8_t* cache() { return bytes_; }
+
+ protected:
+  virtual void persist(const uint8_t* data, uint8_t n) = 0;
+  ~CachedNvm() = default;
+
+ private:
+  uint8_t bytes_[kBytes] = {};
+};
+
 // Boot: the key in nvm (if any) with a fresh session, stored before it is used.
 void start_session(Nvm* nvm, Authenticator& auth);
 
