@@ -149,3 +149,35 @@ def test_speed_control_is_unchanged_across_the_boards_32_bit_clock_wrap():
         speeds.append(car.state().speed)
         assert st["mode"] == "autonomous" and st["rc_present"]
     assert abs(sum(speeds[-25:]) / 25 - 1.5) < 0.05
+
+
+def test_signed_setpoints_on_the_iarrc_car():
+    """A key set on the host port (never the Bluetooth link): only signed setpoints drive; the
+    rest are refused with the reason and do not count as hearing the host (its failsafe trips);
+    a reboot starts a new session."""
+    from roar_wire import signing
+
+    key = bytes(range(16))
+    car = autonomous()
+    car.link(b"KEY " + key.hex().encode() + b"\n")  # the Bluetooth module cannot set a key
+    car.run(0.2)
+    car.host(b"KEY ?\n")
+    car.run(0.05)
+    assert "KEY none" in car.read()
+    car.host(b"KEY " + key.hex().encode() + b"\n")
+    car.run(0.05)
+    assert car.read()[-2:] == [f"KEY {signing.fingerprint(key)}", f"SESSION {car.board.session:08x}"]
+    session, counter = car.board.session, 0
+    for i in range(60):  # signed setpoints at 50 Hz, zero first (the host was silent: it re-arms): it drives
+        counter += 1
+        car.host(signing.sign(encode_setpoint(0 if i < 10 else 1000, NEUTRAL), key, session, counter))
+        car.run(HOST_S)
+    assert car.status()["mode"] == "autonomous" and car.state().speed > 0.5
+    for _ in range(25):  # 0.5 s of unsigned and replayed setpoints: refused, the host counts as silent
+        car.host(encode_setpoint(1000, NEUTRAL) + signing.sign(encode_setpoint(1000, NEUTRAL), key, session, counter))
+        car.run(HOST_S)
+    lines = car.read()
+    assert f"ERR unsigned {session:08x}" in lines and f"ERR replay {counter:x}" in lines
+    assert car.status()["failsafe"] == "host_silent"
+    rebooted = IarrcCar(operator=False, nvm=car.nvm)
+    assert rebooted.board.session == session + 1

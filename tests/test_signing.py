@@ -356,3 +356,19 @@ def test_key_commands_refuse_in_one_line(capsys, tmp_path):
 
     with pytest.raises(SigningError, match="one key of 32 hex digits"):
         Vehicle("loop://", key=tmp_path / "bad")
+
+
+def test_the_iarrc_car_in_the_simulator_is_keyed_and_driven_by_speed(capsys, tmp_path):
+    pytest.importorskip("pybullet", reason="the simulated car needs roar-platform[sim]")
+    import time
+
+    from roar import Vehicle
+
+    url = f"sim://?robot=iarrc&eeprom={tmp_path / 'iarrc.flash'}"
+    assert roar(capsys, "key", "set", url)[0] == 0
+    with Vehicle(url) as car:
+        time.sleep(0.3)
+        car.drive(speed=1.0)
+        time.sleep(1.2)
+        assert car.state().speed_m_s > 0.5 and car.errors == 0 and car.signer.refused == 0
+        assert any(r.startswith("SESSION ") for r in car.replies)

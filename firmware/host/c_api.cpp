@@ -399,6 +399,9 @@ void roar_iarrc_board_init(void* board, roar_iarrc_hal_t* hal, uint32_t counts_p
   new (board) HostIarrcBoard(hal, config);
 }
 void roar_iarrc_board_begin(void* board) { as<HostIarrcBoard>(board)->board.begin(); }
+uint32_t roar_iarrc_board_session(const void* board) {
+  return static_cast<const HostIarrcBoard*>(board)->board.controller().keys().auth().session();
+}
 void roar_iarrc_board_run(void* board, uint8_t task) {
   if (task < kIarrcTaskCount) as<HostIarrcBoard>(board)->board.run(static_cast<IarrcTask>(task));
 }

@@ -337,6 +337,8 @@ typedef struct {
   uint32_t watchdog_feeds;  /* out */
   uint16_t sbus_len, sbus_pos, host_len, host_pos, link_len, link_pos; /* in/out */
   uint16_t host_tx_len, link_tx_len; /* out */
+  uint16_t nvm_writes, reserved;      /* out: nvm bytes that changed */
+  uint8_t nvm[ROAR_HOST_NVM_BYTES];   /* in/out: the board's flash for its key and session (0xFF: blank) */
   uint32_t sbus_at_us[ROAR_IARRC_SBUS_BYTES]; /* in: now_us when each SBUS byte arrived */
   uint8_t sbus[ROAR_IARRC_SBUS_BYTES];        /* in: received SBUS bytes */
   uint8_t host_rx[ROAR_IARRC_RX_BYTES];       /* in: bytes from the vision computer */
@@ -350,7 +352,8 @@ void roar_iarrc_task(uint8_t index, roar_task_spec_t* out);
 size_t roar_iarrc_board_size(void);
 /* counts_per_m: the wheel encoder's counts per metre (0 = the default, a 66 mm wheel). */
 void roar_iarrc_board_init(void* board, roar_iarrc_hal_t* hal, uint32_t counts_per_m);
-void roar_iarrc_board_begin(void* board);             /* READY 2 on the host port */
+void roar_iarrc_board_begin(void* board);             /* READY 2 on the host port; reads nvm */
+uint32_t roar_iarrc_board_session(const void* board); /* the signing session; 0 without a key */
 void roar_iarrc_board_run(void* board, uint8_t task); /* one release of a task (a roar_iarrc_task) */
 void roar_iarrc_board_overran(void* board, uint8_t task, uint32_t missed);
 void roar_iarrc_board_set_pid(void* board, int32_t kp_pm, int32_t ki_pm, int32_t kd_pm, int32_t ff_pm);

@@ -88,7 +88,8 @@ struct HostJuniorBoard {
 // The caller is the scheduler: it runs one task body at a time, so the lock has nothing to do.
 class IarrcMemoryHal : public IarrcHal {
  public:
-  explicit IarrcMemoryHal(roar_iarrc_hal_t* m) : m_(m) {}
+  explicit IarrcMemoryHal(roar_iarrc_hal_t* m) : m_(m), nvm_(m->nvm, sizeof(m->nvm), &m->nvm_writes) {}
+  Nvm* nvm() override { return &nvm_; }
   RawMicros now_us() override { return m_->now_us; }
   bool read_sbus(uint8_t* byte, RawMicros* at_us) override;
   int read_host() override { return m_->host_pos < m_->host_len ? m_->host_rx[m_->host_pos++] : -1; }
@@ -106,6 +107,7 @@ class IarrcMemoryHal : public IarrcHal {
 
  private:
   roar_iarrc_hal_t* m_;
+  MemoryNvm nvm_;
 };
 
 struct HostIarrcBoard {

@@ -89,9 +89,9 @@ IarrcController::IarrcController(const IarrcConfig& config)
 
 ParseResult IarrcController::host_byte(uint8_t byte, Micros now_us) {
   ParseResult r = parser_.feed(byte);
-  // This board keeps no key yet: the authenticator takes unsigned messages and refuses signed
-  // ones (nokey), as every board without a key does.
-  if (r == ParseResult::Ok || r == ParseResult::Setpoint) r = auth_.check(r, parser_);
+  // Signed control: a refused message (unsigned, forged, replayed; nokey) changes nothing and
+  // does not count as hearing the host.
+  if (r == ParseResult::Ok || r == ParseResult::Setpoint) r = keys_.auth().check(r, parser_);
   if (r == ParseResult::Setpoint) {
     setpoint_ = parser_.setpoint();
     host_heard_ = true;

@@ -12,7 +12,7 @@ namespace roar {
 const TaskSpec kIarrcTasks[kIarrcTaskCount] = {
     {"rc", 2000, 5, 256, 420},
     {"control", 10000, 4, 512, 60},
-    {"host", 5000, 3, 384, 400},
+    {"host", 5000, 3, 384, 600},  // (KEY lines and signed setpoints read on this port)
     {"gyro", 5000, 2, 256, 60},
     {"telemetry", 100000, 2, 512, 250},
     {"battery", 500000, 1, 256, 100},
@@ -64,6 +64,37 @@ void IarrcBoard::begin() {
   append_uint(line, sizeof(line), &n, proto::kMetaSpeedVersion);
   append(line, sizeof(line), &n, proto::kSerialReplyLineEnd);
   hal_.write_host(line, n);
+  char session[proto::kSerialMaxReplyBytes + 1];
+  n = 0;
+  {
+    Locked locked(hal_);
+    controller_.keys().boot(hal_.nvm());
+    if (controller_.keys().auth().keyed()) append_session_reply(session, sizeof(session), &n, controller_.keys().auth());
+  }
+  if (n) hal_.write_host(session, n);
+}
+
+void IarrcBoard::host_key_line(KeyLine::Event ev) {
+  char line[2 * proto::kSerialMaxReplyBytes + 1];  // KEY and SESSION
+  size_t n = 0;
+  {
+    Locked locked(hal_);
+    KeyStore& keys = controller_.keys();
+    const KeyStore::Answer answer = keys.on_key_line(ev, key_line_.key());
+    if (answer == KeyStore::Answer::Key) {
+      append_key_reply(line, sizeof(line), &n, keys.auth());
+      if ((ev == KeyLine::Event::Set || ev == KeyLine::Event::Clear) && keys.auth().keyed()) {
+        append_session_reply(line, sizeof(line), &n, keys.auth());
+      }
+    } else if (answer != KeyStore::Answer::None) {
+      append(line, sizeof(line), &n, proto::kSerialReplyError);
+      append(line, sizeof(line), &n, " ");
+      append(line, sizeof(line), &n,
+             parse_result_token(answer == KeyStore::Answer::NoStorage ? ParseResult::Nokey : ParseResult::Syntax));
+      append(line, sizeof(line), &n, proto::kSerialReplyLineEnd);
+    }
+  }
+  if (n) hal_.write_host(line, n);
 }
 
 void IarrcBoard::run(IarrcTask task) {
@@ -125,10 +156,18 @@ void IarrcBoard::run_host() {
   for (uint8_t i = 0; i < kMaxBytesPerRun; ++i) {
     const int byte = hal_.read_host();
     if (byte < 0) break;
+    const KeyLine::Event ev = key_line_.feed(static_cast<uint8_t>(byte));
+    if (ev != KeyLine::Event::NotMine) {
+      if (ev != KeyLine::Event::Taken) host_key_line(ev);
+      if (ev != KeyLine::Event::Bad) continue;
+    }
     ParseResult r;
+    uint32_t value = 0;  // the session or the last counter, after a signing refusal
     {
       Locked locked(hal_);
       r = controller_.host_byte(static_cast<uint8_t>(byte), now());
+      const Authenticator& auth = controller_.keys().auth();
+      value = r == ParseResult::Replay ? auth.last_counter() : auth.session();
     }
     if (r == ParseResult::None || r == ParseResult::Setpoint) continue;
     // A (THROTTLE,STEERING) message is valid but not what this board drives by.
@@ -138,6 +177,13 @@ void IarrcBoard::run_host() {
     append(line, sizeof(line), &n, proto::kSerialReplyError);
     append(line, sizeof(line), &n, " ");
     append(line, sizeof(line), &n, token);
+    if (r == ParseResult::Unsigned || r == ParseResult::Forged) {
+      append(line, sizeof(line), &n, " ");
+      append_hex(line, sizeof(line), &n, value, proto::kSignedSessionDigits);
+    } else if (r == ParseResult::Replay) {
+      append(line, sizeof(line), &n, " ");
+      append_hex(line, sizeof(line), &n, value, 1);
+    }
     append(line, sizeof(line), &n, proto::kSerialReplyLineEnd);
     hal_.write_host(line, n);
   }

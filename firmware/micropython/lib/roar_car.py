@@ -13,7 +13,7 @@ Times are whole milliseconds from roar_clock.Clock.
 """
 
 from roar_clock import BRAKE_STEP_MS, FAILSAFE_MS
-from roar_wire import control, spec
+from roar_wire import control, signing, spec
 
 NEUTRAL = spec.CONTROL_NEUTRAL_US
 REPLY_QUEUE = 8  # pending reply lines; more are dropped (the host is not reading)
@@ -128,6 +128,7 @@ class Car:
         self.throttle = throttle or Channel()
         self.steering = steering or Channel()
         self.parser = control.Parser()
+        self.auth = signing.Authenticator()  # no key on this board yet: signed messages are refused (nokey)
         self.watchdog = CommandWatchdog()
         self.brake = BrakeFsm()
         self.command = (NEUTRAL, NEUTRAL)
@@ -156,6 +157,16 @@ class Car:
         result = self.parser.feed(byte)
         if result == control.NONE:
             return
+        if result == control.OK or result == control.SETPOINT:
+            verdict = self.auth.check(result, self.parser)
+            if verdict != result:  # refused: nothing changes, the failsafe is not fed
+                extra = ""
+                if verdict == signing.UNSIGNED or verdict == signing.FORGED:
+                    extra = " %08x" % self.auth.session
+                elif verdict == signing.REPLAY:
+                    extra = " %x" % self.auth.last_counter
+                self._queue("%s %s%s" % (spec.SERIAL_REPLY_ERROR, control.token(verdict), extra))
+                return
         if result == control.SETPOINT:  # a valid message, but this car drives by throttle, not speed
             self._queue("%s %s" % (spec.SERIAL_REPLY_ERROR, spec.SERIAL_ERROR_UNSUPPORTED))
             return

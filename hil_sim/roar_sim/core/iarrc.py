@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 from roar.protocol import spec
 from roar.protocol.spec import IarrcFailsafe, IarrcMode, SbusResult
+from roar_sim.core.memory_hal import MemoryNvm
 from roar_sim.core.library import U32_MASK, IarrcTask, ModeSwitch, as_bytes, ffi, lib, new_object
 
 
@@ -154,14 +155,16 @@ class _Rx:
         del self.times[:used]
 
 
-class IarrcBoard:
+class IarrcBoard(MemoryNvm):
     """The IARRC car's tasks (IarrcBoard) on a HAL of plain memory. The caller is the scheduler:
     it sets the inputs (encoder_count, battery_adc, gyro_z_raw), queues received bytes with
     sbus()/host()/link(), and calls run(task, now_us) for each release of a task."""
 
-    def __init__(self, counts_per_m: int = 0) -> None:
+    def __init__(self, counts_per_m: int = 0, nvm: bytes | None = None) -> None:
+        """nvm: the board's flash as a previous board left it (`.nvm`: key and session); None: blank."""
         self._lib = lib()
         self.hal = ffi.new("roar_iarrc_hal_t *")
+        self._init_nvm(nvm)
         self._mem = new_object("roar_iarrc_board_size")
         self._lib.roar_iarrc_board_init(self._mem, self.hal, counts_per_m)
         self._status = ffi.new("roar_iarrc_status_t *")
@@ -179,6 +182,11 @@ class IarrcBoard:
     def begin(self) -> None:
         self._lib.roar_iarrc_board_begin(self._mem)
         self._take_tx()
+
+    @property
+    def session(self) -> int:
+        """The signing session the board booted into (0: it has no key)."""
+        return self._lib.roar_iarrc_board_session(self._mem)
 
     def sbus(self, data: bytes, at_us: int, byte_us: int = 120) -> None:
         """SBUS bytes that arrive from at_us on, byte_us apart (100 kbaud, 12 bits a byte)."""

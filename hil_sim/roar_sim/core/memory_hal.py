@@ -7,11 +7,10 @@ from __future__ import annotations
 from roar_sim.core.library import ffi
 
 
-class MemorySerialPort:
-    """Mixed into a board wrapper whose `hal` struct has rx, rx_pos, rx_len, tx, tx_len, nvm."""
+class MemoryNvm:
+    """Mixed into a board wrapper whose `hal` struct has nvm (bytes)."""
 
     hal: object
-    _rx_backlog: bytes = b""
 
     def _init_nvm(self, nvm: bytes | None) -> None:
         """nvm: the memory a previous board left (`.nvm`); None: blank (0xFF), as from the factory."""
@@ -23,6 +22,12 @@ class MemorySerialPort:
     def nvm(self) -> bytes:
         """The board's non-volatile memory now (its signing key and session: roar/signing.h)."""
         return ffi.unpack(ffi.cast("char *", self.hal.nvm), len(self.hal.nvm))
+
+
+class MemorySerialPort(MemoryNvm):
+    """Mixed into a board wrapper whose `hal` struct also has rx, rx_pos, rx_len, tx, tx_len."""
+
+    _rx_backlog: bytes = b""
 
     def serial_in(self, data: bytes) -> None:
         """Bytes arriving on the serial port; the loop reads at most 64 per iteration."""

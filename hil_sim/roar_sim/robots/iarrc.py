@@ -92,15 +92,16 @@ class IarrcCar(Robot):
     def __init__(self, track: Track | None = None, pose: Pose | None = None, realtime: bool = False,
                  speedup: float = 1.0, gui: bool = False, motor: Motor = IARRC_MOTOR, esc: HobbyEsc | None = None,
                  servo: SteeringServo | None = None, battery_v: float = 12.0, task_cost=None,
-                 clock_offset_us: int = 0, operator: bool = True) -> None:
-        """battery_v: [V] its 3S pack; task_cost: (task, job number) -> [us] (default: the declared
+                 clock_offset_us: int = 0, operator: bool = True, nvm: bytes | None = None) -> None:
+        """nvm: the board's flash as a previous run left it (`.nvm`: its signing key and session);
+        battery_v: [V] its 3S pack; task_cost: (task, job number) -> [us] (default: the declared
         costs); clock_offset_us: [us] the board's counter at simulated time 0 (to test its 2^32
         wrap); operator: the person at the transmitter, who, after the receiver has locked with
         the mode switch at off, flips it to autonomous as soon as the host sends its first
         setpoint (False: the switches are the caller's, in `transmitter`)."""
         super().__init__(track, realtime, speedup)
         self.plant = Racecar(track, dt_s=PHYSICS_US / 1e6, gui=gui, motor=motor, pose=pose)
-        self.board = IarrcBoard(counts_per_m=COUNTS_PER_M)
+        self.board = IarrcBoard(counts_per_m=COUNTS_PER_M, nvm=nvm)
         self.tasks = iarrc_tasks()
         self.scheduler = Scheduler(self.tasks, self._body, cost=task_cost, overran=self.board.overran,
                                    keep_starts=False)
@@ -150,6 +151,11 @@ class IarrcCar(Robot):
     def read_link(self) -> list[str]:
         self._collect()
         return self._link_lines.take()
+
+    @property
+    def nvm(self) -> bytes:
+        """The board's flash now (signing key and session)."""
+        return self.board.nvm
 
     def status(self) -> dict:
         return self.board.status()

@@ -152,6 +152,9 @@ class IarrcController {
   // The host task: one received serial byte (setpoints; control messages are refused).
   // Returns the parse result (the board glue prints ERR for the rejections).
   ParseResult host_byte(uint8_t byte, Micros now_us);
+  // The car's key (signed control): set by the board from KEY lines on the host port.
+  KeyStore& keys() { return keys_; }
+  const KeyStore& keys() const { return keys_; }
   // The encoder: the latest count (the board's timer in encoder mode, or QuadratureDecoder).
   void encoder(int32_t count, Micros now_us) { speed_.update(count, now_us); }
   // The battery task: one ADC reading.
@@ -179,7 +182,7 @@ class IarrcController {
   IarrcConfig config_;
   SbusDecoder sbus_;
   ControlParser parser_;
-  Authenticator auth_;
+  KeyStore keys_;
   SpeedEstimator speed_;
   SpeedPid pid_;
   BatteryMonitor battery_;

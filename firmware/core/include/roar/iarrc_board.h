@@ -55,6 +55,8 @@ class IarrcHal {
   virtual void feed_watchdog() = 0;
   virtual void lock() = 0;  // the controller is shared by pre-empting tasks
   virtual void unlock() = 0;
+  // Where the signing key and session live; nullptr: nowhere (the board takes no key).
+  virtual Nvm* nvm() { return nullptr; }
 
  protected:
   ~IarrcHal() = default;
@@ -66,7 +68,8 @@ class IarrcBoard {
 
   IarrcBoard(IarrcHal& hal, const IarrcConfig& config = IarrcConfig()) : hal_(hal), controller_(config) {}
 
-  // Call once the serial ports are up: READY 2 on the host port.
+  // Call once the serial ports are up: READY 2 on the host port (and SESSION, with a key). KEY
+  // lines are taken on the host port only, never from the Bluetooth link module.
   void begin();
   // One release of a task: its whole body, then back to the scheduler.
   void run(IarrcTask task);
@@ -100,6 +103,8 @@ class IarrcBoard {
   uint32_t overruns_ = 0;
   uint32_t rc_runs_ = 0, rc_runs_at_feed_ = 0;
   int32_t yaw_rate_mdeg_s_ = 0;
+  void host_key_line(KeyLine::Event ev);
+  KeyLine key_line_;
   char command_[proto::kTelemetryMaxLineBytes] = {};
   uint8_t command_len_ = 0;
   bool command_overflow_ = false;
