@@ -101,9 +101,11 @@ size_t roar_parser_feed_buffer(void* parser, const uint8_t* data, size_t n, roar
         e.steering = p->setpoint().steering_us;
       }
       if (r == ParseResult::Ok || r == ParseResult::Setpoint) {
-        e.is_signed = p->signature().present ? 1 : 0;
-        e.counter = p->signature().counter;
-        e.mac = p->signature().mac;
+        if (p->signature().present) {
+          e.is_signed = 1;
+          e.counter = p->signature().counter;
+          e.mac = p->signature().mac;
+        }
       }
     }
     ++count;
@@ -219,7 +221,7 @@ int roar_car_init(void* car, const roar_car_config_t* c) {
 
 void roar_car_boot(void* car) { as<Car>(car)->boot(); }
 void roar_car_feed(void* car, const uint8_t* data, size_t n, uint64_t now_us) {
-  for (size_t i = 0; i < n; ++i) as<Car>(car)->feed(data[i], now_us);
+  as<Car>(car)->feed(data, n, now_us);
 }
 void roar_car_rc_pulse(void* car, uint8_t channel, uint16_t width_us, uint64_t now_us) {
   as<Car>(car)->rc_pulse(static_cast<RcChannel>(channel & 1u), width_us, now_us);

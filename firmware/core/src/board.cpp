@@ -4,16 +4,19 @@ namespace roar {
 
 void CarBoard::feed(const uint8_t* data, size_t length) {
   const Micros t = now();
-  for (size_t i = 0; i < length; ++i) car_.feed(data[i], t, Link::Radio);
+  car_.feed(data, length, t, Link::Radio);
 }
 
 CarOutputs CarBoard::poll() {
   const Micros t = now();
-  for (uint8_t i = 0; i < kMaxBytesPerPoll; ++i) {
+  uint8_t received[kMaxBytesPerPoll];
+  uint8_t n = 0;
+  for (; n < kMaxBytesPerPoll; ++n) {
     const int byte = hal_.read_byte();
     if (byte < 0) break;
-    car_.feed(static_cast<uint8_t>(byte), t);
+    received[n] = static_cast<uint8_t>(byte);
   }
+  car_.feed(received, n, t);
   const CarOutputs out = car_.step(t, hal_.frames_started());
   hal_.write_pulses(out.throttle_us, out.steering_us);
   char line[proto::kSerialMaxReplyBytes + 1];

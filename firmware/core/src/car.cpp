@@ -35,16 +35,19 @@ void Car::on_watchdog(WatchdogEvent ev) {
   }
 }
 
-void Car::feed(uint8_t byte, Micros now_us, Link link) {
-  if (link == Link::Serial) {
-    const KeyLine::Event ev = key_line_.feed(byte);
-    if (ev != KeyLine::Event::NotMine) {
-      on_key_line(ev);
-      if (ev != KeyLine::Event::Bad) return;
+void Car::feed(const uint8_t* data, size_t n, Micros now_us, Link link) {
+  for (size_t i = 0; i < n; ++i) {
+    const uint8_t byte = data[i];
+    if (link == Link::Serial) {
+      const KeyLine::Event ev = key_line_.feed(byte);
+      if (ev != KeyLine::Event::NotMine) {
+        on_key_line(ev);
+        if (ev != KeyLine::Event::Bad) continue;
+      }
     }
+    const ParseResult r = parser_.feed(byte);
+    if (r != ParseResult::None) on_message(r, now_us);
   }
-  const ParseResult r = parser_.feed(byte);
-  if (r != ParseResult::None) on_message(r, now_us);
 }
 
 void Car::on_key_line(KeyLine::Event ev) {

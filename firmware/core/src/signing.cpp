@@ -213,7 +213,7 @@ bool append_session_reply(char* buf, size_t cap, size_t* len, const Authenticato
          append(buf, cap, len, proto::kSerialReplyLineEnd);
 }
 
-KeyLine::Event KeyLine::feed(uint8_t byte) {
+KeyLine::Event KeyLine::feed_slow(uint8_t byte) {
   static const char kWord[] = "KEY ";
   const bool end = is_line_end(byte);
   switch (state_) {

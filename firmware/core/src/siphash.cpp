@@ -1,14 +1,22 @@
 #include "roar/siphash.h"
 
+#include <string.h>
+
 namespace roar {
 
 namespace {
 
 __attribute__((always_inline)) inline uint64_t rotl(uint64_t x, uint8_t b) { return (x << b) | (x >> (64 - b)); }
 
+// Eight bytes as a little-endian word: a copy where the chip is little-endian (AVR, ARM, x86),
+// shifts elsewhere.
 inline uint64_t load64(const uint8_t* p) {
   uint64_t x = 0;
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+  memcpy(&x, p, sizeof(x));
+#else
   for (uint8_t i = 8; i-- > 0;) x = (x << 8) | p[i];
+#endif
   return x;
 }
 
@@ -37,7 +45,6 @@ void SipHash24::begin(const uint8_t key[kSipKeyBytes]) {
   v_[1] = k1 ^ 0x646f72616e646f6dULL;  // "dorandom"
   v_[2] = k0 ^ 0x6c7967656e657261ULL;  // "lygenera"
   v_[3] = k1 ^ 0x7465646279746573ULL;  // "tedbytes"
-  block_ = 0;
   length_ = 0;
 }
 
@@ -49,16 +56,15 @@ void SipHash24::compress(uint64_t m) {
 }
 
 void SipHash24::add(uint8_t byte) {
-  block_ |= static_cast<uint64_t>(byte) << (8 * (length_ & 7));
+  block_[length_ & 7] = byte;
   ++length_;
-  if ((length_ & 7) == 0) {
-    compress(block_);
-    block_ = 0;
-  }
+  if ((length_ & 7) == 0) compress(load64(block_));
 }
 
 uint64_t SipHash24::finish() {
-  compress(block_ | static_cast<uint64_t>(length_) << 56);
+  for (uint8_t i = length_ & 7; i < 7; ++i) block_[i] = 0;
+  block_[7] = length_;  // the length's low byte ends the last block
+  compress(load64(block_));
   v_[2] ^= 0xff;
   for (uint8_t i = 0; i < 4; ++i) sip_round(v_);
   return v_[0] ^ v_[1] ^ v_[2] ^ v_[3];

@@ -58,8 +58,10 @@ class Car {
   // session counter live (nullptr: the board has none, so it can never have a key).
   void boot(Nvm* nvm = nullptr);
 
-  // One received byte (serial, or a BLE write byte by byte).
-  void feed(uint8_t byte, Micros now_us, Link link = Link::Serial);
+  // Received bytes (serial, or a BLE write), in order: one call per chunk keeps the parser in
+  // registers across its bytes (a call per byte costs an 8-bit chip more than the parsing).
+  void feed(const uint8_t* data, size_t n, Micros now_us, Link link = Link::Serial);
+  void feed(uint8_t byte, Micros now_us, Link link = Link::Serial) { feed(&byte, 1, now_us, link); }
 
   // One measured RC receiver pulse.
   void rc_pulse(RcChannel channel, uint16_t width_us, Micros now_us) { rc_.on_pulse(channel, width_us, now_us); }

@@ -19,6 +19,8 @@
 
 namespace roar {
 
+static_assert(proto::kSignedMacDigits == 12, "the MAC's digits are kept as 4 high and 8 low");
+
 struct ControlCommand {
   uint16_t throttle_us;  // [us]
   uint16_t steering_us;  // [us]
@@ -35,7 +37,8 @@ struct Setpoint {
   uint16_t steering_us;  // [us]
 };
 
-// What a signed message carried after its two fields (present false for an unsigned one).
+// What a signed message carried after its two fields (present false for an unsigned one; then
+// counter and mac are not meaningful).
 struct Signature {
   bool present;
   uint32_t counter;  // COUNTER
@@ -62,7 +65,8 @@ class ControlParser {
 
  private:
   // Fields: Throttle and Steering of "(T,S)", Speed and SetSteering of "[V,S]".
-  // Counter and Mac are a signed message's hex fields.
+  // Counter and Mac are a signed message's hex fields. (feed() relies on this order: the four
+  // decimal fields in a row.)
   enum class State : uint8_t { Idle, Garbage, Skip, Throttle, Steering, Speed, SetSteering, Counter, Mac };
 
   __attribute__((always_inline)) static bool is_line_end(uint8_t b) { return b == '\r' || b == '\n'; }
@@ -82,9 +86,11 @@ class ControlParser {
     return result;
   }
   __attribute__((always_inline)) ParseResult field_end(uint8_t byte);
-  ParseResult hex_field(uint8_t byte);
+  // Inlined too: an out-of-line member would take the parser's address, and the parser would
+  // then live in memory instead of registers in its callers' loops (twice the cycles per byte).
+  __attribute__((always_inline)) ParseResult hex_field(uint8_t byte);
   // The message ends: range checks, then the values become command() or setpoint().
-  ParseResult finish(bool setpoint, uint16_t second, bool is_signed);
+  __attribute__((always_inline)) ParseResult finish(bool setpoint, uint16_t second, bool is_signed);
 
   State state_ = State::Idle;
   uint8_t left_ = 0;     // digits the current field may still take; 0 outside a field
@@ -95,7 +101,8 @@ class ControlParser {
   uint8_t hex_left_ = 0;   // hex digits the current hex field may still take
   uint16_t second_ = 0;    // a signed message's steering
   uint32_t counter_ = 0;   // COUNTER so far
-  uint64_t mac_ = 0;       // MAC so far
+  uint32_t mac_high_ = 0;  // MAC so far: its first 4 digits (16 bits),
+  uint32_t mac_low_ = 0;   // and its last 8 (32-bit words: an 8-bit chip shifts 64-bit ones slowly)
   Signature signature_ = {false, 0, 0};
   ControlCommand command_ = {proto::kControlNeutralUs, proto::kControlNeutralUs};
   Setpoint setpoint_ = {0, proto::kControlNeutralUs};
@@ -108,29 +115,27 @@ inline ParseResult ControlParser::feed(uint8_t byte) {
     value_ = static_cast<uint16_t>(value_ * 10u + digit);
     return ParseResult::None;
   }
-  switch (state_) {
-    case State::Throttle:
-    case State::Steering:
-    case State::Speed:
-    case State::SetSteering:
-      return field_end(byte);
-    case State::Counter:
-    case State::Mac:
-      return hex_field(byte);
-    case State::Idle:
-      if (is_start(byte)) return start_message(byte, ParseResult::None);
-      if (!is_separator(byte)) state_ = State::Garbage;
-      return ParseResult::None;
-    case State::Garbage:
-      if (is_start(byte)) return start_message(byte, ParseResult::Garbage);
-      if (!is_separator(byte)) return ParseResult::None;
-      state_ = State::Idle;
-      return ParseResult::Garbage;
-    case State::Skip:
-      if (is_start(byte)) return start_message(byte, ParseResult::None);
-      if (byte == proto::kControlEndChar || byte == proto::kSetpointEndChar || is_line_end(byte)) state_ = State::Idle;
-      return ParseResult::None;
+  // Tests, not a switch: the states a message's bytes meet come first, and an 8-bit chip's jump
+  // table would cost more than these compares.
+  const State state = state_;
+  if (static_cast<uint8_t>(static_cast<uint8_t>(state) - static_cast<uint8_t>(State::Throttle)) <= 3) {
+    return field_end(byte);  // Throttle, Steering, Speed, SetSteering
   }
+  if (state == State::Idle) {
+    if (is_start(byte)) return start_message(byte, ParseResult::None);
+    if (!is_separator(byte)) state_ = State::Garbage;
+    return ParseResult::None;
+  }
+  if (state == State::Counter || state == State::Mac) return hex_field(byte);
+  if (state == State::Garbage) {
+    if (is_start(byte)) return start_message(byte, ParseResult::Garbage);
+    if (!is_separator(byte)) return ParseResult::None;
+    state_ = State::Idle;
+    return ParseResult::Garbage;
+  }
+  // Skip
+  if (is_start(byte)) return start_message(byte, ParseResult::None);
+  if (byte == proto::kControlEndChar || byte == proto::kSetpointEndChar || is_line_end(byte)) state_ = State::Idle;
   return ParseResult::None;
 }
 
@@ -184,6 +189,48 @@ inline ParseResult ControlParser::field_end(uint8_t byte) {
   return ParseResult::Syntax;
 }
 
+// A byte inside a signed message's COUNTER or MAC (lowercase hex).
+inline ParseResult ControlParser::hex_field(uint8_t byte) {
+  const bool counter = state_ == State::Counter;
+  uint8_t nibble = static_cast<uint8_t>(byte - '0');
+  if (nibble > 9) nibble = static_cast<uint8_t>(byte - 'a') <= 5 ? static_cast<uint8_t>(byte - 'a' + 10) : 0xFF;
+  if (nibble != 0xFF) {
+    if (hex_left_ == 0) {
+      state_ = State::Skip;
+      return ParseResult::TooLong;
+    }
+    --hex_left_;
+    if (counter) {
+      counter_ = (counter_ << 4) | nibble;
+    } else if (hex_left_ >= 8) {  // (hex_left_ already counts this digit out)
+      mac_high_ = (mac_high_ << 4) | nibble;
+    } else {
+      mac_low_ = (mac_low_ << 4) | nibble;
+    }
+    return ParseResult::None;
+  }
+  const uint8_t end = setpoint_kind_ ? proto::kSetpointEndChar : proto::kControlEndChar;
+  if (byte == proto::kControlSeparatorChar && counter && hex_left_ != proto::kSignedCounterDigits) {
+    state_ = State::Mac;
+    hex_left_ = proto::kSignedMacDigits;
+    mac_high_ = mac_low_ = 0;
+    return ParseResult::None;
+  }
+  if (byte == proto::kControlEndChar || byte == proto::kSetpointEndChar) {
+    state_ = State::Idle;
+    // no MAC, a truncated one, or the other kind's end
+    if (counter || hex_left_ != 0 || byte != end) return ParseResult::Syntax;
+    return finish(setpoint_kind_, second_, true);
+  }
+  if (is_start(byte)) return start_message(byte, ParseResult::Unterminated);
+  if (is_line_end(byte)) {
+    state_ = State::Idle;
+    return ParseResult::Unterminated;
+  }
+  state_ = State::Skip;
+  return ParseResult::Syntax;
+}
+
 inline ParseResult ControlParser::finish(bool setpoint, uint16_t second, bool is_signed) {
   if (setpoint) {
     if (throttle_ > proto::kSetpointMaxSpeedMmS || !in_range(second)) return ParseResult::Range;
@@ -192,7 +239,11 @@ inline ParseResult ControlParser::finish(bool setpoint, uint16_t second, bool is
     if (!in_range(throttle_) || !in_range(second)) return ParseResult::Range;
     command_ = ControlCommand{throttle_, second};
   }
-  signature_ = Signature{is_signed, is_signed ? counter_ : 0u, is_signed ? mac_ : 0u};
+  signature_.present = is_signed;  // (an unsigned message stores one byte: this runs for every message)
+  if (is_signed) {
+    signature_.counter = counter_;
+    signature_.mac = static_cast<uint64_t>(mac_high_) << 32 | mac_low_;
+  }
   return setpoint ? ParseResult::Setpoint : ParseResult::Ok;
 }
 

@@ -116,10 +116,19 @@ class KeyLine {
     Bad,       // a line that began "K" but is not a key command (answered ERR syntax); this
                // byte goes to the control parser too, so stray bytes never hold control back
   };
-  Event feed(uint8_t byte);
+  // Inlined for the common byte (inside a line that is not a key line), which every serial
+  // byte of a control message is: one test.
+  __attribute__((always_inline)) Event feed(uint8_t byte) {
+    if (state_ == State::Other && byte != proto::kControlEndChar && byte != proto::kSetpointEndChar && byte != '\n' &&
+        byte != '\r') {
+      return Event::NotMine;
+    }
+    return feed_slow(byte);
+  }
   const uint8_t* key() const { return key_; }
 
  private:
+  Event feed_slow(uint8_t byte);
   enum class State : uint8_t { LineStart, Other, Word, Hex, Clear, Ask };
   State state_ = State::LineStart;
   uint8_t at_ = 0;  // characters of "KEY " matched, then hex digits taken

@@ -26,7 +26,7 @@ class SipHash24 {
   void compress(uint64_t m);
 
   uint64_t v_[4];
-  uint64_t block_;  // the bytes of the current 8-byte block so far, little-endian
+  uint8_t block_[8];  // the bytes of the current 8-byte block so far (no 64-bit shifts per byte)
   uint8_t length_;  // bytes added, modulo 256 (only the low byte enters the MAC)
 };
 
