@@ -430,3 +430,41 @@ def test_roar_stream_leaves_no_figure_open_in_the_calling_process(tmp_path, monk
         assert main(["stream", "udp://127.0.0.1", "--seconds", "0.2", "--out", str(tmp_path)]) == 1  # nothing there
     assert len(plt.get_fignums()) == before
     assert "no frame from udp://127.0.0.1" in capsys.readouterr().err
+
+
+def test_a_phone_with_a_key_drives_only_for_signed_control(tmp_path):
+    """The simulated phone with the app's key set: a Vehicle with the key drives the car through
+    it (datagrams "t,s,COUNTER,MAC"); one without is answered ERR unsigned and the car stays put."""
+    import subprocess
+    import sys as _sys
+    import time
+
+    from roar import Vehicle
+    from roar.signing import write_key_file
+
+    key_file = write_key_file(tmp_path / "key", bytes(range(16)))
+    sim = subprocess.Popen([_sys.executable, "-m", "roar.cli", "sim", "--stream", "--seconds", "12", "--size", "64x48",
+                            "--key", str(key_file)], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert "streaming the simulated car" in sim.stdout.readline()
+        for key, moves in ((False, False), (key_file, True), (bytes(16), False)):
+            with Vehicle("udp://127.0.0.1", key=key) as car:
+                start = None
+                for _ in range(60):
+                    time.sleep(0.05)
+                    state = car.state()
+                    if state is not None and start is None:
+                        start = state.x_m
+                        car.drive(throttle=0.5)
+                moved = state is not None and start is not None and abs(state.x_m - start) > 0.2
+                assert moved == moves, key
+                if key is False:
+                    assert car.signer is None
+                elif moves:
+                    assert car.signer.session == 1 and car.signer.refused == 0
+                else:
+                    assert car.signer.refused > 5  # forged, each answered
+            time.sleep(0.6)  # the phone stops forwarding; the car stops
+    finally:
+        sim.kill()
+        sim.communicate()

@@ -128,11 +128,12 @@ class SigningTransport(Transport):
         self._lock = threading.Lock()
         self._probe_since: float | None = None  # when the first message went out without a session
         self._fresh = False  # a new session was learnt: its first signed message is neutral
-        # A link whose car takes another form (the Junior's queries) signs that form itself
-        # through our sign_query, and the Vehicle's messages pass to it unsigned.
+        # A link whose car takes another form (the Junior's queries, a phone's datagrams) signs
+        # that form itself through our sign_query / sign_datagram, and the Vehicle's messages
+        # pass to it unsigned.
         self._link_signs = hasattr(inner, "signer")
         if self._link_signs:
-            inner.signer = self.sign_query
+            inner.signer = self
 
     # the wrapped transport's identity
     @property
@@ -199,11 +200,18 @@ class SigningTransport(Transport):
 
     def sign_query(self, query: str) -> str:
         """The signed form of an HTTP query (unchanged while the session is unknown or the car has no key)."""
+        return self._sign_with(wire.sign_query, query)
+
+    def sign_datagram(self, line: bytes) -> bytes:
+        """The signed form of a phone's control datagram (unchanged likewise)."""
+        return self._sign_with(wire.sign_datagram, line)
+
+    def _sign_with(self, sign, text):
         with self._lock:
             if self.unkeyed or self.session is None:
-                return query
+                return text
             self.counter += 1
-            return wire.sign_query(query, self.key, self.session, self.counter)
+            return sign(text, self.key, self.session, self.counter)
 
     def write(self, data: bytes) -> None:
         """Until the session is known, messages go unsigned: a car with a key refuses them and

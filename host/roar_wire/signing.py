@@ -50,6 +50,15 @@ def sign_query(query, key, session, counter):
     return signed + "&mac=%012x" % query_mac(key, session, signed)
 
 
+def sign_datagram(text, key, session, counter):
+    """A phone's control datagram ("throttle,steering") with its counter and MAC appended:
+    "throttle,steering,HEX,HEX12", the MAC over the session and the text before the last ','."""
+    if not 1 <= counter <= COUNTER_MAX:
+        raise ValueError("counter %d is outside 1..%d" % (counter, COUNTER_MAX))
+    signed = bytes(text) + (",%x" % counter).encode()
+    return signed + (",%012x" % query_mac(key, session, signed)).encode()
+
+
 _HEX = "0123456789abcdef"
 
 
@@ -146,6 +155,26 @@ class Authenticator:
             return control.SYNTAX, query
         verdict = self._accept(control.OK, counter, mac, query_mac(self.key, self.session, signed))
         return verdict, query[:ctr_at - 1] if ctr_at else ""
+
+    def check_datagram(self, data):
+        """(verdict, the unsigned "throttle,steering" bytes) for a phone's control datagram:
+        control.OK when it may act; else UNSIGNED, FORGED, REPLAY, NOKEY, or control.SYNTAX."""
+        data = bytes(data).strip()
+        fields = data.split(b",")
+        if len(fields) != 4:
+            return (UNSIGNED if self.key is not None else control.OK), data
+        if self.key is None:
+            return NOKEY, data
+        try:
+            counter = _hex(fields[2].decode(), spec.SIGNED_COUNTER_DIGITS)
+            mac = _hex(fields[3].decode(), spec.SIGNED_MAC_DIGITS) if len(fields[3]) == spec.SIGNED_MAC_DIGITS else None
+        except UnicodeError:
+            counter = mac = None
+        if counter is None or mac is None:
+            return control.SYNTAX, data
+        signed = data[:data.rfind(b",")]
+        verdict = self._accept(control.OK, counter, mac, query_mac(self.key, self.session, signed))
+        return verdict, b",".join(fields[:2])
 
     def _accept(self, kind, counter, mac, expected):
         if mac != expected:  # the MAC first: a forgery learns nothing of the counter

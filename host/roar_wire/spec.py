@@ -157,7 +157,7 @@ UDP_INTRINSICS_BYTES = 16  # [bytes] Camera and depth payloads start with fx, fy
 UDP_PORT_RGB = 8001  # World camera: 4 float32 intrinsics fx, fy, cx, cy + JPEG
 UDP_PORT_DEPTH = 8002  # Depth: 4 float32 intrinsics + float32 depth map [m], row-major; width = 2 cx, height = pixels / width
 UDP_PORT_VEHICLE_STATE = 8003  # Vehicle state, UTF-8 CSV of state_fields
-UDP_PORT_CONTROL = 8004  # Control to the phone: "throttle,steering" floats in [-1, 1], not chunked
+UDP_PORT_CONTROL = 8004  # Control to the phone: "throttle,steering" floats in [-1, 1], not chunked; signed (a phone with a key): "throttle,steering,COUNTER,MAC", the MAC over the session and the text before its last comma, a refusal answered to the sender as the car's ERR line
 UDP_STATE_FIELDS = 'x,y,z,roll,pitch,yaw,vx,vy,vz,ax,ay,az,gx,gy,gz,hall_effect_sensor_velocity,recv_time,ix,iy,iz,r'  # The vehicle state CSV's fields, in order (ROAR's phone app): position [m], attitude [deg], velocity [m/s], acceleration [m/s^2], gyro [rad/s], wheel speed [m/s], time [s], and four more the phone fills
 
 # [v2v]

@@ -29,6 +29,8 @@ from roar.cli.errors import (ArgumentParser, ExitStatus, UserError, add_foxglove
 from roar.vision.geometry import SIMULATED_CAR_CAMERA
 from roar.stream import UnknownHost, peer
 from roar_sim.clock.lockstep import CONTROL_PERIOD_S
+from roar_wire import control as ctl
+from roar_wire import signing
 from roar_wire import stream as wire
 
 PORTS = {"rgb": spec.UDP_PORT_RGB, "depth": spec.UDP_PORT_DEPTH, "state": spec.UDP_PORT_VEHICLE_STATE}
@@ -95,8 +97,13 @@ class _Port(asyncio.DatagramProtocol):
 class Phone:
     """The streams of one simulated ESC car (roar_sim.robots.esc), run by serve() in the caller's event loop."""
 
-    def __init__(self, sim, config: StreamConfig | None = None) -> None:
+    def __init__(self, sim, config: StreamConfig | None = None, key: bytes | None = None, session: int = 1) -> None:
+        """key: signed control (the app's own setting, never set over the network): with one, only
+        signed control datagrams drive; others are answered with the car's ERR line."""
         self.sim, self.config = sim, config or StreamConfig()
+        self.auth = signing.Authenticator()
+        if key is not None:
+            self.auth.set_key(key, session)
         self.ports = dict(PORTS, control=spec.UDP_PORT_CONTROL) | (self.config.ports or {})
         self._endpoints: dict[str, _Port] = {}
         self._latest: dict[str, list[bytes]] = {}  # kind -> datagrams of the newest frame
@@ -131,6 +138,17 @@ class Phone:
 
     def _received(self, kind: str, data: bytes, addr) -> None:
         if kind == "control":
+            verdict, data = self.auth.check_datagram(data)
+            if verdict != ctl.OK:  # refused: the sender hears why, nothing changes
+                self.bad_control += 1
+                extra = ""
+                if verdict in (signing.UNSIGNED, signing.FORGED):
+                    extra = " %08x" % self.auth.session
+                elif verdict == signing.REPLAY:
+                    extra = " %x" % self.auth.last_counter
+                reply = "%s %s%s" % (spec.SERIAL_REPLY_ERROR, ctl.token(verdict), extra)
+                self._endpoints[kind].transport.sendto(reply.encode(), addr)
+                return
             control = wire.parse_control(data)
             if control is None:
                 self.bad_control += 1
@@ -236,6 +254,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--ports", type=parse_ports, default=None, metavar="RGB,DEPTH,STATE,CONTROL",
                    help=f"the four ports (default ROAR's {','.join(str(v) for v in PORTS.values())},{spec.UDP_PORT_CONTROL})")
     p.add_argument("--seconds", type=seconds_option, default=0.0, metavar="S", help="stop after this long (default: Ctrl-C)")
+    p.add_argument("--key", metavar="KEYFILE", default=None,
+                   help="signed control, as the phone app's own setting: drive only for control signed with this "
+                        "key (a key file, e.g. ~/.config/roar/key); others are answered with the car's ERR line")
     add_foxglove_option(p, "the car's channels")
     return p
 
@@ -254,10 +275,18 @@ def main(argv: list[str] | None = None) -> int:
     from roar_sim.robots.esc import EscCar
     from roar.tracks import get
 
+    key = None
+    if args.key is not None:
+        from roar.signing import SigningError, read_key_file
+
+        try:
+            key = read_key_file(args.key)
+        except SigningError as e:
+            p.error(f"--key: {e}")
     sim = EscCar(get(args.track))
     config = StreamConfig(width=args.size[0], height=args.size[1], rate_hz=args.rate, push_to=push_to,
                           host=args.host, ports=args.ports)
-    phone = Phone(sim, config)
+    phone = Phone(sim, config, key=key)
     if args.foxglove is not None:
         from roar_sim.runs.run_log import SimLog
 

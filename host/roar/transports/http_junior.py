@@ -55,7 +55,7 @@ class HttpTransport(Transport):
         self._reused = False  # the next request goes on a connection that served one before
         self.range_m: float | None = None  # [m] the latest ultrasonic reading; inf: no echo
         self.requests = 0
-        self.signer = None  # query -> the signed query (set by roar.signing.SigningTransport)
+        self.signer = None  # a roar.signing.SigningTransport: its sign_query(query) signs each query
         self._refusal: str | None = None  # the latest signing refusal, as the car's "ERR ..." line
 
     @classmethod
@@ -84,7 +84,7 @@ class HttpTransport(Transport):
 
     def _get(self, query: str, error: type[TransportError]) -> None:
         if self.signer is not None:
-            query = self.signer(query)
+            query = self.signer.sign_query(query)
         conn = self._conn
         if conn is None:
             raise LinkLost(f"Junior at {self.host}:{self.port} is not connected")

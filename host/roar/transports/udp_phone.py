@@ -9,6 +9,10 @@ which it forwards to the car over BLE; the phone's camera, depth and state strea
 
 car.camera() is the newest (RGB, metric depth) pair, car.state() position, heading, speed and
 yaw rate from the state stream. The phone has no replies: no READY or ARMED events.
+
+Signed control (roar.signing): a signing Vehicle sets `signer`; each datagram then goes as
+"throttle,steering,COUNTER,MAC". A phone with a key answers other datagrams to their sender
+with the car's ERR line ("ERR unsigned SESSION", ...), which refusal() hands back.
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ class UdpPhoneTransport(Transport):
         self._sock: socket.socket | None = None
         self._error: BaseException | None = None
         self._stop: asyncio.Event | None = None
+        self.signer = None  # a roar.signing.SigningTransport: its sign_datagram(line) signs each datagram
 
     @classmethod
     def from_url(cls, target: str, options: dict[str, str]) -> UdpPhoneTransport:
@@ -54,6 +59,7 @@ class UdpPhoneTransport(Transport):
             address, listen = peer(self.host)
             self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
             self._sock.connect((address, spec.UDP_PORT_CONTROL))
+            self._sock.setblocking(False)  # (sends never wait; refusal() reads what the phone answered)
         except (OSError, UnknownHost) as e:
             raise TransportError(f"udp://{self.host}: {e.strerror if isinstance(e, OSError) else e}") from None
         started = threading.Event()
@@ -94,10 +100,28 @@ class UdpPhoneTransport(Transport):
 
     def write(self, data: bytes) -> None:
         throttle, steering = unit_command(data, self.scheme)
+        line = wire.control_line(throttle, steering)
+        if self.signer is not None:
+            line = self.signer.sign_datagram(line)
         try:
-            self._sock.send(wire.control_line(throttle, steering))
+            self._sock.send(line)
         except OSError as e:  # e.g. the phone's port is closed (ICMP unreachable)
             raise LinkLost(f"udp://{self.host}: {e.strerror or e}") from None
+
+    def refusal(self) -> str | None:
+        """The latest "ERR ..." the phone answered a refused control datagram with, once."""
+        line = None
+        while self._sock is not None:
+            try:
+                data = self._sock.recv(256)
+            except (BlockingIOError, InterruptedError):
+                break
+            except OSError:  # the phone's port is closed: write() says so
+                break
+            text = data.decode("ascii", "replace").strip()
+            if text.startswith(spec.SERIAL_REPLY_ERROR + " "):
+                line = text
+        return line
 
     def state(self) -> VehicleState | None:
         frame = self._latest.get("state")

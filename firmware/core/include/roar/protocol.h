@@ -125,7 +125,7 @@ static constexpr uint16_t kUdpIntrinsicsBytes = 16u;  // [bytes] Camera and dept
 static constexpr uint16_t kUdpPortRgb = 8001u;  // World camera: 4 float32 intrinsics fx, fy, cx, cy + JPEG
 static constexpr uint16_t kUdpPortDepth = 8002u;  // Depth: 4 float32 intrinsics + float32 depth map [m], row-major; width = 2 cx, height = pixels / width
 static constexpr uint16_t kUdpPortVehicleState = 8003u;  // Vehicle state, UTF-8 CSV of state_fields
-static constexpr uint16_t kUdpPortControl = 8004u;  // Control to the phone: "throttle,steering" floats in [-1, 1], not chunked
+static constexpr uint16_t kUdpPortControl = 8004u;  // Control to the phone: "throttle,steering" floats in [-1, 1], not chunked; signed (a phone with a key): "throttle,steering,COUNTER,MAC", the MAC over the session and the text before its last comma, a refusal answered to the sender as the car's ERR line
 static constexpr char kUdpStateFields[] = "x,y,z,roll,pitch,yaw,vx,vy,vz,ax,ay,az,gx,gy,gz,hall_effect_sensor_velocity,recv_time,ix,iy,iz,r";  // The vehicle state CSV's fields, in order (ROAR's phone app): position [m], attitude [deg], velocity [m/s], acceleration [m/s^2], gyro [rad/s], wheel speed [m/s], time [s], and four more the phone fills
 
 // [v2v]
