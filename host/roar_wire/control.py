@@ -160,6 +160,11 @@ class Parser:
             if first or not self.digits or (byte == _SET_END) != setpoint:
                 return SYNTAX
             return self._finish(setpoint, self.value, None)
+        return self._cut(byte)
+
+    def _cut(self, byte):
+        """Any other byte inside a message: a new message or a line end cuts it short, anything
+        else is a syntax error (the rest of the message is skipped)."""
         if byte == _START or byte == _SET_START:
             self._start(byte)
             return UNTERMINATED
@@ -168,7 +173,6 @@ class Parser:
             return UNTERMINATED
         self.state = SKIP
         return SYNTAX
-
 
     def _hex(self, byte, state):
         nibble = byte - _ZERO if _ZERO <= byte <= _NINE else byte - 87 if 97 <= byte <= 102 else -1
@@ -188,14 +192,7 @@ class Parser:
             if state == COUNTER or self.digits != spec.SIGNED_MAC_DIGITS or (byte == _SET_END) != self._setpoint_kind:
                 return SYNTAX  # no MAC, a truncated one, or the other kind's end
             return self._finish(self._setpoint_kind, self._second, (self._counter, self.value))
-        if byte == _START or byte == _SET_START:
-            self._start(byte)
-            return UNTERMINATED
-        if byte == _CR or byte == _LF:
-            self.state = IDLE
-            return UNTERMINATED
-        self.state = SKIP
-        return SYNTAX
+        return self._cut(byte)
 
     def _finish(self, setpoint, second, signature):
         lo, hi = spec.CONTROL_MIN_US, spec.CONTROL_MAX_US

@@ -79,20 +79,7 @@ void IarrcBoard::host_key_line(KeyLine::Event ev) {
   size_t n = 0;
   {
     Locked locked(hal_);
-    KeyStore& keys = controller_.keys();
-    const KeyStore::Answer answer = keys.on_key_line(ev, key_line_.key());
-    if (answer == KeyStore::Answer::Key) {
-      append_key_reply(line, sizeof(line), &n, keys.auth());
-      if ((ev == KeyLine::Event::Set || ev == KeyLine::Event::Clear) && keys.auth().keyed()) {
-        append_session_reply(line, sizeof(line), &n, keys.auth());
-      }
-    } else if (answer != KeyStore::Answer::None) {
-      append(line, sizeof(line), &n, proto::kSerialReplyError);
-      append(line, sizeof(line), &n, " ");
-      append(line, sizeof(line), &n,
-             parse_result_token(answer == KeyStore::Answer::NoStorage ? ParseResult::Nokey : ParseResult::Syntax));
-      append(line, sizeof(line), &n, proto::kSerialReplyLineEnd);
-    }
+    n = controller_.keys().on_key_line(ev, key_line_.key(), line, sizeof(line));
   }
   if (n) hal_.write_host(line, n);
 }

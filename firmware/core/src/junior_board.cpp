@@ -107,20 +107,8 @@ DrivePins JuniorBoard::poll() {
     if (byte < 0) break;
     const KeyLine::Event ev = key_line_.feed(static_cast<uint8_t>(byte));
     if (ev == KeyLine::Event::NotMine || ev == KeyLine::Event::Taken) continue;
-    const bool changes = ev == KeyLine::Event::Set || ev == KeyLine::Event::Clear;
-    const KeyStore::Answer answer = keys_.on_key_line(ev, key_line_.key());
     char line[2 * proto::kSerialMaxReplyBytes + 1];  // KEY and SESSION
-    size_t n = 0;
-    if (answer == KeyStore::Answer::Key) {
-      append_key_reply(line, sizeof(line), &n, keys_.auth());
-      if (changes && keys_.auth().keyed()) append_session_reply(line, sizeof(line), &n, keys_.auth());
-    } else if (answer != KeyStore::Answer::None) {
-      append(line, sizeof(line), &n, proto::kSerialReplyError);
-      append(line, sizeof(line), &n, " ");
-      append(line, sizeof(line), &n,
-             parse_result_token(answer == KeyStore::Answer::NoStorage ? ParseResult::Nokey : ParseResult::Syntax));
-      append(line, sizeof(line), &n, proto::kSerialReplyLineEnd);
-    }
+    const size_t n = keys_.on_key_line(ev, key_line_.key(), line, sizeof(line));
     if (n) serial_line(line, n);
   }
   const Micros t = now();

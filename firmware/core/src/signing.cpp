@@ -200,6 +200,23 @@ KeyStore::Answer KeyStore::on_key_line(KeyLine::Event ev, const uint8_t* key) {
   }
 }
 
+size_t KeyStore::on_key_line(KeyLine::Event ev, const uint8_t* key, char* out, size_t cap) {
+  const Answer answer = on_key_line(ev, key);
+  size_t n = 0;
+  if (answer == Answer::Key) {
+    append_key_reply(out, cap, &n, auth_);
+    if ((ev == KeyLine::Event::Set || ev == KeyLine::Event::Clear) && auth_.keyed()) {
+      append_session_reply(out, cap, &n, auth_);
+    }
+  } else if (answer != Answer::None) {
+    append(out, cap, &n, proto::kSerialReplyError);
+    append(out, cap, &n, " ");
+    append(out, cap, &n, parse_result_token(answer == Answer::NoStorage ? ParseResult::Nokey : ParseResult::Syntax));
+    append(out, cap, &n, proto::kSerialReplyLineEnd);
+  }
+  return n;
+}
+
 bool append_key_reply(char* buf, size_t cap, size_t* len, const Authenticator& auth) {
   return append(buf, cap, len, proto::kSignedKeyCommand) && append(buf, cap, len, " ") &&
          (auth.keyed() ? append_hex(buf, cap, len, auth.fingerprint(), proto::kSignedFingerprintDigits)

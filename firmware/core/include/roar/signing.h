@@ -150,6 +150,10 @@ class KeyStore {
     start_session(nvm, auth_);
   }
   Answer on_key_line(KeyLine::Event ev, const uint8_t* key);
+  // The same, answered as text for a board that writes its serial lines at once (the Junior, the
+  // IARRC car): "KEY ..." (and "SESSION ..." after a change), or "ERR nokey" / "ERR syntax";
+  // returns the length written into out (0: nothing to say). cap: 2 reply lines and a NUL.
+  size_t on_key_line(KeyLine::Event ev, const uint8_t* key, char* out, size_t cap);
   Authenticator& auth() { return auth_; }
   const Authenticator& auth() const { return auth_; }
 
