@@ -37,6 +37,7 @@ BASE = {
     "replay": ["{recording}"],
     "dataset": ["{recording}", "--out", "{tmp}/tub"],
     "calibrate": ["loop://", "--file", "{tmp}/calibration.toml"],
+    "key": ["show", "serial:///dev/roar-none", "--file", "{tmp}/key"],  # (no car there: one line, after the key file)
     "web": ["loop://", "--port", "18887", "--for", "0.3"],
     "scan": ["--timeout", "0.1"],
     "ports": [],
@@ -236,6 +237,8 @@ URL_RUNS = {
     ("sim", "trace", "99999999999999999999"): "a trace file named 999...",
     ("sim", "trace", "fast"): "a trace file named fast",
     ("udp", "push", "0"): "asks for frames (push=0 is the default)",
+    **{("sim", "eeprom", v): f"the board's EEPROM kept in a file named {v}"
+       for v in ("0", "-1", "nan", "inf", "-inf", "1e308", "99999999999999999999", "fast")},
 }
 
 

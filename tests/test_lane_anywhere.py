@@ -11,7 +11,7 @@ from roar.tracks import get  # noqa: E402
 from roar_sim.runs.race import race, report  # noqa: E402
 
 
-@pytest.mark.parametrize("name", ["random:31", "random:33",  # not the benchmark's seeds
+@pytest.mark.parametrize("name", ["random:31",  # not the benchmark's seeds (it laps random:1..20 and 5 wide ones)
                                   "random:32,width=2.2,radius=1"])  # a real circuit's shape: lines cross the view in bends
 def test_the_camera_alone_laps_a_random_track(name):
     track = get(name)

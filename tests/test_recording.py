@@ -385,7 +385,7 @@ def with_frames(tmp_path_factory):
 
     path = tmp_path_factory.mktemp("frames") / "run.mcap"
     with Vehicle("sim://oval", record=path) as car:
-        assert car.wait_for(timeout_s=10.0) is not None
+        assert car.wait_for(timeout_s=10.0, since=0.0) is not None  # the car is up (whenever it said so)
         for k in range(12):
             car.send_pulses(1600, 1300 + 40 * k)
             assert car.flush(1.0)

@@ -69,3 +69,23 @@ class StartLights:
     def update(self, time_s: float) -> None:
         if not self.is_green and time_s >= self.green_at_s:
             self.show(True)
+
+
+def frames_to_start(plant, lights: StartLights, camera, detector, green_in_s: float, steps_per_frame: int,
+                    after_frames: int = 4) -> tuple[int | None, int]:
+    """A standing start: the light turns green green_in_s from now; frames (every steps_per_frame
+    physics steps) go to detector.update until it starts the car or after_frames past green.
+    Returns (the green frames it had seen when it started: 0 is a false start; None: no start),
+    and the frames it saw red."""
+    lights.reset(plant.time_s + green_in_s)
+    detector.reset()
+    green_frames = red_frames = 0
+    while green_frames <= after_frames:
+        for _ in range(steps_per_frame):
+            plant.step()
+        rgb, _ = camera()
+        green_frames += lights.is_green
+        red_frames += not lights.is_green
+        if detector.update(rgb):
+            return (green_frames if lights.is_green else 0), red_frames
+    return None, red_frames

@@ -30,6 +30,8 @@ def _vehicle(args, record=None) -> Vehicle:
 def key(args) -> int:
     from roar.cli.keys import key as run
 
+    if args.url is not None and not args.url.strip():
+        raise UserError("the car's URL is empty: give it as serial:///dev/ttyACM0")
     if args.action in ("set", "clear") and not args.url:
         raise UserError(f"roar key {args.action} needs the car's URL, e.g. serial:///dev/ttyACM0")
     return run(args)
