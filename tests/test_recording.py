@@ -168,7 +168,7 @@ def test_a_car_over_a_serial_link_is_recorded_on_the_hosts_clock(pty_car, tmp_pa
     start = time.monotonic_ns()
     with Vehicle(f"serial://{pty_car.path}", record=path) as car:
         car.drive(0.2, 0.0)
-        assert car.wait_for(timeout_s=3.0) is not None
+        assert car.wait_for(timeout_s=3.0, since=0.0) is not None  # whenever it said it (maybe before now)
         time.sleep(0.3)
     heard = list(car.replies)
     took = time.monotonic_ns() - start
@@ -348,7 +348,7 @@ def test_replay_plots_a_run_and_plays_its_commands_to_a_car(tmp_path):
 
     first, second = tmp_path / "first.mcap", tmp_path / "second.mcap"
     with Vehicle("sim://oval", record=first) as car:
-        assert car.wait_for(timeout_s=10.0) is not None  # up (until then the library holds neutral)
+        assert car.wait_for(timeout_s=10.0, since=0.0) is not None  # up (until then the library holds neutral)
         for throttle_us, steering_us in ((1600, 1500), (1650, 1300), (1500, 1700)):
             car.send_pulses(throttle_us, steering_us)
             time.sleep(0.4)
@@ -675,7 +675,7 @@ def test_every_robots_recording_plays_back_to_it(robot, tmp_path):
     assert len(recorded) >= 10
     with Vehicle(f"sim://oval?robot={robot}", record=second) as car:
         if robot == "iarrc":
-            assert car.wait_for(timeout_s=10.0) is not None  # it says READY 2: driven by speed
+            assert car.wait_for(timeout_s=10.0, since=0.0) is not None  # it says READY 2: driven by speed
         assert play(first, car) == len(recorded)
     def wire(m):  # what the car is told, as the replaying Vehicle puts it on the wire
         if m["result"] == "setpoint":
