@@ -22,9 +22,7 @@ def run() -> None:
     if missing:
         print(f"  skipped: {missing}")
         return
-    with simavr.EmulatedNano(avr.build_parser_bench()) as bench:
-        bench.run(0.2)
-        parser_cycles, plain_cycles, car_cycles = (w for _, w in bench.pulse_cycles("B5")[:3])
+    parser_cycles, plain_cycles, car_cycles = (w for _, w in simavr.parser_bench_pulses(0.2)[:3])
     per_parser, per_plain, per_car = (c / avr.BENCH_MESSAGES for c in (parser_cycles, plain_cycles, car_cycles))
     message_bytes = len(encode(1500, 1500))
     line_cycles = message_bytes * BITS_PER_BYTE / spec.SERIAL_BAUD * simavr.F_CPU  # one message on the wire

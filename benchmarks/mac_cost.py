@@ -17,9 +17,7 @@ def run() -> None:
     if missing:
         print(f"  skipped ({missing})")
         return
-    with simavr.EmulatedNano(avr.build_parser_bench()) as bench:
-        bench.run(0.5)
-        pulses = bench.pulse_cycles("B5")
+    pulses = simavr.parser_bench_pulses(0.5)
     if len(pulses) < 6:
         print("  FAILED: the keyed car did not take every signed message (see hil_sim/avr/parser_bench.cpp)")
         return

@@ -18,9 +18,7 @@ def run() -> None:
     if missing:
         print(f"  ATmega328P: skipped ({missing})")
     else:
-        with simavr.EmulatedNano(avr.build_parser_bench()) as bench:
-            bench.run(0.2)
-            cycles = bench.pulse_cycles("B5")[3][1] / avr.BENCH_SBUS_FRAMES
+        cycles = simavr.parser_bench_pulses(0.2)[3][1] / avr.BENCH_SBUS_FRAMES
         share = cycles / (simavr.F_CPU * FRAME_PERIOD_S)
         print(f"  ATmega328P (16 MHz): {cycles:7,.0f} cycles per frame ({cycles / simavr.CYCLES_PER_US:.0f} us; "
               f"{share:.3f} of the CPU)")

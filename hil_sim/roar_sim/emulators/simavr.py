@@ -159,3 +159,11 @@ class EmulatedNano:
                 return proc, line.split()[1]
         proc.wait()
         raise CoreBuildError("the AVR emulator did not announce its pty")
+
+
+def parser_bench_pulses(seconds: float) -> list[tuple[int, int]]:
+    """Run the benchmark firmware (hil_sim/avr/parser_bench.cpp) for `seconds` of emulated time:
+    (rise cycle, width in cycles) of each of its timed runs, marked on B5, in order."""
+    with EmulatedNano(avr.build_parser_bench()) as bench:
+        bench.run(seconds)
+        return bench.pulse_cycles("B5")
