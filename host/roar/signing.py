@@ -86,12 +86,8 @@ def resolve_key(key) -> bytes | None:
         return read_key_file(path) if path.exists() else None
     if key is False:
         return None
-    if isinstance(key, (bytes, bytearray)):
-        try:
-            return wire.check_key(bytes(key))
-        except ValueError as e:
-            raise SigningError(str(e)) from None
-    if isinstance(key, str) and len(key.strip()) == KEY_HEX_DIGITS and not Path(key).exists():
+    if isinstance(key, (bytes, bytearray)) or (isinstance(key, str) and len(key.strip()) == KEY_HEX_DIGITS
+                                               and not Path(key).exists()):
         try:
             return wire.check_key(key)
         except ValueError as e:

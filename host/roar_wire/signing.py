@@ -106,6 +106,17 @@ def sign(message, key, session, counter):
     return message[:-1] + (",%x,%012x" % (counter, mac)).encode() + message[-1:]
 
 
+def refusal(verdict, auth):
+    """The words of a refusal after "ERR " (a parse_result code): the reason's token and, for
+    unsigned / forged / replay, the session or the last counter in hex ("forged 0000002a")."""
+    words = control.token(verdict)
+    if verdict == UNSIGNED or verdict == FORGED:
+        return words + " %08x" % auth.session
+    if verdict == REPLAY:
+        return words + " %x" % auth.last_counter
+    return words
+
+
 class Authenticator:
     """The car's verdict on each message its parser finished (the core's Authenticator)."""
 

@@ -72,10 +72,7 @@ void Car::on_message(ParseResult r, Micros now_us) {
   if (r == ParseResult::Ok || r == ParseResult::Setpoint) {
     const ParseResult verdict = keys_.auth().check(r, parser_);
     if (verdict != r) {  // refused: nothing changes, the failsafe is not fed
-      const uint32_t value = verdict == ParseResult::Replay ? keys_.auth().last_counter()
-                             : verdict == ParseResult::Nokey ? 0u
-                                                             : keys_.auth().session();
-      queue(Reply::Error, verdict, value);
+      queue(Reply::Error, verdict, refusal_value(verdict, keys_.auth()));
       return;
     }
   }
@@ -130,12 +127,7 @@ size_t Car::take_reply(char* buf, size_t cap) {
       break;
     case Reply::Error:
       ok = append(buf, cap, &len, proto::kSerialReplyError) && append(buf, cap, &len, " ") &&
-           append(buf, cap, &len, parse_result_token(q.detail));
-      if (q.detail == ParseResult::Unsigned || q.detail == ParseResult::Forged) {
-        ok = ok && append(buf, cap, &len, " ") && append_hex(buf, cap, &len, q.value, proto::kSignedSessionDigits);
-      } else if (q.detail == ParseResult::Replay) {
-        ok = ok && append(buf, cap, &len, " ") && append_hex(buf, cap, &len, q.value, 1);
-      }
+           append_refusal(buf, cap, &len, q.detail, q.value);
       break;
     case Reply::Session:  // (these two are as they are when taken, with their line end)
       ok = append_session_reply(buf, cap, &len, keys_.auth());

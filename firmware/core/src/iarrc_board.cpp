@@ -153,23 +153,17 @@ void IarrcBoard::run_host() {
     {
       Locked locked(hal_);
       r = controller_.host_byte(static_cast<uint8_t>(byte), now());
-      const Authenticator& auth = controller_.keys().auth();
-      value = r == ParseResult::Replay ? auth.last_counter() : auth.session();
+      value = refusal_value(r, controller_.keys().auth());
     }
     if (r == ParseResult::None || r == ParseResult::Setpoint) continue;
-    // A (THROTTLE,STEERING) message is valid but not what this board drives by.
-    const char* token = r == ParseResult::Ok ? proto::kSerialErrorUnsupported : parse_result_token(r);
     char line[proto::kSerialMaxReplyBytes + 1];
     size_t n = 0;
     append(line, sizeof(line), &n, proto::kSerialReplyError);
     append(line, sizeof(line), &n, " ");
-    append(line, sizeof(line), &n, token);
-    if (r == ParseResult::Unsigned || r == ParseResult::Forged) {
-      append(line, sizeof(line), &n, " ");
-      append_hex(line, sizeof(line), &n, value, proto::kSignedSessionDigits);
-    } else if (r == ParseResult::Replay) {
-      append(line, sizeof(line), &n, " ");
-      append_hex(line, sizeof(line), &n, value, 1);
+    if (r == ParseResult::Ok) {  // a (THROTTLE,STEERING) message is valid but not what this board drives by
+      append(line, sizeof(line), &n, proto::kSerialErrorUnsupported);
+    } else {
+      append_refusal(line, sizeof(line), &n, r, value);
     }
     append(line, sizeof(line), &n, proto::kSerialReplyLineEnd);
     hal_.write_host(line, n);

@@ -64,14 +64,7 @@ size_t JuniorBoard::respond(const HttpRequestReader& request, uint32_t distance_
   size_t apply_length = 0;
   const ParseResult verdict = keys_.auth().check_query(request.query(), request.query_length(), &apply_length);
   if (verdict != ParseResult::Ok) {  // "<reason> [session or counter]": as the serial ERR line says it
-    append(body, sizeof(body), &n, parse_result_token(verdict));
-    if (verdict == ParseResult::Unsigned || verdict == ParseResult::Forged) {
-      append(body, sizeof(body), &n, " ");
-      append_hex(body, sizeof(body), &n, keys_.auth().session(), proto::kSignedSessionDigits);
-    } else if (verdict == ParseResult::Replay) {
-      append(body, sizeof(body), &n, " ");
-      append_hex(body, sizeof(body), &n, keys_.auth().last_counter(), 1);
-    }
+    append_refusal(body, sizeof(body), &n, verdict, refusal_value(verdict, keys_.auth()));
     append(body, sizeof(body), &n, "\n");
     return reply(out, cap, verdict == ParseResult::Syntax ? "400 Bad Request" : "403 Forbidden", body, false);
   }

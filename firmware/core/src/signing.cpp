@@ -217,6 +217,20 @@ size_t KeyStore::on_key_line(KeyLine::Event ev, const uint8_t* key, char* out, s
   return n;
 }
 
+uint32_t refusal_value(ParseResult verdict, const Authenticator& auth) {
+  if (verdict == ParseResult::Replay) return auth.last_counter();
+  return verdict == ParseResult::Unsigned || verdict == ParseResult::Forged ? auth.session() : 0u;
+}
+
+bool append_refusal(char* buf, size_t cap, size_t* len, ParseResult verdict, uint32_t value) {
+  if (!append(buf, cap, len, parse_result_token(verdict))) return false;
+  if (verdict == ParseResult::Unsigned || verdict == ParseResult::Forged) {
+    return append(buf, cap, len, " ") && append_hex(buf, cap, len, value, proto::kSignedSessionDigits);
+  }
+  if (verdict == ParseResult::Replay) return append(buf, cap, len, " ") && append_hex(buf, cap, len, value, 1);
+  return true;
+}
+
 bool append_key_reply(char* buf, size_t cap, size_t* len, const Authenticator& auth) {
   return append(buf, cap, len, proto::kSignedKeyCommand) && append(buf, cap, len, " ") &&
          (auth.keyed() ? append_hex(buf, cap, len, auth.fingerprint(), proto::kSignedFingerprintDigits)

@@ -160,12 +160,7 @@ class Car:
         if result == control.OK or result == control.SETPOINT:
             verdict = self.auth.check(result, self.parser)
             if verdict != result:  # refused: nothing changes, the failsafe is not fed
-                extra = ""
-                if verdict == signing.UNSIGNED or verdict == signing.FORGED:
-                    extra = " %08x" % self.auth.session
-                elif verdict == signing.REPLAY:
-                    extra = " %x" % self.auth.last_counter
-                self._queue("%s %s%s" % (spec.SERIAL_REPLY_ERROR, control.token(verdict), extra))
+                self._queue("%s %s" % (spec.SERIAL_REPLY_ERROR, signing.refusal(verdict, self.auth)))
                 return
         if result == control.SETPOINT:  # a valid message, but this car drives by throttle, not speed
             self._queue("%s %s" % (spec.SERIAL_REPLY_ERROR, spec.SERIAL_ERROR_UNSUPPORTED))

@@ -219,11 +219,7 @@ class JuniorBoard:
             return _reply("404 Not Found", "no such route\n", False), False
         verdict, query = self.auth.check_query(request.query)
         if verdict != control.OK:
-            body = control.token(verdict)
-            if verdict == signing.UNSIGNED or verdict == signing.FORGED:
-                body += " %08x" % self.auth.session
-            elif verdict == signing.REPLAY:
-                body += " %x" % self.auth.last_counter
+            body = signing.refusal(verdict, self.auth)
             status = "400 Bad Request" if verdict == control.SYNTAX else "403 Forbidden"
             return _reply(status, body + "\n", False), False
         refused = self.control.apply_query(query, now_ms)

@@ -141,12 +141,7 @@ class Phone:
             verdict, data = self.auth.check_datagram(data)
             if verdict != ctl.OK:  # refused: the sender hears why, nothing changes
                 self.bad_control += 1
-                extra = ""
-                if verdict in (signing.UNSIGNED, signing.FORGED):
-                    extra = " %08x" % self.auth.session
-                elif verdict == signing.REPLAY:
-                    extra = " %x" % self.auth.last_counter
-                reply = "%s %s%s" % (spec.SERIAL_REPLY_ERROR, ctl.token(verdict), extra)
+                reply = "%s %s" % (spec.SERIAL_REPLY_ERROR, signing.refusal(verdict, self.auth))
                 self._endpoints[kind].transport.sendto(reply.encode(), addr)
                 return
             control = wire.parse_control(data)

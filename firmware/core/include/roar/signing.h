@@ -162,6 +162,13 @@ class KeyStore {
   Authenticator auth_;
 };
 
+// What a refusal's words carry after the token: the session (unsigned, forged), the last
+// counter (replay), else 0 (nothing). Taken when the message is refused.
+uint32_t refusal_value(ParseResult verdict, const Authenticator& auth);
+// The reason's token and, for unsigned / forged / replay, that value in hex ("forged 0000002a"):
+// what every board says after "ERR " (or in the Junior's 403 body).
+bool append_refusal(char* buf, size_t cap, size_t* len, ParseResult verdict, uint32_t value);
+
 // "KEY <fingerprint>" or "KEY none", and "SESSION <8 hex>", each with the line end.
 bool append_key_reply(char* buf, size_t cap, size_t* len, const Authenticator& auth);
 bool append_session_reply(char* buf, size_t cap, size_t* len, const Authenticator& auth);
