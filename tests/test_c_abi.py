@@ -20,7 +20,7 @@ def structs() -> list[str]:
 
 
 def test_the_binding_sees_every_struct_of_the_header():
-    assert structs() == ["roar_car_config_t", "roar_car_outputs_t", "roar_host_hal_t", "roar_iarrc_hal_t", "roar_iarrc_status_t",
+    assert structs() == ["roar_car_config_t", "roar_car_outputs_t", "roar_flash_t", "roar_host_hal_t", "roar_iarrc_hal_t", "roar_iarrc_status_t",
                          "roar_junior_hal_t", "roar_parse_event_t", "roar_sbus_frame_t", "roar_sbus_status_t",
                          "roar_side_pins_t", "roar_task_spec_t"]
 
@@ -53,7 +53,7 @@ def test_every_field_has_the_offset_and_size_the_c_compiler_gives_it(tmp_path):
 
 
 def test_the_loaded_library_speaks_the_headers_abi_version():
-    assert lib().roar_core_abi_version() == lib().ROAR_CORE_ABI_VERSION == 9
+    assert lib().roar_core_abi_version() == lib().ROAR_CORE_ABI_VERSION == 10
 
 
 # --- the codes that cross the ABI -----------------------------------------------------------

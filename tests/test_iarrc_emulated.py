@@ -14,6 +14,7 @@ from roar.protocol.control import encode, encode_setpoint
 from roar.telemetry import parse_telemetry
 from roar_sim.emulators import qemu
 from roar_sim.toolchains import arm
+from roar_wire import signing
 
 if qemu.available():
     pytest.skip(qemu.available(), allow_module_level=True)
@@ -30,6 +31,8 @@ class Bench:
         self.board = board
         self.transmitter = Transmitter()
         self.setpoint = None  # (speed mm/s, steering us) sent at 50 Hz, None: silent
+        self.signing = None  # (key, session) once the board has a key
+        self.counter = 0
         self._running = True
         self._threads = [threading.Thread(target=self._sbus, daemon=True),
                          threading.Thread(target=self._host, daemon=True)]
@@ -46,7 +49,11 @@ class Bench:
     def _host(self):
         while self._running:
             if self.setpoint is not None:
-                self.board.send("host", encode_setpoint(*self.setpoint))
+                message = encode_setpoint(*self.setpoint)
+                if self.signing is not None:  # (key, session): signed, the counter rising
+                    self.counter += 1
+                    message = signing.sign(message, *self.signing, self.counter)
+                self.board.send("host", message)
             time.sleep(HOST_PERIOD_S)
 
     def telemetry(self, match, port="host", timeout_s=5.0):
@@ -130,3 +137,30 @@ def test_losing_the_transmitter_fails_safe_and_no_task_overran(bench):
     t = bench.telemetry(lambda t: t["mode"] == "failsafe")
     assert t and t["failsafe"] == "rc_lost" and t["throttle_out_us"] <= 1500
     assert t["overruns"] == 0
+
+
+def test_a_key_set_on_the_host_port_is_kept_in_flash_and_only_signed_setpoints_drive(bench):
+    """Last (from here on the board takes signed setpoints only): the key goes into the flash
+    log (the emulator's sectors are RAM), and the board drives by signed setpoints alone."""
+    key = bytes(range(0x20, 0x30))
+    bench.setpoint = None
+    bench.transmitter.on, bench.transmitter.mode = True, "off"  # back from the lost transmitter: disarmed
+    assert bench.telemetry(lambda t: t["mode"] == "disarmed")
+    since = len(bench.board.lines["host"])
+    bench.board.send("host", f"KEY {key.hex()}\n".encode())
+    assert bench.board.wait_line("host", lambda l: l == f"KEY {signing.fingerprint(key)}", since=since)
+    assert bench.board.wait_line("host", lambda l: l == "SESSION 00000001", since=since)
+    bench.board.send("host", encode_setpoint(1000, 1500))
+    assert bench.board.wait_line("host", lambda l: l == "ERR unsigned 00000001", since=since)
+    bench.signing, bench.setpoint = (key, 1), (0, 1500)
+    time.sleep(0.1)  # the computer is talking before the switch goes to autonomous
+    bench.transmitter.mode = "autonomous"
+    assert bench.telemetry(lambda t: t["mode"] == "autonomous")
+    bench.setpoint = (1000, 1600)
+    t = bench.telemetry(lambda t: t["mode"] == "autonomous" and t["setpoint_m_s"] == 1.0)
+    assert t and t["steering_out_us"] == 1600, bench.board.lines["host"][-3:]
+    since = len(bench.board.lines["host"])
+    bench.board.send("host", signing.sign(encode_setpoint(2000, 1500), key, 1, 1))  # an old counter
+    assert bench.board.wait_line("host", lambda l: l.startswith("ERR replay "), since=since)
+    bench.board.send("host", b"KEY ?\n")
+    assert bench.board.wait_line("host", lambda l: l == f"KEY {signing.fingerprint(key)}", since=since)

@@ -16,7 +16,7 @@ if micropython.available():
 
 PROGRAMS = ROOT / "tests" / "micropython"
 TICKS_MS_PERIOD = 1 << 30  # [ms] MicroPython's ticks_ms() wraps here on an ESP32
-BOOT_GRACE_US = 3_000_000  # [us] the Junior's config.BOOT_GRACE_S: its loop starts after it
+BOOT_GRACE_US = 3_000_000  # [us] the Junior's serial window (spec junior.serial_window_us): its loop starts after it
 WALL_CM = 100
 
 
@@ -138,9 +138,12 @@ def cpp_junior(scenario: dict) -> dict:
                 last = pins
             tick += 1000
 
+    board.serial_in(scenario.get("console", "").encode())  # read by the first loop (the window's reads)
     for i, (at, conn, action, text) in enumerate(scenario["events"]):
         run_to(at)
         out = b""
+        if action == "type":
+            continue
         if action == "close":
             closed.add(conn)
         elif conn not in closed:
@@ -161,7 +164,7 @@ def cpp_junior(scenario: dict) -> dict:
                 reader.reset()
         replies.append([i, out.decode()])
     run_to(scenario["end_us"])
-    return {"replies": replies, "changes": changes}
+    return {"replies": replies, "changes": changes, "console": board.serial_out().decode(), "nvm": board.nvm}
 
 
 @pytest.mark.parametrize("seed", [1, 2])
@@ -181,6 +184,47 @@ def test_the_micropython_junior_answers_and_drives_as_the_cpp_core(tmp_path, see
     stops = sum(1 for a, b in zip(cpp["changes"], cpp["changes"][1:]) if a[1] != [[0, 0, 0]] * 2 and b[1] == [[0, 0, 0]] * 2)
     assert stops > 5
     assert mp["watchdog_gap_us"] <= 1000 and mp["watchdog_timeout_ms"] >= 1000  # fed every loop
+
+
+def test_the_micropython_junior_takes_its_key_on_the_console_after_a_reset_as_the_cpp_core(tmp_path):
+    """Key lines typed on the console in the window after a reset are answered; signed queries
+    drive and unsigned, replayed or forged ones are refused, as by the C++ core; what is typed
+    after the window (the ranger has the pins) is not read."""
+    from roar_wire import signing
+
+    key = bytes(range(16, 32))
+    start_us = 10_000_000
+    loop0 = start_us + BOOT_GRACE_US
+
+    def get(query):
+        return f"GET /?{query} HTTP/1.1\r\nHost: junior\r\nConnection: close\r\n\r\n"
+
+    def forge(query):  # the MAC's last digit changed
+        return query[:-1] + ("1" if query[-1] == "0" else "0")
+
+    drive = "forward=True&left_spd=0.5&right_spd=0.5"
+    queries = [drive,                                                   # unsigned: 403
+               signing.sign_query(drive, key, 1, 1),                    # 200
+               signing.sign_query(drive, key, 1, 1),                    # replayed: 403
+               forge(signing.sign_query(drive, key, 1, 2)),             # forged: 403
+               signing.sign_query(drive, key, 2, 3),                    # another session: forged
+               signing.sign_query("stop=True", key, 1, 5)]              # 200
+    events = [[loop0 + 100_000 + 20_000 * i, i + 1, "send", get(q)] for i, q in enumerate(queries)]
+    events.insert(2, [loop0 + 110_000, 0, "type", "KEY -\n"])  # too late: the console is the ranger's
+    scenario = {"start_us": start_us, "end_us": loop0 + 400_000, "wall_cm": WALL_CM, "events": events,
+                "console": f"KEY ?\nKEY {key.hex()}\nKEY 12\n"}
+    mp = run_scenario(tmp_path, "junior_scenario.py", "junior", scenario)
+    cpp = cpp_junior(scenario)
+    assert mp["replies"] == cpp["replies"]
+    assert "".join(text for _, text in mp["console"]) == cpp["console"] == \
+        f"KEY none\nKEY {signing.fingerprint(key)}\nSESSION 00000001\nERR syntax\n"
+    assert all(t < loop0 for t, _ in mp["console"])  # answered in the window
+    statuses = [reply.split()[1] for _, reply in cpp["replies"]]
+    bodies = [reply.split("\r\n\r\n", 1)[1].strip() for _, reply in cpp["replies"]]
+    assert statuses == ["403", "200", "403", "403", "403", "200"], bodies
+    assert bodies[0] == "unsigned 00000001" and bodies[2] == "replay 1" and bodies[3] == bodies[4] == "forged 00000001"
+    assert bytes.fromhex(mp["key_file"]) == cpp["nvm"][:signing.RECORD_BYTES]
+    assert signing.load_record(bytes.fromhex(mp["key_file"])) == (key, 1)
 
 
 def test_idle_connections_do_not_lock_out_a_driver_and_silence_stops_the_junior(tmp_path):
@@ -248,8 +292,9 @@ def car_scenario(seed: int, seconds: float = 20.0) -> dict:
 
 
 def cpp_car(scenario: dict) -> dict:
-    """The C++ core's board loop (CarBoard) on the same bytes (taken by the loop at the next
-    tick, as the MicroPython car takes its BLE writes) and frames every 20 ms from the start."""
+    """The C++ core's board loop (CarBoard) on the same bytes and frames every 20 ms from the
+    start: BLE writes fed before the next tick's loop (when the MicroPython car takes them),
+    console bytes through its serial port (read by that loop)."""
     from roar_sim.core.car import CarBoard
 
     start = scenario["start_us"]
@@ -272,9 +317,11 @@ def cpp_car(scenario: dict) -> dict:
     for at, action, text in scenario["events"]:
         run_to(at)
         if action == "write":
+            board.ble_write(text.encode())
+        elif action == "serial":
             board.serial_in(text.encode())
     run_to(scenario["end_us"])
-    return {"changes": changes, "replies": replies}
+    return {"changes": changes, "replies": replies, "nvm": board.nvm, "session": (board.session, board.last_counter)}
 
 
 @pytest.mark.parametrize("seed", [1, 2])
@@ -298,6 +345,95 @@ def test_the_micropython_car_drives_and_replies_as_the_cpp_core(tmp_path, seed):
     assert bytes.fromhex(mp["velocity"]) == struct.pack("<f", 0.0)
     assert struct.unpack("<ff", bytes.fromhex(mp["state"]))[1] in (p[0] for _, p in cpp["changes"])
     assert mp["led"] == 1  # off: the host has gone
+
+
+def keyed_car_scenario(seed: int, seconds: float = 12.0) -> dict:
+    """Signed control on the car: keys set, asked and cleared on the console (in either case of
+    hex, and malformed), a key line written over BLE (which must not count), then signed
+    messages over BLE and the console among replayed, reordered, forged, unsigned, truncated and
+    other-session ones, silences past the failsafe, and the key cleared and set again."""
+    from roar_wire import signing
+
+    rng = random.Random(seed)
+    start_us = (TICKS_MS_PERIOD - 3000) * 1000
+    t, end = start_us + 50_000, start_us + int(seconds * 1e6)
+    events = [[t, "connect", ""]]
+    keys = [bytes(rng.randrange(256) for _ in range(16)) for _ in range(2)]
+    key, session, counter, sent = None, 0, 0, []
+
+    def at(ms):
+        nonlocal t
+        t = (t + ms * 1000) // 1000 * 1000 + 500
+        return t
+
+    def set_key(new, upper=False):
+        nonlocal key, session, counter
+        text = new.hex().upper() if upper else new.hex()
+        events.append([at(5), "serial", f"KEY {text}\n"])
+        key, session, counter = new, session + 1, 0
+        sent.clear()
+
+    events.append([at(5), "serial", "KEY ?\n"])
+    set_key(keys[0], upper=True)
+    events.append([at(5), "write", "KEY -\n"])  # over BLE: not a key line, the key stays
+    events.append([at(5), "serial", "KEY 12\n"])  # malformed: ERR syntax, the key stays
+    phase_end = [start_us + int(seconds * 0.5e6), end - 100_000]
+    for phase in range(2):
+        while t < phase_end[phase] - 500_000:
+            r = rng.random()
+            throttle = rng.choice([1500, 1500, 1524, 1560, 1700, 1440, 1300])
+            message = f"({throttle},{rng.randint(1000, 2000)})".encode()
+            link = rng.choice(["write", "serial"])
+            if r < 0.55 and key:  # in order, sometimes skipping counters
+                counter += rng.choice([1, 1, 1, 2, 7])
+                signed = signing.sign(message, key, session, counter)
+                sent.append(signed)
+            elif r < 0.65 and sent:  # replayed or reordered
+                signed = rng.choice(sent)
+            elif r < 0.75 and key:  # forged: a digit of the MAC or a field altered
+                good = signing.sign(message, key, session, counter + 1)
+                i = rng.choice([1, len(good) - 2])
+                signed = good[:i] + (b"9" if good[i:i + 1] != b"9" else b"8") + good[i + 1:]
+            elif r < 0.8 and key:  # another session, or the MAC truncated
+                signed = rng.choice([signing.sign(message, key, session + 1, counter + 1),
+                                     signing.sign(message, key, session, counter + 1)[:-3] + b")"])
+            else:
+                signed = message  # unsigned: refused while keyed, driven otherwise
+            events.append([at(rng.choice([5, 10, 20, 20, 40, 260])), link, signed.decode()])
+        if phase == 0:
+            events.append([at(300), "serial", "KEY -\n"])
+            key, session, counter = None, session + 1, 0
+            events.append([at(5), "serial", "(1500,1500)"])
+            events.append([at(5), "write", signing.sign(b"(1600,1500)", keys[0], session, 1).decode()])  # nokey
+            set_key(keys[1])
+            events.append([at(5), "serial", "KEY ?\n"])
+    events.append([end - 50_000, "disconnect", ""])
+    return {"start_us": start_us, "end_us": end, "events": events, "keys": [k.hex() for k in keys], "session": session}
+
+
+def test_the_micropython_car_keeps_a_key_and_refuses_as_the_cpp_core(tmp_path):
+    """The car's signed control under MicroPython: its key lines, its key file and every verdict
+    equal the C++ core's on the same bytes."""
+    from roar_wire import signing
+
+    scenario = keyed_car_scenario(3)
+    mp = run_scenario(tmp_path, "car_scenario.py", "car", scenario)
+    cpp = cpp_car(scenario)
+    assert mp["replies"] == cpp["replies"]
+    assert mp["changes"] == cpp["changes"]
+    lines = [line for _, line in cpp["replies"]]
+    first, key = (bytes.fromhex(k) for k in scenario["keys"])
+    assert lines[:4] == ["READY 1\n", "KEY none\n", f"KEY {signing.fingerprint(first)}\n", "SESSION 00000001\n"]
+    assert lines.count("KEY none\n") == 2 and "SESSION 00000003\n" in lines
+    assert lines.count(f"KEY {signing.fingerprint(key)}\n") == 2 and "ERR syntax\n" in lines and "ERR nokey\n" in lines
+    reasons = {line.split()[1] for line in lines if line.startswith("ERR ")}
+    assert {"unsigned", "forged", "replay"} <= reasons
+    assert max(p[0] for _, p in cpp["changes"]) > 1500  # signed messages drove
+    # the key file holds the record the core keeps in its EEPROM, and the session characteristic the session
+    assert bytes.fromhex(mp["key_file"]) == cpp["nvm"][:signing.RECORD_BYTES]
+    assert signing.load_record(bytes.fromhex(mp["key_file"])) == (key, scenario["session"])
+    assert struct.unpack("<II", bytes.fromhex(mp["session"])) == cpp["session"]
+    assert cpp["session"][0] == scenario["session"] == 3
 
 
 def spec_value(name: str):

@@ -11,7 +11,8 @@
 // has been quiet longest, so idle connections cannot lock a driver out. roar::JuniorBoard::poll()
 // runs every iteration, so the failsafe fires even while a request is still arriving. The task
 // watchdog resets the chip when the loop stops feeding it. Signed control: a KEY line on the USB
-// serial port sets the key, kept in NVS with the session (../esp32_cam/nvs_store.h).
+// serial port sets the key, kept in NVS with the session (../esp32_cam/nvs_store.h); the port is
+// read only for the first serial_window_us after a reset, as the ranger needs its pins.
 #include <Arduino.h>
 #include <WiFi.h>
 #include <errno.h>
@@ -78,11 +79,12 @@ class JuniorPins : public roar::JuniorHal {
     apply(pins.right, pins::kRightIn1, pins::kRightIn2, pins::kRightChannel);
   }
   void feed_watchdog() override { esp_task_wdt_reset(); }
-  int read_byte() override { return Serial.read(); }
+  int read_byte() override { return console ? Serial.read() : -1; }
   void write(const char* text, size_t length) override {
-    if (Serial.availableForWrite() >= static_cast<int>(length)) Serial.write(text, length);  // never block
+    if (console && Serial.availableForWrite() >= static_cast<int>(length)) Serial.write(text, length);  // never block
   }
   roar::Nvm* nvm() override { return &nvs; }
+  bool console = true;  // false once the ranger has the console's pins
 };
 
 JuniorPins hal;
@@ -162,13 +164,18 @@ void setup() {
   ledcSetup(pins::kRightChannel, roar::proto::kL298nPwmFrequencyHz, kPwmBits);
   ledcAttachPin(pins::kEnableLeft, pins::kLeftChannel);
   ledcAttachPin(pins::kEnableRight, pins::kRightChannel);
-  pinMode(pins::kUltrasonicTrigger, OUTPUT);
-  pinMode(pins::kUltrasonicEcho, INPUT);
-  attachInterrupt(digitalPinToInterrupt(pins::kUltrasonicEcho), on_echo, CHANGE);
-
   Serial.begin(roar::proto::kSerialBaud);
   nvs.begin();
   board.begin();
+  // The ranger sits on the console's pins: key lines are read for a window after the reset
+  // (motors stopped, no network yet), then the pins are the ranger's.
+  for (const uint32_t start = millis(); millis() - start < roar::proto::kJuniorSerialWindowUs / 1000;) board.poll();
+  Serial.flush();
+  Serial.end();
+  hal.console = false;
+  pinMode(pins::kUltrasonicTrigger, OUTPUT);
+  pinMode(pins::kUltrasonicEcho, INPUT);
+  attachInterrupt(digitalPinToInterrupt(pins::kUltrasonicEcho), on_echo, CHANGE);
   WiFi.begin(ROAR_WIFI_SSID, ROAR_WIFI_PASSWORD);
   for (int i = 0; i < 100 && WiFi.status() != WL_CONNECTED; ++i) delay(100);
   if (WiFi.status() != WL_CONNECTED) WiFi.softAP(ROAR_WIFI_SSID, ROAR_WIFI_PASSWORD);

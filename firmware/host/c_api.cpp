@@ -400,7 +400,10 @@ void roar_iarrc_board_init(void* board, roar_iarrc_hal_t* hal, uint32_t counts_p
   if (counts_per_m > 0) config.counts_per_m = counts_per_m;
   new (board) HostIarrcBoard(hal, config);
 }
-void roar_iarrc_board_begin(void* board) { as<HostIarrcBoard>(board)->board.begin(); }
+void roar_iarrc_board_begin(void* board) {
+  as<HostIarrcBoard>(board)->hal.begin();
+  as<HostIarrcBoard>(board)->board.begin();
+}
 uint32_t roar_iarrc_board_session(const void* board) {
   return static_cast<const HostIarrcBoard*>(board)->board.controller().keys().auth().session();
 }

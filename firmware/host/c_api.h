@@ -17,7 +17,7 @@
 extern "C" {
 #endif
 
-#define ROAR_CORE_ABI_VERSION 9
+#define ROAR_CORE_ABI_VERSION 10
 
 uint32_t roar_core_abi_version(void);
 uint32_t roar_protocol_version(void);
@@ -327,6 +327,17 @@ typedef struct {
   uint32_t cost_us;     /* [us] declared worst case on the STM32F745 at 16 MHz */
 } roar_task_spec_t;
 
+/* Two sectors of flash (roar/flash_log.h: the IARRC car keeps its key in them) as a chip's
+ * behave: programming only clears bits, and a word programmed twice is refused and counted; an
+ * erase sets a sector's bytes to 0xFF. power_words >= 0: the power fails once that many more
+ * words are programmed (every later program or erase fails); -1: it never does. */
+#define ROAR_FLASH_SECTOR_BYTES 2048
+typedef struct {
+  int32_t power_words;                                /* in */
+  uint32_t words_programmed, erases, double_programs; /* out */
+  uint8_t bytes[2 * ROAR_FLASH_SECTOR_BYTES]; /* in/out: kept by the caller across reboots (0xFF: blank) */
+} roar_flash_t;
+
 typedef struct {
   uint32_t now_us;          /* in: [us] the board's free-running 32-bit counter */
   uint32_t frames_started;  /* in: output frames begun */
@@ -337,8 +348,7 @@ typedef struct {
   uint32_t watchdog_feeds;  /* out */
   uint16_t sbus_len, sbus_pos, host_len, host_pos, link_len, link_pos; /* in/out */
   uint16_t host_tx_len, link_tx_len; /* out */
-  uint16_t nvm_writes, reserved;      /* out: nvm bytes that changed */
-  uint8_t nvm[ROAR_HOST_NVM_BYTES];   /* in/out: the board's flash for its key and session (0xFF: blank) */
+  roar_flash_t flash;                 /* in/out: the sector with the key and session (a FlashLog) */
   uint32_t sbus_at_us[ROAR_IARRC_SBUS_BYTES]; /* in: now_us when each SBUS byte arrived */
   uint8_t sbus[ROAR_IARRC_SBUS_BYTES];        /* in: received SBUS bytes */
   uint8_t host_rx[ROAR_IARRC_RX_BYTES];       /* in: bytes from the vision computer */
@@ -352,7 +362,7 @@ void roar_iarrc_task(uint8_t index, roar_task_spec_t* out);
 size_t roar_iarrc_board_size(void);
 /* counts_per_m: the wheel encoder's counts per metre (0 = the default, a 66 mm wheel). */
 void roar_iarrc_board_init(void* board, roar_iarrc_hal_t* hal, uint32_t counts_per_m);
-void roar_iarrc_board_begin(void* board);             /* READY 2 on the host port; reads nvm */
+void roar_iarrc_board_begin(void* board);             /* the flash log's boot (may erase); READY 2; the key */
 uint32_t roar_iarrc_board_session(const void* board); /* the signing session; 0 without a key */
 void roar_iarrc_board_run(void* board, uint8_t task); /* one release of a task (a roar_iarrc_task) */
 void roar_iarrc_board_overran(void* board, uint8_t task, uint32_t missed);

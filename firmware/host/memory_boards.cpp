@@ -31,6 +31,28 @@ void MemoryNvm::write(uint16_t at, const uint8_t* data, uint8_t n) {
   }
 }
 
+bool MemoryFlash::program(uint32_t offset, const uint32_t* words, uint8_t n) {
+  for (uint8_t i = 0; i < n; ++i) {
+    if (m_->power_words == 0) return false;
+    uint8_t* p = bytes_ + offset + 4u * i;
+    if ((p[0] & p[1] & p[2] & p[3]) != 0xFF) {  // a word programmed twice: refused
+      ++m_->double_programs;
+      return false;
+    }
+    if (m_->power_words > 0) --m_->power_words;
+    for (uint8_t b = 0; b < 4; ++b) p[b] &= static_cast<uint8_t>(words[i] >> (8 * b));
+    ++m_->words_programmed;
+  }
+  return true;
+}
+
+bool MemoryFlash::erase() {
+  if (m_->power_words == 0) return false;
+  for (uint32_t i = 0; i < ROAR_FLASH_SECTOR_BYTES; ++i) bytes_[i] = 0xFF;
+  ++m_->erases;
+  return true;
+}
+
 HostCarBoard::HostCarBoard(roar_host_hal_t* m, const CarConfig& cfg) : hal(m), board(hal, cfg) {
   for (uint8_t ch = 0; ch < 2; ++ch) m->pending_us[ch] = m->wire_us[ch] = proto::kControlNeutralUs;  // as at boot
 }

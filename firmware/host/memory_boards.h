@@ -9,6 +9,7 @@
 
 #include "c_api.h"
 #include "roar/board.h"
+#include "roar/flash_log.h"
 #include "roar/iarrc_board.h"
 #include "roar/junior_board.h"
 
@@ -29,6 +30,20 @@ class MemoryNvm : public Nvm {
   uint8_t* bytes_;
   uint16_t size_;
   uint16_t* writes_;
+};
+
+// One of roar_flash_t's sectors: bits only cleared, erased whole, the power cut on request.
+class MemoryFlash : public FlashSector {
+ public:
+  MemoryFlash(roar_flash_t* m, uint8_t sector) : m_(m), bytes_(m->bytes + sector * ROAR_FLASH_SECTOR_BYTES) {}
+  uint32_t size() const override { return ROAR_FLASH_SECTOR_BYTES; }
+  const uint8_t* bytes() const override { return bytes_; }
+  bool program(uint32_t offset, const uint32_t* words, uint8_t n) override;
+  bool erase() override;
+
+ private:
+  roar_flash_t* m_;
+  uint8_t* bytes_;
 };
 
 // --- the ESC car: CarBoard on roar_host_hal_t ------------------------------------------------
@@ -88,8 +103,9 @@ struct HostJuniorBoard {
 // The caller is the scheduler: it runs one task body at a time, so the lock has nothing to do.
 class IarrcMemoryHal : public IarrcHal {
  public:
-  explicit IarrcMemoryHal(roar_iarrc_hal_t* m) : m_(m), nvm_(m->nvm, sizeof(m->nvm), &m->nvm_writes) {}
-  Nvm* nvm() override { return &nvm_; }
+  explicit IarrcMemoryHal(roar_iarrc_hal_t* m) : m_(m), flash_{{&m->flash, 0}, {&m->flash, 1}}, log_(flash_[0], flash_[1]) {}
+  void begin() { log_.begin(); }  // as the F7's glue does before its watchdog starts
+  Nvm* nvm() override { return &log_; }
   RawMicros now_us() override { return m_->now_us; }
   bool read_sbus(uint8_t* byte, RawMicros* at_us) override;
   int read_host() override { return m_->host_pos < m_->host_len ? m_->host_rx[m_->host_pos++] : -1; }
@@ -107,7 +123,8 @@ class IarrcMemoryHal : public IarrcHal {
 
  private:
   roar_iarrc_hal_t* m_;
-  MemoryNvm nvm_;
+  MemoryFlash flash_[2];
+  FlashLog log_;
 };
 
 struct HostIarrcBoard {

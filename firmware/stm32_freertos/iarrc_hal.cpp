@@ -102,6 +102,7 @@ extern "C" void USART6_IRQHandler() {
 
 void AnyFcHal::begin() {
   hal = this;
+  key_log_.begin();
   host_rx.begin();
   link_rx.begin();
   sbus_rx.begin();

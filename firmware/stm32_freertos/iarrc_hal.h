@@ -4,6 +4,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "key_flash.h"
+#include "roar/flash_log.h"
 #include "roar/iarrc_board.h"
 #include "roar/spsc_bytes.h"
 #include "rtos.h"
@@ -17,7 +19,7 @@ class AnyFcHal : public roar::IarrcHal {
 #endif
   static constexpr uint16_t kTxBytes = 512;  // [bytes] per transmit ring
 
-  void begin();
+  void begin();  // the key's log first: it may erase a sector, before the watchdog starts
 
   roar::RawMicros now_us() override;
   bool read_sbus(uint8_t* byte, roar::RawMicros* at_us) override;
@@ -33,6 +35,7 @@ class AnyFcHal : public roar::IarrcHal {
   void feed_watchdog() override;
   void lock() override;
   void unlock() override;
+  roar::Nvm* nvm() override { return &key_log_; }
 
   // Filled by the USART interrupts, emptied by the tasks (and the other way round for tx).
   rtos::IsrBytes<256> host_rx, link_rx;
@@ -42,6 +45,8 @@ class AnyFcHal : public roar::IarrcHal {
  private:
   void queue(uint32_t base, roar::SpscBytes<kTxBytes>& tx, const char* text, size_t length);
 
+  KeyFlash key_sectors_[2] = {KeyFlash(0), KeyFlash(1)};
+  roar::FlashLog key_log_{key_sectors_[0], key_sectors_[1]};
   uint32_t frames_ = 0;
   int32_t encoder_ = 0;
   uint16_t encoder_raw_ = 0;

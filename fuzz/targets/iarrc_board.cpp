@@ -13,6 +13,8 @@ static void check_lines(const char* tx, uint16_t len) {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static roar_iarrc_hal_t hal;
   memset(&hal, 0, sizeof hal);
+  memset(hal.flash.bytes, 0xFF, sizeof hal.flash.bytes);  // blank flash, as from the factory
+  hal.flash.power_words = -1;                              // that never loses power
   hal.battery_adc = 3000;
   fuzz::Object board(roar_iarrc_board_size());
   roar_iarrc_board_init(board, &hal, 0);

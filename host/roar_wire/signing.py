@@ -6,6 +6,13 @@ of a message, signing a message a host sends, and the car's verdict on one it re
     auth = Authenticator(); auth.set_key(key, 7)
     auth.check(control.OK, parser)                    OK, or UNSIGNED, FORGED, REPLAY, NOKEY
 
+A board's side (the core's KeyRecord, KeyLine and KeyStore): the key and the last session in
+its non-volatile memory (MemoryNvm, FileNvm), key lines read from its serial console only.
+
+    keys = KeyStore(); keys.boot(FileNvm("/roar_key.bin"))   a new session, stored before use
+    line = KeyLine(); ev = line.feed(byte)                     KEY_NOT_MINE: to the control parser
+    keys.on_key_line(ev, line.key)                             ["KEY 1a2b3c4d", "SESSION 00000003"]
+
 Runs unchanged on CPython and MicroPython.
 """
 
@@ -194,3 +201,202 @@ class Authenticator:
             return REPLAY
         self.last_counter = counter
         return kind
+
+
+# --- a board's key: the core's KeyRecord, KeyLine and KeyStore ----------------------------------
+
+# The record the key lives in, as the core lays it out in a board's non-volatile memory: magic
+# "RK", flags (bit 0: a key is set), the key, the last session drawn (uint32 LE), and a check
+# (the low 16 bits of SipHash-2-4 under a zero key over the bytes before it).
+RECORD_MAGIC = b"RK"
+RECORD_BYTES = 2 + 1 + KEY_BYTES + 4 + 2  # [bytes]
+_FLAG_KEYED = 1
+_ZERO_KEY = bytes(KEY_BYTES)
+
+
+def _check(body):
+    return _le(siphash.mac(_ZERO_KEY, body) & 0xFFFF, 2)
+
+
+def record(key, session):
+    """The stored bytes of a key (None: no key) and the last session drawn."""
+    body = RECORD_MAGIC + bytes((_FLAG_KEYED if key else 0,)) + (bytes(key) if key else _ZERO_KEY) + _le(session, 4)
+    return body + _check(body)
+
+
+def load_record(data):
+    """(key or None, last session) from stored bytes; (None, 0) when blank or damaged."""
+    data = bytes(data or b"")[:RECORD_BYTES]
+    if len(data) != RECORD_BYTES or data[:2] != RECORD_MAGIC or data[-2:] != _check(data[:-2]):
+        return None, 0
+    at = 3 + KEY_BYTES
+    session = data[at] | data[at + 1] << 8 | data[at + 2] << 16 | data[at + 3] << 24
+    return (data[3:at] if data[2] & _FLAG_KEYED else None), session
+
+
+class MemoryNvm:
+    """Non-volatile memory that lasts as long as the object (tests, simulators)."""
+
+    def __init__(self, data=b""):
+        self.data = bytes(data)
+        self.writes = 0
+
+    def read(self):
+        return self.data
+
+    def write(self, data):
+        self.data = bytes(data)
+        self.writes += 1
+
+
+class FileNvm:
+    """The record in a file of the board's filesystem, replaced whole (written beside it, then
+    renamed over it): a reset while writing leaves the old record or the new one, never half."""
+
+    def __init__(self, path):
+        self.path = path
+
+    def read(self):
+        try:
+            with open(self.path, "rb") as f:
+                return f.read(RECORD_BYTES)
+        except OSError:
+            return b""  # none yet: blank
+
+    def write(self, data):
+        import os
+
+        tmp = self.path + ".new"
+        with open(tmp, "wb") as f:
+            f.write(data)
+        try:
+            os.rename(tmp, self.path)
+        except OSError:  # a filesystem that will not rename over a file
+            os.remove(self.path)
+            os.rename(tmp, self.path)
+
+
+def _next_session(session):
+    session = (session + 1) & 0xFFFFFFFF
+    return session or 1  # after 2^32 draws; 0 means "no key" on the wire
+
+
+def start_session(nvm, auth):
+    """Boot: the key in nvm (if any) with a fresh session, stored before it is used."""
+    if nvm is None:
+        return
+    key, session = load_record(nvm.read())
+    if key is None:
+        auth.set_key(None, 0)
+        return
+    session = _next_session(session)
+    nvm.write(record(key, session))
+    auth.set_key(key, session)
+
+
+# What KeyLine.feed says became of a byte (the core's KeyLine::Event)
+KEY_NOT_MINE = 0  # not a key line: the byte goes to the control parser
+KEY_TAKEN = 1  # part of a key line
+KEY_SET = 2  # "KEY <32 hex>" ended: .key holds the new key
+KEY_CLEAR = 3  # "KEY -" ended
+KEY_ASK = 4  # "KEY ?" ended
+KEY_BAD = 5  # a line that began "K" but is not a key command: answered ERR syntax, and the byte
+#              goes to the control parser too, so stray bytes never hold control back
+_LINE_START, _OTHER, _WORD, _DIGITS, _CLEARING, _ASKING = range(6)
+_KEY_WORD = (spec.SIGNED_KEY_COMMAND + " ").encode()
+_MESSAGE_ENDS = (ord(spec.CONTROL_END_CHAR), ord(spec.SETPOINT_END_CHAR))
+
+
+def _digit(byte):
+    """A hex digit's value (a key line also takes uppercase), else -1."""
+    return "0123456789abcdef".find(chr(byte).lower()) if byte < 128 else -1
+
+
+class KeyLine:
+    """"KEY <32 hex>" / "KEY -" / "KEY ?" on the serial link, at the start of a line or right
+    after a message, read as it arrives."""
+
+    def __init__(self):
+        self.state = _LINE_START
+        self.at = 0  # characters of "KEY " matched, then hex digits taken
+        self.key = bytearray(KEY_BYTES)
+
+    def feed(self, byte):
+        end = byte == 10 or byte == 13
+        state = self.state
+        if state == _OTHER:
+            if end or byte in _MESSAGE_ENDS:
+                self.state = _LINE_START
+            return KEY_NOT_MINE
+        if state == _LINE_START:
+            if byte == _KEY_WORD[0]:
+                self.state, self.at = _WORD, 1
+                return KEY_TAKEN
+            if not end and byte not in _MESSAGE_ENDS:
+                self.state = _OTHER
+            return KEY_NOT_MINE
+        if state == _WORD:
+            if byte == _KEY_WORD[self.at]:
+                self.at += 1
+                if self.at == len(_KEY_WORD):
+                    self.state, self.at = _DIGITS, 0
+                return KEY_TAKEN
+        elif state == _DIGITS:
+            if self.at == 0 and byte in (45, 63):  # "-", "?"
+                self.state = _CLEARING if byte == 45 else _ASKING
+                return KEY_TAKEN
+            value = _digit(byte)
+            if value >= 0 and self.at < 2 * KEY_BYTES:
+                i = self.at // 2
+                self.key[i] = value << 4 if self.at % 2 == 0 else self.key[i] | value
+                self.at += 1
+                return KEY_TAKEN
+            if end and self.at == 2 * KEY_BYTES:
+                self.state = _LINE_START
+                return KEY_SET
+        elif end:  # _CLEARING, _ASKING
+            self.state = _LINE_START
+            return KEY_CLEAR if state == _CLEARING else KEY_ASK
+        self.state = _LINE_START if end else _OTHER
+        return KEY_BAD
+
+
+def key_reply(auth):
+    """ "KEY <fingerprint>" or "KEY none" (no line end)."""
+    return "%s %s" % (spec.SIGNED_KEY_COMMAND, fingerprint(auth.key) if auth.key else spec.SIGNED_KEY_NONE)
+
+
+def session_reply(auth):
+    """ "SESSION <8 hex>" (no line end)."""
+    return "%s %08x" % (spec.SIGNED_REPLY_SESSION, auth.session)
+
+
+class KeyStore:
+    """A board's key: kept in its non-volatile memory (an object with read() and write(bytes);
+    None: the board has none and refuses a key), changed only by key lines from its serial link."""
+
+    def __init__(self):
+        self.nvm = None
+        self.auth = Authenticator()
+
+    def boot(self, nvm):
+        self.nvm = nvm
+        start_session(nvm, self.auth)
+
+    def on_key_line(self, event, key):
+        """The reply lines (without line ends) to what KeyLine.feed returned; [] for none."""
+        if event == KEY_SET or event == KEY_CLEAR:
+            if self.nvm is None:  # nowhere to keep a key: refuse rather than forget it
+                return ["%s %s" % (spec.SERIAL_REPLY_ERROR, control.token(NOKEY))]
+            key = bytes(key) if event == KEY_SET else None
+            session = _next_session(load_record(self.nvm.read())[1])  # a new key starts a new session
+            self.nvm.write(record(key, session))
+            if load_record(self.nvm.read()) != (key, session):  # read back: full or failing storage refuses
+                return ["%s %s" % (spec.SERIAL_REPLY_ERROR, control.token(NOKEY))]
+            self.auth.set_key(key, session)
+            return [key_reply(self.auth), session_reply(self.auth)] if key else [key_reply(self.auth)]
+        if event == KEY_ASK:
+            return [key_reply(self.auth)]
+        if event == KEY_BAD:
+            return ["%s %s" % (spec.SERIAL_REPLY_ERROR, control.token(control.SYNTAX))]
+        return []

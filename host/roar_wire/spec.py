@@ -193,6 +193,7 @@ JUNIOR_CAMERA_HIGH_WIDTH = 800  # [px] Width of the high-resolution frames (/cam
 JUNIOR_CAMERA_HIGH_HEIGHT = 600  # [px] Height of the high-resolution frames
 JUNIOR_FAILSAFE_TIMEOUT_US = 500000  # [us] No control request for longer than this stops both sides
 JUNIOR_IDLE_CLOSE_US = 2000000  # [us] A connection (either port) that sends nothing for this long is closed, so idle clients cannot hold the robot's few connections
+JUNIOR_SERIAL_WINDOW_US = 3000000  # [us] After a reset the Junior reads its USB serial console (key lines) for this long; then the console's pins go to the ultrasonic ranger
 
 # The word of each parse_result code, indexed by the code
 PARSE_RESULT_TOKENS = ('none', 'ok', 'syntax', 'range', 'too_long', 'unterminated', 'garbage', 'setpoint', 'unsigned', 'forged', 'replay', 'nokey',)

@@ -1,10 +1,11 @@
 # Runs under MicroPython (tests/test_micropython_boards.py): the ESP32-CAM car's MicroPython
 # program (firmware/micropython/car) in the simulated world of hil_sim/micropython/standins,
 # through a scenario from /scenario.json:
-#   {"start_us": ..., "end_us": ..., "events": [[t_us, "write" | "connect" | "disconnect", text], ...]}
-# "write" is a BLE write to the control characteristic. Prints one JSON line: the pulses the
-# loop decided at each millisecond tick (as changes; checked against the PWM stand-ins), every
-# reply line with its tick, what the radio advertised and holds, the watchdog, the peak heap.
+#   {"start_us": ..., "end_us": ..., "events": [[t_us, "write" | "serial" | "connect" | "disconnect", text], ...]}
+# "write" is a BLE write to the control characteristic, "serial" bytes typed on the console.
+# Prints one JSON line: the pulses the loop decided at each millisecond tick (as changes;
+# checked against the PWM stand-ins), every reply line with its tick, what the radio advertised
+# and holds, the key file, the watchdog, the peak heap.
 import json
 from binascii import hexlify
 
@@ -25,9 +26,13 @@ CONTROL_UUID = spec.BLE_CONTROL_UUID
 replies = []  # [tick us, line]
 
 
+typed = [b""]  # console bytes the loop has not read yet
+
+
 class TestConsole:
     def read(self, n):
-        return b""
+        data, typed[0] = typed[0][:n], typed[0][n:]
+        return data
 
     def write(self, text):
         replies.append([sim.now_us // 1000 * 1000, text])
@@ -60,6 +65,8 @@ def run():
         radio = bluetooth.radio
         if action == "write":
             radio.central_write(CONTROL_UUID, text.encode())
+        elif action == "serial":
+            typed[0] += text.encode()
         elif action == "connect":
             radio.central_connect()
         else:
@@ -74,10 +81,16 @@ roar_steps = run()
 def roar_finish(first, peak):
     radio = bluetooth.radio
     wdt = machine.watchdogs[0] if machine.watchdogs else None
+    try:
+        with open(config.KEY_FILE, "rb") as f:
+            key_file = hexlify(f.read()).decode()
+    except OSError:
+        key_file = None
     print(json.dumps({"changes": changes, "replies": replies, "errors": sim.errors,
                       "advertising": [[t, i, hexlify(a).decode(), hexlify(r).decode()] for t, i, a, r in radio.advertising],
                       "state": hexlify(radio.central_read(spec.BLE_STATE_UUID)).decode(),
                       "velocity": hexlify(radio.central_read(spec.BLE_VELOCITY_UUID)).decode(),
+                      "session": hexlify(radio.central_read(spec.BLE_SESSION_UUID)).decode(), "key_file": key_file,
                       "led": machine.pins[config.STATUS_LED_PIN].value(),
                       "watchdog_gap_us": wdt.longest_gap_us if wdt else None,
                       "watchdog_timeout_ms": wdt.timeout_ms if wdt else None, "peak_heap": peak}))

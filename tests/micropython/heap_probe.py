@@ -35,8 +35,7 @@ def run():
         import junior_app as app
     else:
         import car_app as app
-
-        app.Console = QuietConsole
+    app.Console = QuietConsole
     sim.spawn(app.main(), "main")
     for _ in range(160):  # the Junior's boot grace, Wi-Fi, server up
         sim.run_until(sim.now_us + 20000)

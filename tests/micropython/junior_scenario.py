@@ -1,12 +1,14 @@
 # Runs under MicroPython (tests/test_micropython_boards.py): the ROAR Junior's MicroPython
 # program (firmware/micropython/junior) in the simulated world of hil_sim/micropython/standins,
 # through a scenario from /scenario.json:
-#   {"start_us": ..., "end_us": ..., "wall_cm": 100,
-#    "events": [[t_us, connection, "send" | "close", text], ...]}
+#   {"start_us": ..., "end_us": ..., "wall_cm": 100, "console": text typed before the reset,
+#    "events": [[t_us, connection, "send" | "close" | "type", text], ...]}
 # An HC-SR04 answers every trigger pulse with the echo of a wall at wall_cm. Prints one JSON
 # line: every reply (by event), the L298N pins the loop wrote at each millisecond tick (as
-# changes; also checked against the pins' stand-ins), the watchdog's longest gap, the peak heap.
+# changes; also checked against the pins' stand-ins), the console's lines, the key file, the
+# watchdog's longest gap, the peak heap.
 import json
+from binascii import hexlify
 
 import sim
 
@@ -36,7 +38,21 @@ def on_output(pin, value):
         sim.spawn(echo(), "echo")
 
 
+typed = [scenario.get("console", "").encode()]  # typed on the console before the reset
+console_out = []  # [t us, line]
+
+
+class TestConsole:
+    def read(self, n):
+        data, typed[0] = typed[0][:n], typed[0][n:]
+        return data
+
+    def write(self, text):
+        console_out.append([sim.now_us, text])
+
+
 machine.on_output = on_output
+junior_app.Console = TestConsole
 sim.spawn(junior_app.main(), "main")
 
 OUT_PINS = [config.LEFT_IN1, config.LEFT_IN2, config.RIGHT_IN1, config.RIGHT_IN2]
@@ -76,6 +92,9 @@ replies = []
 def run():
     for i, (at, conn, action, text) in enumerate(events):
         sim.run_until(at)
+        if action == "type":  # on the console, after the window: nobody reads it any more
+            typed[0] += text.encode()
+            continue
         if action == "send":
             if conn not in clients:
                 clients[conn] = sim_asyncio.connect(81)
@@ -93,6 +112,12 @@ roar_steps = run()
 
 def roar_finish(first, peak):
     wdt = machine.watchdogs[0] if machine.watchdogs else None
-    print(json.dumps({"replies": replies, "changes": changes, "errors": sim.errors,
+    try:
+        with open(config.KEY_FILE, "rb") as f:
+            key_file = hexlify(f.read()).decode()
+    except OSError:
+        key_file = None
+    print(json.dumps({"replies": replies, "changes": changes, "errors": sim.errors, "console": console_out,
+                      "key_file": key_file,
                       "watchdog_gap_us": wdt.longest_gap_us if wdt else None,
                       "watchdog_timeout_ms": wdt.timeout_ms if wdt else None, "peak_heap": peak}))

@@ -188,6 +188,8 @@ KeyStore::Answer KeyStore::on_key_line(KeyLine::Event ev, const uint8_t* key) {
       for (uint8_t i = 0; i < proto::kSignedKeyBytes; ++i) record.key[i] = record.keyed ? key[i] : 0;
       if (++record.session == 0) record.session = 1;  // a new key starts a new session
       record.store(*nvm_);
+      const KeyRecord kept = KeyRecord::load(*nvm_);  // read back: storage that is full or failing refuses
+      if (kept.keyed != record.keyed || kept.session != record.session) return Answer::NoStorage;
       auth_.set_key(record.keyed ? record.key : nullptr, record.session);
       return Answer::Key;
     }

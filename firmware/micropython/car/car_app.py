@@ -15,7 +15,6 @@ next 20 ms boundary after it is written, as the PWM peripheral does.
 import asyncio
 import binascii
 import struct
-import sys
 import time
 
 import bluetooth
@@ -23,7 +22,8 @@ import config
 import machine
 from roar_car import Car, Channel
 from roar_clock import FRAME_MS, Clock
-from roar_wire import spec
+from roar_console import Console
+from roar_wire import signing, spec
 
 LOOP_MS = 1  # [ms] loop period
 MAX_BYTES_PER_LOOP = 64  # keep the loop short under a byte flood
@@ -69,8 +69,9 @@ class Radio:
             (U(spec.BLE_STATE_UUID), _FLAG_READ),
             (U(spec.BLE_NAME_UUID), _FLAG_WRITE),
             (U(spec.BLE_OVERRIDE_UUID), _FLAG_WRITE),
+            (U(spec.BLE_SESSION_UUID), _FLAG_READ),
         ))
-        ((self.control, self.velocity, self.pid, self.state, self.name, self.override),) = \
+        ((self.control, self.velocity, self.pid, self.state, self.name, self.override, self.session),) = \
             self.ble.gatts_register_services((service,))
         self.ble.gatts_write(self.velocity, struct.pack("<f", 0.0))  # no speedometer on this car
         self.ble.gatts_write(self.state, struct.pack("<ff", 0.0, spec.CONTROL_NEUTRAL_US))
@@ -106,27 +107,9 @@ class Radio:
         self.queued = self.queued[n:]
         return data
 
-    def publish(self, throttle_us):
+    def publish(self, throttle_us, auth):
         self.ble.gatts_write(self.state, struct.pack("<ff", 0.0, throttle_us))
-
-
-class Console:
-    """The serial console (USB): control bytes in, reply lines out, never waiting for input."""
-
-    def __init__(self):
-        import select
-
-        self._poll = select.poll()
-        self._poll.register(sys.stdin, select.POLLIN)
-
-    def read(self, n):
-        data = b""
-        while len(data) < n and self._poll.poll(0):
-            data += sys.stdin.buffer.read(1)
-        return data
-
-    def write(self, text):
-        sys.stdout.write(text)
+        self.ble.gatts_write(self.session, struct.pack("<II", auth.session, auth.last_counter))
 
 
 class Outputs:
@@ -162,13 +145,15 @@ class CarBoard:
         self.radio = Radio(config.NAME)
         self.led = machine.Pin(config.STATUS_LED_PIN, machine.Pin.OUT, value=1)
         self._last_state = 0
-        self.car.boot()
+        self.car.boot(signing.FileNvm(config.KEY_FILE))
 
     def poll(self):
         """The loop body: bytes in, one car step, pulses out, replies out, watchdog fed."""
         now = self.clock.now()
-        for byte in self.radio.take(MAX_BYTES_PER_LOOP) + self.console.read(MAX_BYTES_PER_LOOP):
+        for byte in self.radio.take(MAX_BYTES_PER_LOOP):
             self.car.feed(byte, now)
+        for byte in self.console.read(MAX_BYTES_PER_LOOP):  # the only link that may set the key
+            self.car.feed(byte, now, serial=True)
         pulses = self.car.step(now, self.outputs.frames(now))
         self.outputs.write(pulses)
         line = self.car.take_reply()
@@ -178,7 +163,7 @@ class CarBoard:
         self.led.value(0 if self.radio.connected else 1)
         if now - self._last_state >= STATE_PERIOD_MS:
             self._last_state = now
-            self.radio.publish(pulses[0])
+            self.radio.publish(pulses[0], self.car.auth)
         return pulses
 
 

@@ -1,6 +1,7 @@
 # The ESP32-CAM car's settings: edit, then put them on the car (firmware/micropython/README.md).
 
 NAME = "ROAR Car"  # the Bluetooth name it advertises (a host finds it with ble:// or roar scan)
+KEY_FILE = "/roar_key.bin"  # signed control's key and session (set with: roar key set serial://PORT)
 
 # Pins (ESP32-CAM GPIO numbers), as ROAR wires the car
 THROTTLE_PIN = 14  # ESC signal

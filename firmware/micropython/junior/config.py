@@ -14,7 +14,8 @@ RIGHT_IN1 = 14  # IN3: right forward
 RIGHT_IN2 = 2  # IN4: right reverse
 ENABLE_RIGHT = 16  # ENB: right side PWM
 # The ultrasonic ranger is on the serial pins (TX = GPIO1, RX = GPIO3): once the robot takes
-# them, the serial console stops. It waits BOOT_GRACE_S first, so a computer can still stop it.
+# them, the serial console stops. It reads the console for 3 s after a reset first (the
+# protocol's junior serial_window_us), so a computer can still stop it or set its key.
 ULTRASONIC_TRIGGER = 3
 ULTRASONIC_ECHO = 1
-BOOT_GRACE_S = 3  # [s]
+KEY_FILE = "/roar_key.bin"  # signed control's key and session (set with: roar key set serial://PORT)

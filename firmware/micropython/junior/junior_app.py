@@ -17,10 +17,12 @@ import config
 import machine
 import network
 from roar_clock import Clock
+from roar_console import Console
 from roar_junior import INCOMPLETE, HttpRequestReader, JuniorBoard
-from roar_wire import spec
+from roar_wire import signing, spec
 
 LOOP_MS = 1  # [ms] loop period
+CONSOLE_POLL_MS = 10  # [ms] between reads of the console in the window after a reset
 PING_MS = 60  # [ms] between ultrasonic pings (echoes die out)
 MAX_ECHO_US = 23500  # [us] an echo longer than 4 m and back is no echo
 MAX_CLIENTS = 4  # connections served at once
@@ -85,9 +87,9 @@ class Ranger:
 
 
 class Junior:
-    def __init__(self):
+    def __init__(self, board):
         self.clock = Clock()
-        self.board = JuniorBoard()
+        self.board = board
         self.motors = Motors()
         self.ranger = Ranger()
         self.watchdog = None
@@ -162,10 +164,24 @@ def connect_wifi():
     return ap.ifconfig()[0]
 
 
+def console_window(board, console):
+    """The serial console is free until the ranger takes its pins: for serial_window_us after
+    a reset a computer can stop the program or set the key (key lines answered here)."""
+    start = time.ticks_ms()
+    while time.ticks_diff(time.ticks_ms(), start) < spec.JUNIOR_SERIAL_WINDOW_US // 1000:
+        for line in board.serial_in(console.read(READ_BYTES)):
+            console.write(line + spec.SERIAL_REPLY_LINE_END)
+        time.sleep_ms(CONSOLE_POLL_MS)
+
+
 async def main():
-    time.sleep(config.BOOT_GRACE_S)  # the serial console is still free: a computer can stop us now
+    board = JuniorBoard()
+    console = Console()
+    for line in board.boot(signing.FileNvm(config.KEY_FILE)):
+        console.write(line + spec.SERIAL_REPLY_LINE_END)
+    console_window(board, console)
     address = connect_wifi()
     print("ROAR Junior: http://%s:%d/?forward=True&left_spd=0.5&right_spd=0.5" % (address, spec.JUNIOR_CONTROL_PORT))
-    junior = Junior()
+    junior = Junior(board)
     await asyncio.start_server(junior.serve, "0.0.0.0", spec.JUNIOR_CONTROL_PORT)
     await junior.loop()

@@ -4,8 +4,8 @@ decision; a differential test in the suite runs both on the same bytes, clock an
 compares every pulse and every reply.
 
     car = Car()
-    car.boot()                              # queues "READY 1"
-    car.feed(byte, now_ms)                  # each received byte (serial, or a BLE write)
+    car.boot(nvm)                           # queues "READY 1" (and "SESSION ..." with a key)
+    car.feed(byte, now_ms, serial=True)     # each received byte (serial=False: a BLE write)
     throttle_us, steering_us = car.step(now_ms, frames_started)
     line = car.take_reply()                 # "ERR syntax\\n", ... or None
 
@@ -128,7 +128,8 @@ class Car:
         self.throttle = throttle or Channel()
         self.steering = steering or Channel()
         self.parser = control.Parser()
-        self.auth = signing.Authenticator()  # no key on this board yet: signed messages are refused (nokey)
+        self.keys = signing.KeyStore()  # the key: set from the serial console only
+        self.key_line = signing.KeyLine()
         self.watchdog = CommandWatchdog()
         self.brake = BrakeFsm()
         self.command = (NEUTRAL, NEUTRAL)
@@ -150,10 +151,28 @@ class Car:
             self._queue(spec.SERIAL_REPLY_ARMED)
             self._latch_told = False
 
-    def boot(self):
-        self._queue("%s %d" % (spec.SERIAL_REPLY_READY, spec.META_PROTOCOL_VERSION))
+    @property
+    def auth(self):
+        return self.keys.auth
 
-    def feed(self, byte, now_ms):
+    def boot(self, nvm=None):
+        """Queue the boot banner. nvm: where the key and the session live (signing.FileNvm;
+        None: nowhere, so this car can never have a key)."""
+        self.keys.boot(nvm)
+        self._queue("%s %d" % (spec.SERIAL_REPLY_READY, spec.META_PROTOCOL_VERSION))
+        if self.auth.key:
+            self._queue(signing.session_reply(self.auth))
+
+    def feed(self, byte, now_ms, serial=False):
+        """One received byte; serial: it came over the serial console, the only link whose
+        key lines are read (a BLE write's are not)."""
+        if serial:
+            event = self.key_line.feed(byte)
+            if event != signing.KEY_NOT_MINE:
+                for line in self.keys.on_key_line(event, self.key_line.key):
+                    self._queue(line)
+                if event != signing.KEY_BAD:
+                    return
         result = self.parser.feed(byte)
         if result == control.NONE:
             return

@@ -8,6 +8,7 @@ response and every pin.
     used, state = reader.feed(data)             # bytes from one connection
     reply, keep_open = board.respond(reader, distance_cm, now_ms)
     (left, right) = board.poll(now_ms)          # every loop: ((in1, in2, duty), (in1, in2, duty))
+    board.boot(nvm); board.serial_in(data)      # the key: ["SESSION 00000002"], ["KEY 1a2b3c4d", ...]
 
 Times are whole milliseconds from roar_clock.Clock; duties are permille (0..1000).
 """
@@ -201,14 +202,34 @@ class L298nSide:
 
 class JuniorBoard:
     """The Junior's loop: requests through JuniorControl, duties through the L298N sides. With a
-    key (auth.set_key(key, session): signed control, PROTOCOL.md 1.3 and 6) only signed queries
-    drive; the rest are refused 403 with the reason."""
+    key (set by a key line on the serial console, kept in the board's nvm: signed control,
+    PROTOCOL.md 1.3 and 6) only signed queries drive; the rest are refused 403 with the reason."""
 
     def __init__(self):
         self.control = JuniorControl()
-        self.auth = signing.Authenticator()
+        self.keys = signing.KeyStore()
+        self._key_line = signing.KeyLine()
         self._left = L298nSide()
         self._right = L298nSide()
+
+    @property
+    def auth(self):
+        return self.keys.auth
+
+    def boot(self, nvm):
+        """The key in nvm (signing.FileNvm) with a new session: the lines to print ("SESSION ..."
+        with a key)."""
+        self.keys.boot(nvm)
+        return [signing.session_reply(self.auth)] if self.auth.key else []
+
+    def serial_in(self, data):
+        """Bytes from the serial console, which carries key lines only: the lines to answer."""
+        lines = []
+        for byte in data:
+            event = self._key_line.feed(byte)
+            if event != signing.KEY_NOT_MINE and event != signing.KEY_TAKEN:
+                lines.extend(self.keys.on_key_line(event, self._key_line.key))
+        return lines
 
     def respond(self, request, distance_cm, now_ms):
         """(the response bytes, keep the connection open) to a decided request."""

@@ -1,6 +1,6 @@
 """What the host boards' HALs of plain memory share (firmware/host/c_api.h): a serial port (rx
 filled from a backlog as the loop reads it, tx drained by the caller) and a few bytes of
-non-volatile memory that a new board can take from an old one (a reboot)."""
+non-volatile memory (or a flash sector) that a new board can take from an old one (a reboot)."""
 
 from __future__ import annotations
 
@@ -8,20 +8,28 @@ from roar_sim.core.library import ffi
 
 
 class MemoryNvm:
-    """Mixed into a board wrapper whose `hal` struct has nvm (bytes)."""
+    """Mixed into a board wrapper whose `hal` struct has nvm (bytes), or flash (a roar_flash_t:
+    the sector a FlashLog keeps the key in)."""
 
     hal: object
 
+    def _memory(self):
+        return self.hal.flash.bytes if hasattr(self.hal, "flash") else self.hal.nvm
+
     def _init_nvm(self, nvm: bytes | None) -> None:
         """nvm: the memory a previous board left (`.nvm`); None: blank (0xFF), as from the factory."""
-        size = len(self.hal.nvm)
+        if hasattr(self.hal, "flash"):
+            self.hal.flash.power_words = -1  # the power never fails unless a test cuts it
+        memory = self._memory()
+        size = len(memory)
         data = (bytes([0xFF]) * size if nvm is None else bytes(nvm)).ljust(size, b"\xff")[:size]
-        ffi.memmove(self.hal.nvm, data, size)
+        ffi.memmove(memory, data, size)
 
     @property
     def nvm(self) -> bytes:
         """The board's non-volatile memory now (its signing key and session: roar/signing.h)."""
-        return ffi.unpack(ffi.cast("char *", self.hal.nvm), len(self.hal.nvm))
+        memory = self._memory()
+        return ffi.unpack(ffi.cast("char *", memory), len(memory))
 
 
 class MemorySerialPort(MemoryNvm):

@@ -101,7 +101,8 @@ def _ask_car(url: str, line: str) -> str:
                     if len(words) == 2 and words[0] == spec.SIGNED_KEY_COMMAND:
                         return words[1]
                     if words[:2] == [spec.SERIAL_REPLY_ERROR, "nokey"]:
-                        raise UserError(f"{url} has nowhere to keep a key (no EEPROM on this board)")
+                        raise UserError(f"{url} could not keep the key: it has no storage for one, "
+                                        f"or it is full until the car is reset (its key is unchanged)")
                 time.sleep(0.02)
         raise UserError(f"{url} did not answer {line.split()[0]} in {ANSWER_TIMEOUT_S:g} s: "
                         f"is its firmware recent enough to take keys?")

@@ -161,6 +161,7 @@ static constexpr uint16_t kJuniorCameraHighWidth = 800u;  // [px] Width of the h
 static constexpr uint16_t kJuniorCameraHighHeight = 600u;  // [px] Height of the high-resolution frames
 static constexpr uint32_t kJuniorFailsafeTimeoutUs = 500000ul;  // [us] No control request for longer than this stops both sides
 static constexpr uint32_t kJuniorIdleCloseUs = 2000000ul;  // [us] A connection (either port) that sends nothing for this long is closed, so idle clients cannot hold the robot's few connections
+static constexpr uint32_t kJuniorSerialWindowUs = 3000000ul;  // [us] After a reset the Junior reads its USB serial console (key lines) for this long; then the console's pins go to the ultrasonic ranger
 
 }  // namespace proto
 

@@ -142,7 +142,7 @@ class KeyStore {
   enum class Answer : uint8_t {
     None,       // nothing to say
     Key,        // "KEY <fingerprint>" or "KEY none" (then "SESSION ..." when keyed and the key changed)
-    NoStorage,  // "ERR nokey": the board has nowhere to keep a key
+    NoStorage,  // "ERR nokey": the board has nowhere to keep a key (or could not keep this one)
     Syntax,     // "ERR syntax": a line that began "K" but is not a key command
   };
   void boot(Nvm* nvm) {
