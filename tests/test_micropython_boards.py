@@ -436,6 +436,29 @@ def test_the_micropython_car_keeps_a_key_and_refuses_as_the_cpp_core(tmp_path):
     assert cpp["session"][0] == scenario["session"] == 3
 
 
+def test_a_keyed_micropython_car_asks_for_an_encrypted_link(tmp_path):
+    """Booted with a key in its file, the car asks for LE Secure Connections on its control
+    characteristic: an unpaired host's writes never reach it, a paired signing host drives."""
+    from roar_wire import signing
+
+    key = bytes(range(0x30, 0x40))
+    start_us = 5_000_000
+    t = start_us + 50_000
+    events = [[t, "connect", ""]]
+    events += [[t + 20_000 * i, "write", "(1700,1500)"] for i in range(1, 4)]  # unpaired: dropped
+    events += [[t + 200_000, "disconnect", ""], [t + 210_000, "connect", "paired"]]
+    events += [[t + 220_000 + 20_000 * i, "write",  # neutral first: a booted car arms on it
+                signing.sign(b"(1700,1500)" if i else b"(1500,1500)", key, 8, i + 1).decode()] for i in range(5)]
+    scenario = {"start_us": start_us, "end_us": t + 500_000, "events": events,
+                "key_file": signing.record(key, 7).hex()}
+    mp = run_scenario(tmp_path, "car_scenario.py", "car", scenario)
+    lines = [line for _, line in mp["replies"]]
+    assert lines[:2] == ["READY 1\n", "SESSION 00000008\n"] and not any(x.startswith("ERR") for x in lines)
+    assert mp["control_flags"] & 0x1000 and mp["ble_settings"]["le_secure"] and not mp["ble_settings"]["mitm"]
+    assert mp["dropped_writes"] == 3
+    assert max(p[0] for _, p in mp["changes"]) == 1700  # the paired, signed host drove
+
+
 def spec_value(name: str):
     from roar.protocol import spec
 

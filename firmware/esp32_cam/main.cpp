@@ -14,9 +14,11 @@
 // throttle output [us] as float32), name (write: advertised from the next start of advertising,
 // not persisted), override (write: accepted; this board has no override output), session (read:
 // uint32 session, uint32 last counter: signed control). The signing key and session live in NVS
-// (the Preferences library, namespace "roar"), behind the core's Nvm.
+// (the Preferences library, namespace "roar"), behind the core's Nvm. With a key, control and
+// session need an LE Secure Connections link (BLESecurity, Just Works, bonded).
 #include <Arduino.h>
 #include <BLEDevice.h>
+#include <BLESecurity.h>
 #include <BLEServer.h>
 #include <driver/ledc.h>
 #include <esp_gap_ble_api.h>
@@ -128,8 +130,17 @@ class Connections : public BLEServerCallbacks {
   }
 };
 
-void ble_begin() {
+// secure (the car has a key): control and session need an encrypted link, paired with LE Secure
+// Connections only, Just Works (no display, no keys), bonded. A signing host pairs by itself.
+void ble_begin(bool secure) {
   BLEDevice::init(roar::proto::kBleLocalName);
+  if (secure) {
+    BLESecurity security;
+    security.setAuthenticationMode(ESP_LE_AUTH_REQ_SC_BOND);
+    security.setCapability(ESP_IO_CAP_NONE);
+    security.setInitEncryptionKey(ESP_BLE_ENC_KEY_MASK | ESP_BLE_ID_KEY_MASK);
+    security.setRespEncryptionKey(ESP_BLE_ENC_KEY_MASK | ESP_BLE_ID_KEY_MASK);
+  }
   BLEServer* server = BLEDevice::createServer();
   server->setCallbacks(new Connections());
   // 7 characteristics x 2 handles + the service: the default 15 handles.
@@ -148,6 +159,10 @@ void ble_begin() {
       ->setCallbacks(new NameWrites());
   service->createCharacteristic(roar::proto::kBleOverrideUuid, BLECharacteristic::PROPERTY_WRITE);
   session_characteristic = service->createCharacteristic(roar::proto::kBleSessionUuid, BLECharacteristic::PROPERTY_READ);
+  if (secure) {
+    control->setAccessPermissions(ESP_GATT_PERM_READ_ENCRYPTED | ESP_GATT_PERM_WRITE_ENCRYPTED);
+    session_characteristic->setAccessPermissions(ESP_GATT_PERM_READ_ENCRYPTED);
+  }
   service->start();
   BLEAdvertising* advertising = BLEDevice::getAdvertising();
   advertising->addServiceUUID(roar::proto::kBleServiceUuid);
@@ -161,8 +176,8 @@ void setup() {
   hal.begin();
   nvs.begin();
   Serial.begin(roar::proto::kSerialBaud);
-  ble_begin();
-  board.begin();
+  board.begin();                               // the key first: it decides the link's security
+  ble_begin(board.car().auth().keyed());       // (a key set later takes effect from the next reset)
   esp_task_wdt_init(kWatchdogS, true);  // panic -> reset
   esp_task_wdt_add(nullptr);            // this task, the loop
 }

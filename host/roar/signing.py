@@ -130,6 +130,8 @@ class SigningTransport(Transport):
         self._link_signs = hasattr(inner, "signer")
         if self._link_signs:
             inner.signer = self
+        if hasattr(inner, "signing"):  # BLE: a keyed car may take only encrypted writes, so pair
+            inner.signing = True
 
     # the wrapped transport's identity
     @property

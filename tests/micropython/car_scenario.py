@@ -2,7 +2,8 @@
 # program (firmware/micropython/car) in the simulated world of hil_sim/micropython/standins,
 # through a scenario from /scenario.json:
 #   {"start_us": ..., "end_us": ..., "events": [[t_us, "write" | "serial" | "connect" | "disconnect", text], ...]}
-# "write" is a BLE write to the control characteristic, "serial" bytes typed on the console.
+# "write" is a BLE write to the control characteristic, "serial" bytes typed on the console;
+# "connect" with text "paired" pairs. "key_file" (hex): what /roar_key.bin holds at the start.
 # Prints one JSON line: the pulses the loop decided at each millisecond tick (as changes;
 # checked against the PWM stand-ins), every reply line with its tick, what the radio advertised
 # and holds, the key file, the watchdog, the peak heap.
@@ -14,6 +15,11 @@ import sim
 with open("/scenario.json") as f:
     scenario = json.load(f)
 sim.install(scenario["start_us"])
+if scenario.get("key_file"):  # the key a previous run left
+    from binascii import unhexlify
+
+    with open("/roar_key.bin", "wb") as f:
+        f.write(unhexlify(scenario["key_file"]))
 
 import bluetooth  # noqa: E402 (after the stand-ins are in place)
 import machine  # noqa: E402
@@ -68,7 +74,7 @@ def run():
         elif action == "serial":
             typed[0] += text.encode()
         elif action == "connect":
-            radio.central_connect()
+            radio.central_connect(paired=text == "paired")
         else:
             radio.central_disconnect()
         yield  # the runner collects garbage between steps
@@ -91,6 +97,8 @@ def roar_finish(first, peak):
                       "state": hexlify(radio.central_read(spec.BLE_STATE_UUID)).decode(),
                       "velocity": hexlify(radio.central_read(spec.BLE_VELOCITY_UUID)).decode(),
                       "session": hexlify(radio.central_read(spec.BLE_SESSION_UUID)).decode(), "key_file": key_file,
+                      "control_flags": radio.flags[radio.handles[CONTROL_UUID.lower()]],
+                      "ble_settings": radio.settings, "dropped_writes": radio.dropped,
                       "led": machine.pins[config.STATUS_LED_PIN].value(),
                       "watchdog_gap_us": wdt.longest_gap_us if wdt else None,
                       "watchdog_timeout_ms": wdt.timeout_ms if wdt else None, "peak_heap": peak}))

@@ -38,6 +38,9 @@ _IRQ_GATTS_WRITE = 3
 _FLAG_READ = 0x0002
 _FLAG_WRITE_NO_RESPONSE = 0x0004
 _FLAG_WRITE = 0x0008
+_FLAG_READ_ENCRYPTED = 0x0200
+_FLAG_WRITE_ENCRYPTED = 0x1000
+_IO_CAPABILITY_NO_INPUT_OUTPUT = 3
 
 
 def uuid_le(text):
@@ -55,21 +58,26 @@ def advertisement(name):
 
 class Radio:
     """The ROAR GATT service: control writes queued whole for the loop; velocity and state read;
-    pid, name and override accepted."""
+    pid, name and override accepted. secure (the car has a key): control and session need an
+    encrypted link, paired with LE Secure Connections, Just Works (a signing host pairs)."""
 
-    def __init__(self, name):
+    def __init__(self, name, secure=False):
         self.ble = bluetooth.BLE()
         self.ble.active(True)
         self.ble.irq(self._irq)
+        encrypted = 0
+        if secure:
+            self.ble.config(le_secure=True, mitm=False, bond=False, io=_IO_CAPABILITY_NO_INPUT_OUTPUT)
+            encrypted = _FLAG_READ_ENCRYPTED | _FLAG_WRITE_ENCRYPTED
         U = bluetooth.UUID
         service = (U(spec.BLE_SERVICE_UUID), (
-            (U(spec.BLE_CONTROL_UUID), _FLAG_READ | _FLAG_WRITE | _FLAG_WRITE_NO_RESPONSE),
+            (U(spec.BLE_CONTROL_UUID), _FLAG_READ | _FLAG_WRITE | _FLAG_WRITE_NO_RESPONSE | encrypted),
             (U(spec.BLE_VELOCITY_UUID), _FLAG_READ),
             (U(spec.BLE_PID_UUID), _FLAG_WRITE),
             (U(spec.BLE_STATE_UUID), _FLAG_READ),
             (U(spec.BLE_NAME_UUID), _FLAG_WRITE),
             (U(spec.BLE_OVERRIDE_UUID), _FLAG_WRITE),
-            (U(spec.BLE_SESSION_UUID), _FLAG_READ),
+            (U(spec.BLE_SESSION_UUID), _FLAG_READ | (encrypted & _FLAG_READ_ENCRYPTED)),
         ))
         ((self.control, self.velocity, self.pid, self.state, self.name, self.override, self.session),) = \
             self.ble.gatts_register_services((service,))
@@ -142,10 +150,10 @@ class CarBoard:
         self.car = Car(Channel(config.THROTTLE_TRIM_US, config.THROTTLE_MIN_US, config.THROTTLE_MAX_US),
                        Channel(config.STEERING_TRIM_US, config.STEERING_MIN_US, config.STEERING_MAX_US))
         self.console = console or Console()
-        self.radio = Radio(config.NAME)
+        self.car.boot(signing.FileNvm(config.KEY_FILE))  # the key first: it decides the link's security
+        self.radio = Radio(config.NAME, secure=self.car.auth.key is not None)  # (a later key: from the next reset)
         self.led = machine.Pin(config.STATUS_LED_PIN, machine.Pin.OUT, value=1)
         self._last_state = 0
-        self.car.boot(signing.FileNvm(config.KEY_FILE))
 
     def poll(self):
         """The loop body: bytes in, one car step, pulses out, replies out, watchdog fed."""

@@ -9,6 +9,7 @@ connections and writes to the program's irq handler as the ESP32's stack does.
 import sim
 
 FLAG_BROADCAST, FLAG_READ, FLAG_WRITE_NO_RESPONSE, FLAG_WRITE, FLAG_NOTIFY = 0x1, 0x2, 0x4, 0x8, 0x10
+FLAG_READ_ENCRYPTED, FLAG_WRITE_ENCRYPTED = 0x0200, 0x1000
 _IRQ_CENTRAL_CONNECT, _IRQ_CENTRAL_DISCONNECT, _IRQ_GATTS_WRITE = 1, 2, 3
 radio = None
 
@@ -37,6 +38,9 @@ class BLE:
         self.handles = {}  # uuid string -> value handle
         self.flags = {}  # handle -> flags
         self.advertising = []  # (t_us, interval_us, adv_data, resp_data)
+        self.settings = {}  # what config() set
+        self.encrypted = False  # the central's link was paired (LE Secure Connections, if le_secure)
+        self.dropped = 0  # writes the stack refused: encryption needed, the link not encrypted
         self._conn = 0
 
     def active(self, on=None):
@@ -49,6 +53,7 @@ class BLE:
         self._irq = handler
 
     def config(self, *args, **kwargs):
+        self.settings.update(kwargs)  # le_secure, mitm, bond, io: how it pairs
         return None
 
     def gatts_register_services(self, services):
@@ -80,8 +85,10 @@ class BLE:
         self.advertising.append((sim.now_us, interval_us, bytes(adv_data or b""), bytes(resp_data or b"")))
 
     # --- the central: the test program ---------------------------------------------------------
-    def central_connect(self):
+    def central_connect(self, paired=False):
+        """A host connects; paired: it pairs (the link is encrypted) where the program allows it."""
         self._conn += 1
+        self.encrypted = bool(paired and self.settings.get("le_secure"))
         self._irq(_IRQ_CENTRAL_CONNECT, (self._conn, 0, b"\x00" * 6))
 
     def central_disconnect(self):
@@ -92,6 +99,9 @@ class BLE:
         handle = self.handles[uuid.lower()]
         if not self.flags[handle] & (FLAG_WRITE | FLAG_WRITE_NO_RESPONSE):
             raise OSError("characteristic %s is not writable" % uuid)
+        if self.flags[handle] & FLAG_WRITE_ENCRYPTED and not self.encrypted:
+            self.dropped += 1  # the stack answers "insufficient encryption"; the program never hears
+            return
         self.values[handle] = bytes(data)
         self._irq(_IRQ_GATTS_WRITE, (self._conn, handle))
 

@@ -10,6 +10,7 @@ spec [ble]) whose control characteristic feeds the board loop of the firmware co
 
     BleCar(radio, nvm=...)     # a board whose EEPROM holds a signing key (car.serial_in(b"KEY ..."))
     BleCar(radio, secure=True) # control writes need an encrypted link: LE Secure Connections pairing
+                               # (default: when the board has a key, as the ESP32-CAM car's glue)
 """
 
 from __future__ import annotations
@@ -37,10 +38,11 @@ READABLE, WRITEABLE = Characteristic.Permissions.READABLE, Characteristic.Permis
 class BleCar:
     def __init__(self, radio: VirtualRadio, name: str = spec.BLE_LOCAL_NAME,
                  address: str = "F0:00:00:00:00:01", config: CarConfig | None = None, nvm: bytes | None = None,
-                 secure: bool = False) -> None:
+                 secure: bool | None = None) -> None:
         """nvm: the board's EEPROM (its signing key and session); secure: the control and session
         characteristics need an encrypted link, which the car pairs with LE Secure Connections
-        only (no legacy pairing), as a stack that can do so should."""
+        only (no legacy pairing), as a stack that can do so should; None: when the board has a
+        key at start (the ESP32-CAM car's rule), False as the Nano 33 BLE (its stack cannot)."""
         self.radio, self.name, self.address, self.secure = radio, name, address, secure
         # The board's clock is set from the wall clock before each loop iteration (loop_us 0).
         self.board = CarBoard(config or CarConfig(), loop_us=0, frame_us=FRAME_US, nvm=nvm)
@@ -63,6 +65,9 @@ class BleCar:
         return int((time.monotonic() - self._t0) * 1e6)
 
     async def start(self) -> None:
+        self.board.begin()
+        if self.secure is None:
+            self.secure = self.board.session != 0
         device = self.device = self.radio.add_device(self.name, self.address)
         readable = READABLE | (Characteristic.Permissions.READ_REQUIRES_ENCRYPTION if self.secure else 0)
         writeable = WRITEABLE | (Characteristic.Permissions.WRITE_REQUIRES_ENCRYPTION if self.secure else 0)
@@ -93,7 +98,6 @@ class BleCar:
         device.on("connection", self._on_connection)
         await device.power_on()
         await device.start_advertising(auto_restart=True, advertising_interval_min=ADVERTISING_INTERVAL_MS)
-        self.board.begin()
         self._task = asyncio.get_running_loop().create_task(self._run())
 
     def _on_connection(self, _connection) -> None:

@@ -5,7 +5,8 @@
     ble://AA:BB:CC:DD:EE:FF  a car by address
     ble://?timeout=20      seconds to look for it (default 10)
     ble://?pair=1          pair first (bonded, encrypted: a car that asks for it gets LE Secure
-                           Connections where the host's stack and the car's can do it)
+                           Connections where the host's stack and the car's can do it); a
+                           signing host pairs anyway where the car can, ?pair=0 never
 
 Each control message is one write-without-response to the control characteristic (a signed
 message longer than the link's ATT payload goes in pieces, which the car's streaming parser
@@ -76,9 +77,13 @@ class BleTransport(Transport):
     min_period_s = 0.0075  # [s] the shortest BLE connection interval
 
     def __init__(self, target: str = "", timeout_s: float = DEFAULT_TIMEOUT_S, scanner_backend=None,
-                 client_backend=None, pair: bool = False) -> None:
+                 client_backend=None, pair: bool | None = None) -> None:
+        """pair: True pair first (fail if the car cannot), False never, None pair when signing
+        (`signing`, set by the signing layer) where the car can, else go on unencrypted."""
         self.target = target
         self.pair = pair
+        self.signing = False  # a key signs what goes out: keyed cars may take only encrypted writes
+        self.encrypted = False  # the link was paired
         self.timeout_s = number("timeout_s", timeout_s, 0, MAX_CONNECT_S, "s", low_open=True)
         self.scanner_backend, self.client_backend = scanner_backend, client_backend
         self._client: BleakClient | None = None
@@ -88,7 +93,7 @@ class BleTransport(Transport):
     def from_url(cls, target: str, options: dict[str, str], scanner_backend=None,
                  client_backend=None) -> BleTransport:
         timeout = pop_number(options, "timeout", DEFAULT_TIMEOUT_S, 0, MAX_CONNECT_S, "s", low_open=True)
-        return cls(target.strip("/"), timeout, scanner_backend, client_backend, pop_option(options, "pair", bool, False))
+        return cls(target.strip("/"), timeout, scanner_backend, client_backend, pop_option(options, "pair", bool, None))
 
     def describe_target(self) -> str:
         if not self.target:
@@ -114,8 +119,14 @@ class BleTransport(Transport):
         client = BleakClient(device, disconnected_callback=self._on_disconnect, timeout=self.timeout_s,
                              backend=self.client_backend)
         await client.connect()
-        if self.pair:
-            await client.pair()
+        if self.pair or (self.pair is None and self.signing):
+            try:
+                await client.pair()
+                self.encrypted = True
+            except (BleakError, OSError, NotImplementedError):
+                if self.pair:
+                    raise
+                # a car whose stack cannot pair (ArduinoBLE on the Nano 33 BLE): the signatures protect it
         if client.services.get_characteristic(spec.BLE_CONTROL_UUID) is None:
             await client.disconnect()
             raise TransportError(f"{device.name or device.address} has no ROAR control characteristic "
