@@ -176,6 +176,89 @@ def test_an_async_vector_environment_gives_what_serial_ones_give():
         assert all(same({k: v[i] for k, v in vec.items()}, one) for vec, one in zip(vector, serial))
 
 
+def alone(seed: int, actions, **kwargs) -> list:
+    """(observation, reward, terminated, truncated) after each action of one RaceEnv alone, reset
+    with `seed` and, after an episode ends, on the next step without one (next-step autoreset)."""
+    env = gym.make(ENV_ID, disable_env_checker=True, **kwargs)
+    try:
+        observation, _ = env.reset(seed=seed)
+        out, ended = [(observation, 0.0, False, False)], False
+        for action in actions:
+            if ended:
+                observation, _ = env.reset()
+                out.append((observation, 0.0, False, False))
+                ended = False
+                continue
+            observation, reward, terminated, truncated, _ = env.step(action)
+            out.append((observation, reward, terminated, truncated))
+            ended = terminated or truncated
+        return out
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("num_envs, workers", [(3, 2), (2, 1)])
+def test_our_vector_environment_gives_what_each_environment_alone_gives(num_envs, workers):
+    """Environments on every core (roar_sim.vector_env): each equals a RaceEnv alone with its seed
+    and actions, bit for bit, through episodes that end (0.6 s: truncated) and reset by themselves."""
+    from roar_sim.vector_env import RaceVectorEnv
+
+    rng = np.random.default_rng(num_envs)
+    actions = [rng.uniform([0.0, -0.3], [0.6, 0.3], (num_envs, 2)).astype(np.float32) for _ in range(70)]
+    envs = RaceVectorEnv(num_envs, workers=workers, max_seconds=0.6)
+    try:
+        observation, info = envs.reset(seed=20)
+        vector = [(observation, np.zeros(num_envs), np.zeros(num_envs, bool), np.zeros(num_envs, bool))]
+        vector += [envs.step(action)[:4] for action in actions]
+        assert info["time_s"].shape == (num_envs,) and len(envs._processes) == workers - 1  # and this one
+    finally:
+        envs.close()
+    assert not any(process.is_alive() for process in envs._processes)
+    for i in range(num_envs):
+        serial = alone(20 + i, [a[i] for a in actions], max_seconds=0.6)
+        assert sum(t for _, _, _, t in serial) >= 2  # episodes ended and began again
+        for (obs, rewards, terms, truncs), (one, reward, term, trunc) in zip(vector, serial, strict=True):
+            assert same({k: v[i] for k, v in obs.items()}, one)
+            assert (rewards[i], terms[i], truncs[i]) == (reward, term, trunc)
+
+
+def test_make_vec_gives_our_vector_environment_and_it_explains_bad_keywords():
+    from roar_sim.vector_env import RaceVectorEnv
+
+    envs = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="vector_entry_point", lidar_beams=0)
+    try:
+        assert isinstance(envs.unwrapped, RaceVectorEnv) and set(envs.observation_space.spaces) == {"state"}
+        observation, _ = envs.reset(seed=1)
+        assert observation["state"].shape == (2, 8)
+    finally:
+        envs.close()
+    with pytest.raises(ValueError, match="max_seconds"):
+        RaceVectorEnv(2, max_seconds=-1)
+    with pytest.raises(ValueError, match="workers .* must be a whole number"):
+        RaceVectorEnv(2, workers=3)
+
+
+def test_a_bad_action_is_refused_whole_and_a_dead_process_is_reported():
+    import signal
+
+    from roar_sim.vector_env import RaceVectorEnv
+
+    envs = RaceVectorEnv(2, workers=2, lidar_beams=0)
+    try:
+        envs.reset(seed=0)
+        with pytest.raises(ValueError, match="finite numbers"):
+            envs.step(np.array([[0.1, 0.0], [np.nan, 0.0]], np.float32))
+        before = envs.step(np.zeros((2, 2), np.float32))[0]["state"]  # refused whole: nothing moved
+        assert before.shape == (2, 8)
+        (process,) = envs._processes
+        os.kill(process.pid, signal.SIGKILL)
+        with pytest.raises(RuntimeError, match="worker died"):
+            envs.step(np.zeros((2, 2), np.float32))
+    finally:
+        envs.close()
+    assert not process.is_alive()
+
+
 CHECK = """
 import gymnasium as gym
 from gymnasium.utils.env_checker import check_env

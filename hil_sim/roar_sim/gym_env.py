@@ -242,5 +242,6 @@ class RaceEnv(gym.Env):
         return {"time_s": self.sim.t_us / 1e6, "progress_m": self._s, "wall_contact": touching, **self.sim.info()}
 
 
-if "roar/Race-v0" not in gym.registry:
-    gym.register(id="roar/Race-v0", entry_point="roar_sim.gym_env:RaceEnv")
+if "roar/Race-v0" not in gym.registry:  # make_vec(..., vectorization_mode="vector_entry_point"): every core
+    gym.register(id="roar/Race-v0", entry_point="roar_sim.gym_env:RaceEnv",
+                 vector_entry_point="roar_sim.vector_env:RaceVectorEnv")

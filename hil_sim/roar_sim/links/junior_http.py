@@ -154,7 +154,10 @@ class JuniorServer:
                      MJPEG_BOUNDARY.encode() + b"\r\nConnection: close\r\n\r\n")
         seq = 0
         while self._running.is_set():
-            seq, image = await asyncio.wait_for(self.camera.frame(SIZES["high"], "JPEG", seq), CAMERA_TIMEOUT_S)
+            try:
+                seq, image = await asyncio.wait_for(self.camera.frame(SIZES["high"], "JPEG", seq), CAMERA_TIMEOUT_S)
+            except asyncio.TimeoutError:  # a slow frame (a busy machine) does not end a stream: wait on
+                continue
             writer.write(f"--{MJPEG_BOUNDARY}\r\nContent-Type: image/jpeg\r\nContent-Length: {len(image)}\r\n\r\n"
                          .encode() + image + b"\r\n")
             await writer.drain()
