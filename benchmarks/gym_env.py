@@ -1,7 +1,7 @@
 """The Gym environment's speed: steps/s of roar/Race-v0 (50 Hz actions, the firmware core at
 1 kHz) for one environment, state only and with the 72-beam lidar, beside the bare simulator
 harness doing the same stepping (and the same lidar scans) in the same run: the ratio is what the
-environment adds. Then vector environments on every core: ours (roar_sim.vector_env, 2 and 4
+environment adds. Then vector environments on every core: ours (roar_sim.gym_env.vector, 2 and 4
 environments on this machine's cores) and Gymnasium's async one (2 processes) for reference.
 Targets: one environment >= 68x real time state only (f1tenth_gym's recorded 6,757 steps/s at
 100 Hz), >= 0.8 of the bare harness with the lidar; 2 environments >= 1.6x one; 4 no slower
@@ -28,7 +28,7 @@ def run() -> None:
     from roar.calibration import Calibration
     from roar_sim.gym_env import LIDAR_BEAMS, LIDAR_EVERY, LIDAR_RANGE_M, PERIOD_S
     from roar_sim.robots.esc import EscCar
-    from roar_sim.vector_env import default_workers
+    from roar_sim.gym_env.vector import default_workers
     from roar.tracks import get
 
     message = Calibration().message(0.2, 0.0)

@@ -199,9 +199,9 @@ def alone(seed: int, actions, **kwargs) -> list:
 
 @pytest.mark.parametrize("num_envs, workers", [(3, 2), (2, 1)])
 def test_our_vector_environment_gives_what_each_environment_alone_gives(num_envs, workers):
-    """Environments on every core (roar_sim.vector_env): each equals a RaceEnv alone with its seed
+    """Environments on every core (roar_sim.gym_env.vector): each equals a RaceEnv alone with its seed
     and actions, bit for bit, through episodes that end (0.6 s: truncated) and reset by themselves."""
-    from roar_sim.vector_env import RaceVectorEnv
+    from roar_sim.gym_env.vector import RaceVectorEnv
 
     rng = np.random.default_rng(num_envs)
     actions = [rng.uniform([0.0, -0.3], [0.6, 0.3], (num_envs, 2)).astype(np.float32) for _ in range(70)]
@@ -223,7 +223,7 @@ def test_our_vector_environment_gives_what_each_environment_alone_gives(num_envs
 
 
 def test_make_vec_gives_our_vector_environment_and_it_explains_bad_keywords():
-    from roar_sim.vector_env import RaceVectorEnv
+    from roar_sim.gym_env.vector import RaceVectorEnv
 
     envs = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="vector_entry_point", lidar_beams=0)
     try:
@@ -241,7 +241,7 @@ def test_make_vec_gives_our_vector_environment_and_it_explains_bad_keywords():
 def test_a_bad_action_is_refused_whole_and_a_dead_process_is_reported():
     import signal
 
-    from roar_sim.vector_env import RaceVectorEnv
+    from roar_sim.gym_env.vector import RaceVectorEnv
 
     envs = RaceVectorEnv(2, workers=2, lidar_beams=0)
     try:

@@ -1,7 +1,7 @@
-"""`roar sweep`: a grid of autopilot parameters x tracks raced as Ray tasks -- a real local Ray,
-and a real cluster started with `ray start` -- with the table equal to a serial run's, resumed
-without redoing finished runs, and failed runs (an exception, a worker that dies) reported while
-the others are kept."""
+"""`roar sweep`: a grid of autopilot parameters x tracks raced on this machine's processes and as
+Ray tasks -- a real local Ray, and a real cluster started with `ray start` -- with the table
+equal to a serial run's, resumed without redoing finished runs, and failed runs (an exception, a
+worker that dies) reported while the others are kept."""
 
 import csv
 import json
@@ -57,9 +57,13 @@ def test_ray_table_equals_serial_table_and_resumes(tmp_path):
     resumed = roar("sweep", *SMALL, "--serial", "--out", str(serial_out))
     assert resumed.returncode == 0, resumed.stderr
     assert "2 already in" in resumed.stderr and "2 to run" in resumed.stderr
-    on_ray = roar("sweep", *SMALL, "--workers", "2", "--out", str(ray_out))
+    on_ray = roar("sweep", *SMALL, "--ray", "--workers", "2", "--out", str(ray_out))
     assert on_ray.returncode == 0, on_ray.stderr
     assert "on a local Ray" in on_ray.stderr
+    local = roar("sweep", *SMALL, "--workers", "2", "--out", str(tmp_path / "local"))
+    assert local.returncode == 0, local.stderr
+    assert "on 2 local processes" in local.stderr
+    assert (tmp_path / "local" / "results.csv").read_bytes() == (serial_out / "results.csv").read_bytes()
 
     table = (ray_out / "results.csv").read_bytes()
     assert table == (serial_out / "results.csv").read_bytes()
@@ -72,7 +76,7 @@ def test_ray_table_equals_serial_table_and_resumes(tmp_path):
     assert "oval: best K_dd" in on_ray.stdout and "x the physical limit" in on_ray.stdout
     assert (ray_out / "sweep.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
-    again = roar("sweep", *SMALL, "--workers", "2", "--out", str(ray_out))  # nothing left: no race runs
+    again = roar("sweep", *SMALL, "--ray", "--workers", "2", "--out", str(ray_out))  # nothing left: no race runs
     assert again.returncode == 0 and "4 already in" in again.stderr and "0 to run" in again.stderr
     assert (ray_out / "results.csv").read_bytes() == table
 
@@ -205,7 +209,8 @@ def test_a_table_of_something_else_is_not_overwritten(tmp_path):
     assert (tmp_path / "results.csv").read_text() == "name,score\nx,1\n"
 
 
-@pytest.mark.parametrize("args", [["--laps", "0"], ["--workers", "2", "--serial"], ["--serial", "--address", "auto"]])
+@pytest.mark.parametrize("args", [["--laps", "0"], ["--workers", "2", "--serial"], ["--serial", "--address", "auto"],
+                                  ["--ray", "--serial"], ["--track", "random:9-2"]])
 def test_bad_options(tmp_path, args):
     done = roar("sweep", "--out", str(tmp_path), *args, timeout=60)
     assert done.returncode == 1 and "error:" in done.stderr and "Traceback" not in done.stderr
@@ -301,3 +306,33 @@ def test_after_ctrl_c_a_slow_ray_goodbye_is_cut_short():
     sweep_module._shutdown_at_once(ray)
     assert time.monotonic() - t0 < 3 * sweep_module.RAY_GOODBYE_S
     assert ray.server.poll() == -9 and ray.ended  # killed, and so the goodbye ended
+
+
+def test_ctrl_c_ends_a_sweep_on_local_processes_at_once_and_keeps_what_finished(tmp_path):
+    """Seeded random tracks as a range (random:1-3: three tracks), raced on this machine's
+    processes; Ctrl-C ends the sweep and every process it started within seconds (status 130)."""
+    import signal
+    import time
+
+    process = subprocess.Popen([*ROAR, "sweep", "--track", "random:1-3", "--k-dd", "0.4", "--margin", "0.8,0.9",
+                                "--laps", "2", "--workers", "2", "--out", str(tmp_path)],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and len(sweep_module._descendants(process.pid)) < 2:
+            time.sleep(0.1)  # its two processes are up
+        children = sweep_module._descendants(process.pid)
+        assert len(children) >= 2
+        time.sleep(1.0)
+        process.send_signal(signal.SIGINT)
+        start = time.monotonic()
+        _, err = process.communicate(timeout=20)
+        assert time.monotonic() - start < 5.0
+    finally:
+        process.kill()
+    assert process.returncode == 130, err
+    assert "6 runs (3 tracks x 2 parameter points)" in err and "on 2 local processes" in err
+    assert "interrupted: the finished runs are in" in err and "Traceback" not in err
+    time.sleep(0.5)
+    assert not [pid for pid in children if os.path.exists(f"/proc/{pid}") and
+                open(f"/proc/{pid}/stat").read().split()[2] != "Z"]  # none left running

@@ -1,13 +1,20 @@
 """Parameter sweeps: race the simulated car for every point of a grid of autopilot parameters x
-tracks, each race a Ray task -- a local Ray on this machine by default, a Ray cluster with
---address -- and keep the results in a CSV table and a plot.
+tracks -- on this machine's cores by default (a process per core, each taking race after race),
+as Ray tasks on a Ray cluster with --address (or a local Ray with --ray) -- and keep the results
+in a CSV table and a plot.
 
     roar sweep [--track figure-eight] [--k-dd 0.2,0.4,0.6,0.8] [--margin 0.85:1:4] [--laps 2]
-               [--robot esc|iarrc|junior] [--out out/sweep] [--address HOST:PORT | auto] [--workers N] [--serial]
+               [--robot esc|iarrc|junior] [--out out/sweep] [--workers N]
+               [--address HOST:PORT | auto | --ray | --serial]
 
-A list is `a,b,c`; `lo:hi:n` is n values from lo to hi. Each run is one race (`roar race
---track T --k-dd K --margin M --laps L`); the simulation is in lockstep, so a run's result does
-not depend on where or beside what it ran: the table from Ray equals the table from --serial.
+A list is `a,b,c`; `lo:hi:n` is n values from lo to hi; tracks may be a seed range,
+`random:1-16` (so that a tuning generalises over tracks nobody tuned for). Each run is one race
+(`roar race --track T --k-dd K --margin M --laps L`); the simulation is in lockstep, so a run's
+result does not depend on where or beside what it ran: the table from the processes or Ray equals
+the table from --serial.
+
+The local processes are forked from this one, so they start in milliseconds with the simulator
+already imported (a local Ray took 5 s to start here, as long as 7 of the 16 default races).
 
 Results go to OUT/results.csv (a row per run, in grid order) and OUT/sweep.png (per track, the
 best lap over the physical-limit lap for each K_dd and margin). Rows are written as runs finish:
@@ -256,17 +263,25 @@ def _key(row: dict) -> tuple:
 
 
 def sweep(runs: Sequence[Run], table: Table, fn: Callable[[Run], dict] | None = None, serial: bool = False,
-          address: str | None = None, workers: int | None = None, progress: bool = False) -> list[dict]:
-    """Run each of `runs` not yet finished in `table` -- as Ray tasks (a local Ray with `workers`
-    CPUs, or the cluster at `address`; a Ray session already open in this process is used as it
-    is), or one after another here with serial -- adding each row as it comes; returns the rows
-    of `runs`, in their order. fn(run) -> row (default race_run) must be picklable for Ray."""
+          address: str | None = None, workers: int | None = None, progress: bool = False,
+          ray: bool = False) -> list[dict]:
+    """Run each of `runs` not yet finished in `table` -- on `workers` processes forked from this
+    one (default: one per core), as Ray tasks (the cluster at `address`, or a local Ray with
+    `workers` CPUs when ray; a Ray session already open in this process is used as it is), or one
+    after another here with serial -- adding each row as it comes; returns the rows of `runs`, in
+    their order. fn(run) -> row (default race_run) must be picklable for Ray."""
     fn = fn or race_run
     todo = [r for r in runs if not table.finished(r)]
     bar = _bar(len(runs), len(runs) - len(todo)) if progress else None
+    if serial:
+        rows_of = _serial
+    elif address is not None or ray:
+        rows_of = lambda todo, fn: _on_ray(todo, fn, address, workers)  # noqa: E731
+    else:
+        rows_of = lambda todo, fn: _on_processes(todo, fn, workers)  # noqa: E731
     try:
         if todo:
-            with closing(_serial(todo, fn) if serial else _on_ray(todo, fn, address, workers)) as rows:
+            with closing(rows_of(todo, fn)) as rows:
                 for row in rows:  # as each run finishes
                     table.add(_strings(row))
                     if bar:
@@ -289,6 +304,58 @@ def _serial(todo: Sequence[Run], fn: Callable[[Run], dict]):
         yield attempt(fn, run)
 
 
+DIED = "the worker running it died (its process ended)"
+
+
+def local_cores() -> int:
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+def _on_processes(todo: Sequence[Run], fn: Callable[[Run], dict], workers: int | None):
+    """Rows as runs finish on `workers` processes forked from this one, each taking run after run.
+    A process that dies breaks the pool (every run it held fails with it): those runs are then
+    run again each in a process of its own, so only the one that kills its process fails."""
+    import concurrent.futures as futures
+    import multiprocessing
+
+    from roar_sim.runs import race  # noqa: F401 -- imported once here, inherited by every fork
+
+    context = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn")
+    count = max(1, min(workers or local_cores(), len(todo)))
+    suspects: list[Run] = []
+    with _sigint_kept_from_children():  # (Ctrl-C is ours: we end the processes)
+        pool = futures.ProcessPoolExecutor(count, mp_context=context)
+        pending = {pool.submit(attempt, fn, run): run for run in todo}
+    try:
+        for done in futures.as_completed(pending):
+            try:
+                yield done.result()
+            except futures.process.BrokenProcessPool:
+                suspects.append(pending[done])
+        for run in suspects:
+            with _sigint_kept_from_children():
+                alone = futures.ProcessPoolExecutor(1, mp_context=context)
+            try:
+                yield alone.submit(attempt, fn, run).result()
+            except futures.process.BrokenProcessPool:
+                yield failed_row(run, f"BrokenProcessPool: {DIED}")
+            finally:
+                alone.shutdown()
+    finally:
+        _end_pool(pool)
+
+
+def _end_pool(pool) -> None:
+    """The pool's processes ended at once (after Ctrl-C, or a generator closed early)."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        if process.is_alive():
+            process.kill()
+    for process in processes:
+        process.join(timeout=5)
+
+
 def _on_ray(todo: Sequence[Run], fn: Callable[[Run], dict], address: str | None, workers: int | None):
     ray = _import_ray()
     ours = not ray.is_initialized()  # else: the caller's Ray session, left running
@@ -306,7 +373,7 @@ def _on_ray(todo: Sequence[Run], fn: Callable[[Run], dict], address: str | None,
                 try:
                     yield ray.get(ref)
                 except ray.exceptions.RayError as e:  # the worker died: no row from it
-                    yield failed_row(run, f"{type(e).__name__}: the Ray worker running it died")
+                    yield failed_row(run, f"{type(e).__name__}: {DIED}")
     except KeyboardInterrupt:
         interrupted = True
         raise
@@ -447,7 +514,8 @@ def _import_ray():
     try:
         import ray
     except ImportError:
-        raise SweepError("roar sweep runs on Ray: pip install 'roar-platform[sweep]' (or use --serial)") from None
+        raise SweepError("--address and --ray run on Ray: pip install 'roar-platform[sweep]' "
+                         "(without either, the sweep runs on this machine's cores)") from None
     return ray
 
 
@@ -526,7 +594,7 @@ def plot(rows: Sequence[dict], tracks: Sequence[str]):
 def parser() -> argparse.ArgumentParser:
     p = ArgumentParser(prog="roar sweep", description=__doc__)
     p.add_argument("--track", default=DEFAULT_TRACKS,
-                   help=f"tracks, comma-separated: {FORMS} (default: "
+                   help=f"tracks, comma-separated: {FORMS}; a seed range random:A-B is each seed (default: "
                         f"{DEFAULT_TRACKS})")
     p.add_argument("--k-dd", default=DEFAULT_K_DD_S, metavar="LIST",
                    help=f"pure pursuit's look-ahead per m/s [s] (default: {DEFAULT_K_DD_S})")
@@ -539,10 +607,11 @@ def parser() -> argparse.ArgumentParser:
                         "is resumed")
     p.add_argument("--address", metavar="HOST:PORT",
                    help="run on this Ray cluster ('auto': the one `ray start` began on this machine); "
-                        "default: a local Ray for this sweep alone")
+                        "default: processes on this machine's cores")
+    p.add_argument("--ray", action="store_true", help="run on a local Ray started for this sweep alone")
     p.add_argument("--workers", type=int, metavar="N",
-                   help="CPUs of the local Ray (default: all of this machine's)")
-    p.add_argument("--serial", action="store_true", help="run here, one race after another, without Ray")
+                   help="processes (or the local Ray's CPUs) on this machine (default: one per core)")
+    p.add_argument("--serial", action="store_true", help="run here, one race after another")
     return p
 
 
@@ -556,9 +625,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.workers is not None and not 1 <= args.workers <= 1024:
         p.error("--workers must be 1..1024")
     if args.workers is not None and (args.address or args.serial):
-        p.error("--workers sizes the local Ray: not with --address or --serial")
-    if args.address and args.serial:
-        p.error("--serial runs without Ray: not with --address")
+        p.error("--workers sizes this machine's share: not with --address or --serial")
+    if sum(map(bool, (args.address, args.ray, args.serial))) > 1:
+        p.error("--address, --ray and --serial each say where to run: give one")
     try:
         runs, tracks = _runs(args, K_DD_RANGE_S, MARGIN_RANGE)
         if args.address not in (None, "auto"):
@@ -576,9 +645,9 @@ def main(argv: list[str] | None = None) -> int:
         before = sum(table.finished(r) for r in runs)
         print(f"{_count(len(runs), 'run')} ({_count(len(tracks), 'track')} x {_count(len(runs) // len(tracks), 'parameter point')}); "
               f"{before} already in {table.path}, {len(runs) - before} to run "
-              f"{'here' if args.serial else 'on Ray at ' + args.address if args.address else 'on a local Ray'}",
-              file=sys.stderr)
-        rows = sweep(runs, table, serial=args.serial, address=args.address, workers=args.workers, progress=True)
+              f"{_where(args)}", file=sys.stderr)
+        rows = sweep(runs, table, serial=args.serial, address=args.address, workers=args.workers, progress=True,
+                     ray=args.ray)
     except OSError as e:
         raise SweepError(f"{args.out}: {e.strerror or e}") from None
     except KeyboardInterrupt as e:
@@ -590,6 +659,17 @@ def main(argv: list[str] | None = None) -> int:
     if not plotting.save(lambda: plot(rows, tracks), args.out / "sweep.png"):
         return ExitStatus.ERROR
     return ExitStatus.SHORT if any(r["status"] == "failed" for r in rows) else ExitStatus.OK
+
+
+def _where(args) -> str:
+    if args.serial:
+        return "here"
+    if args.address:
+        return f"on Ray at {args.address}"
+    if args.ray:
+        return "on a local Ray"
+    n = args.workers or local_cores()
+    return f"on {n} local process{'es' if n != 1 else ''}"
 
 
 def _runs(args, k_range: tuple[float, float], m_range: tuple[float, float]) -> tuple[list[Run], list[str]]:

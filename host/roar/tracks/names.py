@@ -5,6 +5,7 @@ Gym environment, `roar sweep`, `roar track`): a built-in track, `random:SEED[,..
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from roar.checks import printable, shown
@@ -13,16 +14,31 @@ from roar.tracks.track import BUILTIN, Track, TrackError
 FORMS = "oval, figure-eight, course, random:SEED, tunnel:SEED, drag:LENGTH, or a .json, .csv or .yaml file"
 
 
+MAX_SEED_RANGE = 1000  # seeds one range may name
+
+
 def split_names(text: str) -> list[str]:
     """Track names from a comma-separated list, each once: `oval,random:3,width=2.2,tunnel:1` is
-    oval, random:3,width=2.2 and tunnel:1 (a key=value part belongs to the name before it)."""
+    oval, random:3,width=2.2 and tunnel:1 (a key=value part belongs to the name before it), and a
+    seed range `random:1-16` (or `tunnel:1-10,width=2.2`) is each of its seeds, options and all."""
     names: list[str] = []
     for part in (p.strip() for p in text.split(",")):
         if "=" in part and names and ":" in names[-1]:
             names[-1] += "," + part
         elif part:
             names.append(part)
-    return list(dict.fromkeys(names))
+    return list(dict.fromkeys(n for name in names for n in _seeds(name)))
+
+
+def _seeds(name: str) -> list[str]:
+    """`kind:A-B[,options]` as kind:A .. kind:B, each with the options; any other name as it is."""
+    match = re.fullmatch(r"(random|tunnel):(\d{1,9})-(\d{1,9})(,.*)?", name)
+    if not match:
+        return [name]
+    kind, first, last, options = match.group(1), int(match.group(2)), int(match.group(3)), match.group(4) or ""
+    if not first <= last < first + MAX_SEED_RANGE:
+        raise TrackError(f"{name}: a seed range is A-B with A <= B, at most {MAX_SEED_RANGE} seeds")
+    return [f"{kind}:{seed}{options}" for seed in range(first, last + 1)]
 
 
 def get(name_or_path: str) -> Track:

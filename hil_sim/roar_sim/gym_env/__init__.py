@@ -244,4 +244,4 @@ class RaceEnv(gym.Env):
 
 if "roar/Race-v0" not in gym.registry:  # make_vec(..., vectorization_mode="vector_entry_point"): every core
     gym.register(id="roar/Race-v0", entry_point="roar_sim.gym_env:RaceEnv",
-                 vector_entry_point="roar_sim.vector_env:RaceVectorEnv")
+                 vector_entry_point="roar_sim.gym_env.vector:RaceVectorEnv")
