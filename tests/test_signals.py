@@ -51,7 +51,10 @@ LONG_RUNS = {
     "platoon": (["platoon", "--seconds", "600"], "platoon", None),
     "limits": (["limits"], "ESC car", None),
     "sweep": (["sweep", "--serial", "--laps", "20", "--out", "{tmp}"], "to run here", None),
-    "sweep-ray": (["sweep", "--workers", "2", "--laps", "20", "--out", "{tmp}"], "to run on a local Ray", "ray"),
+    "sweep-ray": (["sweep", "--ray", "--workers", "2", "--laps", "20", "--out", "{tmp}"], "to run on a local Ray",
+                  "ray"),
+    "sweep-processes": (["sweep", "--workers", "2", "--laps", "20", "--out", "{tmp}"], "to run on 2 local processes",
+                        None),
     "calibrate": (["calibrate", "sim://", "--file", "{tmp}/calibration.toml"], "trim", None),
 }
 SIGNALS = {  # how the signal is sent -> the exit status it must give

@@ -21,7 +21,6 @@ The keywords are RaceEnv's (checked here, before any process starts: one ValueEr
 
 from __future__ import annotations
 
-import multiprocessing as mp
 import os
 import pickle
 import signal
@@ -35,9 +34,8 @@ from gymnasium.vector.vector_env import AutoresetMode
 from threadpoolctl import ThreadpoolController
 
 from roar_sim.gym_env import RaceEnv
+from roar_sim.runs.processes import cores, fork_context
 
-
-PIN = os.environ.get("ROAR_PIN", "1") == "1"
 SPIN_S = 0.005  # [s] a process waits this long awake (polling) before it sleeps on a pipe
 
 
@@ -48,11 +46,6 @@ def _await(pipe) -> None:
     deadline = time.perf_counter() + SPIN_S
     while not pipe.poll() and time.perf_counter() < deadline:
         pass
-
-
-def cores() -> list[int]:
-    """The cores this process may run on."""
-    return sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else list(range(os.cpu_count() or 1))
 
 
 def default_workers(num_envs: int) -> int:
@@ -80,7 +73,7 @@ class RaceVectorEnv(gym.vector.VectorEnv):
         self.action_space = batch_space(probe.action_space, num_envs)
         self.env_kwargs = env_kwargs
         self._closed = True
-        context = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+        context = fork_context()
         # the shared memory: one array per observation key, actions, rewards, ends
         layout = {f"obs:{k}": (space.shape, space.dtype) for k, space in probe.observation_space.spaces.items()}
         layout.update({"action": ((2,), np.dtype(np.float32)), "reward": ((), np.dtype(np.float64)),
@@ -249,7 +242,7 @@ def _work(pipe, first: int, count: int, env_kwargs: dict, raw: dict, num_envs: i
     """Another process: its share, stepped on this process's word, on its own core, with one BLAS
     thread (OpenBLAS's idle threads spin, taking the core another process steps on)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the main process's to handle: it closes us
-    if PIN and hasattr(os, "sched_setaffinity"):
+    if hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {core})
     ThreadpoolController().limit(limits=1, user_api="blas")  # for the life of this process
     share = _Share(first, count, env_kwargs, _views(raw, num_envs))

@@ -56,6 +56,7 @@ from roar.errors import RoarError
 from roar.tracks.names import FORMS
 from roar.user_files import unusable_folder
 from roar_sim import robots
+from roar_sim.runs.processes import cores, fork_context
 from roar_sim.world import plotting
 
 COLUMNS = ("track", "robot", "k_dd_s", "margin", "laps", "status", "laps_done", "best_lap_s", "limit_lap_s",
@@ -307,21 +308,16 @@ def _serial(todo: Sequence[Run], fn: Callable[[Run], dict]):
 DIED = "the worker running it died (its process ended)"
 
 
-def local_cores() -> int:
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-
-
 def _on_processes(todo: Sequence[Run], fn: Callable[[Run], dict], workers: int | None):
     """Rows as runs finish on `workers` processes forked from this one, each taking run after run.
     A process that dies breaks the pool (every run it held fails with it): those runs are then
     run again each in a process of its own, so only the one that kills its process fails."""
     import concurrent.futures as futures
-    import multiprocessing
 
     from roar_sim.runs import race  # noqa: F401 -- imported once here, inherited by every fork
 
-    context = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn")
-    count = max(1, min(workers or local_cores(), len(todo)))
+    context = fork_context()
+    count = max(1, min(workers or len(cores()), len(todo)))
     suspects: list[Run] = []
     with _sigint_kept_from_children():  # (Ctrl-C is ours: we end the processes)
         pool = futures.ProcessPoolExecutor(count, mp_context=context)
@@ -668,7 +664,7 @@ def _where(args) -> str:
         return f"on Ray at {args.address}"
     if args.ray:
         return "on a local Ray"
-    n = args.workers or local_cores()
+    n = args.workers or len(cores())
     return f"on {n} local process{'es' if n != 1 else ''}"
 
 
