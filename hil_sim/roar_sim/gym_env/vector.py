@@ -113,7 +113,7 @@ class RaceVectorEnv(gym.vector.VectorEnv):
                 at += n
         except OSError:
             self._died()
-        infos = self._infos(self._own.reset(seeds[:self._counts[0]], options))  # (all written once all answered)
+        infos = self._infos(self._guarded(self._own.reset, seeds[:self._counts[0]], options))  # all written now
         return self._observation(), infos
 
     def step(self, actions):
@@ -130,12 +130,7 @@ class RaceVectorEnv(gym.vector.VectorEnv):
                 pipe.send_bytes(b"s")
         except OSError:
             self._died()
-        try:
-            own = self._own.step()  # ours while they step theirs
-        except BaseException:
-            self.close()
-            raise
-        infos = self._infos(own)
+        infos = self._infos(self._guarded(self._own.step))  # ours while they step theirs
         a = self._arrays
         return self._observation(), a["reward"].copy(), a["terminated"].copy(), a["truncated"].copy(), infos
 
@@ -161,6 +156,15 @@ class RaceVectorEnv(gym.vector.VectorEnv):
             self.close()
 
     # --- helpers -----------------------------------------------------------------------------
+
+    def _guarded(self, work, *args):
+        """Our share's work; if it fails, the others' answers would be left unread in the pipes
+        (and taken for the next step's): everything is closed before the error goes on."""
+        try:
+            return work(*args)
+        except BaseException:
+            self.close()
+            raise
 
     def _died(self):
         self.close()
