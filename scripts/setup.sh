@@ -53,6 +53,14 @@ if [[ ! -x .venv/bin/python ]] || ! { fresh "$stamp" || { [[ $level == run ]] &&
   echo "setup: .venv with the pinned dependencies ($extras)"
   [[ -x .venv/bin/python ]] || "$PY" -m venv .venv
   log=.venv/pip.log
+  if [[ $level == test ]] && ! .venv/bin/python -c "import torch" 2>/dev/null; then
+    # PyTorch's CPU build (PPO's example and test): a wheel this machine keeps (pip's find-links),
+    # else PyTorch's CPU index; failing both, the pip install below takes PyPI's (CUDA) build
+    torch=$(sed -n 's/.*"\(torch==[^"]*\)".*/\1/p' pyproject.toml)
+    .venv/bin/python -m pip install --disable-pip-version-check --no-deps --no-index "$torch" >"$log" 2>&1 ||
+      .venv/bin/python -m pip install --disable-pip-version-check --no-deps --timeout 30 "$torch" \
+        --index-url https://download.pytorch.org/whl/cpu >>"$log" 2>&1 || true
+  fi
   if ! .venv/bin/python -m pip install --disable-pip-version-check -e ".[$extras]" >"$log" 2>&1; then
     echo "setup: pip install failed; last lines of $log:" >&2
     tail -n 15 "$log" >&2

@@ -69,19 +69,36 @@ def test_the_same_script_drives_the_simulator_and_a_serial_car(tmp_path, pty_car
     assert max(off_circle_m) < 0.15
 
 
-def test_the_ppo_training_example_trains_saves_and_drives(tmp_path):
-    """examples/train_ppo.py, a few steps: only where stable-baselines3 (and PyTorch) are installed,
-    which `make setup` does not do."""
+def test_the_ppo_training_example_trains_the_same_policy_from_the_same_seed_and_drives_it(tmp_path):
+    """examples/train_ppo.py, a rollout or two: the same seed trains the same policy (its printed
+    fingerprint) on 1 or 2 processes and in SB3's own SubprocVecEnv, another seed another; the
+    saved model drives an episode."""
+    import re
+
     import pytest
 
-    pytest.importorskip("stable_baselines3", reason="pip install stable-baselines3 (it brings PyTorch; make setup "
-                                                    "leaves both out)")
+    pytest.importorskip("stable_baselines3", reason="pip install 'roar-platform[rl]' (make setup installs it)")
     example = ROOT / "examples" / "train_ppo.py"
-    trained = subprocess.run([sys.executable, str(example), "--steps", "128", "--envs", "2", "--out", str(tmp_path)],
-                             capture_output=True, text=True, timeout=300)
-    assert trained.returncode == 0, trained.stderr[-2000:]
-    assert (tmp_path / "model.zip").exists() and (tmp_path / "normalise.pkl").exists()
-    driven = subprocess.run([sys.executable, str(example), "--drive", str(tmp_path / "model.zip")],
+
+    def policy(*options: str) -> str:
+        out = tmp_path / "-".join(options).replace("--", "")
+        trained = subprocess.run([sys.executable, str(example), "--steps", "1024", "--envs", "3", "--out", str(out),
+                                  *options], capture_output=True, text=True, timeout=300)
+        assert trained.returncode == 0, trained.stderr[-2000:]
+        assert (out / "model.zip").exists() and (out / "normalise.pkl").exists()
+        assert "did not reach 2 laps/episode on oval" in trained.stdout  # 1024 steps: far from it
+        return re.search(r"policy ([0-9a-f]{16}) \(seed", trained.stdout).group(1)
+
+    first = policy("--seed", "0", "--workers", "2")
+    assert policy("--seed", "0", "--workers", "1") == first
+    assert policy("--seed", "0", "--vec", "subproc") == first
+    assert policy("--seed", "1", "--workers", "2") != first
+    model = tmp_path / "seed-0-workers-2" / "model.zip"
+    driven = subprocess.run([sys.executable, str(example), "--drive", str(model)],
                             capture_output=True, text=True, timeout=300)
     assert driven.returncode == 0, driven.stderr[-2000:]
-    assert " laps of oval in " in driven.stdout
+    assert re.search(r"drove -?[0-9.]+ m = -?[0-9.]+ laps of oval in [0-9.]+ s \((hit a wall|time up)\)",
+                     driven.stdout), driven.stdout
+    bad = subprocess.run([sys.executable, str(example), "--track", "nowhere", "--steps", "64"],
+                         capture_output=True, text=True, timeout=300)
+    assert bad.returncode == 1 and "train_ppo:" in bad.stderr and "Traceback" not in bad.stderr, bad.stderr

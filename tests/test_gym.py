@@ -222,6 +222,82 @@ def test_our_vector_environment_gives_what_each_environment_alone_gives(num_envs
             assert (rewards[i], terms[i], truncs[i]) == (reward, term, trunc)
 
 
+def test_same_step_autoreset_gives_what_gymnasiums_own_vector_environment_gives():
+    """autoreset_mode=SAME_STEP (what SB3 and CleanRL expect): observations, rewards, ends and each
+    ended episode's last observation equal Gymnasium's SyncVectorEnv of RaceEnvs, bit for bit;
+    call, get_attr and set_attr reach the environments in every process."""
+    from gymnasium.vector import AutoresetMode, SyncVectorEnv
+
+    from roar_sim.gym_env import RaceEnv
+    from roar_sim.gym_env.vector import RaceVectorEnv
+
+    rng = np.random.default_rng(7)
+    actions = [rng.uniform([0.0, -0.3], [0.6, 0.3], (3, 2)).astype(np.float32) for _ in range(70)]
+    ours = RaceVectorEnv(3, workers=2, autoreset_mode="SameStep", max_seconds=0.6, lidar_beams=8)
+    theirs = SyncVectorEnv([lambda: RaceEnv(max_seconds=0.6, lidar_beams=8)] * 3,
+                           autoreset_mode=AutoresetMode.SAME_STEP)
+    ends = 0
+    try:
+        assert ours.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
+        assert same(ours.reset(seed=30)[0], theirs.reset(seed=30)[0])
+        for action in actions:
+            (obs, reward, term, trunc, info), (obs1, reward1, term1, trunc1, info1) = ours.step(action), \
+                theirs.step(action)
+            assert same(obs, obs1) and np.array_equal(reward, reward1)
+            assert np.array_equal(term, term1) and np.array_equal(trunc, trunc1)
+            assert np.array_equal(info.get("_final_obs", np.zeros(3, bool)), term1 | trunc1)
+            for i in np.flatnonzero(term1 | trunc1):
+                ends += 1
+                assert same(info["final_obs"][i], info1["final_obs"][i])
+        assert ours.get_attr("max_seconds") == (0.6,) * 3
+        ours.set_attr("contact_penalty", [1.0, 2.0, 3.0])
+        assert ours.call("contact_penalty") == (1.0, 2.0, 3.0)
+        assert [track.name for track in ours.get_attr("track")] == ["oval"] * 3
+    finally:
+        ours.close()
+        theirs.close()
+    assert ends >= 6  # every environment ended episodes twice or more
+    with pytest.raises(ValueError, match="autoreset_mode must be one of NextStep, SameStep"):
+        RaceVectorEnv(2, autoreset_mode="Disabled")
+
+
+def test_stable_baselines3s_vector_environment_gives_what_its_own_gives():
+    """roar_sim.gym_env.sb3.RaceVecEnv on 2 processes equals SB3's SubprocVecEnv of RaceEnvs (a
+    process each): same seeds, observations, rewards, dones, terminal observations, time limits."""
+    pytest.importorskip("stable_baselines3", reason="pip install stable-baselines3 (make setup installs it)")
+    from stable_baselines3.common.vec_env import SubprocVecEnv
+
+    from roar_sim.gym_env import RaceEnv
+    from roar_sim.gym_env.sb3 import RaceVecEnv
+
+    rng = np.random.default_rng(8)
+    actions = [rng.uniform([0.0, -0.3], [0.6, 0.3], (3, 2)).astype(np.float32) for _ in range(70)]
+    ours = RaceVecEnv(3, workers=2, max_seconds=0.6)
+    theirs = SubprocVecEnv([lambda: RaceEnv(max_seconds=0.6)] * 3, start_method="fork")
+    dones = 0
+    try:
+        ours.seed(40)
+        theirs.seed(40)
+        assert same(ours.reset(), theirs.reset())
+        for action in actions:
+            for env in (ours, theirs):
+                env.step_async(action)
+            (obs, reward, done, info), (obs1, reward1, done1, info1) = ours.step_wait(), theirs.step_wait()
+            assert same(obs, obs1) and np.array_equal(reward, reward1) and np.array_equal(done, done1)
+            for a, b in zip(info, info1):
+                assert a["TimeLimit.truncated"] == b["TimeLimit.truncated"]
+                assert ("terminal_observation" in a) == ("terminal_observation" in b)
+                if "terminal_observation" in b:
+                    dones += 1
+                    assert same(a["terminal_observation"], b["terminal_observation"])
+        assert ours.get_attr("max_seconds", indices=[1]) == [0.6]
+        assert ours.env_method("get_wrapper_attr", "max_seconds") == [0.6] * 3
+    finally:
+        ours.close()
+        theirs.close()
+    assert dones >= 6
+
+
 def test_make_vec_gives_our_vector_environment_and_it_explains_bad_keywords():
     from roar_sim.gym_env.vector import RaceVectorEnv
 

@@ -13,10 +13,15 @@ step), so this process never waits idle for that: it is stepping its own share m
 Every environment is the very RaceEnv with its own seed (reset(seed=s) gives environment i the
 seed s + i), so its observations, rewards and ends are those of a RaceEnv alone with that seed
 and the same actions, bit for bit. Autoreset is Gymnasium's default (next step): the step after
-an episode ends resets that environment (its action unused), with reward 0 and no end.
+an episode ends resets that environment (its action unused), with reward 0 and no end. With
+autoreset_mode=AutoresetMode.SAME_STEP the step that ends an episode resets at once: it returns
+the new episode's first observation, and the last one in info["final_obs"] (its info in
+"final_info"), as Stable-Baselines3 and CleanRL expect (roar_sim.gym_env.sb3 adapts it to SB3).
+step_each() and reset_each() give each environment's info dict in a list instead of Gymnasium's
+merged arrays; call(), get_attr() and set_attr() reach every environment, wherever it runs.
 
-The keywords are RaceEnv's (checked here, before any process starts: one ValueError) and
-`workers`. Ctrl-C or close() ends the other processes at once; one that fails raises its error here.
+The keywords are RaceEnv's (checked here, before any process starts: one ValueError),
+`workers` and `autoreset_mode`. Ctrl-C or close() ends the other processes at once; one that fails raises its error here.
 """
 
 from __future__ import annotations
@@ -56,7 +61,8 @@ def default_workers(num_envs: int) -> int:
 class RaceVectorEnv(gym.vector.VectorEnv):
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
 
-    def __init__(self, num_envs: int = 2, workers: int | None = None, **env_kwargs) -> None:
+    def __init__(self, num_envs: int = 2, workers: int | None = None,
+                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, **env_kwargs) -> None:
         if not isinstance(num_envs, int) or isinstance(num_envs, bool) or not 1 <= num_envs <= 1024:
             raise ValueError(f"RaceVectorEnv: num_envs must be a whole number 1..1024, got {num_envs!r}")
         workers = default_workers(num_envs) if workers is None else workers
@@ -65,6 +71,14 @@ class RaceVectorEnv(gym.vector.VectorEnv):
                              f"must be a whole number 1..num_envs ({num_envs}), got {workers!r}")
         if env_kwargs.get("render_mode") is not None:
             raise ValueError("RaceVectorEnv: render_mode is for one environment (gymnasium.make)")
+        modes = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)
+        try:
+            autoreset_mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            autoreset_mode = None
+        if autoreset_mode not in modes:
+            raise ValueError(f"RaceVectorEnv: autoreset_mode must be one of {', '.join(m.value for m in modes)}")
+        self.metadata = {**self.metadata, "autoreset_mode": autoreset_mode}
         probe = RaceEnv(**env_kwargs)  # checks every keyword; builds no world (reset() does)
         self.num_envs = num_envs
         self.single_observation_space = probe.observation_space
@@ -84,13 +98,14 @@ class RaceVectorEnv(gym.vector.VectorEnv):
         shares = np.array_split(np.arange(num_envs), workers)
         self._pipes, self._processes = [], []
         self._counts = [len(share) for share in shares]  # environments per process, this one first
-        self._own = _Share(int(shares[0][0]), len(shares[0]), env_kwargs, self._arrays)
+        same_step = autoreset_mode == AutoresetMode.SAME_STEP
+        self._own = _Share(int(shares[0][0]), len(shares[0]), env_kwargs, self._arrays, same_step)
         available = cores()
         for k, share in enumerate(shares[1:], start=1):
             ours, theirs = context.Pipe()
             core = available[k % len(available)]  # each other process on a core of its own (this one: the rest)
-            process = context.Process(target=_work, args=(theirs, int(share[0]), len(share), env_kwargs, self._raw,
-                                                          num_envs, core), daemon=True, name="roar-race-env")
+            process = context.Process(target=_work, args=(theirs, int(share[0]), len(share), env_kwargs, same_step,
+                                                          self._raw, num_envs, core), daemon=True, name="roar-race-env")
             process.start()
             theirs.close()
             self._pipes.append(ours)
@@ -100,6 +115,36 @@ class RaceVectorEnv(gym.vector.VectorEnv):
     # --- gymnasium ---------------------------------------------------------------------------
 
     def reset(self, *, seed: int | list[int | None] | None = None, options: dict | None = None):
+        observation, infos = self.reset_each(seed=seed, options=options)
+        return observation, self._merged(infos)
+
+    def step(self, actions):
+        observation, rewards, terminated, truncated, infos = self.step_each(actions)
+        return observation, rewards, terminated, truncated, self._merged(infos)
+
+    def call(self, name: str, *args, **kwargs) -> tuple:
+        """Each environment's method name called with args (or its attribute name, if not callable)."""
+        return tuple(self._each(("call", name, args, kwargs), lambda share: share.call(name, args, kwargs)))
+
+    def get_attr(self, name: str) -> tuple:
+        return self.call(name)
+
+    def set_attr(self, name: str, values) -> None:
+        """Each environment's attribute name set: to values[i], or to values for all if not a list or tuple."""
+        if not isinstance(values, (list, tuple)):
+            values = [values] * self.num_envs
+        if len(values) != self.num_envs:
+            raise ValueError(f"set_attr: {len(values)} values for {self.num_envs} environments")
+        at = self._counts[0]
+        for pipe, n in zip(self._pipes, self._counts[1:]):
+            self._send(pipe, ("set", name, list(values[at:at + n])))
+            at += n
+        self._each(None, lambda share: share.set(name, values[:self._counts[0]]))
+
+    # --- each environment's info, in a list --------------------------------------------------
+
+    def reset_each(self, *, seed: int | list[int | None] | None = None, options: dict | None = None):
+        """reset(), with each environment's info dict in a list."""
         if seed is None or isinstance(seed, int):
             seeds = [None if seed is None else seed + i for i in range(self.num_envs)]
         else:
@@ -107,16 +152,14 @@ class RaceVectorEnv(gym.vector.VectorEnv):
             if len(seeds) != self.num_envs:
                 raise ValueError(f"reset: {len(seeds)} seeds for {self.num_envs} environments")
         at = self._counts[0]
-        try:
-            for pipe, n in zip(self._pipes, self._counts[1:]):
-                pipe.send(("reset", seeds[at:at + n], options))
-                at += n
-        except OSError:
-            self._died()
-        infos = self._infos(self._guarded(self._own.reset, seeds[:self._counts[0]], options))  # all written now
+        for pipe, n in zip(self._pipes, self._counts[1:]):
+            self._send(pipe, ("reset", seeds[at:at + n], options))
+            at += n
+        infos = self._each(None, lambda share: share.reset(seeds[:self._counts[0]], options))  # all written now
         return self._observation(), infos
 
-    def step(self, actions):
+    def step_each(self, actions):
+        """step(), with each environment's info dict in a list."""
         try:
             actions = np.asarray(actions, np.float64).reshape(self.num_envs, 2)
         except (TypeError, ValueError):
@@ -130,7 +173,7 @@ class RaceVectorEnv(gym.vector.VectorEnv):
                 pipe.send_bytes(b"s")
         except OSError:
             self._died()
-        infos = self._infos(self._guarded(self._own.step))  # ours while they step theirs
+        infos = self._each(None, _Share.step)  # ours while they step theirs
         a = self._arrays
         return self._observation(), a["reward"].copy(), a["terminated"].copy(), a["truncated"].copy(), infos
 
@@ -157,29 +200,25 @@ class RaceVectorEnv(gym.vector.VectorEnv):
 
     # --- helpers -----------------------------------------------------------------------------
 
-    def _guarded(self, work, *args):
-        """Our share's work; if it fails, the others' answers would be left unread in the pipes
-        (and taken for the next step's): everything is closed before the error goes on."""
+    def _send(self, pipe, command) -> None:
         try:
-            return work(*args)
+            pipe.send(command)
+        except OSError:
+            self._died()
+
+    def _each(self, command, own) -> list:
+        """command sent to the other processes (None: already sent), own(our share) done here
+        meanwhile, then every environment's answer in order. If our share fails, the others'
+        answers would be left unread in the pipes (and taken for the next call's): everything is
+        closed before the error goes on."""
+        if command is not None:
+            for pipe in self._pipes:
+                self._send(pipe, command)
+        try:
+            answers = list(own(self._own))
         except BaseException:
             self.close()
             raise
-
-    def _died(self):
-        self.close()
-        raise RuntimeError("a RaceVectorEnv worker died (killed, or out of memory)") from None
-
-    def _observation(self) -> dict:
-        return {key[4:]: array.copy() for key, array in self._arrays.items() if key.startswith("obs:")}
-
-    def _infos(self, own: list[dict]) -> dict:
-        """Our environments' infos and each other process's answer (its environments' infos),
-        merged as Gymnasium's vector infos are."""
-        infos, at = {}, 0
-        for info in own:
-            infos = self._add_info(infos, info, at)
-            at += 1
         for pipe in self._pipes:
             try:
                 _await(pipe)
@@ -189,9 +228,21 @@ class RaceVectorEnv(gym.vector.VectorEnv):
             if isinstance(answer, str):  # a worker's error, its traceback
                 self.close()
                 raise RuntimeError(f"a RaceVectorEnv environment failed:\n{answer}")
-            for info in answer:
-                infos = self._add_info(infos, info, at)
-                at += 1
+            answers.extend(answer)
+        return answers
+
+    def _died(self):
+        self.close()
+        raise RuntimeError("a RaceVectorEnv worker died (killed, or out of memory)") from None
+
+    def _observation(self) -> dict:
+        return {key[4:]: array.copy() for key, array in self._arrays.items() if key.startswith("obs:")}
+
+    def _merged(self, each: list[dict]) -> dict:
+        """Every environment's info merged as Gymnasium's vector infos are."""
+        infos = {}
+        for i, info in enumerate(each):
+            infos = self._add_info(infos, info, i)
         return infos
 
 
@@ -203,8 +254,10 @@ def _views(raw: dict, num_envs: int) -> dict[str, np.ndarray]:
 class _Share:
     """Environments first..first+count-1, stepped in turn (in this process or another)."""
 
-    def __init__(self, first: int, count: int, env_kwargs: dict, arrays: dict[str, np.ndarray]) -> None:
+    def __init__(self, first: int, count: int, env_kwargs: dict, arrays: dict[str, np.ndarray],
+                 same_step: bool) -> None:
         self.rows = range(first, first + count)
+        self.same_step = same_step
         self.arrays = arrays
         self.observations = {key[4:]: array for key, array in arrays.items() if key.startswith("obs:")}
         self.envs = [RaceEnv(**env_kwargs) for _ in self.rows]
@@ -222,7 +275,11 @@ class _Share:
                 reward, terminated, truncated = 0.0, False, False
             else:
                 observation, reward, terminated, truncated, info = env.step(a["action"][i])
-            self.ended[j] = terminated or truncated
+                if self.same_step and (terminated or truncated):
+                    final = {"final_obs": observation, "final_info": info}
+                    observation, info = env.reset()
+                    info = {**info, **final}
+            self.ended[j] = not self.same_step and (terminated or truncated)
             self._put(i, observation)
             a["reward"][i], a["terminated"][i], a["truncated"][i] = reward, terminated, truncated
             infos.append(info)
@@ -237,19 +294,32 @@ class _Share:
             infos.append(info)
         return infos
 
+    def call(self, name: str, args: tuple, kwargs: dict) -> list:
+        results = []
+        for env in self.envs:
+            value = env.get_wrapper_attr(name)
+            results.append(value(*args, **kwargs) if callable(value) else value)
+        return results
+
+    def set(self, name: str, values: list) -> list:
+        for env, value in zip(self.envs, values):
+            env.set_wrapper_attr(name, value)
+        return []
+
     def close(self) -> None:
         for env in self.envs:
             env.close()
 
 
-def _work(pipe, first: int, count: int, env_kwargs: dict, raw: dict, num_envs: int, core: int) -> None:
+def _work(pipe, first: int, count: int, env_kwargs: dict, same_step: bool, raw: dict, num_envs: int,
+          core: int) -> None:
     """Another process: its share, stepped on this process's word, on its own core, with one BLAS
     thread (OpenBLAS's idle threads spin, taking the core another process steps on)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the main process's to handle: it closes us
     if hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {core})
     ThreadpoolController().limit(limits=1, user_api="blas")  # for the life of this process
-    share = _Share(first, count, env_kwargs, _views(raw, num_envs))
+    share = _Share(first, count, env_kwargs, _views(raw, num_envs), same_step)
     try:
         while True:
             _await(pipe)
@@ -260,7 +330,7 @@ def _work(pipe, first: int, count: int, env_kwargs: dict, raw: dict, num_envs: i
             command = pickle.loads(message)
             if command[0] == "close":
                 break
-            pipe.send(share.reset(command[1], command[2]))
+            pipe.send(getattr(share, command[0])(*command[1:]))  # reset, call, set
     except (EOFError, BrokenPipeError, KeyboardInterrupt):
         pass
     except Exception:  # the main process raises it

@@ -31,6 +31,7 @@ LANE_CAMERA = (320, 240)  # [px] the frames the camera drivers see (lanes, the d
 
 BRAKE_MAX_TORQUE_NM = 2.0  # [N m] per rear wheel at full brake
 ROLLING_DRAG_NM = 0.02  # [N m] coasting resistance per wheel
+HINGE_TORQUE_NM = 10.0  # [N m] the most the steering servo turns each front hinge with
 ENCODER_COUNTS_PER_REV = 1024  # [counts]
 JOINT_SPEED_CAP_RAD_S = 100.0  # [rad/s] PyBullet's cap on every joint's speed unless told otherwise
 
@@ -82,8 +83,9 @@ class Racecar:
                 k = profile.mass_kg / URDF_MASS_KG  # every link lighter (or heavier) alike, inertia with it
                 pb.changeDynamics(self.car, link, mass=mass * k, localInertiaDiagonal=[v * k for v in inertia],
                                   physicsClientId=c)
+        self._motors: dict[int, tuple] = {}  # joint -> its motor's settings, as last given to PyBullet
         for w in REAR_WHEELS + FRONT_WHEELS:
-            pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL, targetVelocity=0, force=0, physicsClientId=c)
+            self._motor(w, pb.VELOCITY_CONTROL, 0.0, 0.0)
             pb.changeDynamics(self.car, w, lateralFriction=motor.tyre_friction, physicsClientId=c)
             if motor.max_speed_rad_s > JOINT_SPEED_CAP_RAD_S:
                 # a motor faster than PyBullet's cap: its wheels may spin beyond it (in a call of its own: given
@@ -107,27 +109,33 @@ class Racecar:
 
     def apply(self, drive: float, brake: float, steer_rad: float) -> None:
         """drive -1..1 of the motor limit, brake 0..1, steer_rad the virtual centre angle."""
-        c = self.client
-        for w in REAR_WHEELS:
+        spins = ([state[1] for state in pb.getJointStates(self.car, REAR_WHEELS, physicsClientId=self.client)]
+                 if brake <= 0 and drive != 0 else [0.0] * len(REAR_WHEELS))
+        for w, spin in zip(REAR_WHEELS, spins):
             if brake > 0:
-                pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL, targetVelocity=0,
-                                         force=BRAKE_MAX_TORQUE_NM * brake, physicsClientId=c)
+                self._motor(w, pb.VELOCITY_CONTROL, 0.0, BRAKE_MAX_TORQUE_NM * brake)
             elif drive != 0:
                 # The motor drives the wheel towards its speed for this throttle but never holds it
                 # back: a wheel already turning faster in that direction coasts (no drag brake).
                 target = drive * self.motor.max_speed_rad_s
-                spin = pb.getJointState(self.car, w, physicsClientId=c)[1]
                 coasting = spin * target > 0 and abs(spin) > abs(target)
                 torque = ROLLING_DRAG_NM if coasting else self.motor.max_torque_nm * abs(drive) + ROLLING_DRAG_NM
-                pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL, targetVelocity=target, force=torque,
-                                         physicsClientId=c)
+                self._motor(w, pb.VELOCITY_CONTROL, target, torque)
             else:
-                pb.setJointMotorControl2(self.car, w, pb.VELOCITY_CONTROL, targetVelocity=0, force=ROLLING_DRAG_NM,
-                                         physicsClientId=c)
+                self._motor(w, pb.VELOCITY_CONTROL, 0.0, ROLLING_DRAG_NM)
         left, right = ackermann_angles(steer_rad, self.profile.scale)
         for hinge, angle in ((LEFT_HINGE, left), (RIGHT_HINGE, right)):
-            pb.setJointMotorControl2(self.car, hinge, pb.POSITION_CONTROL, targetPosition=angle, force=10,
-                                     physicsClientId=c)
+            self._motor(hinge, pb.POSITION_CONTROL, angle, HINGE_TORQUE_NM)
+
+    def _motor(self, joint: int, mode: int, target: float, force: float) -> None:
+        """A joint's motor set to a target (a velocity, or a position) and its most force. PyBullet
+        keeps a motor's settings from step to step, so unchanged ones are not given again (a third
+        of the car's calls into PyBullet per physics step, the same physics)."""
+        settings = (mode, target, force)
+        if self._motors.get(joint) != settings:
+            self._motors[joint] = settings
+            key = "targetPosition" if mode == pb.POSITION_CONTROL else "targetVelocity"
+            pb.setJointMotorControl2(self.car, joint, mode, force=force, physicsClientId=self.client, **{key: target})
 
     def step(self) -> None:
         self.world.step()
