@@ -70,9 +70,9 @@ def test_the_same_script_drives_the_simulator_and_a_serial_car(tmp_path, pty_car
 
 
 def test_the_ppo_training_example_trains_the_same_policy_from_the_same_seed_and_drives_it(tmp_path):
-    """examples/train_ppo.py, a rollout or two: the same seed trains the same policy (its printed
-    fingerprint) on 1 or 2 processes and in SB3's own SubprocVecEnv, another seed another; the
-    saved model drives an episode."""
+    """examples/train_ppo.py, one rollout and update: the same seed trains the same policy (its
+    printed fingerprint) on RaceVecEnv's 2 processes and in SB3's SubprocVecEnv (a process per
+    environment), another seed another; the saved model drives an episode."""
     import re
 
     import pytest
@@ -82,15 +82,14 @@ def test_the_ppo_training_example_trains_the_same_policy_from_the_same_seed_and_
 
     def policy(*options: str) -> str:
         out = tmp_path / "-".join(options).replace("--", "")
-        trained = subprocess.run([sys.executable, str(example), "--steps", "1024", "--envs", "3", "--out", str(out),
+        trained = subprocess.run([sys.executable, str(example), "--steps", "384", "--envs", "3", "--out", str(out),
                                   *options], capture_output=True, text=True, timeout=300)
         assert trained.returncode == 0, trained.stderr[-2000:]
         assert (out / "model.zip").exists() and (out / "normalise.pkl").exists()
-        assert "did not reach 2 laps/episode on oval" in trained.stdout  # 1024 steps: far from it
+        assert "did not reach 2 laps/episode on oval" in trained.stdout  # 384 steps: far from it
         return re.search(r"policy ([0-9a-f]{16}) \(seed", trained.stdout).group(1)
 
     first = policy("--seed", "0", "--workers", "2")
-    assert policy("--seed", "0", "--workers", "1") == first
     assert policy("--seed", "0", "--vec", "subproc") == first
     assert policy("--seed", "1", "--workers", "2") != first
     model = tmp_path / "seed-0-workers-2" / "model.zip"

@@ -21,7 +21,8 @@ step_each() and reset_each() give each environment's info dict in a list instead
 merged arrays; call(), get_attr() and set_attr() reach every environment, wherever it runs.
 
 The keywords are RaceEnv's (checked here, before any process starts: one ValueError),
-`workers` and `autoreset_mode`. Ctrl-C or close() ends the other processes at once; one that fails raises its error here.
+`workers` and `autoreset_mode`. Ctrl-C or close() ends the other processes at once; one that
+fails raises its error here (and everything is closed).
 """
 
 from __future__ import annotations
