@@ -9,7 +9,7 @@ RaceVectorEnv (roar_sim.gym_env.vector) with same-step autoreset under SB3's nam
 episode's last observation is info["terminal_observation"], a time limit is
 info["TimeLimit.truncated"], as SB3's own vector environments give them. seed(s) then reset() gives
 environment i the seed s + i, as RaceVectorEnv and SB3 do, so the same seeds give the same
-training whatever the number of processes. Needs stable-baselines3 (pip install stable-baselines3).
+training whatever the number of processes. Needs stable-baselines3: pip install 'roar-platform[rl]'.
 """
 
 from __future__ import annotations

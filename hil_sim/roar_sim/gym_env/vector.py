@@ -136,11 +136,8 @@ class RaceVectorEnv(gym.vector.VectorEnv):
             values = [values] * self.num_envs
         if len(values) != self.num_envs:
             raise ValueError(f"set_attr: {len(values)} values for {self.num_envs} environments")
-        at = self._counts[0]
-        for pipe, n in zip(self._pipes, self._counts[1:]):
-            self._send(pipe, ("set", name, list(values[at:at + n])))
-            at += n
-        self._each(None, lambda share: share.set(name, values[:self._counts[0]]))
+        self._scatter("set", values, name)
+        self._each(None, lambda share: share.set(values[:self._counts[0]], name))
 
     # --- each environment's info, in a list --------------------------------------------------
 
@@ -152,10 +149,7 @@ class RaceVectorEnv(gym.vector.VectorEnv):
             seeds = list(seed)
             if len(seeds) != self.num_envs:
                 raise ValueError(f"reset: {len(seeds)} seeds for {self.num_envs} environments")
-        at = self._counts[0]
-        for pipe, n in zip(self._pipes, self._counts[1:]):
-            self._send(pipe, ("reset", seeds[at:at + n], options))
-            at += n
+        self._scatter("reset", seeds, options)
         infos = self._each(None, lambda share: share.reset(seeds[:self._counts[0]], options))  # all written now
         return self._observation(), infos
 
@@ -206,6 +200,13 @@ class RaceVectorEnv(gym.vector.VectorEnv):
             pipe.send(command)
         except OSError:
             self._died()
+
+    def _scatter(self, verb: str, values: list, *rest) -> None:
+        """To each other process, (verb, its environments' part of values, *rest)."""
+        at = self._counts[0]
+        for pipe, n in zip(self._pipes, self._counts[1:]):
+            self._send(pipe, (verb, list(values[at:at + n]), *rest))
+            at += n
 
     def _each(self, command, own) -> list:
         """command sent to the other processes (None: already sent), own(our share) done here
@@ -302,7 +303,7 @@ class _Share:
             results.append(value(*args, **kwargs) if callable(value) else value)
         return results
 
-    def set(self, name: str, values: list) -> list:
+    def set(self, values: list, name: str) -> list:
         for env, value in zip(self.envs, values):
             env.set_wrapper_attr(name, value)
         return []
