@@ -40,7 +40,7 @@ def run() -> None:
             ray = start_ray(None, WORKERS)
             ray_start_s = time.perf_counter() - start
             try:
-                ray_s, on_ray, _ = timed("ray", runs16)
+                ray_s, on_ray, _ = timed("ray", runs16, ray=True)  # (without ray=True: local processes)
             finally:
                 ray.shutdown()
         except Exception as e:  # noqa: BLE001 -- Ray is the reference only
@@ -54,7 +54,8 @@ def run() -> None:
           f"for 16 on the processes")
     if ray_s is not None:
         print(f"  a local Ray for reference, 16 runs: {ray_s:.1f} s = {serial_s / ray_s:.2f}x, but {ray_start_s:.1f} s "
-              f"to start it: {serial_s / (ray_s + ray_start_s):.2f}x counting that")
+              f"to start it: {serial_s / (ray_s + ray_start_s):.2f}x counting that; tables "
+              f"{'identical' if on_ray == serial else 'DIFFERENT'}")
     if serial_s / local_s < TARGET:
         first_s = table.arrivals_s[WORKERS - 1]
         steady_s = (table.arrivals_s[-1] - first_s) / max(1, len(table.arrivals_s) - WORKERS)
