@@ -9,7 +9,7 @@ from roar_sim.emulators import qemu
 
 from roar_sim.toolchains import arm
 from roar_sim.core.iarrc import iarrc_tasks
-from roar_sim.clock.rtos import Scheduler
+from roar_sim.core.rtos import Scheduler
 from roar_sim.runs.step_response import measure
 
 TITLE = "IARRC controller: speed step, task schedule, task costs"

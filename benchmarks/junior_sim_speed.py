@@ -10,7 +10,7 @@ from benchmarks.sim_speed import compare
 from roar.junior import query_for
 from roar_sim.core.junior import SidePins
 from roar_sim.plants.junior import JuniorPlant
-from roar_sim.clock.lockstep import PHYSICS_US
+from roar_sim.core.lockstep import PHYSICS_US
 from roar_sim.robots.junior import Junior
 from benchmarks.sim_speed import SCENE
 

@@ -19,7 +19,8 @@ def run() -> None:
         return
     from roar.vision.geometry import SIMULATED_CAR_CAMERA
     from roar_sim.plants.racecar import Racecar
-    from roar_sim.runs.race import LANE_CAMERA, race
+    from roar_sim.runs.lane_course import LANE_CAMERA
+    from roar_sim.runs.race import race
     from roar.tracks import get
 
     w, h = LANE_CAMERA

@@ -10,7 +10,7 @@ decide the ratio."""
 import time
 
 from roar.protocol import encode
-from roar_sim.clock.lockstep import PHYSICS_US
+from roar_sim.core.lockstep import PHYSICS_US
 from roar_sim.robots.esc import EscCar
 from roar_sim.plants.racecar import Racecar
 from roar.tracks import get

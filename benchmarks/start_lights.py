@@ -8,7 +8,7 @@ from collections import Counter
 from roar.tracks import get
 from roar.vision.start_lights import StartLightDetector
 from roar_sim.plants.racecar import Racecar
-from roar_sim.runs.race import LANE_CAMERA, PERIOD_S
+from roar_sim.runs.lane_course import LANE_CAMERA, PERIOD_S
 from roar_sim.sensors.camera_noise import NOISE, SHAKE_RAD, ShakyCamera
 from roar_sim.world.start_lights import StartLights, frames_to_start, green_moment
 

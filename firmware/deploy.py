@@ -78,18 +78,18 @@ def tool(name: str) -> str:
 
 
 def deploy_micropython(board: str, port: str | None) -> str:
-    sys.path.insert(0, str(ROOT / "hil_sim"))
-    from roar_sim.emulators import micropython
+    sys.path.insert(0, str(ROOT / "firmware" / "micropython"))
+    import board_files  # what each board holds (the suite's MicroPython runs load the same list)
 
-    if board not in micropython.BOARD_NAMES:
-        raise DeployError(f"BOARD must be one of {', '.join(micropython.BOARD_NAMES)}, got {board!r}")
+    if board not in board_files.BOARD_NAMES:
+        raise DeployError(f"BOARD must be one of {', '.join(board_files.BOARD_NAMES)}, got {board!r}")
     stage = STAGE / board
     if stage.exists():
         import shutil
 
         shutil.rmtree(stage)
     try:
-        built = micropython.build(board, stage)
+        built = board_files.build(board, stage)
     except subprocess.CalledProcessError as e:
         raise DeployError(f"mpy-cross: {(e.stderr or '').strip().splitlines()[-1:] or e}") from None
     except FileNotFoundError as e:

@@ -5,7 +5,7 @@ must be equal, compared as JSON text.
     families: control  the control and setpoint parser   corpora control_parser, py_control
               sbus     the SBUS decoder                    corpora sbus, py_sbus
               junior   the Junior's query string           corpora junior_query, py_junior_query
-              http     the Junior's HTTP reader and board  corpus http_junior (the twin: the
+              http     the Junior's HTTP reader and board  corpus junior_http (the twin: the
                        MicroPython board's roar_junior.py)
 """
 
@@ -21,7 +21,7 @@ from fuzz import twins
 ROOT = Path(__file__).resolve().parent.parent
 CORPUS = ROOT / "fuzz" / "corpus"
 FAMILIES = {"control": ("control_parser", "py_control"), "sbus": ("sbus", "py_sbus"),
-            "junior": ("junior_query", "py_junior_query"), "http": ("http_junior",)}
+            "junior": ("junior_query", "py_junior_query"), "http": ("junior_http",)}
 BOARD_LIB = ROOT / "firmware" / "micropython" / "lib"  # roar_junior.py and roar_clock.py, the HTTP twin
 MAX_INPUT_BYTES = 4096  # what libFuzzer makes by default; longer stored inputs are cut
 

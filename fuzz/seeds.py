@@ -149,7 +149,7 @@ def seeds() -> dict[str, list[bytes]]:
         "control_parser": messages, "py_control": messages,
         "sbus": frames, "py_sbus": frames,
         "junior_query": [q.encode() for q in QUERIES], "py_junior_query": [q.encode() for q in QUERIES],
-        "http_junior": http_requests(), "car_board": car_board_inputs(), "iarrc_board": iarrc_board_inputs(),
+        "junior_http": http_requests(), "car_board": car_board_inputs(), "iarrc_board": iarrc_board_inputs(),
         "py_stream": stream_datagrams(), "py_lines": lines(), **files(),
     }
     for target, inputs in REGRESSIONS.items():

@@ -1,6 +1,6 @@
 // The ROAR GATT service on boards with Bluetooth LE (Nano 33 BLE); a no-op elsewhere.
 #pragma once
-#include "roar/board.h"
+#include "roar/car_board.h"
 
 namespace ble_link {
 void begin();                                   // advertise the ROAR service as "ROAR Car"

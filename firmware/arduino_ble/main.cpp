@@ -7,7 +7,7 @@
 
 #include "ble_link.h"
 #include "chip.h"
-#include "roar/board.h"
+#include "roar/car_board.h"
 #include "roar/protocol.h"
 
 namespace {

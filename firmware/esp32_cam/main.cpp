@@ -30,7 +30,7 @@
 
 #include "nvs_store.h"
 #include "pins.h"
-#include "roar/board.h"
+#include "roar/car_board.h"
 #include "roar/protocol.h"
 #include "roar/spsc_bytes.h"
 

@@ -29,7 +29,7 @@ const T* as(const void* p) {
 
 }  // namespace
 
-// Every code of c_api.h's enums is the core's own (tests/test_c_abi.py checks that each enum
+// Every code of c_api.h's enums is the core's own (tests/firmware/test_c_abi.py checks that each enum
 // is listed here whole).
 #define ROAR_SAME_CODE(cxx, c) static_assert(static_cast<int>(cxx) == (c), #c " in c_api.h differs from " #cxx)
 ROAR_SAME_CODE(WatchdogEvent::None, ROAR_WATCHDOG_EVENT_NONE);

@@ -8,7 +8,7 @@
 #include <stdint.h>
 
 #include "c_api.h"
-#include "roar/board.h"
+#include "roar/car_board.h"
 #include "roar/flash_log.h"
 #include "roar/iarrc_board.h"
 #include "roar/junior_board.h"

@@ -29,17 +29,13 @@ from pathlib import Path
 from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
 from roar.checks import number
-from roar.errors import RoarError
+from roar.errors import CalibrationError
 from roar.protocol import encode, spec
 from roar.user_files import read_parsed
 
 LO, HI, MID = spec.CONTROL_MIN_US, spec.CONTROL_MAX_US, spec.CONTROL_NEUTRAL_US
 ARM_WINDOW = spec.TIMING_ARM_WINDOW_US  # [us] the car arms on a throttle within this of MID
 THROTTLE_TRIM_RANGE = (MID - ARM_WINDOW, MID + ARM_WINDOW)  # [us]
-
-
-class CalibrationError(RoarError, ValueError):
-    """An invalid calibration or calibration file; str() is one line."""
 
 
 class ChannelCalibration(BaseModel):

@@ -21,15 +21,11 @@ from urllib.parse import urlsplit
 import numpy as np
 
 from roar.checks import timeout
-from roar.errors import RoarError
+from roar.errors import CameraError
 
 MAX_FRAME_BYTES = 4 * 1024 * 1024  # [bytes] a part larger than this is not a camera frame
 MAX_HEADER_BYTES = 8 * 1024  # [bytes]
 MAX_CAMERA_WAIT_S = 60.0  # [s] the longest a camera request may wait
-
-
-class CameraError(RoarError):
-    """A camera that cannot be reached or sent no image; str() is one line."""
 
 
 def _pillow():

@@ -32,7 +32,8 @@ import weakref
 from dataclasses import asdict
 from pathlib import Path
 
-from roar.errors import RoarError
+from roar.errors import RecordError
+from roar.transports.recording import RecordingTransport  # noqa: F401 (importable from here too)
 
 CONTROL = "/control"
 LINES = "/car/lines"
@@ -61,10 +62,6 @@ CONTROL_SCHEMA = {"type": "object", "title": "roar.Control", "properties": {
 STATE_SCHEMA = {"type": "object", "title": "roar.VehicleState",
                 "description": "roar.telemetry.VehicleState's fields; absent where the link cannot tell"}
 TELEMETRY_SCHEMA = {"type": "object", "title": "roar.Telemetry", "description": "a telemetry line's fields"}
-
-
-class RecordError(RoarError):
-    """A recording that cannot be made (one line)."""
 
 
 def foxglove_sdk():
@@ -332,79 +329,6 @@ class Recorder:
 
     def __exit__(self, *exc) -> None:
         self.close()
-
-
-LIDAR_FOV_RAD = math.radians(270)  # [rad] a Transport's lidar(): distances from right to left over this
-
-
-class RecordingTransport:
-    """A transport whose every write, reply line, state, scan and camera frame is also recorded:
-    what Vehicle(..., record=PATH) drives through. Everything else is the link's own. The
-    recorder may be swapped or set to None (nothing recorded) at any time (Vehicle.record)."""
-
-    def __init__(self, inner, recorder: Recorder | None) -> None:
-        self.inner, self.recorder = inner, recorder
-        self._t0 = time.monotonic_ns()
-        self._simulated = getattr(inner, "scheme", "") == "sim"
-
-    def __getattr__(self, name: str):
-        return getattr(self.inner, name)
-
-    def now_ns(self, state=None) -> int:
-        """[ns] the simulator's clock on sim:// (of `state` if given; 0 before its first step, so
-        the two clocks are never mixed in one file), else the host's monotonic clock since the
-        start."""
-        if self._simulated:
-            state = state if state is not None else self.inner.state()
-            return 0 if state is None or state.time_s is None else int(round(state.time_s * 1e9))
-        return time.monotonic_ns() - self._t0
-
-    def open(self) -> None:
-        self.inner.open()
-
-    def write(self, data: bytes) -> None:
-        self.inner.write(data)
-        rec = self.recorder  # read once: Vehicle.record(None) may take it away meanwhile
-        if rec is None:
-            return
-        state = self.inner.state()  # one snapshot: its time is the record's
-        t = self.now_ns(state)
-        rec.control(data, t)
-        if state is not None:
-            rec.state(state, t)
-
-    def read_lines(self) -> list[str]:
-        lines = self.inner.read_lines()
-        rec = self.recorder
-        if lines and rec is not None:
-            t = self.now_ns()
-            for line in lines:
-                rec.line(line, t)
-        return lines
-
-    def lidar(self):
-        ranges = self.inner.lidar()
-        rec = self.recorder
-        if ranges is not None and rec is not None:
-            rec.scan(ranges, -LIDAR_FOV_RAD / 2, LIDAR_FOV_RAD / 2, self.now_ns())
-        return ranges
-
-    def camera(self, width: int, height: int):
-        frame = self.inner.camera(width, height)
-        rec = self.recorder
-        if frame is not None and rec is not None:
-            t = self.now_ns()
-            rec.image(frame[0], t)
-            if frame[1] is not None:
-                rec.depth(frame[1], t)
-        return frame
-
-    def close(self) -> None:
-        try:
-            self.inner.close()
-        finally:
-            if self.recorder is not None:
-                self.recorder.close()
 
 
 def _pose(x: float, y: float, yaw: float, z: float = 0.0):

@@ -15,13 +15,9 @@ import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from roar.errors import RoarError
+from roar.errors import ReplayError
 
 MAGIC = b"\x89MCAP0\r\n"  # the first bytes of every MCAP file (mcap.dev's specification)
-
-
-class ReplayError(RoarError):
-    """A recording that cannot be read (one line)."""
 
 
 @dataclass

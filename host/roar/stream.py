@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from roar.checks import number, timeout
-from roar.errors import RoarError
+from roar.errors import UnknownHost
 from roar.protocol import spec
 from roar_wire import stream as wire
 
@@ -148,10 +148,6 @@ class Reassembler:
 
 
 JPEG_END = b"\xff\xd9"  # end-of-image marker; entropy-coded data never holds it
-
-
-class UnknownHost(RoarError):
-    """A host name that does not resolve; str() is one line naming it."""
 
 
 def peer(host: str) -> tuple[str, str]:

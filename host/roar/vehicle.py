@@ -72,7 +72,8 @@ class Vehicle:
         self.calibration = calibration if calibration is not None else load_default()
         period_s = DEFAULT_PERIOD_S if rate_hz is None else 1.0 / _check_rate(rate_hz)
         self.url = url
-        from roar.signing import SigningTransport, resolve_key
+        from roar.signing import resolve_key
+        from roar.transports.signing import SigningTransport
 
         signing_key = resolve_key(key)
         self.transport: Transport = open_url(url, **transport_options)
@@ -82,7 +83,7 @@ class Vehicle:
             self.transport = self.signer
         self.recorder = None
         if record is not None:
-            from roar.recorder import RecordingTransport
+            from roar.transports.recording import RecordingTransport
 
             self.recorder = self._new_recorder(record)
             self.transport = RecordingTransport(self.transport, self.recorder)
@@ -323,13 +324,13 @@ class Vehicle:
 
         return record if isinstance(record, Recorder) else Recorder(
             record, {"car": self.url, "command": " ".join(sys.argv)},
-            simulated=getattr(self.transport, "scheme", "") == "sim")
+            simulated=self.transport.scheme == "sim")
 
     def record(self, target=None):
         """Start recording the run from now into `target` (an MCAP path or a roar.recorder.Recorder),
         finishing any recording under way; None: stop recording (the file is finished). Returns
         the recorder (None when stopped)."""
-        from roar.recorder import RecordingTransport
+        from roar.transports.recording import RecordingTransport
 
         self._check_usable()
         recorder = None if target is None else self._new_recorder(target)

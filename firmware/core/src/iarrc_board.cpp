@@ -7,7 +7,7 @@ namespace roar {
 // Costs: each task body's worst input counted in Cortex-M4 instructions in QEMU
 // (hil_sim/stm32/task_bench.cpp: 64 SBUS bytes, 64 setpoint bytes, a PID command and a telemetry
 // line), at one cycle per instruction on the F745 at 16 MHz (the glue's clock), plus a quarter,
-// plus the gyro's SPI transfer and the battery's ADC conversion. tests/test_stm32_emulator.py
+// plus the gyro's SPI transfer and the battery's ADC conversion. tests/firmware/test_stm32_emulator.py
 // keeps them above the measurement.
 const TaskSpec kIarrcTasks[kIarrcTaskCount] = {
     {"rc", 2000, 5, 256, 420},

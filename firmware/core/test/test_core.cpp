@@ -1,14 +1,14 @@
 // Native test of the firmware core: the golden vectors plus seeded random stress of the
 // parser, the watchdog across the clock wrap, the reply queue, the L298N driver, the BLE byte
 // queue between two threads, the HTTP request reader and the Junior's loop. Built plain, under
-// -fsanitize=address,undefined and under -fsanitize=thread, and run by tests/test_sanitizers.py.
+// -fsanitize=address,undefined and under -fsanitize=thread, and run by tests/firmware/test_sanitizers.py.
 // Prints one line per failure and a closing "N passed, N failed".
 #include <stdio.h>
 #include <string.h>
 
 #include <thread>
 
-#include "roar/board.h"
+#include "roar/car_board.h"
 #include "roar/car.h"
 #include "roar/http_request.h"
 #include "roar/iarrc.h"

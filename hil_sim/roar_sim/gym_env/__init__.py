@@ -48,7 +48,7 @@ from gymnasium import spaces
 
 from roar.checks import number, shown
 from roar_sim import robots
-from roar_sim.clock.lockstep import CONTROL_PERIOD_S as PERIOD_S  # [s] one action
+from roar_sim.core.lockstep import CONTROL_PERIOD_S as PERIOD_S  # [s] one action
 from roar_sim.robots import Robot
 from roar.tracks import Track, get
 from roar.tracks.names import FORMS

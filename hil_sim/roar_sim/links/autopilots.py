@@ -10,15 +10,11 @@ reports, or the camera's frames -- and answers with Vehicle.drive() keywords.
 from __future__ import annotations
 
 from roar.autopilot import Observation
-from roar.errors import RoarError
+from roar_sim import AutopilotError
 
 POSE_PERIOD_S = 0.02  # [s] the race agent's control period, as in a race
 LANE_PERIOD_S = 0.1  # [s] a frame rendered to order costs ~20 ms of the simulator's thread: 10 a second
 LANE_MARGIN = 0.6  # of the car's grip: the lane driver sees its frames a little late in real time
-
-
-class AutopilotError(RoarError):
-    """An autopilot this simulated car cannot have: no track to follow, no camera to drive by."""
 
 
 def available(transport) -> tuple[str, ...]:

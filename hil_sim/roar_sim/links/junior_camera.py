@@ -21,7 +21,7 @@ import signal
 from dataclasses import dataclass
 from typing import Callable
 
-from roar.errors import RoarError
+from roar_sim import CameraOff
 from roar.tracks.track import Track
 
 RENDER_WORKERS = 2  # renderer processes
@@ -65,10 +65,6 @@ def _render_worker(track: Track | None, conn) -> None:
 def _call(pipe, request) -> bytes:
     pipe.send(request)
     return pipe.recv()
-
-
-class CameraError(RoarError):
-    pass
 
 
 @dataclass
@@ -125,7 +121,7 @@ class Camera:
         async with stream.changed:
             await stream.changed.wait_for(lambda: fresh() or not self.workers)
             if not fresh():
-                raise CameraError("camera off: no renderer is running")
+                raise CameraOff("camera off: no renderer is running")
             return stream.latest.seq, stream.latest.image
 
     async def _capture(self, stream: Stream, key: Key) -> None:

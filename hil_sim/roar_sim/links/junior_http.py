@@ -24,13 +24,13 @@ import threading
 from dataclasses import dataclass
 
 from roar.tracks.names import FORMS
-from roar.cli.errors import ArgumentParser, ExitStatus, UserError, add_foxglove_option, run_command, seconds_option
+from roar.cli.sdk import ArgumentParser, ExitStatus, UserError, add_foxglove_option, run_command, seconds_option
 from roar.protocol import spec
-from roar.transports.http_junior import host_port
-from roar_sim.clock.lockstep import CONTROL_PERIOD_S
+from roar.transports.junior_http import host_port
+from roar_sim.core.lockstep import CONTROL_PERIOD_S
 from roar_sim.core.junior import HttpRequestReader
 from roar_sim.core.library import HttpRead
-from roar_sim.links.junior_camera import RENDER_WORKERS, Camera, CameraError
+from roar_sim.links.junior_camera import RENDER_WORKERS, Camera, CameraOff
 from roar_sim.robots.junior import Junior
 from roar.tracks.track import Track
 
@@ -66,7 +66,7 @@ class JuniorServer:
     def __init__(self, track: Track | None = None, host: str = "127.0.0.1", port: int = 8081,
                  camera_port: int | None = None, gui: bool = False, render_workers: int = RENDER_WORKERS,
                  log=None) -> None:
-        """log: a roar_sim.runs.run_log.SimLog maker (robot -> SimLog) to record or serve the run live."""
+        """log: a roar_sim.links.sim_log.SimLog maker (robot -> SimLog) to record or serve the run live."""
         self.host, self.port = host, port
         self.camera_port = port - 1 if camera_port is None and port else (camera_port or 0)
         self.sim = Junior(track, realtime=True, gui=gui)
@@ -142,7 +142,7 @@ class JuniorServer:
             await writer.drain()
         except asyncio.TimeoutError:
             writer.write(_response("503 Service Unavailable", "text/plain", b"camera timed out\n"))
-        except CameraError as e:
+        except CameraOff as e:
             writer.write(_response("503 Service Unavailable", "text/plain", f"{e}\n".encode()))
         except (ConnectionError, OSError):
             pass
@@ -273,7 +273,7 @@ def main(argv: list[str] | None = None) -> int:
     track = get(args.track) if args.track is not None else None
     log = None
     if args.foxglove is not None:
-        from roar_sim.runs.run_log import SimLog
+        from roar_sim.links.sim_log import SimLog
 
         log = lambda robot: SimLog(robot, None, {"command": " ".join(sys.argv)}, args.foxglove,  # noqa: E731
                                    drain_lines=False)

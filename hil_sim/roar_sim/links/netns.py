@@ -21,14 +21,10 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import TypeVar
 
-from roar.errors import RoarError
+from roar_sim import NetnsUnavailable
 
 CLONE_NEWNET = 0x40000000  # setns(2)'s namespace type for a network namespace
 T = TypeVar("T")
-
-
-class NetnsUnavailable(RoarError):
-    """This machine (or user) cannot make network namespaces: the reason, in one line."""
 
 
 @dataclass(frozen=True)

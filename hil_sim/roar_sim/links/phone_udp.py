@@ -24,11 +24,11 @@ import numpy as np
 
 from roar.tracks.names import FORMS
 from roar.protocol import encode, spec
-from roar.cli.errors import (ArgumentParser, ExitStatus, UserError, add_foxglove_option, run_command, seconds_option,
+from roar.cli.sdk import (ArgumentParser, ExitStatus, UserError, add_foxglove_option, run_command, seconds_option,
                              stopped_status)
 from roar.vision.geometry import SIMULATED_CAR_CAMERA
 from roar.stream import UnknownHost, peer
-from roar_sim.clock.lockstep import CONTROL_PERIOD_S
+from roar_sim.core.lockstep import CONTROL_PERIOD_S
 from roar_wire import control as ctl
 from roar_wire import signing
 from roar_wire import stream as wire
@@ -117,7 +117,7 @@ class Phone:
         self.render_s = 0.0  # [s] wall time spent rendering and encoding
         self.bad_control = 0
         self.sent = 0
-        self.log = None  # a roar_sim.runs.run_log.SimLog: the run recorded or served live
+        self.log = None  # a roar_sim.links.sim_log.SimLog: the run recorded or served live
 
     async def start(self) -> Phone:
         loop = asyncio.get_running_loop()
@@ -283,7 +283,7 @@ def main(argv: list[str] | None = None) -> int:
                           host=args.host, ports=args.ports)
     phone = Phone(sim, config, key=key)
     if args.foxglove is not None:
-        from roar_sim.runs.run_log import SimLog
+        from roar_sim.links.sim_log import SimLog
 
         try:
             phone.log = SimLog(sim, None, {"command": " ".join(sys.argv)}, args.foxglove, drain_lines=False)

@@ -20,10 +20,10 @@ import threading
 import tty
 
 from roar.tracks.names import FORMS
-from roar.cli.errors import (ArgumentParser, ExitStatus, UserError, add_foxglove_option, run_command, seconds_option,
+from roar.cli.sdk import (ArgumentParser, ExitStatus, UserError, add_foxglove_option, run_command, seconds_option,
                              stopped_status)
 from roar_sim import robots
-from roar_sim.clock.lockstep import CONTROL_PERIOD_S
+from roar_sim.core.lockstep import CONTROL_PERIOD_S
 from roar_sim.robots import Robot
 from roar.tracks import get
 
@@ -35,7 +35,7 @@ class PtyCar:
     """A robot behind a pty. Call pump() repeatedly (or serve()) to move bytes and time."""
 
     def __init__(self, sim: Robot, log=None) -> None:
-        """log: a roar_sim.runs.run_log.SimLog of sim, stepped each control period."""
+        """log: a roar_sim.links.sim_log.SimLog of sim, stepped each control period."""
         self.sim, self.log = sim, log
         self._next_log_s = 0.0
         self.master, self._slave = os.openpty()
@@ -130,7 +130,7 @@ def main(argv: list[str] | None = None) -> int:
     sim = kind(get(args.track), realtime=True, gui=args.gui)
     log = None
     if args.foxglove is not None:
-        from roar_sim.runs.run_log import SimLog
+        from roar_sim.links.sim_log import SimLog
 
         try:
             log = SimLog(sim, None, {"command": " ".join(sys.argv)}, args.foxglove, drain_lines=False)

@@ -15,7 +15,7 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 
 from roar.checks import number, printable
-from roar.errors import RoarError
+from roar_sim import ProfileError
 from roar.user_files import read_parsed
 
 FOLDER = Path(__file__).with_name("car_profiles")
@@ -27,10 +27,6 @@ RANGES = {  # (low, high, unit) of every number a profile holds
     "gear_ratio": (1.0, 50.0, ""), "motor_torque_nm": (0.01, 5.0, "N m"), "tyre_friction": (0.1, 2.0, ""),
     "max_steer_rad": (0.1, 0.7, "rad"), "steer_rate_rad_s": (0.5, 30.0, "rad/s"),
 }
-
-
-class ProfileError(RoarError, ValueError):
-    """A car profile that cannot be used; str() is one line naming the file."""
 
 
 @dataclass(frozen=True)

@@ -155,6 +155,10 @@ class Racecar:
         """[rad] the rear-left wheel's angle since the start (where the encoder sits)."""
         return pb.getJointState(self.car, REAR_WHEELS[0], physicsClientId=self.client)[0]
 
+    def front_wheels_turned(self) -> float:
+        """[rad] the two undriven front wheels' mean angle since the start (wheel odometry's encoders)."""
+        return sum(pb.getJointState(self.car, w, physicsClientId=self.client)[0] for w in FRONT_WHEELS) / 2
+
     def wall_contacts(self, of: list[int] | None = None) -> int:
         """How many wall bodies (or bodies of `of`) the car touches right now."""
         return self.world.contacts(self.car, of)

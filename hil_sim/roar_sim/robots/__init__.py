@@ -27,16 +27,12 @@ import numpy as np
 
 from roar.autopilot import Agent, CarLimits, Command, Observation
 from roar.autopilot.limits import HOLDS_LINE, circle
-from roar.errors import RoarError
+from roar_sim import UnknownRobot
 from roar.telemetry import VehicleState
-from roar_sim.clock.lockstep import CONTROL_PERIOD_S, Lockstep
+from roar_sim.core.lockstep import CONTROL_PERIOD_S, Lockstep
 from roar.tracks.track import Track
 
 Pose = tuple[float, float, float]  # x [m], y [m], yaw [rad]
-
-
-class UnknownRobot(RoarError, ValueError):
-    """A robot name the registry does not know; str() names the ones it does."""
 
 
 def names() -> tuple[str, ...]:

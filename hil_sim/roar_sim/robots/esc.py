@@ -23,7 +23,7 @@ from roar.autopilot.pure_pursuit import PurePursuit
 from roar.calibration import Calibration
 from roar.protocol import encode, spec
 from roar.telemetry import VehicleState
-from roar_sim.clock.lockstep import CONTROL_PERIOD_S, LOOP_US, PHYSICS_US, loops_until
+from roar_sim.core.lockstep import CONTROL_PERIOD_S, LOOP_US, PHYSICS_US, loops_until
 from roar_sim.core.car import CarBoard, CarConfig, CarOutputs
 from roar_sim.plants.esc_servo import EscMode, HobbyEsc, SteeringServo
 from roar_sim.plants import car_profile

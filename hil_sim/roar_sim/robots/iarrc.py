@@ -24,8 +24,8 @@ from roar.autopilot.pure_pursuit import PurePursuit
 from roar.calibration import Calibration
 from roar.protocol import encode_setpoint, spec
 from roar.telemetry import VehicleState
-from roar_sim.clock.lockstep import CONTROL_PERIOD_S, PHYSICS_US
-from roar_sim.clock.rtos import Scheduler
+from roar_sim.core.lockstep import CONTROL_PERIOD_S, PHYSICS_US
+from roar_sim.core.rtos import Scheduler
 from roar_sim.core.iarrc import IarrcBoard, iarrc_tasks
 from roar_sim.core.library import IarrcTask
 from roar_sim.plants.esc_servo import EscMode, HobbyEsc, SteeringServo

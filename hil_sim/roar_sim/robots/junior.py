@@ -27,7 +27,7 @@ from roar.junior import MIXES, query_for
 from roar.protocol import spec
 from roar.telemetry import VehicleState
 from roar.transports.base import unit_command
-from roar_sim.clock.lockstep import LOOP_US, PHYSICS_US, loops_until
+from roar_sim.core.lockstep import LOOP_US, PHYSICS_US, loops_until
 from roar_sim.core.junior import HttpRequestReader, JuniorBoard, SidePins
 from roar_sim.core.library import HttpRead
 from roar_sim.plants.junior import WHEEL_TRACK_M, JuniorPlant, JuniorState

@@ -32,7 +32,7 @@ from roar.tracks.tunnel import MARKER_SIZE_M
 from roar.vision.geometry import SIMULATED_CAR_CAMERA
 from roar.vision.tracking import CONFIRM_HITS
 from roar.vision.view import CameraView
-from roar_sim.clock.lockstep import CONTROL_PERIOD_S
+from roar_sim.core.lockstep import CONTROL_PERIOD_S
 from roar_sim.runs.localize import PARTICLES, LocalizedCar
 from roar_sim.sensors.camera_noise import ShakyCamera
 
@@ -171,7 +171,7 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
               progress=None, log=None, serve_port: int | None = None) -> ChallengeResult:
     """Run the challenge (see the module's text). goal_m: finish that far along the route instead
     of at the course's goal (a short run). progress(t_s, along_m, route_m) is called each second.
-    log: an MCAP file the run is recorded into (roar_sim.runs.run_log: the firmware's side, the
+    log: an MCAP file the run is recorded into (roar_sim.links.sim_log: the firmware's side, the
     filter, the camera's frames, the detections, the plans, their trees and the local grid);
     serve_port: the same served live (Foxglove WebSocket on 127.0.0.1)."""
     from roar_sim import robots
@@ -201,7 +201,7 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
         if log is not None or serve_port is not None:
             import sys
 
-            from roar_sim.runs.run_log import SimLog
+            from roar_sim.links.sim_log import SimLog
 
             sim_log = SimLog(bot, log, {"command": " ".join(sys.argv), "driver": "challenge"}, serve_port)
         frames: deque = deque()  # (arrives at [s], captured at [s], rgb, depth)
@@ -334,7 +334,7 @@ def seed_option(text: str) -> int:
 
 
 def parser():
-    from roar.cli.errors import ArgumentParser, add_foxglove_option, number_option, path_option
+    from roar.cli.sdk import ArgumentParser, add_foxglove_option, number_option, path_option
     from roar_sim import robots
 
     seconds = number_option(0, 3600, "s")
@@ -368,7 +368,7 @@ def parser():
 def main(argv: list[str] | None = None) -> int:
     import sys
 
-    from roar.cli.errors import ExitStatus, UserError
+    from roar.cli.sdk import ExitStatus, UserError
     from roar.tracks.names import get
     from roar_sim.world import plotting
 
@@ -422,6 +422,6 @@ def main(argv: list[str] | None = None) -> int:
 if __name__ == "__main__":
     import sys
 
-    from roar.cli.errors import run_command
+    from roar.cli.sdk import run_command
 
     sys.exit(run_command("roar challenge", main))

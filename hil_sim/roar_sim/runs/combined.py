@@ -22,7 +22,7 @@ from roar.autopilot.platoon import cruise_agent
 from roar.protocol import spec
 from roar.tracks import Track
 from roar.v2v import V2VLink, free_port
-from roar_sim.clock.lockstep import CONTROL_PERIOD_S as PERIOD_S
+from roar_sim.core.lockstep import CONTROL_PERIOD_S as PERIOD_S
 from roar_sim.plants.racecar import LANE_CAMERA
 from roar_sim.robots.esc import MODEL
 from roar_sim.runs.fleet import Fleet
@@ -81,7 +81,7 @@ def combined_race(track: Track, laps: int = 1, boxes: Sequence[tuple[float, floa
                   log=None) -> CombinedResult:
     """The follower's laps (or, with distance_m, that many metres) behind the leader, with boxes at
     (distance along the centre line, offset to its left) [m]. log: an MCAP file the follower's run
-    is recorded into (roar_sim.runs.run_log), with the leader as it was heard over V2V and as it was."""
+    is recorded into (roar_sim.links.sim_log), with the leader as it was heard over V2V and as it was."""
     from roar.vision.geometry import SIMULATED_CAR_CAMERA, BirdsEye
     from roar.vision.lanes import LaneDetector
 
@@ -99,7 +99,7 @@ def combined_race(track: Track, laps: int = 1, boxes: Sequence[tuple[float, floa
         if log is not None:
             import sys
 
-            from roar_sim.runs.run_log import SimLog
+            from roar_sim.links.sim_log import SimLog
 
             sim_log = SimLog(follow, log, {"command": " ".join(sys.argv), "driver": "combined"})
 

@@ -18,7 +18,7 @@ import numpy as np
 from roar.autopilot import Runner
 from roar.tracks import Track
 from roar.tracks.drag_strip import parse
-from roar_sim.clock.lockstep import CONTROL_PERIOD_S as PERIOD_S
+from roar_sim.core.lockstep import CONTROL_PERIOD_S as PERIOD_S
 from roar_sim.plants.esc_servo import SteeringServo
 from roar_sim.robots.iarrc import FULL_SCALE_M_S, MODEL, IarrcCar
 from roar_sim.plants.racecar import LANE_CAMERA
@@ -83,7 +83,7 @@ def drag_race(track: Track, top_speed_m_s: float = 4.0, blank_s: tuple[float, fl
     gives black frames from blank_s[0] to blank_s[1] [s] after the start, and as it goes dark
     a bump turns the car by bump_deg [deg] (left +); servo_trim_us: [us] the steering servo's
     mechanical offset (a real car's is never quite centred); log: an MCAP file the run is recorded
-    into (roar_sim.runs.run_log: the firmware's side, the frames, the lane detector's view and the
+    into (roar_sim.links.sim_log: the firmware's side, the frames, the lane detector's view and the
     driver's state)."""
     from roar.autopilot.drag import DragState, drag_agent
     from roar.vision.geometry import SIMULATED_CAR_CAMERA, BirdsEye
@@ -100,7 +100,7 @@ def drag_race(track: Track, top_speed_m_s: float = 4.0, blank_s: tuple[float, fl
         if log is not None:
             import sys
 
-            from roar_sim.runs.run_log import SimLog
+            from roar_sim.links.sim_log import SimLog
 
             sim_log = SimLog(car, log, {"command": " ".join(sys.argv), "driver": "drag"})
 

@@ -11,7 +11,7 @@ so they collide, and each one's lidar and camera see the others.
 
 from __future__ import annotations
 
-from roar_sim.clock.lockstep import LOOP_US, PHYSICS_US, Lockstep, loops_until
+from roar_sim.core.lockstep import LOOP_US, PHYSICS_US, Lockstep, loops_until
 from roar_sim.robots.esc import EscCar
 from roar_sim.world.bullet import pb
 from roar_sim.world.scene import World

@@ -15,7 +15,7 @@ import math
 import sys
 
 from roar.autopilot import CarLimits
-from roar.cli.errors import ArgumentParser, ExitStatus, run_command
+from roar.cli.sdk import ArgumentParser, ExitStatus, run_command
 from roar_sim import robots
 
 REL_TOLERANCE, ABS_TOLERANCE = 0.05, 0.02  # how far a measurement may be from its table entry

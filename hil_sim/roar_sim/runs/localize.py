@@ -21,7 +21,7 @@ from roar.autopilot.open_way import OpenWay
 from roar.localization.local_grid import LocalGrid
 from roar.tracks.occupancy_map import OccupancyMap, track_map
 from roar.tracks.track import Track
-from roar_sim.clock.lockstep import CONTROL_PERIOD_S
+from roar_sim.core.lockstep import CONTROL_PERIOD_S
 from roar_sim.robots import Robot
 from roar_sim.sensors.lidar import Lidar
 from roar_sim.sensors.odometry import WheelOdometry

@@ -18,10 +18,10 @@ from tqdm import tqdm
 
 from roar.tracks.names import FORMS
 from roar.autopilot.platoon import cruise_agent, follow_agent
-from roar.cli.errors import ArgumentParser, ExitStatus, UserError, path_option, run_command
+from roar.cli.sdk import ArgumentParser, ExitStatus, UserError, path_option, run_command
 from roar.protocol import spec
 from roar.v2v import V2VLink
-from roar_sim.clock.lockstep import CONTROL_PERIOD_S as PERIOD_S
+from roar_sim.core.lockstep import CONTROL_PERIOD_S as PERIOD_S
 from roar_sim.links.netns import VethPair, call_in
 from roar_sim.robots.esc import MODEL
 from roar_sim.runs.fleet import Fleet

@@ -26,30 +26,26 @@ import argparse
 import sys
 from collections.abc import Sequence
 from contextlib import ExitStack
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from roar.autopilot import Agent, Command, Observation, Runner, WaypointError, lap_time, load_waypoints, speed_profile
-from roar.user_files import unusable_folder
-from roar.cli.errors import ArgumentParser, ExitStatus, add_foxglove_option, number_option, path_option, run_command
+from roar.autopilot import Command, Observation, Runner, WaypointError, load_waypoints, speed_profile
+from roar.cli.sdk import ArgumentParser, ExitStatus, add_foxglove_option, number_option, path_option, run_command
+from roar.tracks import Track, TrackError, get
 from roar.tracks.track_files import load_raceline_csv
-from roar.tracks.tunnel import describe
+from roar.user_files import unusable_folder
 from roar_sim import robots
-from roar_sim.clock.lockstep import CONTROL_PERIOD_S as PERIOD_S
-from roar_sim.plants.racecar import LANE_CAMERA
-from roar_sim.robots import Robot
+from roar_sim.core.lockstep import CONTROL_PERIOD_S as PERIOD_S
+from roar_sim.runs.lane_course import LaneCourse
 from roar_sim.runs.localize import PARTICLES as LOCALIZE_PARTICLES
-from roar_sim.runs.localize import Localize, LocalizationLog
+from roar_sim.runs.localize import Localize
 from roar_sim.runs.progress import laps_bar
-from roar_sim.sensors.tfmini import Tfmini
+from roar_sim.runs.race_result import RaceResult, Stop, plot, race_timeout_s, report  # noqa: F401 (importable here too)
 from roar_sim.world import plotting
 from roar_sim.world import renderer as renderers
-from roar_sim.world.obstacles import MIN_GAP_M, box_course, place_boxes, touching
-from roar_sim.sensors.camera_noise import ShakyCamera
-from roar_sim.world.start_lights import GREEN_AFTER_S, StartLights, green_moment
-from roar.tracks import Track, TrackError, get
+from roar_sim.world.obstacles import MIN_GAP_M, box_course
+from roar_sim.world.start_lights import GREEN_AFTER_S
 
 MARGIN_RANGE = (0.3, 1.0)  # fraction of the robot's limits a race may be driven at
 K_DD_RANGE_S = (0.05, 2.0)  # [s] pure pursuit's look-ahead per m/s a race may use
@@ -58,149 +54,6 @@ TOP_SPEED_RANGE_M_S = (0.5, 4.5)  # [m/s] what a drag race may ask for
 STEERING = {"pursuit": "pure pursuit", "pid": "the heading PID"}  # a robot's laterals, in words
 STILL_M_S = 0.05  # [m/s] slower than this, a stopped car stands where it is
 MAX_PARTICLES = 100_000  # the filter's particles a race may ask for
-
-
-class LaneCourse:
-    """What the lane driver meets beside its robot: start lights (a seed), boxes on the track, the
-    TFmini on its nose, and a folder its frames are written to."""
-
-    def __init__(self, robot: Robot, start_seed: int | None = None, boxes: Sequence[tuple[float, float]] = (),
-                 avoid: bool = False, frames: Path | None = None, shaky_seed: int | None = None,
-                 green_span_s: tuple[float, float] = GREEN_AFTER_S) -> None:
-        self.robot, self.frames = robot, frames
-        world, track = robot.plant.world, robot.track
-        self._frame = (ShakyCamera(robot.plant, *LANE_CAMERA, shaky_seed) if shaky_seed is not None else
-                       lambda: robot.plant.camera(*LANE_CAMERA))
-        self.lights = None
-        if start_seed is not None:
-            self.lights = StartLights(world, track, green_moment(start_seed, green_span_s))
-            robot.plant.props.append(self.lights)
-        self.boxes = place_boxes(world, track, boxes)
-        self.laser = Tfmini(robot.plant) if avoid else None
-        if frames is not None:
-            frames.mkdir(parents=True, exist_ok=True)
-        self._frames = 0
-        self.log = None  # a roar_sim.runs.run_log.SimLog: the driver's frames and what it saw in them
-
-    def camera(self) -> tuple[np.ndarray, np.ndarray]:
-        """The lane driver's frame (RGB, depth); with frames, also written as NNNNNN.png and
-        NNNNNN_depth.npy (metres), the folder `roar vision` reads."""
-        rgb, depth = self._frame()
-        if self.log is not None:  # the exact pixels: roar.replay.lanes feeds them to the detector again
-            self.log.image(rgb, lossless=True)
-        if self.frames is not None:
-            from roar.vision.geometry import cv2
-
-            name = f"{self._frames:06d}"
-            cv2().imwrite(str(self.frames / f"{name}.png"), np.ascontiguousarray(rgb[:, :, ::-1]))
-            np.save(self.frames / f"{name}_depth.npy", depth)
-            self._frames += 1
-        return rgb, depth
-
-    def agent(self, margin: float) -> Agent:
-        """The camera alone drives: the line (and the pose) stay out of the control path."""
-        from roar.autopilot.lane_agent import lane_agent
-        from roar.vision.geometry import SIMULATED_CAR_CAMERA, BirdsEye
-        from roar.vision.lanes import LaneDetector
-        from roar.vision.start_lights import StartLightDetector
-        camera = SIMULATED_CAR_CAMERA.model(*LANE_CAMERA)
-        detector = LaneDetector(BirdsEye(camera))
-        if self.log is not None:  # what the detector saw, frame by frame, into the recording
-            detect, log = detector.detect, self.log
-
-            def detect_logged(rgb):
-                lanes = detect(rgb)
-                log.lanes(lanes)
-                return lanes
-
-            detector.detect = detect_logged
-        return lane_agent(self.camera, detector, self.robot.model, PERIOD_S, margin,
-                          depth_camera=camera,
-                          start=StartLightDetector() if self.lights is not None else None,
-                          laser=self.laser.read if self.laser is not None else None)
-
-    def touching_box(self) -> bool:
-        return touching(self.robot.plant, self.boxes) > 0
-
-
-@dataclass
-class Stop:
-    """The lane driver standing still: why (its state), where [m along the lap], from when [s],
-    until when [s] (None: still stopped when the race ended)."""
-
-    why: str
-    at_m: float
-    from_s: float
-    until_s: float | None = None
-
-    def line(self, end_s: float) -> str:
-        how_long = (self.until_s if self.until_s is not None else end_s) - self.from_s
-        then = "then went on" if self.until_s is not None else "until the race ended"
-        return f"stopped ({self.why}) {self.at_m:.1f} m into the lap at {self.from_s:.2f} s, for {how_long:.2f} s, {then}"
-
-
-@dataclass
-class RaceResult:
-    track: Track
-    limit_speeds: np.ndarray  # [m/s] the physical-limit speed at each centre-line point
-    racing_limit_lap_s: float = float("nan")  # [s] the physical-limit lap of the racing line
-    lap_times_s: list[float] = field(default_factory=list)
-    cross_track_m: list[float] = field(default_factory=list)
-    path: list[tuple[float, float, float, float, float]] = field(default_factory=list)  # (x, y, speed, arc length, t)
-    robot: str = "esc"  # the robot's name (roar_sim.robots)
-    wall_contacts: int = 0  # control periods with the car touching a wall
-    travelled_m: float = 0.0  # [m] net progress along the track, all laps
-    braking_periods: int = 0  # control periods the ESC spent braking or reversing the motor
-    slowest_m_s: float = 0.0  # [m/s] signed: negative if the car ever rolled backwards
-    green_at_s: float | None = None  # [s] when the start lights turned green (None: no start lights)
-    localization: LocalizationLog | None = None  # the particle filter against the truth, when it drove
-    moved_at_s: float | None = None  # [s] when the car first asked for throttle
-    green_frames: int = 0  # camera frames that showed green up to and including the one it moved on
-    boxes: int = 0  # boxes on the track
-    box_contacts: int = 0  # control periods with the car touching a box
-    stops: list[Stop] = field(default_factory=list)  # the lane driver's stops, each explained
-    cone_contacts: int = 0  # control periods with the car touching a tunnel's cone
-    people_contacts: int = 0  # control periods with the car touching a person
-
-    @property
-    def false_start(self) -> bool:
-        return self.green_at_s is not None and self.moved_at_s is not None and self.moved_at_s < self.green_at_s
-
-    @property
-    def max_cross_track_m(self) -> float:
-        return max((abs(e) for e in self.cross_track_m), default=0.0)
-
-    @property
-    def rms_cross_track_m(self) -> float:
-        return float(np.sqrt(np.mean(np.square(self.cross_track_m)))) if self.cross_track_m else 0.0
-
-    @property
-    def limit_lap_s(self) -> float:
-        """[s] the physical-limit lap time of the track's centre line."""
-        return lap_time(self.track.centerline, self.limit_speeds)
-
-    def shortfall(self, laps: int, timeout_s: float) -> str | None:
-        """Why fewer than `laps` laps were completed (one line), or None when all were."""
-        done = len(self.lap_times_s)
-        if done >= laps:
-            return None
-        reasons = [f"it touched a wall in {self.wall_contacts} control periods"] if self.wall_contacts else []
-        if self.stops and self.stops[-1].until_s is None:
-            reasons.append(self.stops[-1].line(self.path[-1][4] if self.path else 0.0))
-        if self.travelled_m < 0:
-            reasons.append("it drove against the track's direction")
-        return (f"{done} of {laps} laps within the {timeout_s:.0f} s time limit ({'; '.join(reasons) or 'too slow'}): "
-                f"the car covered {max(0.0, self.travelled_m):.1f} m of the {laps * self.track.length_m:.1f} m asked")
-
-    @property
-    def best_ratio(self) -> float:
-        """Best lap over the physical-limit lap (1.0 would be driving at the limit)."""
-        return min(self.lap_times_s) / self.limit_lap_s if self.lap_times_s else float("inf")
-
-    @property
-    def best_racing_ratio(self) -> float:
-        """Best lap over the racing line's physical-limit lap."""
-        return min(self.lap_times_s) / self.racing_limit_lap_s if self.lap_times_s else float("inf")
 
 
 def check_line(track: Track, line: np.ndarray) -> None:
@@ -239,7 +92,7 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
     green_span_s: [s] the span the start lights' green moment is drawn from. localize: the driver
     drives on the particle filter's pose (roar_sim.runs.localize: odometry and lidar on the
     track's map) instead of the simulator's; the simulator's pose then only scores. log: an MCAP
-    file the run is recorded into (roar_sim.runs.run_log: what the host sent and heard, the
+    file the run is recorded into (roar_sim.links.sim_log: what the host sent and heard, the
     firmware's outputs, contacts, and the particle filter's pose and particles where it drives);
     serve_port: the same channels served live (Foxglove WebSocket on 127.0.0.1)."""
     kind = robots.get(robot)
@@ -266,7 +119,7 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
         world = car.plant.world
         sim_log = None
         if log is not None or serve_port is not None:
-            from roar_sim.runs.run_log import SimLog
+            from roar_sim.links.sim_log import SimLog
 
             sim_log = SimLog(car, log, {"command": " ".join(sys.argv), "driver": lateral}, serve_port)
             stack.callback(sim_log.close)  # finished however the race ends
@@ -352,66 +205,6 @@ def optimal_line(track: Track, robot: str = "esc"):
 
     clearance_m = robots.get(robot).half_width_m + WALL_THICKNESS_M / 2 + TRACKING_MARGIN_M
     return per_shape(f"racing line for {robot}", track, lambda: racing_line(track, clearance_m))
-
-
-def race_timeout_s(result: RaceResult, laps: int) -> float:
-    """[s] how long a race may take: four times the physical-limit laps, plus 10 s."""
-    return 4 * laps * result.limit_lap_s + 10
-
-
-def report(result: RaceResult) -> str:
-    tr = result.track
-    lines = [f"{robots.get(result.robot).title} on track {tr.name}: {tr.length_m:.1f} m, width {tr.width_m:.1f} m; "
-             f"physical-limit lap {result.limit_lap_s:.2f} s on the centre line, {result.racing_limit_lap_s:.2f} s on "
-             f"the racing line"]
-    for i, t in enumerate(result.lap_times_s, 1):
-        lines.append(f"  lap {i}: {t:6.2f} s  ({tr.length_m / t:.2f} m/s average, "
-                     f"{t / result.limit_lap_s:.2f} x the centre line's limit, {t / result.racing_limit_lap_s:.2f} x "
-                     f"the racing line's)")
-    if result.green_at_s is not None:
-        moved = ("never moved" if result.moved_at_s is None else "FALSE START" if result.false_start else
-                 f"moved on the {result.green_frames}. frame that showed green "
-                 f"({result.moved_at_s - result.green_at_s:.3f} s)")
-        lines.append(f"start lights: green at {result.green_at_s:.2f} s; {moved}")
-    lines.append(f"laps completed: {len(result.lap_times_s)}, total {sum(result.lap_times_s):.2f} s (simulated)")
-    lines.append(f"cross-track error: max {result.max_cross_track_m:.3f} m, RMS {result.rms_cross_track_m:.3f} m")
-    lines.append(f"wall contacts: {result.wall_contacts}")
-    if result.localization is not None:
-        lines.append(result.localization.summary())
-    end_s = result.path[-1][4] if result.path else 0.0
-    lines += [stop.line(end_s) for stop in result.stops]
-    if result.boxes:
-        lines.append(f"box contacts: {result.box_contacts} (control periods touching one of the {result.boxes} boxes)")
-    if tr.course is not None:
-        lines.append(f"tunnel: {describe(tr)}; control periods touching a cone: {result.cone_contacts}, a person: "
-                     f"{result.people_contacts}")
-    if result.braking_periods:
-        lines.append(f"braking: {result.braking_periods * PERIOD_S:.2f} s through the firmware's brake/reverse "
-                     f"sequence (the ESC has no brake)")
-    return "\n".join(lines)
-
-
-def plot(result: RaceResult):
-    """Left: the track and the driven path coloured by speed. Right: speed along the track for
-    every lap against the physical-limit profile."""
-    fig, (ax, ax_v) = plotting.subplots(ncols=2, figsize=(13, 5.5), gridspec_kw={"width_ratios": [1.2, 1]})
-    plotting.draw_track(ax, result.track)
-    p = np.array(result.path)
-    plotting.draw_path(fig, ax, p[:, 0], p[:, 1], p[:, 2])
-    if result.localization is not None:
-        result.localization.draw(ax)
-    ax.legend(loc="upper right", fontsize=8)
-    ax_v.plot(result.track.arc_start, result.limit_speeds, color="black", lw=1.5, label="physical limit")
-    ax_v.scatter(p[:, 3], p[:, 2], c=p[:, 2], s=3, cmap="viridis", label="driven")
-    ax_v.set_xlabel("distance along the track [m]")
-    ax_v.set_ylabel("speed [m/s]")
-    ax_v.set_ylim(bottom=0)
-    ax_v.legend(loc="lower right", fontsize=8)
-    times = ", ".join(f"{t:.2f} s" for t in result.lap_times_s)
-    fig.suptitle(f"{robots.get(result.robot).title}, {result.track.name}: laps {times} (limit {result.limit_lap_s:.2f} s, best "
-                 f"{result.best_ratio:.2f} x); max cross-track {result.max_cross_track_m:.2f} m, "
-                 f"wall contacts {result.wall_contacts}", fontsize=10)
-    return fig
 
 
 def parser() -> argparse.ArgumentParser:

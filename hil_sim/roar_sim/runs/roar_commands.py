@@ -1,175 +1,32 @@
 """The `roar` commands the simulator adds, registered through the "roar.commands" entry point
-group (pyproject.toml): `roar race`, `roar sim`, `roar step-response` (the IARRC car's speed
-controller), `roar sweep`, `roar platoon`, `roar limits`, `roar challenge`, and `roar track` / `roar world`. Each parses its own arguments; the
-simulator itself is imported only when a command runs, and its errors reach the `roar` command's
-one error boundary (roar.cli.errors)."""
+group (pyproject.toml): each names the module that holds its parser() and main(argv)
+(roar.cli.sdk.Command), imported only when the command runs, so `roar --help` stays quick and
+the simulator's errors reach the `roar` command's one error boundary."""
 
 from __future__ import annotations
 
-import argparse
-import importlib
-import sys
-
-from roar.tracks.names import FORMS
-from roar.cli.errors import ArgumentParser, UserError, add_foxglove_option, path_option, run_command, seconds_option
-from roar.cli.plugins import Command
-
-SIM_DESCRIPTION = """Run a simulated robot (--robot esc, iarrc or junior; default esc) as a program reaches a
-real one:
-  (no link)   race the autopilot round a track and report the laps (like `roar race`)
-  --serial    serve the car on a pseudo-terminal and print its path, for any program that speaks
-              serial (the ESC and IARRC cars)
-  --http      serve the ROAR Junior's HTTP control route (HOST:PORT, default 127.0.0.1:8081) and its
-              camera routes (the port below), and print both URLs
-  --stream    be the ESC car's phone: camera, depth and state over UDP (ROAR's ports 8001-8003),
-              control on 8004 (`roar sim --stream --help` for its options)
-Ctrl-C stops a served robot (exit status 130)."""
-RENAMED = {"--junior": "--robot junior --http", "--car": "--robot"}  # earlier spellings, answered in one line
+from roar.cli.sdk import Command
 
 
-def _race(argv: list[str]) -> int:
-    from roar_sim.runs.race import main
+def _sim_variants():
+    from roar_sim.runs.sim import variants
 
-    return main(argv)
-
-
-def _sim_parser() -> argparse.ArgumentParser:
-    from roar_sim import robots
-
-    p = ArgumentParser(prog="roar sim", description=SIM_DESCRIPTION)
-    p.add_argument("--robot", choices=robots.names(), default="esc", help="which robot (default esc)")
-    link = p.add_mutually_exclusive_group()
-    link.add_argument("--serial", action="store_true", help="serve the car as a serial port (a pty) in real time")
-    link.add_argument("--http", nargs="?", const="127.0.0.1:8081", metavar="HOST:PORT",
-                      help="serve the Junior over HTTP in real time (default 127.0.0.1:8081; camera on PORT-1)")
-    link.add_argument("--stream", action="store_true",
-                      help="be the car's phone: its streams over UDP (`roar sim --stream --help` for its options)")
-    p.add_argument("--track", default=None,
-                   help=f"{FORMS} (default: oval; with --http an open floor)")
-    p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
-    p.add_argument("--seconds", type=seconds_option, default=None, metavar="S",
-                   help="with --serial or --http: stop after this long (default: Ctrl-C)")
-    p.add_argument("--laps", type=int, default=None, help="without a link: laps to drive (default 2)")
-    p.add_argument("--plot", type=path_option, metavar="PNG", help="without a link: write the driven path to this PNG")
-    add_foxglove_option(p, "the car's channels", when="without a link (then in real time), with --serial or --http: ")
-    return p
+    return variants()
 
 
-def _sim_parsers() -> dict[tuple[str, ...], argparse.ArgumentParser]:
-    from roar_sim.links.phone_udp import parser as stream_parser
-
-    return {(): _sim_parser(), ("--stream",): stream_parser()}  # --stream has its own options (size, rate, push)
-
-
-def _sim(argv: list[str]) -> int:
-    for old, new in RENAMED.items():
-        if any(a == old or a.startswith(old + "=") for a in argv):
-            raise UserError(f"{old} is {new} now (roar sim --help)")
-    from roar_sim import robots
-
-    if "--stream" in argv:
-        from roar_sim.links.phone_udp import main as stream
-
-        return stream([a for a in argv if a != "--stream"])
-    args = _sim_parser().parse_args(argv)
-    kind = robots.get(args.robot)
-    for flag, name in (("serial", "--serial"), ("http", "--http")):
-        if getattr(args, flag) not in (None, False) and flag not in kind.links:
-            has = [n for n in robots.names() if flag in robots.get(n).links]
-            raise UserError(f"the {kind.title} has no {'serial port' if flag == 'serial' else 'HTTP port'}: "
-                            f"{name} serves {' or '.join(has)}")
-    served = args.serial or args.http is not None
-    if served and (args.laps is not None or args.plot):
-        raise UserError("--laps and --plot are for a race (roar sim without --serial or --http)")
-    if not served and args.seconds is not None:
-        raise UserError("--seconds is how long --serial or --http serve; a race ends after its laps "
-                        "(roar race --seconds sets its time limit)")
-    gui = ["--gui"] if args.gui else []
-    foxglove = ["--foxglove", str(args.foxglove)] if args.foxglove is not None else []
-    seconds = ["--seconds", str(args.seconds)] if args.seconds is not None else []
-    if args.http is not None:
-        from roar_sim.links.junior_http import main as serve_junior
-
-        track = ["--track", args.track] if args.track is not None else []
-        return serve_junior(["--http", args.http, *seconds, *track, *gui, *foxglove])
-    args.track = "oval" if args.track is None else args.track
-    if args.serial:
-        from roar_sim.links.pty import main as serve
-
-        return serve(["--robot", args.robot, "--track", args.track, *seconds, *gui, *foxglove])
-    from roar_sim.runs.race import main as race
-
-    plot = ["--plot", str(args.plot)] if args.plot else []
-    laps = ["--laps", str(args.laps)] if args.laps is not None else []
-    return race(["--robot", args.robot, "--track", args.track, *laps, *gui, *plot,
-                 *([*foxglove, "--realtime"] if foxglove else [])])
-
-
-def _step_response(argv: list[str]) -> int:
-    from roar_sim.runs.step_response import main
-
-    return main(argv)
-
-
-def _sweep(argv: list[str]) -> int:
-    from roar_sim.runs.sweep import main
-
-    return main(argv)
-
-
-def _platoon(argv: list[str]) -> int:
-    from roar_sim.runs.platoon import main
-
-    return main(argv)
-
-
-def _limits(argv: list[str]) -> int:
-    from roar_sim.runs.limits import main
-
-    return main(argv)
-
-
-def _challenge(argv: list[str]) -> int:
-    from roar_sim.runs.challenge import main
-
-    return main(argv)
-
-
-def _track(argv: list[str]) -> int:
-    from roar_sim.runs.show_track import main
-
-    return main(argv)
-
-
-def _world(argv: list[str]) -> int:
-    from roar_sim.runs.show_track import world_main
-
-    return world_main(argv)
-
-
-def _parser_of(module: str):
-    """The command's parsers: a module's parser(), imported when called."""
-    return lambda: {(): importlib.import_module(module).parser()}
-
-
-race = Command("race a simulated robot with its autopilot (`roar race --help`)", _race, _parser_of("roar_sim.runs.race"))
+race = Command("race a simulated robot with its autopilot (`roar race --help`)", "roar_sim.runs.race")
 sim = Command("run a simulated robot: a race, a serial port (--serial), HTTP (--http) or the phone's UDP (--stream)",
-              _sim, _sim_parsers)
+              "roar_sim.runs.sim", variants=_sim_variants)
 step_response = Command("the simulated IARRC car's speed PID answering a step, plotted (`roar step-response --help`)",
-                        _step_response, _parser_of("roar_sim.runs.step_response"))
-sweep = Command("race a grid of autopilot parameters x tracks as Ray tasks; CSV table and plot (`roar sweep --help`)",
-                _sweep, _parser_of("roar_sim.runs.sweep"))
-platoon = Command("two simulated cars platooning over UDP multicast (`roar platoon --help`)", _platoon,
-                  _parser_of("roar_sim.runs.platoon"))
-limits = Command("measure a simulated robot's physical limits against its table (`roar limits --help`)", _limits,
-                 _parser_of("roar_sim.runs.limits"))
-
+                        "roar_sim.runs.step_response")
+sweep = Command("race a grid of autopilot parameters x tracks on every core; CSV table and plot (`roar sweep --help`)",
+                "roar_sim.runs.sweep")
+platoon = Command("two simulated cars platooning over UDP multicast (`roar platoon --help`)", "roar_sim.runs.platoon")
+limits = Command("measure a simulated robot's physical limits against its table (`roar limits --help`)",
+                 "roar_sim.runs.limits")
 challenge = Command("the MIT challenge in a tunnel world: the whole autonomy stack, scored (`roar challenge --help`)",
-                    _challenge, _parser_of("roar_sim.runs.challenge"))
+                    "roar_sim.runs.challenge")
 track = Command("show a track (random:SEED, a file, a map) and write it as .json, .csv or a map (`roar track --help`)",
-                _track, _parser_of("roar_sim.runs.show_track"))
+                "roar_sim.runs.show_track")
 world = Command("show a world (tunnel:SEED: walls, cones, markers, people) and write its map (`roar world --help`)",
-                _world, lambda: {(): importlib.import_module("roar_sim.runs.show_track").parser("roar world")})
-
-if __name__ == "__main__":
-    sys.exit(run_command("roar sim", _sim, sys.argv[1:]))
+                "roar_sim.runs.show_track", main_name="world_main", parser_name="world_parser")

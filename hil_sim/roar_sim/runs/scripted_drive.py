@@ -13,9 +13,9 @@ from __future__ import annotations
 import sys
 from dataclasses import dataclass
 
-from roar.cli.errors import ArgumentParser, ExitStatus, path_option, run_command
+from roar.cli.sdk import ArgumentParser, ExitStatus, path_option, run_command
 from roar.protocol import ControlError, decode, encode, spec
-from roar_sim.clock.lockstep import LOOP_US
+from roar_sim.core.lockstep import LOOP_US
 from roar_sim.core.car import CarBoard, CarOutputs
 from roar_sim.world import plotting
 

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from roar.cli.errors import ArgumentParser, ExitStatus, path_option, run_command
+from roar.cli.sdk import ArgumentParser, ExitStatus, path_option, run_command
 from roar.tracks import Track, TrackError, get
 from roar.tracks.names import FORMS
 from roar.user_files import unwritable
@@ -156,6 +156,10 @@ def main(argv: list[str] | None = None, prog: str = "roar track") -> int:
     if args.plot and not plotting.save(lambda: plot(track, line), args.plot):
         return ExitStatus.ERROR
     return ExitStatus.OK
+
+
+def world_parser() -> ArgumentParser:
+    return parser("roar world")
 
 
 def world_main(argv: list[str] | None = None) -> int:

@@ -13,11 +13,11 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from roar.cli.errors import ArgumentParser, ExitStatus, path_option, run_command
-from roar.errors import RoarError
+from roar.cli.sdk import ArgumentParser, ExitStatus, path_option, run_command
+from roar_sim import StepError
 from roar.protocol import spec
 from roar.protocol.control import encode_setpoint
-from roar_sim.clock.lockstep import CONTROL_PERIOD_S
+from roar_sim.core.lockstep import CONTROL_PERIOD_S
 
 RISE_TARGET_S = 0.7  # [s] 10-90 %
 OVERSHOOT_TARGET = 0.10  # fraction of the step
@@ -25,10 +25,6 @@ STEADY_ERROR_TARGET = 0.02  # fraction of the step
 ARM_S = 0.1  # [s] mode switch at off while the receiver locks
 SETTLE_S = 0.3  # [s] armed at zero speed before the step
 SAMPLE_S = 0.005  # [s]
-
-
-class StepError(RoarError):
-    """The step could not be measured; str() is one line."""
 
 
 @dataclass(frozen=True)

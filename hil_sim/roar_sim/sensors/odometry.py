@@ -9,7 +9,7 @@ from a seed:
 - the gyro reads the rate over the period since its last reading (it low-passes), times a
   scale error, plus a bias that stays and white noise.
 
-    sensors = WheelOdometry(robot.plant, seed=3)
+    sensors = WheelOdometry(robot.plant, seed=3)            # plant: a roar_sim.plants.racecar.Racecar
     travelled_m, yaw_rate = sensors.read(robot.time_s)      # [m] all told, signed; [rad/s]
 """
 
@@ -20,8 +20,6 @@ import math
 import numpy as np
 
 from roar.localization.odometry import Encoder
-from roar_sim.world.bullet import pb
-from roar_sim.plants.racecar import FRONT_WHEELS, Racecar
 
 COUNTS_PER_REV = 1024  # [counts] a hobby car's encoder (the IARRC car's has 10,240)
 ROLLING_RADIUS_M = 0.0505  # [m] the tyre's rolling radius at the URDF's size (measured: roar_sim.robots.iarrc)
@@ -32,7 +30,7 @@ GYRO_SCALE_ERROR = 0.01  # standard deviation of the gyro's relative scale error
 
 
 class WheelOdometry:
-    def __init__(self, plant: Racecar, seed: int | None = None, counts_per_rev: int = COUNTS_PER_REV) -> None:
+    def __init__(self, plant, seed: int | None = None, counts_per_rev: int = COUNTS_PER_REV) -> None:
         self.plant = plant
         self.rng = np.random.default_rng(seed)
         self.encoder = Encoder(counts_per_rev, ROLLING_RADIUS_M * plant.profile.scale)
@@ -45,7 +43,7 @@ class WheelOdometry:
     def counts(self) -> int:
         """The encoders' mean count: the front wheels' mean turn, scaled by the true radius over
         the assumed one (the host converts counts with the assumed radius)."""
-        turned = sum(pb.getJointState(self.plant.car, w, physicsClientId=self.plant.client)[0] for w in FRONT_WHEELS) / 2
+        turned = self.plant.front_wheels_turned()
         return math.floor(turned * self._true_radius / self.encoder.wheel_radius_m / math.tau
                           * self.encoder.counts_per_rev)
 

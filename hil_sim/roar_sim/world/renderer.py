@@ -8,7 +8,7 @@
           plugin crashes on one): every mesh of the scene is written as an OBJ file (`mesh_file`)
           and drawn from there, by either renderer. TinyRenderer's frames are moved by half a
           pixel to sample pixel centres as OpenGL does (World.render), so both draw the pinhole
-          camera roar.vision models; tests/test_renderers.py checks that the lane detector
+          camera roar.vision models; tests/sim/test_renderers.py checks that the lane detector
           finds the same lines in both.
 
 A world takes the renderer of its `renderer=` argument, else the one `chosen()` names where it is

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet_data
 
-from roar.errors import RoarError
+from roar_sim import SimError
 from roar_sim.world import renderer as renderers
 from roar_sim.world.floor import add_floor
 from roar_sim.world.obstacles import add_cone, add_person
@@ -64,10 +64,6 @@ class Light:
 
 
 SOLVER_ITERATIONS = 10  # contact solver iterations per step (PyBullet default 50): a car on a plane settles in few
-
-
-class SimError(RoarError):
-    """The simulator cannot start as asked; str() is one line."""
 
 
 def display_problem() -> str | None:

@@ -19,17 +19,13 @@ from pathlib import Path
 import numpy as np
 
 from roar.autopilot.agent import Module, Observation
-from roar.errors import RoarError
+from roar.errors import WaypointError
 from roar.user_files import read_text
 
 MIN_WAYPOINTS = 3
 MAX_COORDINATE_M = 10_000.0  # [m]
 SAME_POINT_M = 0.001  # [m] a point this close to the one before repeats it
 MIN_LOOP_M = 1.0  # [m] the shortest loop worth following
-
-
-class WaypointError(RoarError, ValueError):
-    """An invalid waypoint file; str() is one line naming the file and line."""
 
 
 def load_waypoints(path: str | Path) -> np.ndarray:

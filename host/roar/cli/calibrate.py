@@ -6,12 +6,13 @@ the car moves there at once; an empty line accepts the value shown.
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import TextIO
 
 from pydantic import ValidationError
 
-from roar.cli.errors import UserError
+from roar.cli.sdk import ArgumentParser, UserError, add_url, path_option
 from roar.calibration import ARM_WINDOW, THROTTLE_TRIM_RANGE, Calibration, ChannelCalibration, first_error
 from roar.protocol import spec
 from roar.vehicle import Vehicle
@@ -56,7 +57,8 @@ def _yes(prompt: str, inp: TextIO, out: TextIO, default: bool) -> bool:
     return default if not line.strip() else line.strip().lower().startswith("y")
 
 
-def run(car: Vehicle, path: Path, inp: TextIO, out: TextIO) -> int:
+def walk(car: Vehicle, path: Path, inp: TextIO, out: TextIO) -> int:
+    """The walk-through on car, saved to path; prompts on out, answers from inp."""
     old = Calibration.load(path) if path.exists() else Calibration()
     out.write(__doc__.split("\n", 2)[2] + f"\nLift the car so its wheels are off the ground. Saving to {path}.\n")
     try:
@@ -100,3 +102,28 @@ def run(car: Vehicle, path: Path, inp: TextIO, out: TextIO) -> int:
     out.write(f"\nsaved {path}:\n  throttle {t_min}/{t_trim}/{t_max} us{' reversed' if t_rev else ''}\n"
               f"  steering {s_min}/{s_trim}/{s_max} us{' reversed' if s_rev else ''}\n")
     return 0
+
+
+def parser() -> ArgumentParser:
+    from roar.calibration import default_path
+
+    p = ArgumentParser(prog="roar calibrate",
+                       description="Walk through steering and throttle trim and end-points with the car "
+                                   "holding each pulse as you type it; saves a calibration file.")
+    add_url(p)
+    p.add_argument("--file", type=path_option, default=None, metavar="TOML",
+                   help=f"where to save (default: {default_path()})")
+    return p
+
+
+def main(argv: list[str]) -> int:
+    from roar.calibration import default_path
+    from roar.user_files import unwritable
+
+    args = parser().parse_args(argv)
+    path = args.file or default_path()
+    problem = unwritable(path)  # before the walk-through, not after it
+    if problem:
+        raise UserError(f"--file {problem}")
+    with Vehicle(args.url, calibration=None) as car:
+        return walk(car, path, sys.stdin, sys.stdout)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import sys
 from dataclasses import dataclass
 
-from roar.cli.errors import UserError
+from roar.cli.sdk import UserError
 from roar.vehicle import Vehicle
 
 THROTTLE_STEP = 0.1

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from roar.checks import number
-from roar.errors import RoarError
+from roar.errors import LocalizationError
 from roar.localization.beam_model import BeamModel
 from roar.localization.odometry import Pose, checked_pose, relative
 from roar.localization.raycast import BresenhamCaster, RayMarcher, _kernels
@@ -58,10 +58,6 @@ SCAN_PLACED = 0.8  # share of a global start's particles placed by the scan (the
 # may be behind the lidar, where it does not see)
 RESAMPLE_BELOW = 0.5  # resample when the effective number of particles falls below this share of them: until
 # then the weights carry over from scan to scan and the odometry's noise spreads the particles out
-
-
-class LocalizationError(RoarError, ValueError):
-    """A filter that cannot be set up as asked; str() says why in one line."""
 
 
 @dataclass(frozen=True)

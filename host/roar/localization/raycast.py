@@ -16,12 +16,8 @@ import math
 
 import numpy as np
 
-from roar.errors import RoarError
+from roar.errors import MissingNumba
 from roar.tracks.occupancy_map import OccupancyMap
-
-
-class MissingNumba(RoarError, ImportError):
-    """Numba is not installed; str() says what to install."""
 
 
 def numba():

@@ -19,15 +19,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from roar.errors import RoarError
+from roar.errors import ScanError
 
 RANGE_MIN_M = 0.06  # [m] a Hokuyo UST-10LX's minimum range (the simulator's lidar too)
 RANGE_MAX_M = 10.0  # [m] its maximum range
 MAX_BEAMS = 100_000  # beams a scan may have (a 1080-beam scan is a Hokuyo's)
-
-
-class ScanError(RoarError, ValueError):
-    """A laser scan that cannot be used; str() says why in one line."""
 
 
 @dataclass(frozen=True)

@@ -17,18 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from roar.errors import RoarError
-
-
-class PlanningError(RoarError, ValueError):
-    """A planner that cannot be set up as asked; str() says why in one line."""
-
-
-class NoPath(RoarError):
-    """No path from the start to the goal; str() is one line starting 'no path: '."""
-
-    def __init__(self, reason: str) -> None:
-        super().__init__(f"no path: {reason}")
+from roar.errors import NoPath, PlanningError
 
 
 @dataclass(frozen=True)

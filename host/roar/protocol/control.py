@@ -12,14 +12,10 @@ from __future__ import annotations
 import numbers
 from dataclasses import dataclass
 
-from roar.errors import RoarError
+from roar.errors import ControlError
 from roar.protocol import spec
 from roar.protocol.spec import ParseResult
 from roar_wire import control as wire
-
-
-class ControlError(RoarError, ValueError):
-    """A control value or message that the protocol does not allow. str() is one line."""
 
 
 def _plain_ints(obj, names: tuple[str, ...]) -> None:

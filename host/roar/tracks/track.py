@@ -31,7 +31,7 @@ from functools import cached_property
 
 import numpy as np
 
-from roar.errors import RoarError
+from roar.errors import TrackError
 
 MIN_POINTS = 8
 MAX_NAME_CHARS = 60  # a track's name as shown: longer ones are cut
@@ -49,10 +49,6 @@ CHECK_STEP_M = 0.1  # [m] the shape checks look at the centre line this often (o
 WALL_TOLERANCE_M = 0.005  # [m] walls follow the area's edge within this
 WALL_GAP_M = 0.06  # [m] between two parts of a track parted by a wall (a wall box is 0.05 m thick)
 MIN_HOLE_M2 = 0.1  # [m^2] a hole in the driving area smaller than this is a sliver, not an infield
-
-
-class TrackError(RoarError, ValueError):
-    """An invalid track or track file; str() is one line."""
 
 
 @dataclass(frozen=True)

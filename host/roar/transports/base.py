@@ -2,20 +2,16 @@
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from typing import Any, ClassVar
 
 from roar.checks import number
-from roar.errors import RoarError
+from roar.errors import LinkLost, TransportError  # noqa: F401 (LinkLost importable from here too)
 from roar.telemetry import VehicleState
 
 
-class TransportError(RoarError):
-    """The link to the car cannot be opened or used. str() is one line a user can act on."""
-
-
-class LinkLost(TransportError):
-    """A link that was open has gone (cable pulled, car out of range). Reopening may work."""
+LIDAR_FOV_RAD = math.radians(270)  # [rad] a Transport's lidar(): distances from right to left over this
 
 
 class Transport(ABC):
@@ -25,13 +21,28 @@ class Transport(ABC):
     write() and close(); read_lines() is optional (links without a back channel return [] and
     leave `replies` False). open/write/read_lines/close are called from one thread at a time
     (the Vehicle's sender); state(), lidar() and camera() may be called from the user's thread
-    at any time and return None where the link cannot tell."""
+    at any time and return None where the link cannot tell.
+
+    Signed control (transports.signing) asks every link the same things: a link whose car takes
+    another form than control messages (the Junior's queries, a phone's datagrams) sets
+    `signs_itself` and signs through `signer`; `signing` tells it a key signs (BLE pairs for it);
+    refusal() and session() are how a link without reply lines says what the car answered.
+    Layers over a link (transports.layer: signing, recording) keep all of this, and `link` is
+    the link itself under them."""
 
     scheme: ClassVar[str]
     min_period_s: ClassVar[float] = 0.002  # [s] fastest the link takes one control message
     replies: ClassVar[bool] = False  # the link carries the car's reply lines (READY, ARMED, ...)
+    signs_itself: ClassVar[bool] = False  # the car takes another form: this link signs it through `signer`
 
     url: str = ""
+    signer: Any = None  # the signing layer, set by it on a link that signs_itself (sign_query, sign_datagram)
+    signing: bool = False  # set by the signing layer: a key signs what goes out (a BLE link pairs for it)
+
+    @property
+    def link(self) -> Transport:
+        """The link itself: this transport, or the one under a layer's (signing, recording)."""
+        return self
 
     @classmethod
     @abstractmethod
@@ -70,6 +81,26 @@ class Transport(ABC):
     def camera_stream(self) -> Any:
         """An iterator of RGB frames if the car streams video on this link, else None."""
         return None
+
+    def refusal(self) -> str | None:
+        """The car's "ERR <reason> ..." line for the latest message it refused for signing, once,
+        on a link that answers each message but carries no reply lines (HTTP, a phone's
+        datagrams); else None."""
+        return None
+
+    def session(self) -> tuple[int, int] | None:
+        """(the car's signing session, the last counter it took) where the link can ask without
+        reply lines (BLE's session characteristic); (0, 0): the car has no key; None: cannot ask."""
+        return None
+
+    @property
+    def autopilots(self) -> tuple[str, ...]:
+        """The drivers of the car's own that autopilot(name) offers (the simulator's; roar web's choice)."""
+        return ()
+
+    def autopilot(self, name: str) -> Any:
+        """One of `autopilots`, to be stepped by the host on what it reads over this link."""
+        raise TransportError(f"{self.scheme}:// offers no autopilot {name!r}")
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.url}>"

@@ -82,7 +82,6 @@ class BleTransport(Transport):
         (`signing`, set by the signing layer) where the car can, else go on unencrypted."""
         self.target = target
         self.pair = pair
-        self.signing = False  # a key signs what goes out: keyed cars may take only encrypted writes
         self.encrypted = False  # the link was paired
         self.timeout_s = number("timeout_s", timeout_s, 0, MAX_CONNECT_S, "s", low_open=True)
         self.scanner_backend, self.client_backend = scanner_backend, client_backend

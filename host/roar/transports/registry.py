@@ -16,8 +16,8 @@ _REGISTRY: dict[str, str | type[Transport]] = {
     "serial": "roar.transports.serial_link:SerialTransport",
     "ble": "roar.transports.ble:BleTransport",
     "loop": "roar.transports.loopback:LoopbackTransport",
-    "http": "roar.transports.http_junior:HttpTransport",
-    "udp": "roar.transports.udp_phone:UdpPhoneTransport",
+    "http": "roar.transports.junior_http:HttpTransport",
+    "udp": "roar.transports.phone_udp:UdpPhoneTransport",
 }
 # What to install for the schemes this project's extras provide.
 EXTRAS = {"ble": "ble", "sim": "sim"}

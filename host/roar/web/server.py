@@ -34,7 +34,7 @@ from http.cookies import CookieError, SimpleCookie
 from pathlib import Path
 from urllib.parse import parse_qs, urlsplit
 
-from roar.errors import RoarError
+from roar.errors import RoarError, WebError
 from roar.protocol import spec
 from roar.transports.base import Transport
 from roar.web.controls import AUTOPILOT_NONE, DEAD_MAN_S, DRIVE_PERIOD_S, MAX_MESSAGE_CHARS, Controls
@@ -54,10 +54,6 @@ STATIC = {"/": ("index.html", "text/html; charset=utf-8"), "/app.js": ("app.js",
           "/style.css": ("style.css", "text/css; charset=utf-8")}
 HEADERS = {"Cache-Control": "no-store", "X-Frame-Options": "DENY", "X-Content-Type-Options": "nosniff",
            "Content-Security-Policy": "default-src 'self'; img-src 'self' blob:; connect-src 'self'"}
-
-
-class WebError(RoarError):
-    """A web server that cannot start: a port in use, a bad host."""
 
 
 def is_loopback(host: str) -> bool:
@@ -82,8 +78,8 @@ class WebServer:
         self.token = None if self.loopback else (token or secrets.token_urlsafe(16))
         self.record_dir = Path(record_dir)
         self.camera_fps, self.max_speed_m_s = camera_fps, max_speed_m_s
-        link = _link(vehicle)
-        self.autopilot_names: tuple[str, ...] = tuple(getattr(link, "autopilots", ()))
+        link = vehicle.transport.link
+        self.autopilot_names: tuple[str, ...] = tuple(link.autopilots)
         self.controls = Controls(self.autopilot_names, can_record=importlib.util.find_spec("foxglove") is not None)
         self.has_camera = type(link).camera is not Transport.camera or type(link).camera_stream is not Transport.camera_stream
         self.refused: dict[str, int] = {}  # HTTP/socket requests refused, by reason
@@ -390,7 +386,7 @@ class WebServer:
             self._autopilot = None
         if name != AUTOPILOT_NONE:
             try:
-                self._autopilot = _link(self.vehicle).autopilot(name)
+                self._autopilot = self.vehicle.transport.link.autopilot(name)
             except (RoarError, ValueError) as e:
                 self.problem = f"autopilot {name}: {e}"
         if name == AUTOPILOT_NONE or self._autopilot is None:
@@ -462,12 +458,6 @@ class WebServer:
                 self.camera_fps_now = (len(times) - 1) / max(1e-6, times[-1] - times[0]) if len(times) > 1 else 0.0
             if frames is None:
                 self._camera_stop.wait(max(0.0, period - (time.monotonic() - started)))
-
-
-def _link(vehicle):
-    """The vehicle's own transport, under a recording one."""
-    transport = vehicle.transport
-    return getattr(transport, "inner", transport)
 
 
 def _host_is_loopback(host_header: str) -> bool:

@@ -10,7 +10,7 @@ Each command the Vehicle sends becomes one GET of the control route over a kept-
 connection; the reply (the ultrasonic distance) is the car's range in state(). The Junior stops
 by itself 500 ms after the last request, so the Vehicle's 50 Hz resend keeps it driving.
 
-Signed control (roar.signing): a signing Vehicle sets `signer`, which appends "&ctr=..&mac=.."
+Signed control (roar.transports.signing): a signing Vehicle sets `signer`, which appends "&ctr=..&mac=.."
 to each query; a Junior with a key answers other queries 403 with the reason ("unsigned
 SESSION", "forged SESSION", "replay COUNTER", "nokey"), which refusal() hands back as the
 car's ERR line, so the signer learns the session and counter from it.
@@ -44,6 +44,7 @@ def host_port(text: str) -> tuple[str, int] | None:
 
 class HttpTransport(Transport):
     scheme = "http"
+    signs_itself = True  # the car takes queries: signed through signer.sign_query
     min_period_s = 0.005  # [s] one request and its reply on a good Wi-Fi link
 
     def __init__(self, host: str, port: int, mixing: str = "original", camera_port: int | None = None,
@@ -55,7 +56,6 @@ class HttpTransport(Transport):
         self._reused = False  # the next request goes on a connection that served one before
         self.range_m: float | None = None  # [m] the latest ultrasonic reading; inf: no echo
         self.requests = 0
-        self.signer = None  # a roar.signing.SigningTransport: its sign_query(query) signs each query
         self._refusal: str | None = None  # the latest signing refusal, as the car's "ERR ..." line
 
     @classmethod

@@ -14,7 +14,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from roar.cli.errors import UserError
+from roar.cli.sdk import ArgumentParser, UserError, path_option
 from roar.protocol import spec
 from roar.signing import SigningError, default_path, new_key, read_key_file, write_key_file
 from roar.transports import TransportError, open_url
@@ -25,7 +25,29 @@ ANSWER_TIMEOUT_S = 5.0  # [s] in all (a Nano resets when its port opens and boot
 SERIAL_SCHEMES = ("serial", "sim")  # links whose bytes reach the car's serial port
 
 
-def key(args) -> int:
+def parser() -> ArgumentParser:
+    p = ArgumentParser(prog="roar key",
+                       description="Signed control (off until you set a key). `roar key set URL` puts your key "
+                                   "(made if you have none) into the car over its USB serial link; the car then "
+                                   "acts only on messages signed with it and refuses the rest (unsigned, forged, "
+                                   "replayed), and every Vehicle and roar command signs with your key file. "
+                                   "Keys are set and cleared over USB serial only.")
+    p.add_argument("action", choices=("new", "set", "show", "clear"),
+                   help="new: a new key in your key file; set URL: put it in the car; show [URL]: the "
+                        "fingerprints of yours and the car's; clear URL: the car takes unsigned messages again")
+    p.add_argument("url", metavar="URL", nargs="?", default=None, help="the car, on its serial link (serial://PORT)")
+    p.add_argument("--file", type=path_option, default=None, metavar="KEYFILE",
+                   help="the key file (default: ~/.config/roar/key)")
+    p.add_argument("--force", action="store_true", help="new: replace the key in the key file")
+    return p
+
+
+def main(argv: list[str]) -> int:
+    args = parser().parse_args(argv)
+    if args.url is not None and not args.url.strip():
+        raise UserError("the car's URL is empty: give it as serial:///dev/ttyACM0")
+    if args.action in ("set", "clear") and not args.url:
+        raise UserError(f"roar key {args.action} needs the car's URL, e.g. serial:///dev/ttyACM0")
     path = Path(args.file) if args.file else default_path()
     try:
         return ACTIONS[args.action](args, path)

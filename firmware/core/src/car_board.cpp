@@ -1,4 +1,4 @@
-#include "roar/board.h"
+#include "roar/car_board.h"
 
 namespace roar {
 

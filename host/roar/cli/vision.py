@@ -18,16 +18,13 @@ from pathlib import Path
 
 import numpy as np
 
-from roar.errors import RoarError
+from roar.cli.sdk import ArgumentParser, UserError, path_option
+from roar.errors import FramesError
 from roar.vision.geometry import SIMULATED_CAR_CAMERA, CameraPreset
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
 DEPTH_SUFFIX = "_depth.npy"
 MIN_FRAME_PX = 16  # [px] the shortest side of a frame the lane detector can look at
-
-
-class FramesError(RoarError):
-    """A folder or option that cannot work; str() is one line."""
 
 
 def frames_in(folder: Path) -> list[Path]:
@@ -83,8 +80,8 @@ def _figure_rgb(fig) -> np.ndarray:
     return np.asarray(fig.canvas.buffer_rgba())[:, :, :3].copy()
 
 
-def run(folder: Path, out: Path, video: Path | None = None, fps: float = 10.0,
-        camera: CameraPreset = SIMULATED_CAR_CAMERA) -> int:
+def perceive(folder: Path, out: Path, video: Path | None = None, fps: float = 10.0,
+             camera: CameraPreset = SIMULATED_CAR_CAMERA) -> int:
     import matplotlib.pyplot as plt
 
     from roar.vision.geometry import BirdsEye, cv2
@@ -146,3 +143,47 @@ def _recorded(path: Path):
     for k, (t_ns, rgb, _, _) in enumerate(frames(path)):
         stem = f"{k:06d}"
         yield f"{stem} at {t_ns / 1e9:.3f} s", stem, (lambda rgb=rgb: rgb), None
+
+
+def parser() -> ArgumentParser:
+    p = ArgumentParser(prog="roar vision",
+                       description="Run the car's perception over recorded frames (a real car's or the "
+                                   "simulator's): lane lines in every image (PNG/JPEG, or RGB .npy) in name "
+                                   "order, and the ground-plane occupancy grid where a NAME_depth.npy (metres) "
+                                   "lies beside it. Writes a debug view per frame, optionally a video, and "
+                                   "prints offset, heading and the nearest obstacle per frame. The camera is the "
+                                   "simulated car's unless --fov/--height/--ahead/--pitch say otherwise.")
+    p.add_argument("folder", type=path_option, metavar="FOLDER|MCAP",
+                   help="the recorded frames: a folder (roar race --frames), or a recording's camera frames")
+    p.add_argument("--out", type=path_option, default=Path("out/vision"), metavar="DIR",
+                   help="where the debug views go (default: out/vision)")
+    p.add_argument("--video", type=path_option, default=None, metavar="MP4", help="also write the lane views as a video")
+    p.add_argument("--fps", type=float, default=10.0, help="the video's frame rate (default 10)")
+    cam = SIMULATED_CAR_CAMERA
+    p.add_argument("--fov", type=float, default=cam.fov_deg, metavar="DEG",
+                   help=f"vertical field of view (default {cam.fov_deg:g})")
+    p.add_argument("--height", type=float, default=cam.z_m, metavar="M",
+                   help=f"camera above the floor (default {cam.z_m:g})")
+    p.add_argument("--ahead", type=float, default=cam.x_m, metavar="M",
+                   help=f"camera ahead of the car's reference point, the rear axle (default {cam.x_m:g})")
+    p.add_argument("--pitch", type=float, default=math.degrees(cam.pitch_rad), metavar="DEG",
+                   help=f"tilted down from level (default {math.degrees(cam.pitch_rad):.2f})")
+    return p
+
+
+def main(argv: list[str]) -> int:
+    from roar.user_files import unusable_folder, unwritable
+
+    args = parser().parse_args(argv)
+    if not (1 <= args.fov < 180 and 0 < args.height <= 5 and -5 <= args.ahead <= 5 and -45 <= args.pitch <= 89
+            and 0.1 <= args.fps <= 120):
+        raise UserError("want --fov 1..179 deg, --height 0..5 m, --ahead -5..5 m, --pitch -45..89 deg, --fps 0.1..120")
+    for option, problem in (("--out", unusable_folder(args.out)),
+                            ("--video", args.video is not None and unwritable(args.video))):
+        if problem:
+            raise UserError(f"{option} {problem}")
+    try:
+        camera = CameraPreset(args.fov, args.ahead, args.height, math.radians(args.pitch))
+        return perceive(args.folder, args.out, args.video, args.fps, camera)
+    except ImportError as e:
+        raise UserError(f"roar vision needs {e.name}: pip install 'roar-platform[vision]'") from None

@@ -1,22 +1,35 @@
-"""How every `roar` command ends: one table of exit statuses, one error boundary that turns the
-library's errors and bad options into one line on stderr, and Ctrl-C (SIGINT) and SIGTERM into
-an orderly end, whichever way they are sent. The `roar` entry point and each command run as
-`python -m ...` go through it; every command's parser is ArgumentParser, whose --help ends with
-the table."""
+"""What every `roar` command is made of, ours and the plug-ins' (the simulator's race, sim, ...):
+the kit a package uses to add a command to `roar`.
+
+A command is a module with its arguments and its run:
+
+    def parser() -> ArgumentParser: ...       # prog "roar NAME"; --help ends with the exit statuses
+    def main(argv: list[str]) -> int: ...      # parse argv, run, return an ExitStatus
+
+and one Command naming it, kept in a light module (importing it must not import the command's
+own heavy modules): `roar` lists ours in roar.cli.main.BUILT_IN, a package adds its own through
+the "roar.commands" entry point group (name = the command, value = "module:Command object").
+
+How every command ends: one table of exit statuses, one error boundary (run_command) that turns
+the library's errors and bad options into one line on stderr, and Ctrl-C (SIGINT) and SIGTERM
+into an orderly end, whichever way they are sent. Options that many commands share (a car's
+URL, a calibration file, a log, a duration, a port) are here too, so they read alike."""
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import signal
 import sys
 import threading
 from collections.abc import Callable
-from pathlib import Path
+from dataclasses import dataclass, field
 from enum import IntEnum
+from pathlib import Path
 
 from roar.checks import MAX_WAIT_S, number
-from roar.errors import RoarError
+from roar.errors import RoarError, UserError
 
 
 class ExitStatus(IntEnum):  # what each means: EXIT_MEANINGS
@@ -40,10 +53,6 @@ EXIT_MEANINGS = {  # the one table: every command's --help ends with it, host/RE
 }
 EXIT_STATUSES = "exit status (every roar command):\n" + "\n".join(
     f"  {int(status):3}  {meaning}" for status, meaning in EXIT_MEANINGS.items())
-
-
-class UserError(RoarError):
-    """A one-line message for the user about a command's input; exit status 1."""
 
 
 class Terminated(KeyboardInterrupt):
@@ -109,6 +118,73 @@ def path_option(text: str) -> Path:
 
 
 seconds_option = number_option(0, MAX_WAIT_S, "s (0: until Ctrl-C)")  # a run's duration
+
+
+def listen_address(text: str) -> str:
+    """An argparse type: an IP address to listen on (or localhost), not a name to look up."""
+    import ipaddress
+
+    if text != "localhost":
+        try:
+            ipaddress.ip_address(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be an IP address such as 127.0.0.1 or 0.0.0.0, got {text!r}") from None
+    return text
+
+
+def add_url(p: argparse.ArgumentParser) -> None:
+    """The car, as a URL: the first argument of most commands."""
+    p.add_argument("url", metavar="URL", help="the car: sim://, serial:///dev/ttyUSB0, ble://NAME (see `roar --help`)")
+
+
+def add_calibration_option(p: argparse.ArgumentParser) -> None:
+    from roar.calibration import default_path
+
+    p.add_argument("--calibration", type=path_option, metavar="TOML",
+                   help=f"calibration file (default: {default_path()} if it exists)")
+
+
+def add_log_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--log", type=path_option, metavar="MCAP",
+                   help="record the run into this MCAP file (every message sent and line received, the state)")
+
+
+def open_vehicle(args: argparse.Namespace, record=None):
+    """The Vehicle of a command's URL, with its --calibration and --log where it has them."""
+    from roar.vehicle import Vehicle
+
+    return Vehicle(args.url, calibration=getattr(args, "calibration", None),
+                   record=record if record is not None else getattr(args, "log", None))
+
+
+@dataclass(frozen=True)
+class Command:
+    """One `roar` command: its line in `roar --help` and the module that holds its parser() and
+    main(argv), imported only when the command runs or its arguments are checked."""
+
+    help: str  # one line for `roar --help`
+    module: str  # "package.module": its parser() and main(argv)
+    main_name: str = "main"  # the module's main(argv), where one module holds two commands
+    parser_name: str = "parser"  # ... and its parser()
+    # the command's other parsers, selected by flags ({("--stream",): parser} for `roar sim
+    # --stream`, which has options of its own); the module's parser() is the one for ()
+    variants: Callable[[], dict[tuple[str, ...], argparse.ArgumentParser]] | None = field(default=None)
+
+    def main(self, argv: list[str]) -> int:
+        return getattr(importlib.import_module(self.module), self.main_name)(argv)
+
+    def parsers(self) -> dict[tuple[str, ...], argparse.ArgumentParser]:
+        """{the flags that select it: parser}: how the docs' command lines are checked against the
+        commands, and how the suite tries every option with bad values."""
+        own = getattr(importlib.import_module(self.module), self.parser_name)()
+        return {(): own, **(self.variants() if self.variants else {})}
+
+    def parse_args(self, argv: list[str]) -> argparse.Namespace:
+        """argv parsed as main() would (the parser its flags select), without running anything;
+        a bad argument raises as the parser does (UserError)."""
+        parsers = self.parsers()
+        flags = max((f for f in parsers if all(flag in argv for flag in f)), key=len)
+        return parsers[flags].parse_args([a for a in argv if a not in flags])
 
 
 def run_command(prog: str, command: Callable[..., int], *args) -> int:

@@ -10,7 +10,7 @@ which it forwards to the car over BLE; the phone's camera, depth and state strea
 car.camera() is the newest (RGB, metric depth) pair, car.state() position, heading, speed and
 yaw rate from the state stream. The phone has no replies: no READY or ARMED events.
 
-Signed control (roar.signing): a signing Vehicle sets `signer`; each datagram then goes as
+Signed control (roar.transports.signing): a signing Vehicle sets `signer`; each datagram then goes as
 "throttle,steering,COUNTER,MAC". A phone with a key answers other datagrams to their sender
 with the car's ERR line ("ERR unsigned SESSION", ...), which refusal() hands back.
 """
@@ -32,6 +32,7 @@ START_TIMEOUT_S = 5.0  # [s]
 
 class UdpPhoneTransport(Transport):
     scheme = "udp"
+    signs_itself = True  # the car takes datagrams: signed through signer.sign_datagram
     min_period_s = 0.01  # [s] the phone forwards at 100 Hz
 
     def __init__(self, host: str, push: bool = False) -> None:
@@ -43,7 +44,6 @@ class UdpPhoneTransport(Transport):
         self._sock: socket.socket | None = None
         self._error: BaseException | None = None
         self._stop: asyncio.Event | None = None
-        self.signer = None  # a roar.signing.SigningTransport: its sign_datagram(line) signs each datagram
 
     @classmethod
     def from_url(cls, target: str, options: dict[str, str]) -> UdpPhoneTransport:

@@ -15,17 +15,14 @@ from pathlib import Path
 
 import numpy as np
 
-from roar.errors import RoarError
+from roar.cli.sdk import ArgumentParser, path_option, seconds_option
+from roar.errors import StreamError
 from roar.protocol import spec
 from roar.stream import KINDS, StreamReceiver, peer
 from roar.transports import TransportError, open_url, parse_url
 from roar.user_files import unusable_folder
 
 REPORT_PERIOD_S = 1.0  # [s]
-
-
-class StreamError(RoarError):
-    """A stream URL or option that cannot work; str() is one line."""
 
 
 def target(url: str) -> tuple[str, bool]:
@@ -196,7 +193,7 @@ def report(receivers, counts, latencies, period_s, state_frame) -> str:
     return "; ".join(parts)
 
 
-def run(url: str, seconds: float, push: bool, out: Path | None, log: Path | None = None) -> int:
+def receive(url: str, seconds: float, push: bool, out: Path | None, log: Path | None = None) -> int:
     host, url_push = target(url)
     push = push or url_push
     if not 0 <= seconds <= 86400:  # also refuses nan
@@ -220,5 +217,24 @@ def run(url: str, seconds: float, push: bool, out: Path | None, log: Path | None
         return asyncio.run(watch(host, seconds, push, out, log=recorder))
 
 
-if __name__ == "__main__":
-    sys.exit(run(sys.argv[1], float(sys.argv[2]) if len(sys.argv) > 2 else 5.0, False, None))
+
+def parser() -> ArgumentParser:
+    p = ArgumentParser(prog="roar stream",
+                       description="Receive the camera, depth and state streams of a car's phone (ROAR's UDP "
+                                   "chunked format; `roar sim --stream` for the simulated car), show them in a "
+                                   "window (or PNGs without a display), and print frames/s, latency and loss "
+                                   "once a second.")
+    p.add_argument("url", metavar="URL", help="udp://HOST, the phone (udp://127.0.0.1 for `roar sim --stream`)")
+    p.add_argument("--seconds", type=seconds_option, default=0.0, metavar="S", help="stop after this long (default: Ctrl-C)")
+    p.add_argument("--push", action="store_true",
+                   help="listen on ports 8001-8003 for pushed frames instead of asking for each with 'ack'")
+    p.add_argument("--out", type=path_option, default=None, metavar="DIR",
+                   help="write PNGs here (one a second, and the last) instead of opening a window")
+    p.add_argument("--log", type=path_option, metavar="MCAP",
+                   help="record every frame (camera JPEG, depth, state) and each second's figures into this MCAP file")
+    return p
+
+
+def main(argv: list[str]) -> int:
+    args = parser().parse_args(argv)
+    return receive(args.url, args.seconds, args.push, args.out, args.log)
