@@ -12,12 +12,46 @@ from hypothesis import HealthCheck, settings
 
 ROOT = Path(__file__).resolve().parent.parent
 
+# One BLAS/OpenMP thread in every test process and the programs it starts, set before numpy loads:
+# the simulator's matrices are small, and OpenBLAS's spinning threads doubled a camera lap's CPU
+# time (40 s against 19.5 s, and slower) while the suite's workers already fill every core.
+for _threads in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_threads, "1")
+
 # CI runs the same examples every time (derandomize) so a red build is reproducible; locally
 # set HYPOTHESIS_PROFILE=explore to search with fresh random examples.
 settings.register_profile("ci", derandomize=True, deadline=None, max_examples=200,
                           suppress_health_check=[HealthCheck.too_slow])
 settings.register_profile("explore", deadline=None, max_examples=2000)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+
+
+REALTIME_GROUP = "realtime"
+
+
+@pytest.hookimpl(tryfirst=True)  # before xdist's own, which reads the groups
+def pytest_collection_modifyitems(config, items):
+    """Tests marked realtime keep to the wall clock: under xdist (--dist loadgroup) they share one
+    group, so one worker runs them one after another while the others take the CPU-bound tests,
+    and no two of them starve each other of a core."""
+    grouping = bool(config.getvalue("loadgroup")) if hasattr(config.option, "loadgroup") else False
+    for item in items:
+        if item.get_closest_marker("realtime") is not None:
+            item.add_marker(pytest.mark.xdist_group(REALTIME_GROUP))
+            if grouping:
+                _join_group(item, REALTIME_GROUP)
+
+
+def _join_group(item, group: str) -> None:
+    """What xdist's loadgroup does itself to group a test: a node id ending @GROUP, which its
+    scheduler reads. With pytest 9.2's structured node ids, xdist 3.8's own assignment no longer
+    takes effect (pytest-dev/pytest-xdist#1386), so the id is set here; a fixed xdist suffixing it
+    again leaves the group the same (the scheduler reads the last @)."""
+    suffixed = f"{item.nodeid}@{group}"
+    if hasattr(item, "_id"):  # pytest >= 9.2: a NodeId, whose string is the one parsed
+        item._id = type(item._id).parse(suffixed)
+    else:
+        item._nodeid = suffixed
 
 
 @pytest.fixture
@@ -119,3 +153,4 @@ def served(*argv: str, lines: int):
     finally:
         sim.send_signal(signal.SIGINT)
         sim.communicate(timeout=30)
+

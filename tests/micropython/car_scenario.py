@@ -1,4 +1,4 @@
-# Runs under MicroPython (tests/test_micropython_boards.py): the ESP32-CAM car's MicroPython
+# Runs under MicroPython (tests/firmware/test_micropython_boards.py): the ESP32-CAM car's MicroPython
 # program (firmware/micropython/car) in the simulated world of hil_sim/micropython/standins,
 # through a scenario from /scenario.json:
 #   {"start_us": ..., "end_us": ..., "events": [[t_us, "write" | "serial" | "connect" | "disconnect", text], ...]}

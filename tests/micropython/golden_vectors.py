@@ -1,4 +1,4 @@
-# Runs under MicroPython (tests/test_micropython.py): every golden vector through the portable
+# Runs under MicroPython (tests/wire/test_micropython.py): every golden vector through the portable
 # parser; prints one JSON line {case name: [[at, token, throttle, steering], ...]}.
 import json
 

@@ -1,4 +1,4 @@
-# Runs under MicroPython (tests/test_micropython_boards.py, make bench): one board program
+# Runs under MicroPython (tests/firmware/test_micropython_boards.py, make bench): one board program
 # ("board" in /scenario.json) driven for "seconds" of simulated time the way a host drives it
 # (the Junior: a control request every 20 ms on a kept connection; the car: a BLE control write
 # every 20 ms). It runs in steps of 20 ms (hil_sim/micropython/run.mjs collects garbage and

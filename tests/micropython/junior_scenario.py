@@ -1,4 +1,4 @@
-# Runs under MicroPython (tests/test_micropython_boards.py): the ROAR Junior's MicroPython
+# Runs under MicroPython (tests/firmware/test_micropython_boards.py): the ROAR Junior's MicroPython
 # program (firmware/micropython/junior) in the simulated world of hil_sim/micropython/standins,
 # through a scenario from /scenario.json:
 #   {"start_us": ..., "end_us": ..., "wall_cm": 100, "console": text typed before the reset,

@@ -1,4 +1,4 @@
-# Runs under MicroPython (tests/test_micropython.py): every golden SBUS frame through the
+# Runs under MicroPython (tests/wire/test_micropython.py): every golden SBUS frame through the
 # portable encoder, frame decoder and stream decoder; prints one JSON line {name: [ok, ...]}.
 import binascii
 import json

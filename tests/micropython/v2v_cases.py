@@ -1,4 +1,4 @@
-# Runs under MicroPython (tests/test_platoon.py): V2V datagrams from /cases.json decoded, and
+# Runs under MicroPython (tests/sim/test_platoon.py): V2V datagrams from /cases.json decoded, and
 # messages encoded, through the portable module; prints one JSON line with every answer.
 import json
 

@@ -1,4 +1,4 @@
-# Runs under MicroPython (tests/test_micropython.py): decode, encode and Junior query cases from
+# Runs under MicroPython (tests/wire/test_micropython.py): decode, encode and Junior query cases from
 # /cases.json through the portable module; prints one JSON line with every answer.
 import json
 

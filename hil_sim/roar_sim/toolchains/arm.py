@@ -17,6 +17,7 @@ import shutil
 import sys
 from pathlib import Path
 
+from roar_sim.toolchains import build_lock, stale
 from roar_sim.toolchains.avr import sizes
 from roar_sim.toolchains.native import (CORE, CROSS_TARGETS, EMBEDDED_FLAGS, ROOT, CoreBuildError,
                                  core_sources, run_build)
@@ -33,24 +34,30 @@ TASK_BENCH = ROOT / "build" / "arm" / "netduinoplus2" / "task_bench.elf"
 
 def _link(target: str, sources: list[Path], linker_script: Path, elf: Path, what: str,
           defines: tuple[str, ...] = (), c_sources: tuple[Path, ...] = (), includes: tuple[Path, ...] = ()) -> Path:
+    """Build `elf` (if stale: older than a source, a header or the linker script) and return it."""
     cxx, flags, packages = CROSS_TARGETS[target]
     if not shutil.which(cxx):
         raise CoreBuildError(f"{cxx} not found: apt-get install {packages}")
     core = core_sources()
-    elf.parent.mkdir(parents=True, exist_ok=True)
-    common = [*(f"-D{d}" for d in defines), "-I", str(CORE / "include"), "-I", str(BOARD),
-              *(f"-I{i}" for i in includes)]
-    objects = []
-    for c in c_sources:  # C code that is not ours (the FreeRTOS kernel): its own flags, no -Werror
-        obj = elf.parent / "c" / (c.stem + ".o")
-        obj.parent.mkdir(exist_ok=True)
-        run_build([cxx.replace("g++", "gcc"), *[f for f in flags if not f.startswith("-std=")], "-Os",
-                   "-ffunction-sections", "-fdata-sections", *common, "-c", str(c), "-o", str(obj)],
-                  f"{what}: {c.name} failed")
-        objects.append(obj)
-    run_build([cxx, *flags, *EMBEDDED_FLAGS, *common, "-fno-threadsafe-statics", "-nostartfiles", "-nostdlib",
-               "-Wl,--gc-sections", "-T", str(linker_script), *map(str, sources + core + objects), "-o", str(elf),
-               "-lc", "-lgcc"], f"{what} build failed")
+    headers = [h for d in (CORE / "include", BOARD, *includes) for h in sorted(Path(d).rglob("*.h"))]
+    with build_lock(elf):
+        if not stale(elf, [*sources, *core, *c_sources, *headers, linker_script, Path(__file__)]):
+            return elf
+        common = [*(f"-D{d}" for d in defines), "-I", str(CORE / "include"), "-I", str(BOARD),
+                  *(f"-I{i}" for i in includes)]
+        objects = []
+        for c in c_sources:  # C code that is not ours (the FreeRTOS kernel): its own flags, no -Werror
+            obj = elf.parent / "c" / (c.stem + ".o")
+            obj.parent.mkdir(exist_ok=True)
+            run_build([cxx.replace("g++", "gcc"), *[f for f in flags if not f.startswith("-std=")], "-Os",
+                       "-ffunction-sections", "-fdata-sections", *common, "-c", str(c), "-o", str(obj)],
+                      f"{what}: {c.name} failed")
+            objects.append(obj)
+        tmp = elf.with_name(elf.name + ".tmp")
+        run_build([cxx, *flags, *EMBEDDED_FLAGS, *common, "-fno-threadsafe-statics", "-nostartfiles", "-nostdlib",
+                   "-Wl,--gc-sections", "-T", str(linker_script), *map(str, sources + core + objects), "-o", str(tmp),
+                   "-lc", "-lgcc"], f"{what} build failed")
+        tmp.replace(elf)
     return elf
 
 

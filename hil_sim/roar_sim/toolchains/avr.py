@@ -16,6 +16,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+from roar_sim.toolchains import build_lock, stale
 from roar_sim.toolchains.native import CORE, ROOT, CoreBuildError, core_sources, run_build
 
 ARDUINO_AVR = Path("/usr/share/arduino/hardware/arduino/avr")
@@ -57,8 +58,13 @@ def _run(cmd: list[str], what: str) -> None:
 def _arduino_core() -> Path:
     """Debian's Arduino core as a static library, built once."""
     lib = ROOT / "build" / "avr" / "arduino_core.a"
-    if lib.exists():
-        return lib
+    with build_lock(lib):
+        if not lib.exists():
+            _build_arduino_core(lib)
+    return lib
+
+
+def _build_arduino_core(lib: Path) -> None:
     obj_dir = lib.parent / "arduino_core"
     obj_dir.mkdir(parents=True, exist_ok=True)
     inc = ["-I", str(ARDUINO_CORE), "-I", str(NANO_VARIANT)]
@@ -79,7 +85,6 @@ def _arduino_core() -> Path:
     os.unlink(tmp)
     _run(["avr-gcc-ar", "rcs", tmp, *objects], "archive")
     os.replace(tmp, lib)
-    return lib
 
 
 def our_sources() -> list[Path]:
@@ -95,8 +100,13 @@ def build(force: bool = False, variant: str | None = None) -> Path:
     elf = out / ELF.name
     defines = DEFINES + TEST_VARIANTS.get(variant, [])
     inputs = our_sources() + sorted(BOARD_SOURCES.glob("*.h")) + sorted((CORE / "include").rglob("*.h"))
-    if not force and elf.exists() and elf.stat().st_mtime >= max(p.stat().st_mtime for p in inputs):
-        return elf
+    with build_lock(elf):
+        if force or stale(elf, inputs):
+            _build_nano(out, elf, defines)
+    return elf
+
+
+def _build_nano(out: Path, elf: Path, defines: list[str]) -> None:
     core_lib = _arduino_core()
     obj_dir = out / "obj"
     obj_dir.mkdir(parents=True, exist_ok=True)
@@ -112,7 +122,6 @@ def build(force: bool = False, variant: str | None = None) -> Path:
           *objects, str(core_lib), "-lm"], "link")
     os.replace(tmp, elf)
     _run(["avr-objcopy", "-O", "ihex", "-R", ".eeprom", str(elf), str(elf.with_suffix(".hex"))], "hex")
-    return elf
 
 
 BENCH_SOURCE = ROOT / "hil_sim" / "avr" / "parser_bench.cpp"
@@ -127,10 +136,13 @@ def build_parser_bench() -> Path:
     missing = available()
     if missing:
         raise CoreBuildError(missing)
-    BENCH_ELF.parent.mkdir(parents=True, exist_ok=True)
     sources = [BENCH_SOURCE] + core_sources()
-    _run(["avr-g++", *OUR_CXX_FLAGS, *DEFINES, "-I", str(CORE / "include"), *map(str, sources), "-fuse-linker-plugin",
-          "-Wl,--gc-sections", "-o", str(BENCH_ELF)], "parser bench")
+    with build_lock(BENCH_ELF):
+        if stale(BENCH_ELF, [*sources, *sorted((CORE / "include").rglob("*.h")), Path(__file__)]):
+            tmp = BENCH_ELF.with_name(BENCH_ELF.name + ".tmp")
+            _run(["avr-g++", *OUR_CXX_FLAGS, *DEFINES, "-I", str(CORE / "include"), *map(str, sources),
+                  "-fuse-linker-plugin", "-Wl,--gc-sections", "-o", str(tmp)], "parser bench")
+            tmp.replace(BENCH_ELF)
     return BENCH_ELF
 
 

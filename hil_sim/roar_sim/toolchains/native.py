@@ -21,7 +21,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-from roar.errors import RoarError
+from roar_sim import CoreBuildError
+from roar_sim.toolchains import build_lock, stale
 
 ROOT = Path(__file__).resolve().parents[3]  # the checkout, when this runs from one
 PACKAGED = Path(__file__).resolve().parent / "firmware"  # an installed wheel's copy of firmware/core and /host
@@ -63,10 +64,6 @@ CROSS_TARGETS = {
 # Every microcontroller build: small code, unused sections dropped, no exceptions/RTTI, no warnings.
 EMBEDDED_FLAGS = ["-Os", "-ffunction-sections", "-fdata-sections", "-fno-exceptions", "-fno-rtti",
                   "-Wall", "-Wextra", "-Werror"]
-
-
-class CoreBuildError(RoarError):
-    """The host build failed; str() is one line naming the first compiler error."""
 
 
 def run_build(cmd: list[str], failure: str) -> None:
@@ -111,12 +108,15 @@ def build(target: str = "library", variant: str = "release", force: bool = False
         raise CoreBuildError(f"the firmware core's sources are not at {CORE}: reinstall roar-platform[sim]")
     if target not in TARGETS or variant not in VARIANTS:
         raise CoreBuildError(f"unknown build {target}/{variant}: targets {sorted(TARGETS)}, variants {sorted(VARIANTS)}")
-    name, link_flags, extra = TARGETS[target]
     out = output_path(target, variant)
-    inputs = _inputs(extra)
-    if not force and out.exists() and out.stat().st_mtime >= max(p.stat().st_mtime for p in inputs):
-        return out
-    out.parent.mkdir(parents=True, exist_ok=True)
+    with build_lock(out):
+        if force or stale(out, _inputs(TARGETS[target][2])):
+            _build(target, variant, out)
+    return out
+
+
+def _build(target: str, variant: str, out: Path) -> None:
+    name, link_flags, extra = TARGETS[target]
     fd, tmp = tempfile.mkstemp(prefix=name + ".", dir=out.parent)
     os.close(fd)
     cmd = [compiler(), "-std=c++17", *WARNINGS, *VARIANTS[variant], *link_flags, "-I", str(CORE / "include"),
@@ -128,7 +128,6 @@ def build(target: str = "library", variant: str = "release", force: bool = False
         raise
     os.chmod(tmp, 0o755)
     os.replace(tmp, out)
-    return out
 
 
 def cross_compile(target: str) -> list[Path]:

@@ -1,0 +1,245 @@
+"""Tracks (built-in and from files) and the built-in controller driving laps through the firmware."""
+
+import json
+
+import numpy as np
+import pytest
+
+from roar.cli.sdk import run_command
+from roar_sim.runs import race
+from roar.tracks import Track, TrackError, get
+from roar.tracks.track import BUILTIN, oval
+from roar.tracks.track_files import load_json, to_json
+
+
+@pytest.mark.parametrize("name", sorted(BUILTIN))
+def test_builtin_tracks_are_valid_closed_loops(name):
+    tr = get(name)
+    assert tr.length_m > 10 and len(tr.centerline) >= 100
+    left, right = tr.edges()
+    assert np.allclose(np.linalg.norm(left - right, axis=1), tr.width_m)
+    assert len(tr.walls) == (3 if name == "figure-eight" else 2)  # outside, and the infield(s)
+    for wall in tr.walls:  # every wall half the width from the centre line
+        d = np.min(np.linalg.norm(wall[:, None, :] - tr.centerline[None, :, :], axis=2), axis=1)
+        assert np.all(d > tr.width_m / 2 - 0.02) and np.median(d) == pytest.approx(tr.width_m / 2, abs=0.01)
+
+
+def test_file_round_trip(tmp_path):
+    path = tmp_path / "t.json"
+    path.write_text(to_json(oval()))
+    loaded = get(str(path))
+    assert loaded.name == "oval" and np.allclose(loaded.centerline, oval().centerline, atol=1e-4)
+
+
+CIRCLE = [[round(float(np.cos(a)), 3), round(float(np.sin(a)), 3)] for a in np.linspace(0, 6.2, 16)]
+
+
+@pytest.mark.parametrize("content, fragment", [
+    ("{", "not valid JSON"),
+    ('{"width_m": 1}', "needs 'width_m' and 'centerline'"),
+    ('{"width_m": 1, "centerline": [[0, 0]], "colour": 1}', "unknown keys"),
+    ('{"width_m": 1, "centerline": [[0, "a"]]}', "number pairs"),
+    ('{"width_m": 1, "centerline": [[0, 0], [1, 0], [1, 1]]}', "at least 8 points"),
+    ('{"width_m": 9, "centerline": ' + json.dumps(CIRCLE) + '}', "width_m must be"),
+    ('{"width_m": 1, "centerline": ' + json.dumps([[i * 0.5, 0] for i in range(8)]) + '}', "apart"),
+])
+def test_bad_track_files_give_one_line_errors(tmp_path, content, fragment):
+    path = tmp_path / "bad.json"
+    path.write_text(content)
+    with pytest.raises(TrackError) as err:
+        load_json(path)
+    assert fragment in str(err.value) and "\n" not in str(err.value)
+
+
+def test_unknown_track_name():
+    with pytest.raises(TrackError, match="unknown track 'moon'"):
+        get("moon")
+
+
+def test_projection_signs():
+    tr = oval()  # anticlockwise; starts mid bottom straight heading +x
+    x, y, _ = tr.start_pose
+    _, s, cte = tr.project((x + 0.5, y + 0.2))
+    assert cte == pytest.approx(0.2, abs=1e-6) and s == pytest.approx(0.5, abs=0.05)
+    assert tr.project((x, y - 0.3))[2] == pytest.approx(-0.3, abs=1e-6)
+
+
+@pytest.mark.parametrize("name", sorted(BUILTIN))
+def test_projection_near_a_hint_in_plain_floats_equals_numpys(name):
+    """project() searches a small window in plain floats and a large one with numpy: the same
+    segment, position and cross-track error, to the last bits."""
+    tr = get(name)
+    rng = np.random.default_rng(7)
+    for _ in range(300):
+        hint = int(rng.integers(len(tr.centerline)))
+        p = tr.centerline[hint] + rng.uniform(-0.7, 0.7, 2)
+        for window in (1, 6, 12):
+            near = tr.project(p, hint, window)
+            idx = np.arange(hint - window, hint + window + 1) % len(tr.centerline)
+            a, d = tr.centerline[idx], tr._segments[idx]
+            t = np.clip(((p - a) * d).sum(axis=1) / tr._segments_sq[idx], 0, 1)
+            k = int(np.argmin(np.linalg.norm(a + t[:, None] * d - p, axis=1)))
+            assert near[0] == idx[k]
+            assert near[1] == pytest.approx(tr.arc_start[idx[k]] + t[k] * tr.segment_lengths[idx[k]], abs=1e-12)
+            assert abs(near[2]) == pytest.approx(np.linalg.norm(a[k] + t[k] * d[k] - p), abs=1e-12)
+
+
+@pytest.mark.parametrize("name", sorted(BUILTIN))
+def test_the_autopilot_laps_every_builtin_track_without_touching_a_wall(name):
+    result = race.race(get(name), laps=2)
+    assert len(result.lap_times_s) == 2
+    assert result.wall_contacts == 0 and result.max_cross_track_m < 0.35  # walls are 0.6 m from the centre
+    flying = result.lap_times_s[1] / result.limit_lap_s
+    assert 1.0 < flying <= 1.15  # close to the physical limit, never (impossibly) faster than it
+    assert result.slowest_m_s > -0.1  # it never rolls backwards (beyond settling on its wheels)
+
+
+def test_the_heading_pid_also_laps_without_touching_a_wall():
+    result = race.race(get("oval"), laps=2, lateral="pid")
+    assert len(result.lap_times_s) == 2 and result.wall_contacts == 0 and result.max_cross_track_m < 0.45
+
+
+def test_the_autopilot_brakes_for_the_oval_corners_through_the_firmware():
+    """The oval's corners are slower than its straights; the ESC has no brake, so the autopilot
+    commands reverse and the firmware's brake/reverse sequence turns it into braking."""
+    result = race.race(get("oval"), laps=2)
+    assert result.braking_periods >= 10
+    assert result.slowest_m_s > -0.1
+    corner = [v for x, y, v, *_ in result.path[len(result.path) // 2:] if abs(x) > 2.5]
+    straight = [v for x, y, v, *_ in result.path[len(result.path) // 2:] if abs(x) < 0.5]
+    assert max(corner) < max(straight) - 0.4
+
+
+def test_race_cli_prints_report_and_plot(tmp_path, capsys):
+    png = tmp_path / "race.png"
+    assert race.main(["--laps", "1", "--plot", str(png)]) == 0
+    out = capsys.readouterr().out
+    assert "lap 1:" in out and "x the centre line's limit" in out and "x the racing line's" in out and "wall contacts: 0" in out
+    assert png.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_race_follows_a_waypoint_file(tmp_path, capsys):
+    from roar.autopilot import save_waypoints
+
+    path = tmp_path / "line.txt"
+    save_waypoints(path, get("oval").centerline)
+    assert race.main(["--laps", "1", "--waypoints", str(path)]) == 0
+    assert "laps completed: 1" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("args, fragment", [(["--laps", "0"], "--laps"), (["--margin", "2"], "--margin"),
+                                            (["--plot", "x.jpg"], ".png")])
+def test_race_cli_rejects_bad_arguments(args, fragment, capsys):
+    assert run_command("roar race", race.main, args) == 1
+    assert fragment in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("args", [["--track", "nowhere.json"], ["--waypoints", "/nonexistent.txt"]])
+def test_race_cli_bad_files_are_one_line(args, capsys):
+    assert run_command("roar race", race.main, args) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("roar race: error:") and "\n" not in err
+
+
+# --- tracks a car cannot drive are refused in one line; big and far tracks run ---------------------
+
+def lemniscate(a: float, y_scale: float = 1.0, n: int = 600) -> np.ndarray:
+    t = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    return np.stack([a * np.cos(t) / (1 + np.sin(t) ** 2), y_scale * a * np.sin(t) * np.cos(t) / (1 + np.sin(t) ** 2)], 1)
+
+
+def circle(r: float, cx: float = 0.0, spacing: float = 0.5) -> np.ndarray:
+    t = np.linspace(0, 2 * np.pi, max(16, int(2 * np.pi * r / spacing)), endpoint=False)
+    return np.stack([cx + r * np.cos(t), r * np.sin(t)], 1)
+
+
+@pytest.mark.parametrize("points, width, fragment", [
+    (circle(0.25, spacing=0.05), 1.0, "no car here turns tighter than 0.3 m"),
+    (np.array([[0, 0], [1, 0], [2, 0], [3, 0], [2, 0], [1, 0.5], [0.5, 1], [0, 0.5]], float), 0.5,
+     "no car here turns tighter"),  # a hairpin whose neighbours coincide
+    (lemniscate(20, y_scale=0.3), 0.8, "crosses itself at"),  # an X too shallow to drive through
+    (np.stack([5 * np.cos(np.linspace(0, 2 * np.pi, 200, endpoint=False)),
+               2 * np.sin(np.linspace(0, 2 * np.pi, 200, endpoint=False)) *
+               (0.08 + 0.92 * np.cos(np.linspace(0, 2 * np.pi, 200, endpoint=False)) ** 2)], 1), 1.0,
+     "too close for a wall between them"),  # a waist too narrow for two lanes and a wall
+    (np.vstack([circle(3), circle(3)[:1]]), 1.0, "the last point repeats the first"),
+    (circle(120, spacing=1.5), 1.0, "must fit in a 200 m square"),
+    (circle(3, cx=2000), 1.0, "within 1000 m of the origin"),
+])
+def test_tracks_a_car_cannot_drive_are_refused_in_one_line(points, width, fragment):
+    with pytest.raises(TrackError) as err:
+        Track("t", points, width)
+    assert fragment in str(err.value) and "\n" not in str(err.value)
+
+
+def test_a_figure_eight_crossing_is_allowed():
+    track = Track("eight", lemniscate(4.4), 1.2)  # crosses at 90 degrees: accepted, not raised
+    assert track.length_m > 20 and len(track.centerline) == 600
+
+
+@pytest.mark.parametrize("width", ["true", "\"1\"", "null"])
+def test_width_must_be_a_number_in_a_file(tmp_path, width):
+    path = tmp_path / "t.json"
+    path.write_text(f'{{"width_m": {width}, "centerline": {json.dumps(CIRCLE)}}}')
+    with pytest.raises(TrackError, match="width_m must be a number"):
+        load_json(path)
+
+
+def test_a_track_far_from_the_origin_has_ground_under_it():
+    from roar.protocol import encode
+    from roar_sim.robots.esc import EscCar
+
+    with EscCar(Track("far", circle(5, cx=100), 1.5)) as sim:
+        for _ in range(100):
+            sim.write(encode(1700 if sim.time_s > 0.1 else 1500, 1500))
+            sim.run(0.02)
+        s = sim.state()
+        assert s.speed > 0.5 and 94 < s.x < 106  # driving, not falling off the edge of the world
+
+
+def test_a_100_m_track_runs_in_well_under_a_gigabyte(tmp_path):
+    """The painted floor and its mesh are bounded whatever the track's size."""
+    import subprocess
+    import sys
+
+    # VmHWM, this process's own peak: getrusage's ru_maxrss keeps the peak of the process it was
+    # forked from (the suite's, hundreds of MB) across exec
+    script = ("import re, sys, numpy as np\n"
+              "from roar.tracks.track import Track\nfrom roar_sim.robots.esc import EscCar\n"
+              "t = np.linspace(0, 2 * np.pi, 300, endpoint=False)\n"
+              "with EscCar(Track('big', np.stack([49 * np.cos(t), 49 * np.sin(t)], 1), 1.5)) as sim:\n"
+              "    sim.run(0.2)\n"
+              "print(re.search(r'VmHWM:\\s+(\\d+) kB', open('/proc/self/status').read()).group(1))\n")
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    peak_mb = int(proc.stdout.split()[-1]) / 1024
+    assert peak_mb < 700, f"{peak_mb:.0f} MB"
+
+
+# --- waypoint lines the race cannot follow, and races that end short --------------------------------
+
+@pytest.mark.parametrize("make, fragment", [
+    (lambda cl: cl[::-1], "against the track's direction"),
+    (lambda cl: cl + np.array([0.0, 5.0]), "outside the track"),
+])
+def test_race_refuses_a_line_it_cannot_follow_in_one_line(tmp_path, capsys, make, fragment):
+    from roar.autopilot import save_waypoints
+
+    path = tmp_path / "line.txt"
+    save_waypoints(path, make(get("oval").centerline))
+    assert run_command("roar race", race.main, ["--laps", "1", "--waypoints", str(path)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and fragment in err[0]
+
+
+def test_three_identical_waypoints_are_refused_instead_of_hanging(tmp_path, capsys):
+    path = tmp_path / "line.txt"
+    path.write_text("0,-1.5,0\n0,-1.5,0\n0,-1.5,0\n")
+    assert run_command("roar race", race.main, ["--waypoints", str(path)]) == 1
+    assert "at least 3 distinct waypoints" in capsys.readouterr().err
+
+
+def test_a_race_that_ends_short_says_why_in_one_line_and_exits_2(capsys):
+    assert race.main(["--laps", "2", "--seconds", "3"]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("race incomplete:")]
+    assert len(err) == 1 and "0 of 2 laps within the 3 s time limit (too slow)" in err[0]
