@@ -99,3 +99,58 @@ def test_installed_packages_add_transports_through_entry_points(monkeypatch):
         assert isinstance(open_url("plugin://x"), Recorder)
     finally:
         registry._REGISTRY.pop("plugin", None)
+
+
+class _QueryLink(Transport):
+    """A link whose car takes another form (as the Junior's queries): it signs through `signer`,
+    answers each message, and has a session to tell."""
+
+    scheme = "query"
+    signs_itself = True
+
+    def __init__(self) -> None:
+        self.sent: list[str] = []
+
+    @classmethod
+    def from_url(cls, target, options):
+        return cls()
+
+    def open(self) -> None:
+        pass
+
+    def write(self, data: bytes) -> None:
+        self.sent.append(self.signer.sign_query(data.decode()) if self.signer else data.decode())
+
+    def close(self) -> None:
+        pass
+
+    def car_session(self):
+        return (0x1234, 7)
+
+
+def test_a_link_declares_what_the_layers_ask_and_the_layers_pass_it_through():
+    """Transport declares the signing hooks, the autopilots and `link`, so no layer probes a link
+    with hasattr: a plain link answers with its defaults, a layer with its link's answers."""
+    from roar.transports.recording import RecordingTransport
+    from roar.transports.signing import SigningTransport
+
+    plain = open_url("loop://")
+    assert (plain.signs_itself, plain.signer, plain.signing) == (False, None, False)
+    assert plain.refusal() is None and plain.car_session() is None and plain.autopilots == () and plain.link is plain
+    with pytest.raises(TransportError, match="no autopilot 'lane'"):
+        plain.autopilot("lane")
+    signed = SigningTransport(plain, bytes(16))
+    recorded = RecordingTransport(signed, None)
+    assert recorded.link is plain and recorded.scheme == "loop" and recorded.replies == plain.replies
+    assert plain.signing and plain.signer is None  # a link of control messages is signed by the layer
+    recorded.open()
+    assert recorded.refusal() is None and recorded.car_session() is None and recorded.autopilots == ()
+    assert recorded.messages is not None  # what a link offers beyond the interface passes through too
+
+    query = _QueryLink()
+    layer = SigningTransport(query, bytes(16))
+    assert query.signer is layer and query.signing
+    layer.open()  # no reply lines: the layer asks the link for the car's session
+    assert layer.session == 0x1234 and layer.counter == 7
+    layer.write(b"(1500,1500)")
+    assert "ctr=" in query.sent[-1] and "mac=" in query.sent[-1]  # the link signed its own form

@@ -26,7 +26,7 @@ class Transport(ABC):
     Signed control (transports.signing) asks every link the same things: a link whose car takes
     another form than control messages (the Junior's queries, a phone's datagrams) sets
     `signs_itself` and signs through `signer`; `signing` tells it a key signs (BLE pairs for it);
-    refusal() and session() are how a link without reply lines says what the car answered.
+    refusal() and car_session() are how a link without reply lines says what the car answered.
     Layers over a link (transports.layer: signing, recording) keep all of this, and `link` is
     the link itself under them."""
 
@@ -88,7 +88,7 @@ class Transport(ABC):
         datagrams); else None."""
         return None
 
-    def session(self) -> tuple[int, int] | None:
+    def car_session(self) -> tuple[int, int] | None:
         """(the car's signing session, the last counter it took) where the link can ask without
         reply lines (BLE's session characteristic); (0, 0): the car has no key; None: cannot ask."""
         return None

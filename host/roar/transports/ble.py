@@ -158,7 +158,7 @@ class BleTransport(Transport):
             self._connected = False
             raise LinkLost(f"BLE link to {self.describe_target()} lost: {e or type(e).__name__}") from None
 
-    def session(self) -> tuple[int, int] | None:
+    def car_session(self) -> tuple[int, int] | None:
         """(session, last counter accepted) from the car's session characteristic (session 0: no
         key, or a car too old to have the characteristic); None when the link cannot tell now."""
         client = self._client

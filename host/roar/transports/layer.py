@@ -71,8 +71,8 @@ class TransportLayer(Transport):
     def refusal(self):
         return self.inner.refusal()
 
-    def session(self):
-        return self.inner.session()
+    def car_session(self):
+        return self.inner.car_session()
 
     @property
     def autopilots(self) -> tuple[str, ...]:

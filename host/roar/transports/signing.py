@@ -4,7 +4,7 @@ from what the car says.
 
 The session the car signs in (a new one at each boot) comes from the car: its SESSION line after
 READY, the session in its ERR unsigned / ERR forged replies, or, on links without reply lines,
-the link's own answer (Transport.session(): a BLE read; Transport.refusal(): the Junior's or the
+the link's own answer (Transport.car_session(): a BLE read; Transport.refusal(): the Junior's or the
 phone's refusal). A car without a key answers signed messages with ERR nokey; the layer then
 sends unsigned to that car.
 """
@@ -71,8 +71,8 @@ class SigningTransport(TransportLayer):
             self._ask_session()
 
     def _ask_session(self) -> None:
-        """A link without reply lines says (session, last counter) when asked (Transport.session)."""
-        answer = self.inner.session()
+        """A link without reply lines says (session, last counter) when asked (Transport.car_session)."""
+        answer = self.inner.car_session()
         if answer is not None:
             self._learn(*answer)
 
