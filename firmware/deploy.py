@@ -27,7 +27,6 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 STAGE = ROOT / "build" / "boards"  # the files as they go on a board
 ESP32_IMAGE_OFFSET = 0x1000  # [bytes] where an ESP32 (not S2/S3/C3) boots its image from
-BOARD_VIDS = {0x2341, 0x2A03, 0x1A86, 0x10C4, 0x0403, 0x0483, 0x303A}  # Arduino, CH340, CP210x, FTDI, STM32, Espressif
 
 
 class DeployError(Exception):
@@ -43,8 +42,10 @@ def find_port(port: str | None) -> str:
         return port
     from serial.tools import list_ports
 
+    from roar.cli.ports import KNOWN_VIDS  # the USB vendors of car boards, as `roar ports` marks them
+
     usb = [p for p in list_ports.comports() if p.vid is not None]  # not the machine's own UARTs
-    found = sorted(usb, key=lambda p: (p.vid not in BOARD_VIDS, p.device))
+    found = sorted(usb, key=lambda p: (p.vid not in KNOWN_VIDS, p.device))
     if not found:
         raise DeployError("no board found on USB: plug it in (on Linux: is your user in the dialout group?) "
                           "or give PORT=/dev/ttyUSB0")
