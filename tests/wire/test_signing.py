@@ -330,6 +330,55 @@ def test_one_line_turns_it_on_and_only_the_key_drives(capsys, tmp_path):
     assert speed > 0.5 and signer.unkeyed and errors == 0
 
 
+def test_a_file_that_is_not_a_boards_memory_is_refused_and_left_as_it_is(capsys, tmp_path):
+    """sim://?eeprom= never cuts a user's file down: a file that is not a simulated board's memory
+    is refused in one line by every command, and stays byte for byte what it was."""
+    pytest.importorskip("pybullet", reason="the simulated car needs roar-platform[sim]")
+    notes = tmp_path / "v.txt"
+    notes.write_text("".join(f"{i}\n" for i in range(1, 2001)))
+    before = notes.read_bytes()
+    small = tmp_path / "small.txt"
+    small.write_bytes(b"not a board\n")
+    for path in (notes, small):
+        for argv in (["key", "show"], ["key", "set"], ["key", "clear"]):
+            code, out = roar(capsys, *argv, f"sim://?eeprom={path}")
+            assert code == 1 and "not a simulated board's memory" in out and "left as it is" in out, (argv, out)
+            assert sum("error:" in line for line in out.splitlines()) == 1 and "Traceback" not in out
+    assert notes.read_bytes() == before and small.read_bytes() == b"not a board\n"
+    from roar import TransportError, Vehicle
+
+    with pytest.raises(TransportError, match="not a simulated board's memory"):
+        Vehicle(f"sim://?eeprom={notes}")
+    assert notes.read_bytes() == before
+
+
+def test_a_command_that_only_reads_writes_nothing_and_makes_no_file(capsys, tmp_path):
+    """roar key show boots the simulated car (which draws a new session) but writes nothing back;
+    where the file does not exist, it makes none; set writes the memory with its first line."""
+    pytest.importorskip("pybullet", reason="the simulated car needs roar-platform[sim]")
+    missing = tmp_path / "none.eeprom"
+    assert roar(capsys, "key", "show", f"sim://?eeprom={missing}")[0] == 0
+    assert not missing.exists()
+    memory = tmp_path / "car.eeprom"
+    assert roar(capsys, "key", "set", f"sim://?eeprom={memory}")[0] == 0
+    kept = memory.read_bytes()
+    assert kept.startswith(b"roar board memory esc ")
+    code, out = roar(capsys, "key", "show", f"sim://?eeprom={memory}")
+    assert code == 0 and "(yours)" in out and memory.read_bytes() == kept
+    legacy = tmp_path / "legacy.eeprom"  # an image from before the first line: the board's bytes alone
+    legacy.write_bytes(kept.partition(b"\n")[2])
+    assert "(yours)" in roar(capsys, "key", "show", f"sim://?eeprom={legacy}")[1]
+    iarrc = f"sim://?robot=iarrc&eeprom={memory}"  # another robot's memory: refused, untouched
+    code, out = roar(capsys, "key", "show", iarrc)
+    assert code == 1 and "memory of the esc robot, not the iarrc" in out and memory.read_bytes() == kept
+
+
+def test_a_key_set_in_a_simulated_car_with_no_file_to_keep_it_is_refused(capsys):
+    for action in ("set", "clear"):
+        code, out = roar(capsys, "key", action, "sim://")
+        assert code == 1 and "sim://?eeprom=FILE" in out, out
+
+
 def test_a_car_without_a_key_is_driven_unsigned_by_a_host_with_one(tmp_path):
     pytest.importorskip("pybullet", reason="the simulated car needs roar-platform[sim]")
     speed, replies, errors, signer = drive_for("sim://", key=KEY)

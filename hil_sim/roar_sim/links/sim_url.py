@@ -13,7 +13,8 @@ setpoints and sends telemetry, its transmitter's mode switch going to autonomous
 setpoint arrives; the ROAR Junior takes each control message as the http:// transport sends it
 (one GET, smooth mixing) and reports its ultrasonic range. speedup=2 (simulated seconds per wall
 second, up to 4), gui=1 (PyBullet window), trace=drive.csv (t, x, y, yaw, speed every 20 ms),
-plot=drive.png (the driven path).
+plot=drive.png (the driven path), eeprom=FILE (the board's memory, its signing key, kept in FILE
+between runs: roar_sim.links.board_memory).
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from roar.errors import RoarError
 from roar.telemetry import VehicleState
 from roar.transports.base import LinkLost, Transport, TransportError, pop_number, pop_option
 from roar.user_files import unwritable
+from roar_sim.links import board_memory
 from roar_sim.world.plotting import png_problem
 
 
@@ -55,6 +57,7 @@ class SimTransport(Transport):
         if eeprom is not None and not hasattr(self.kind, "nvm"):
             raise TransportError(f"eeprom= keeps a board's key between runs: the {self.kind.title} has none here")
         self.eeprom = eeprom  # the board's EEPROM (signing key, session) kept in this file between runs
+        self.robot = robot
         self.replies = self.kind.replies  # the ESC and IARRC cars answer with lines, the Junior not
         self.sim = None  # the roar_sim.robots.Robot once open
         self.trace: list[tuple[float, float, float, float, float]] = []  # (t, x, y, yaw, speed)
@@ -89,8 +92,8 @@ class SimTransport(Transport):
             raise TransportError(f"sim://{target}?track={named}: name the track once (sim://NAME or sim://?track=NAME)")
         track = named if named is not None else track
         eeprom = pop_option(options, "eeprom", Path, None)
-        if eeprom is not None and (problem := unwritable(eeprom)):
-            raise TransportError(f"eeprom: {problem}")
+        if eeprom is not None and not str(eeprom).strip():
+            raise TransportError("eeprom= is empty: give a file name")
         try:
             return cls(track, speedup, pop_option(options, "gui", bool, False), trace, plot, robot, eeprom)
         except ImportError as e:
@@ -101,14 +104,25 @@ class SimTransport(Transport):
     def open(self) -> None:
         from roar.tracks import get
 
+        stored = None
+        if self.eeprom is not None:
+            stored = board_memory.load(self.eeprom, self.robot)
+            problem = stored is None and not self.read_only and unwritable(self.eeprom)
+            if problem:
+                raise TransportError(f"eeprom: {problem}")
         try:
             track = get(self.track_name) if self.track_name else None
-            extra = {}
-            if self.eeprom is not None and self.eeprom.exists():
-                extra["nvm"] = self.eeprom.read_bytes()
+            extra = {} if self.eeprom is None else {"nvm": stored}
             self.sim = self.kind(track, realtime=True, speedup=self.speedup, gui=self.gui, **extra)
         except RoarError as e:
             raise TransportError(str(e)) from None
+        if self.eeprom is not None:
+            try:
+                board_memory.check(self.eeprom, stored, self.sim.nvm)
+            except TransportError:
+                self.sim.close()
+                self.sim = None
+                raise
         self._running.set()
         self._thread = threading.Thread(target=self._pump, name="roar-sim", daemon=True)
         self._thread.start()
@@ -116,16 +130,16 @@ class SimTransport(Transport):
     def _pump(self) -> None:
         sim = self.sim
         next_trace = 0.0
-        saved_nvm = self.eeprom.read_bytes() if self.eeprom is not None and self.eeprom.exists() else None
+        saved_nvm = sim.nvm  # as loaded: written back only when the board changes it
         try:
             while self._running.is_set():
                 while self._inbox:
                     sim.write(self._inbox.popleft())
                 sim.run(CHUNK_S)
                 self._outbox.extend(sim.read())
-                if self.eeprom is not None and sim.nvm != saved_nvm:  # a key was set: keep it
+                if self.eeprom is not None and not self.read_only and sim.nvm != saved_nvm:  # a key, a session
                     saved_nvm = sim.nvm
-                    self.eeprom.write_bytes(saved_nvm)
+                    board_memory.save(self.eeprom, self.robot, saved_nvm)
                 s = self._state = sim.vehicle_state()
                 if sim.time_s >= next_trace:
                     self.trace.append((sim.time_s, s.x_m, s.y_m, s.yaw_rad, s.speed_m_s))

@@ -17,7 +17,7 @@ from pathlib import Path
 from roar.cli.sdk import ArgumentParser, UserError, path_option
 from roar.protocol import spec
 from roar.signing import SigningError, default_path, new_key, read_key_file, write_key_file
-from roar.transports import TransportError, open_url
+from roar.transports import TransportError, open_url, parse_url
 from roar_wire import signing as wire
 
 ANSWER_WAIT_S = 0.5  # [s] for the car's KEY line before asking again
@@ -66,7 +66,7 @@ def _new(args, path: Path) -> int:
 
 
 def _set(args, path: Path) -> int:
-    _check_serial(args.url)
+    _check_serial(args.url, keeps=True)
     if not path.exists():
         write_key_file(path, new_key())
         print(f"made a new key in {path}")
@@ -84,13 +84,14 @@ def _show(args, path: Path) -> int:
     mine = wire.fingerprint(read_key_file(path)) if path.exists() else None
     print(f"your key: {mine} ({path})" if mine else f"your key: none ({path} does not exist; roar key new)")
     if args.url:
-        car = _ask_car(args.url, f"{spec.SIGNED_KEY_COMMAND} ?")
+        car = _ask_car(args.url, f"{spec.SIGNED_KEY_COMMAND} ?", read_only=True)
         match = "" if car == spec.SIGNED_KEY_NONE else " (yours)" if car == mine else " (not yours)"
         print(f"{args.url}: {car}{match}")
     return 0
 
 
 def _clear(args, path: Path) -> int:
+    _check_serial(args.url, keeps=True)
     answer = _ask_car(args.url, f"{spec.SIGNED_KEY_COMMAND} -")
     if answer != spec.SIGNED_KEY_NONE:
         raise UserError(f"{args.url} answered KEY {answer}: the key was not cleared")
@@ -98,17 +99,28 @@ def _clear(args, path: Path) -> int:
     return 0
 
 
-def _check_serial(url: str) -> None:
+def _check_serial(url: str, keeps: bool = False) -> None:
+    """keeps: the key must outlive the command (set, clear): a simulated car keeps it only in a file."""
     scheme = url.split("://", 1)[0].lower()
     if scheme not in SERIAL_SCHEMES:
         raise UserError(f"a car's key is set over its USB serial link only (serial://PORT), not {scheme}://")
+    if keeps and scheme == "sim":
+        try:
+            options = parse_url(url)[2]
+        except TransportError as e:
+            raise UserError(str(e)) from None
+        if "eeprom" not in options:
+            raise UserError("a simulated car keeps its key only in a file, and this one would lose it when the "
+                            "command ends: give one, sim://?eeprom=FILE")
 
 
-def _ask_car(url: str, line: str) -> str:
-    """Send one KEY line on the car's serial link; the word after KEY in its answer."""
+def _ask_car(url: str, line: str, read_only: bool = False) -> str:
+    """Send one KEY line on the car's serial link; the word after KEY in its answer. read_only:
+    the question changes nothing the car keeps (Transport.read_only)."""
     _check_serial(url)
     try:
         link = open_url(url)
+        link.read_only = read_only
         link.open()
     except TransportError as e:
         raise UserError(str(e)) from None

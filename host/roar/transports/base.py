@@ -38,6 +38,9 @@ class Transport(ABC):
     url: str = ""
     signer: Any = None  # the signing layer, set by it on a link that signs_itself (sign_query, sign_datagram)
     signing: bool = False  # set by the signing layer: a key signs what goes out (a BLE link pairs for it)
+    # set by a command that only reads (roar key show): nothing the car stores is written back to a
+    # file the user named (sim://?eeprom=), and no such file is made
+    read_only: bool = False
 
     @property
     def link(self) -> Transport:
