@@ -11,6 +11,7 @@ import pytest
 
 pytest.importorskip("shapely", reason="pip install 'roar-platform[tracks]' (make setup installs it)")
 
+from conftest import ROOT  # noqa: E402
 from roar.tracks import Track, TrackError, get  # noqa: E402
 from roar.tracks.names import split_names  # noqa: E402
 from roar.tracks.occupancy_map import load_map, save_map, track_map  # noqa: E402
@@ -125,6 +126,26 @@ def test_a_centre_line_csv_with_widths_per_point_round_trips(tmp_path):
     assert back.name == "asym" and np.allclose(back.centerline, asymmetric.centerline, atol=1e-4)
     assert np.allclose(back.half_widths, asymmetric.half_widths, atol=1e-4)
     assert back.region.area == pytest.approx(asymmetric.region.area, rel=1e-3)
+
+
+def test_repeated_points_are_dropped_from_a_csv_and_refused_in_json_as_the_doc_says(tmp_path):
+    """docs/worlds.md: a CSV's point within 1 cm of the one before, and a last point repeating the
+    first (as TUM's closed files end), are dropped; JSON refuses both, in one line."""
+    import json
+
+
+    circle = [(3 * np.cos(t), 3 * np.sin(t)) for t in np.linspace(0, 2 * np.pi, 40, endpoint=False)]
+    rows = [*circle[:5], (circle[4][0] + 0.004, circle[4][1]), *circle[5:], circle[0]]
+    path = tmp_path / "circle_centerline.csv"
+    path.write_text("".join(f"{x:.4f}, {y:.4f}, 0.6, 0.6\n" for x, y in rows))
+    assert len(load_centreline_csv(path).centerline) == 40
+    doc = (ROOT / "docs" / "worlds.md").read_text()
+    assert "are dropped" in doc and "JSON refuses both" in doc
+    for name, line in (("repeat", [*circle, circle[0]]), ("close", rows[:-1])):
+        bad = tmp_path / f"{name}.json"
+        bad.write_text(json.dumps({"name": name, "width_m": 1.2, "centerline": [list(p) for p in line]}))
+        with pytest.raises(TrackError, match=str(bad)):
+            get(str(bad))
 
 
 def test_a_hairpin_at_f1tenth_width_from_a_csv_is_raced_without_touching_a_wall(tmp_path):
