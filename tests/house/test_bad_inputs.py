@@ -338,3 +338,31 @@ def test_output_paths_are_checked_before_any_work_with_the_real_problem(tmp_path
     out, err = capsys.readouterr()
     assert err.strip() == f"roar {argv[0]}: error: {words.format(**paths)}" or words.format(**paths) in err, err
     assert "\n" not in err.strip() and out == "" and time.monotonic() - t0 < 5
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["track", "drag:nan"], "length must be a finite number 10..100 m, got 'nan'"),
+    (["track", "drag:1e3"], "length must be a finite number 10..100 m, got '1e3'"),
+    (["track", "random:1000000000000000001"], "a whole number 0..10^18"),
+    (["track", "random:3,width=1,width=2.2"], "parameter 'width' given twice"),
+    (["track", "tunnel:3,cones=1,cones=2"], "parameter 'cones' given twice"),
+    (["send", "loop://", "--throttle", "-inf"], "throttle must be a finite number -1..1, got -inf"),
+    (["send", "loop://", "--steering", "-1e308"], "steering must be a finite number -1..1"),
+    (["race", "--start-lights", "-1"], "--start-lights: must be a whole number 0..10^18"),
+    (["race", "--shaky-camera", "-3"], "--shaky-camera: must be a whole number 0..10^18"),
+])
+def test_each_message_names_the_range_that_holds(capsys, argv, words):
+    assert words in one_line_error(capsys, *argv)
+
+
+def test_the_largest_seed_a_message_allows_is_taken(capsys):
+    assert main(["track", "random:1000000000000000000"]) == 0
+
+
+def test_a_map_number_written_without_a_dot_is_a_number_as_ros_reads_it(tmp_path, capsys):
+    """YAML 1.1 reads `1e9` as text; ROS's map_server reads a number, and so does roar."""
+    from PIL import Image
+
+    Image.new("L", (20, 20), 255).save(tmp_path / "m.png")
+    (tmp_path / "far.yaml").write_text("image: m.png\nresolution: 5e-2\norigin: [1e9, 0.0, 0.0]\n")
+    assert "puts the map 1000000000 m from the world's origin" in one_line_error(capsys, "track", str(tmp_path / "far.yaml"))

@@ -324,17 +324,8 @@ detections, the planner's paths and last tree, and the driven path.
   roar challenge tunnel:5,cones=8 --oracle --plot run.png"""
 
 
-def seed_option(text: str) -> int:
-    """An argparse type: a whole number >= 0 (numpy's generators take no negative seed)."""
-    import argparse
-
-    if not text.strip().isdigit():
-        raise argparse.ArgumentTypeError(f"must be a whole number 0 or more, got {text!r}")
-    return int(text)
-
-
 def parser():
-    from roar.cli.sdk import ArgumentParser, add_foxglove_option, number_option, path_option
+    from roar.cli.sdk import ArgumentParser, add_foxglove_option, number_option, path_option, seed_option
     from roar_sim import robots
 
     seconds = number_option(0, 3600, "s")

@@ -31,7 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from roar.autopilot import Command, Observation, Runner, WaypointError, load_waypoints, speed_profile
-from roar.cli.sdk import ArgumentParser, ExitStatus, add_foxglove_option, number_option, path_option, run_command
+from roar.cli.sdk import (ArgumentParser, ExitStatus, add_foxglove_option, number_option, path_option, run_command,
+                          seed_option)
 from roar.tracks import Track, TrackError, get
 from roar.tracks.track_files import load_raceline_csv
 from roar.user_files import unusable_folder
@@ -240,7 +241,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--driver", choices=["line", "lane"], default="line",
                    help="line: follow the known centre line by the robot's pose (default); lane: the ESC car drives "
                         "by its camera alone (lane lines, no pose; the pose only scores)")
-    p.add_argument("--start-lights", type=int, metavar="SEED",
+    p.add_argument("--start-lights", type=seed_option, metavar="SEED",
                    help="with --driver lane: start lights beside the track turn green at a moment drawn from SEED; "
                         "the car waits for green")
     p.add_argument("--boxes", type=int, default=0, metavar="N",
@@ -265,7 +266,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--car-profile", metavar="NAME|FILE",
                    help="the ESC car's own numbers: roar (default), f1tenth (about 8 m/s), or a profile .toml "
                         "(roar_sim/plants/car_profiles/); its limits are measured on first use")
-    p.add_argument("--shaky-camera", type=int, metavar="SEED",
+    p.add_argument("--shaky-camera", type=seed_option, metavar="SEED",
                    help="with --driver lane: the camera's mount shakes (0.5 degrees a frame) and its sensor adds "
                         "noise, drawn from SEED, as on a real car")
     p.add_argument("--renderer", choices=renderers.RENDERERS, default=None,

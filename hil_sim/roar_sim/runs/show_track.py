@@ -43,7 +43,7 @@ def summary(track: Track) -> str:
     radius = 1 / float(curvature(track.centerline).max())
     x, y, yaw = track.start_pose
     lines = [f"{track.name}: {track.length_m:.1f} m round, {widths.min():.2f}..{widths.max():.2f} m wide, tightest "
-             f"bend of the centre line {radius:.2f} m; {len(track.walls)} walls; start ({x:.2f}, {y:.2f}) facing "
+             f"bend of the centre line {radius:.2f} m; {len(track.walls)} wall{'s' if len(track.walls) != 1 else ''}; start ({x:.2f}, {y:.2f}) facing "
              f"{np.degrees(yaw):.0f} degrees"]
     if track.course is not None:
         from roar.tracks.tunnel import describe

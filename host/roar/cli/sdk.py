@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import re
 import signal
 import sys
 import threading
@@ -64,6 +65,9 @@ def stopped_status(e: KeyboardInterrupt) -> ExitStatus:
     return ExitStatus.TERMINATED if isinstance(e, Terminated) else ExitStatus.INTERRUPTED
 
 
+NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)(e[+-]?\d+)?$|^-(inf|infinity|nan)$", re.I)
+
+
 class ArgumentParser(argparse.ArgumentParser):
     """argparse as every roar command uses it: a bad option is a UserError (one line, exit status
     1, through the error boundary; --help shows the usage), and --help ends with the exit statuses."""
@@ -73,6 +77,9 @@ class ArgumentParser(argparse.ArgumentParser):
         kwargs["epilog"] = f"{epilog}\n{EXIT_STATUSES}" if epilog else EXIT_STATUSES
         kwargs.setdefault("formatter_class", argparse.RawDescriptionHelpFormatter)
         super().__init__(*args, **kwargs)
+        # argparse reads "-1e308" and "-inf" as options ("expected one argument"): every negative
+        # number is a value, so the option's own check says what is wrong with it
+        self._negative_number_matcher = NEGATIVE_NUMBER
 
     def error(self, message: str) -> None:
         raise UserError(message)
@@ -118,6 +125,15 @@ def path_option(text: str) -> Path:
 
 
 seconds_option = number_option(0, MAX_WAIT_S, "s (0: until Ctrl-C)")  # a run's duration
+
+
+def seed_option(text: str) -> int:
+    """An argparse type: a seed, a whole number 0..10^18 (numpy's generators take no negative seed)."""
+    from roar.tracks.seeds import MAX_SEED
+
+    if not text.strip().isdigit() or int(text) > MAX_SEED:
+        raise argparse.ArgumentTypeError(f"must be a whole number 0..10^18, got {text!r}")
+    return int(text)
 
 
 def listen_address(text: str) -> str:

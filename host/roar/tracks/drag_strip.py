@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from roar.checks import number
-from roar.tracks.seeds import seeded
+from roar.tracks.seeds import split_options
 from roar.tracks.track import Track, TrackError
 
 LENGTH_RANGE_M = (10.0, 100.0)  # [m] start to finish
@@ -44,9 +44,9 @@ class StripSpec:
 
 def parse(name: str) -> StripSpec:
     """The strip a `drag:LENGTH[,width=,stop=]` name describes; TrackError (one line) otherwise."""
-    length, values = seeded(name, "drag:", USAGE, ("width", "stop"), what="length in metres")
+    length, values = split_options(name, "drag:", USAGE, ("width", "stop"))
     try:
-        return StripSpec(number("length", length, *LENGTH_RANGE_M, "m"),
+        return StripSpec(number("length", _float(length.strip()), *LENGTH_RANGE_M, "m", given=length.strip()),
                          number("width", _float(values.get("width", DEFAULT_WIDTH_M)), *WIDTH_RANGE_M, "m"),
                          number("stop", _float(values.get("stop", DEFAULT_STOP_M)), *STOP_RANGE_M, "m"))
     except ValueError as e:

@@ -76,10 +76,21 @@ class OccupancyMap:
         return out
 
 
+def _yaml_number(value):
+    """A number as ROS's map_server reads it: YAML 1.1 (PyYAML) takes `1e9` (no dot) for text,
+    yaml-cpp for a number, and so does this; anything else as it is."""
+    if isinstance(value, str):
+        try:
+            return float(value)
+        except ValueError:
+            return value
+    return value
+
+
 def _number(path: Path, data: dict, key: str, low: float, high: float) -> float:
     """data[key] checked by roar.checks.number, its error naming the file."""
     try:
-        return number(key, data[key], low, high)
+        return number(key, _yaml_number(data[key]), low, high, given=data[key])
     except ValueError as e:
         raise TrackError(f"{path}: {e}") from None
 
@@ -112,10 +123,10 @@ def load_map(path: str | Path) -> OccupancyMap:
         raise TrackError(f"{path}: free_thresh ({free_thresh:g}) must be below occupied_thresh ({occupied_thresh:g})")
     if data["negate"] not in (0, 1, True, False):
         raise TrackError(f"{path}: negate must be 0 or 1, got {printable(repr(data['negate']), 40)}")
-    origin = data["origin"]
+    origin = [_yaml_number(v) for v in data["origin"]] if isinstance(data["origin"], list) else data["origin"]
     if not isinstance(origin, list) or len(origin) != 3 or not all(
             isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in origin):
-        raise TrackError(f"{path}: origin must be [x, y, yaw] (finite numbers), got {printable(repr(origin), 40)}")
+        raise TrackError(f"{path}: origin must be [x, y, yaw] (finite numbers), got {printable(repr(data['origin']), 40)}")
     if not isinstance(data["image"], str) or not data["image"].strip():
         raise TrackError(f"{path}: image must name the map's image file")
     image_path = path.parent / data["image"]
