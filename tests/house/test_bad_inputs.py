@@ -366,3 +366,17 @@ def test_a_map_number_written_without_a_dot_is_a_number_as_ros_reads_it(tmp_path
     Image.new("L", (20, 20), 255).save(tmp_path / "m.png")
     (tmp_path / "far.yaml").write_text("image: m.png\nresolution: 5e-2\norigin: [1e9, 0.0, 0.0]\n")
     assert "puts the map 1000000000 m from the world's origin" in one_line_error(capsys, "track", str(tmp_path / "far.yaml"))
+
+
+def test_a_race_served_to_foxglove_runs_in_real_time_and_says_where(tmp_path):
+    """--foxglove without --realtime: the race is paced to the wall clock (else it is over before a
+    viewer connects) and says where to connect."""
+    from conftest import free_port
+
+    port = free_port()
+    start = time.monotonic()
+    done = subprocess.run([sys.executable, "-m", "roar.cli", "race", "--laps", "1", "--seconds", "2",
+                           "--foxglove", str(port)], capture_output=True, text=True, timeout=120, cwd=ROOT)
+    assert done.returncode == 2, done.stderr  # one lap in 2 s is not driven: the race ran short, as it should
+    assert f"ws://127.0.0.1:{port}" in done.stdout and "real time" in done.stdout
+    assert time.monotonic() - start >= 2.0

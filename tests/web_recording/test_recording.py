@@ -379,6 +379,18 @@ def test_replay_to_a_real_car_asks_first(tmp_path):
     assert done.returncode == 1 and "--yes" in done.stderr and len(done.stderr.strip().splitlines()) == 1
 
 
+@pytest.mark.parametrize("url, words", [("nonsense://x", "unknown URL scheme 'nonsense://'"),
+                                         ("serial://", "needs a port"), ("sim://?speedup=9", "speedup")])
+def test_replay_refuses_a_url_that_names_no_car_before_asking_anything(tmp_path, url, words):
+    path = tmp_path / "run.mcap"
+    with Recorder(path) as rec:
+        rec.control(encode(1600, 1500), 0)
+    done = subprocess.run([sys.executable, "-m", "roar.cli", "replay", str(path), "--to", url],
+                          capture_output=True, text=True, timeout=60, stdin=subprocess.DEVNULL)
+    assert done.returncode == 1 and words in done.stderr and "real car" not in done.stderr, done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1
+
+
 @pytest.fixture(scope="module")
 def with_frames(tmp_path_factory):
     """A recorded drive of the simulated car with 160x120 camera frames, the steering swept."""

@@ -262,7 +262,7 @@ def parser() -> argparse.ArgumentParser:
                    help="record the race into this MCAP file: every control message and line, the car's state, "
                         "the firmware's outputs, contacts, and with --localize the filter's pose and particles "
                         "(open it in Foxglove, or `roar replay`)")
-    add_foxglove_option(p, "the same channels", when="with --realtime to watch at the car's pace: ")
+    add_foxglove_option(p, "the same channels", when="(the race then runs in real time, to be watched) ")
     p.add_argument("--car-profile", metavar="NAME|FILE",
                    help="the ESC car's own numbers: roar (default), f1tenth (about 8 m/s), or a profile .toml "
                         "(roar_sim/plants/car_profiles/); its limits are measured on first use")
@@ -368,6 +368,10 @@ def main(argv: list[str] | None = None) -> int:
                          f"from the next), not {args.boxes}: try --track course")
     if args.follow:
         return _combined(args, track, boxes)
+    if args.foxglove is not None:  # a race run faster than real time would be over before a viewer connects
+        args.realtime = True
+        print(f"serving the race live in real time: Foxglove, Open connection, ws://127.0.0.1:{args.foxglove}",
+              flush=True)
     result = race(track, args.laps, waypoints, args.margin, args.robot, args.realtime, args.gui, progress=True,
                   timeout_s=args.seconds, lateral="lane" if args.driver == "lane" else args.steering,
                   start_lights=args.start_lights, boxes=boxes, avoid=args.avoid, frames=args.frames, k_dd_s=args.k_dd,

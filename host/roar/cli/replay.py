@@ -25,6 +25,7 @@ def parser() -> ArgumentParser:
 
 def main(argv: list[str]) -> int:
     from roar.replay import commands, play, plot, summary
+    from roar.transports import open_url
     from roar.user_files import unwritable
     from roar.vehicle import Vehicle
 
@@ -40,6 +41,7 @@ def main(argv: list[str]) -> int:
     todo = commands(args.file)
     if not todo:
         raise UserError(f"{args.file}: no control messages to play")
+    open_url(args.to)  # a URL that names no car is refused before anyone is asked to confirm driving one
     scheme = args.to.split(":", 1)[0].lower()
     if scheme not in ("sim", "loop") and not args.yes:
         if not sys.stdin.isatty():
