@@ -96,6 +96,7 @@ class Vehicle:
         self.replies: collections.deque[str] = collections.deque(maxlen=200)  # the car's lines, newest last
         self.events: collections.deque[CarEvent] = collections.deque(maxlen=200)  # the same, typed
         self.errors = 0  # "ERR ..." replies seen
+        self.refusals: collections.Counter[str] = collections.Counter()  # the same, by the reason after ERR
         self.rejected_telemetry = 0  # telemetry lines dropped: not the spec's fields (a number that is not one)
         self._events_cond = threading.Condition()
         self._throttle = self._steering = 0.0
@@ -242,7 +243,11 @@ class Vehicle:
                 self._learn_version(spec.META_SPEED_VERSION)
             elif event.kind is EventKind.ERROR:
                 self.errors += 1
-                log.warning("the car rejected a message: %s", line)
+                reason = event.detail.split()[0] if event.detail else ""
+                self.refusals[reason] += 1
+                if self.refusals[reason] == 1:  # once a reason: a refused message is refused again 50 times a second
+                    log.warning("the car rejected a message: %s (more for the same reason are counted in "
+                                "Vehicle.refusals, not shown)", line)
             elif event.kind is EventKind.FAILSAFE:
                 rearm = "zero speed (stop())" if self.protocol_version == spec.META_SPEED_VERSION else "neutral"
                 log.warning("the car's failsafe tripped (no valid command in time); send %s to re-arm", rearm)

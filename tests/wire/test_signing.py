@@ -365,12 +365,29 @@ def test_a_command_that_only_reads_writes_nothing_and_makes_no_file(capsys, tmp_
     assert kept.startswith(b"roar board memory esc ")
     code, out = roar(capsys, "key", "show", f"sim://?eeprom={memory}")
     assert code == 0 and "(yours)" in out and memory.read_bytes() == kept
+    sessions = [drive_for(f"sim://?eeprom={memory}", 0.3)[3].session for _ in range(2)]
+    assert sessions[0] < sessions[1] and memory.read_bytes() != kept  # each boot a new session, kept: no replay
+    kept = memory.read_bytes()
     legacy = tmp_path / "legacy.eeprom"  # an image from before the first line: the board's bytes alone
     legacy.write_bytes(kept.partition(b"\n")[2])
     assert "(yours)" in roar(capsys, "key", "show", f"sim://?eeprom={legacy}")[1]
     iarrc = f"sim://?robot=iarrc&eeprom={memory}"  # another robot's memory: refused, untouched
     code, out = roar(capsys, "key", "show", iarrc)
     assert code == 1 and "memory of the esc robot, not the iarrc" in out and memory.read_bytes() == kept
+
+
+def test_roar_send_to_a_keyed_car_from_a_host_with_no_key_says_so(capsys, tmp_path, monkeypatch):
+    """Not "done, link ok": one line saying every message was refused, why, and what to do; the
+    car's refusal is logged once, not fifty times a second."""
+    pytest.importorskip("pybullet", reason="the simulated car needs roar-platform[sim]")
+    url = f"sim://?eeprom={tmp_path / 'car.eeprom'}"
+    assert roar(capsys, "key", "set", url)[0] == 0
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "another-host"))
+    code = __import__("roar.cli", fromlist=["main"]).main(["send", url, "--throttle", "0.3", "--for", "0.5"])
+    out, err = capsys.readouterr()
+    assert code == 1 and "done" not in out and "link ok" not in out
+    assert "refused every message" in err and "has a signing key and this host has none" in err and "roar key set" in err
+    assert len([line for line in err.splitlines() if line]) <= 2  # the refusal logged once, and the error line
 
 
 def test_a_key_set_in_a_simulated_car_with_no_file_to_keep_it_is_refused(capsys):

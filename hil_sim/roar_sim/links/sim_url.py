@@ -116,6 +116,7 @@ class SimTransport(Transport):
             self.sim = self.kind(track, realtime=True, speedup=self.speedup, gui=self.gui, **extra)
         except RoarError as e:
             raise TransportError(str(e)) from None
+        self._stored = stored
         if self.eeprom is not None:
             try:
                 board_memory.check(self.eeprom, stored, self.sim.nvm)
@@ -130,7 +131,7 @@ class SimTransport(Transport):
     def _pump(self) -> None:
         sim = self.sim
         next_trace = 0.0
-        saved_nvm = sim.nvm  # as loaded: written back only when the board changes it
+        saved_nvm = self._stored  # as the file held it: the board's boot (its next session) and a new key change it
         try:
             while self._running.is_set():
                 while self._inbox:

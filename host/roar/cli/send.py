@@ -8,7 +8,7 @@ import time
 from roar.checks import printable
 from roar.cli.sdk import (ArgumentParser, UserError, add_calibration_option, add_log_option, add_url,
                           open_vehicle)
-from roar.protocol import spec
+from roar.protocol import ParseResult, spec
 
 MAX_SEND_S = 3600.0  # [s]
 # [s] how long to wait at the end for any reply: a classic Nano resets when its port opens and
@@ -58,10 +58,26 @@ def main(argv: list[str]) -> int:
     if silent:
         raise UserError(f"no reply from a car on {args.url} (no READY, ARMED or FAILSAFE line in "
                         f"{args.seconds + REPLY_GRACE_S:g} s): is a ROAR car running there?")
+    if car.errors:
+        raise UserError(refused(car, args.url))
     stopped = "zero speed" if args.speed is not None else "neutral"
     if link_ok:
         print(f"done, {stopped} sent; link ok; car replies: {replies}")
     else:  # nothing could be sent at the end: say so, and what stops the car
         print(f"link down: {printable(car.link_error, 200)}; {stopped} could not be sent (the car's failsafe stops "
               f"it when commands stop coming); car replies: {replies}")
-    return 0 if car.errors == 0 and link_ok else 1
+    return 0 if link_ok else 1
+
+
+def refused(car, url: str) -> str:
+    """What the car's ERR replies mean for the user, in one line."""
+    from roar.signing import default_path
+
+    count, (reason, most) = car.errors, car.refusals.most_common(1)[0]
+    if reason == str(ParseResult.UNSIGNED) and car.signer is None:
+        return (f"{url} refused every message ({count}): it has a signing key and this host has none; put yours in it "
+                f"with `roar key set {url}` (over USB), or copy the car's key file to {default_path()}")
+    if reason in (str(ParseResult.FORGED), str(ParseResult.UNSIGNED)):
+        return (f"{url} refused {most} of {count} messages as {reason}: this host's key is not the car's "
+                f"(`roar key show {url}` compares them)")
+    return f"{url} refused {count} message(s), {most} of them {reason or 'with no reason'}: {car.replies[-1]}"
