@@ -244,6 +244,28 @@ def test_loopback_server_serves_its_page_and_refuses_other_host_names(loop_serve
     assert http_get(f"http://127.0.0.1:{server.port}/", {"Host": f"evil.example:{server.port}"})[0] == 403
 
 
+@pytest.mark.parametrize("method, body", [("POST", b"a=1"), ("POST", b""), ("PUT", b"x"), ("DELETE", None),
+                                          ("OPTIONS", None), ("PATCH", b"{}")])
+def test_other_methods_are_answered_405_with_the_ones_allowed(loop_server, method, body):
+    """Only GET and HEAD: the rest, with a body or not, get 405 and an Allow header, and the car
+    never moves."""
+    import http.client
+
+    car, server = loop_server
+    connection = http.client.HTTPConnection("127.0.0.1", server.port, timeout=5)
+    connection.request(method, "/", body=body)
+    response = connection.getresponse()
+    assert response.status == 405 and response.getheader("Allow") == "GET, HEAD", response.status
+    assert b"not allowed" in response.read()
+    assert server.refused.get("method not allowed", 0) >= 1
+    connection.close()
+    for method in ("GET", "HEAD"):
+        connection = http.client.HTTPConnection("127.0.0.1", server.port, timeout=5)
+        connection.request(method, "/")
+        assert connection.getresponse().status == 200
+        connection.close()
+
+
 def test_beyond_loopback_the_token_is_needed_for_page_and_socket():
     from websockets.exceptions import InvalidStatus
 

@@ -65,6 +65,9 @@ def is_loopback(host: str) -> bool:
         return False
 
 
+MAX_REQUEST_LINE_BYTES = 8192  # [bytes] websockets' own limit for a request line
+
+
 class WebServer:
     """The page and its socket for one Vehicle. host: where to listen (loopback by default; any
     other address needs the token, made here unless given); record_dir: where "record" writes
@@ -173,6 +176,7 @@ class WebServer:
         self._stopping, self._tick = asyncio.Event(), asyncio.Condition()
         try:
             server = await serve(self._client, self.host, self.port, process_request=self._http,
+                                 create_connection=_methods_checked(self),
                                  max_size=MAX_MESSAGE_CHARS * 4, ping_interval=5, ping_timeout=5, close_timeout=1,
                                  server_header=None, logger=_QUIET)
         except OSError as e:
@@ -458,6 +462,39 @@ class WebServer:
                 self.camera_fps_now = (len(times) - 1) / max(1e-6, times[-1] - times[0]) if len(times) > 1 else 0.0
             if frames is None:
                 self._camera_stop.wait(max(0.0, period - (time.monotonic() - started)))
+
+
+ALLOWED_METHODS = ("GET", "HEAD")
+
+
+def _methods_checked(server: WebServer):
+    """websockets' connections, but a request whose method is not GET or HEAD is answered 405 at
+    its first line: websockets reads no request body, and closed a POST with one without a word."""
+    from websockets.asyncio.server import ServerConnection
+
+    class MethodsChecked(ServerConnection):
+        _first = b""
+
+        def data_received(self, data: bytes) -> None:
+            if self._first is None:
+                return super().data_received(data)
+            self._first += data
+            line, found, _ = self._first.partition(b"\r\n")
+            if not found and len(self._first) < MAX_REQUEST_LINE_BYTES:
+                return None  # the request line is not all here yet
+            buffered, self._first = self._first, None
+            method = line.split(b" ", 1)[0].decode("ascii", "replace")
+            if method in ALLOWED_METHODS:
+                return super().data_received(buffered)
+            server.refused["method not allowed"] = server.refused.get("method not allowed", 0) + 1
+            text = f"{method} is not allowed here: the page takes GET\n".encode("ascii", "replace")
+            self.transport.write(b"HTTP/1.1 405 Method Not Allowed\r\nAllow: %s\r\nConnection: close\r\n"
+                                 b"Content-Type: text/plain\r\nContent-Length: %d\r\n\r\n%s"
+                                 % (", ".join(ALLOWED_METHODS).encode(), len(text), text))
+            self.transport.close()
+            return None
+
+    return MethodsChecked
 
 
 def _host_is_loopback(host_header: str) -> bool:
