@@ -22,7 +22,7 @@ def train(vec: str, out: Path) -> tuple[str, int, float, str] | str:
                           capture_output=True, text=True, timeout=TIMEOUT_S)
     found = re.search(r"^(reached|did not reach) .* after (\d+) steps, (\d+) s .*policy ([0-9a-f]+)", done.stdout,
                       re.S | re.M)
-    if done.returncode or not found:
+    if done.returncode not in (0, 2) or not found:  # 2: stopped short of the laps, a verdict too
         return (done.stderr.strip().splitlines() or ["no output"])[-1]
     return found.group(1), int(found.group(2)), float(found.group(3)), found.group(4)
 

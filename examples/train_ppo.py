@@ -13,7 +13,9 @@ is metres along the centre line (minus a penalty at a wall); an episode ends at 
 model. Training stops when the last 20 episodes average --until-laps laps (or after --steps).
 
 The same --seed gives the same policy, bit for bit, however many processes step the environments
-(--workers): the run ends by printing the policy's fingerprint to show it.
+(--workers): the run ends by printing the policy's fingerprint to show it. Exit status, as the
+roar commands': 0 when the episodes reached --until-laps, 2 when training stopped short of it (at
+--steps), 1 for bad input, 130 on Ctrl-C.
 
 Measured here (2 cores, the defaults: 4 environments on 2 processes, seed 0, on a day this machine
 ran at about 60 % of its best): the last 20 episodes averaged two laps of the oval (2 x 17.4 m in
@@ -38,6 +40,7 @@ except ImportError:
     sys.exit("this example needs stable-baselines3 and PyTorch: pip install 'roar-platform[rl]'")
 from tqdm import tqdm
 
+from roar.cli.sdk import ExitStatus
 from roar_sim.gym_env import RaceEnv
 from roar_sim.gym_env.sb3 import RaceVecEnv
 
@@ -86,7 +89,7 @@ class Progress(BaseCallback):
             self.reached = laps >= self.until_laps
 
 
-def train(args) -> None:
+def train(args) -> int:
     torch.set_num_threads(1)  # the environments need the cores more than the small network does
     envs = VecNormalize(environments(args.track, args.envs, args.workers, args.vec), gamma=0.99)
     lap_m = envs.get_attr("track")[0].length_m
@@ -110,9 +113,10 @@ def train(args) -> None:
           f"{wall_s:.0f} s ({steps / wall_s:.0f} steps/s)")
     print(f"saved {args.out / 'model.zip'} and {args.out / 'normalise.pkl'}; policy {fingerprint(model)} "
           f"(seed {args.seed})")
+    return ExitStatus.OK if progress.reached else ExitStatus.SHORT  # the roar commands' convention: 2, it fell short
 
 
-def drive(args) -> None:
+def drive(args) -> int:
     """One episode with the trained policy, its actions sampled as in training: how far it got
     and how it ended."""
     statistics = args.drive.parent / "normalise.pkl"
@@ -133,6 +137,7 @@ def drive(args) -> None:
     ending = "hit a wall" if info.get("wall_contact") else "time up" if info.get("TimeLimit.truncated") else "ended"
     print(f"drove {metres:.1f} m = {metres / length:.2f} laps of {args.track} in {info['time_s']:.1f} s ({ending})")
     envs.close()
+    return ExitStatus.OK
 
 
 if __name__ == "__main__":
@@ -160,8 +165,8 @@ if __name__ == "__main__":
     if not 0 < args.until_laps <= 1000:
         parser.error("--until-laps must be more than 0 and at most 1000")
     try:
-        drive(args) if args.drive else train(args)
+        sys.exit(drive(args) if args.drive else train(args))
     except KeyboardInterrupt:
-        sys.exit(130)
+        sys.exit(ExitStatus.INTERRUPTED)
     except ValueError as error:  # a bad track name, said in one line
         sys.exit(f"train_ppo: {error}")

@@ -88,7 +88,7 @@ def test_the_ppo_training_example_trains_the_same_policy_from_the_same_seed_and_
         out = tmp_path / "-".join(options).replace("--", "")
         trained = subprocess.run([sys.executable, str(example), "--steps", "384", "--envs", "3", "--out", str(out),
                                   *options], capture_output=True, text=True, timeout=300)
-        assert trained.returncode == 0, trained.stderr[-2000:]
+        assert trained.returncode == 2, trained.stderr[-2000:]  # short of its laps: the commands' convention
         assert (out / "model.zip").exists() and (out / "normalise.pkl").exists()
         assert "did not reach 2 laps/episode on oval" in trained.stdout  # 384 steps: far from it
         return re.search(r"policy ([0-9a-f]{16}) \(seed", trained.stdout).group(1)
