@@ -71,7 +71,8 @@ class Progress(BaseCallback):
 
     def __init__(self, steps: int, lap_m: float, until_laps: float) -> None:
         super().__init__()
-        self.bar = tqdm(total=steps, unit="step", unit_scale=True, dynamic_ncols=True, mininterval=1.0)
+        # on a terminal only (disable=None): in a log a bar is a stream of carriage-return frames
+        self.bar = tqdm(total=steps, unit="step", unit_scale=True, dynamic_ncols=True, mininterval=1.0, disable=None)
         self.lap_m, self.until_laps, self.reached = lap_m, until_laps, False
 
     def laps(self) -> float | None:

@@ -380,3 +380,13 @@ def test_a_race_served_to_foxglove_runs_in_real_time_and_says_where(tmp_path):
     assert done.returncode == 2, done.stderr  # one lap in 2 s is not driven: the race ran short, as it should
     assert f"ws://127.0.0.1:{port}" in done.stdout and "real time" in done.stdout
     assert time.monotonic() - start >= 2.0
+
+
+@pytest.mark.parametrize("argv, started", [(["race", "--laps", "1", "--seconds", "3"], "racing oval ..."),
+                                           (["challenge", "tunnel:3", "--to", "2", "--oracle"], "challenge tunnel:3 ..."),
+                                           (["platoon", "--seconds", "1"], "platoon ...")])
+def test_progress_in_a_log_is_one_plain_line_not_carriage_return_frames(argv, started):
+    """stderr a file, not a terminal: the run says once that it started, and no bar's frames follow."""
+    done = subprocess.run([sys.executable, "-m", "roar.cli", *argv], capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert done.returncode in (0, 2), done.stderr[-2000:]
+    assert "\r" not in done.stderr and started in done.stderr.splitlines(), done.stderr[-2000:]

@@ -357,7 +357,6 @@ def parser():
 
 
 def main(argv: list[str] | None = None) -> int:
-    import sys
 
     from roar.cli.sdk import ExitStatus, UserError
     from roar.tracks.names import get
@@ -372,10 +371,10 @@ def main(argv: list[str] | None = None) -> int:
     if track.course is None:
         raise UserError(f"{args.world}: not a tunnel world (tunnel:SEED, or a map with its NAME_course.yaml): "
                         f"the challenge needs cones, markers and a goal")
-    from tqdm import tqdm
+    from roar_sim.runs.progress import bar as progress_bar
 
-    bar = tqdm(total=1.0, desc=f"challenge {track.name}", file=sys.stderr, mininterval=0.5,
-               bar_format="{desc}: {bar} {percentage:3.0f}% of the route [{elapsed}]")
+    bar = progress_bar(total=1.0, desc=f"challenge {track.name}",
+                       bar_format="{desc}: {bar} {percentage:3.0f}% of the route [{elapsed}]")
 
     def progress(t_s: float, along_m: float, route_m: float) -> None:
         bar.n = min(1.0, along_m / max(route_m, 1e-9))

@@ -14,7 +14,6 @@ from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field
 
 import numpy as np
-from tqdm import tqdm
 
 from roar.tracks.names import FORMS
 from roar.autopilot.platoon import cruise_agent, follow_agent
@@ -25,6 +24,7 @@ from roar_sim.core.lockstep import CONTROL_PERIOD_S as PERIOD_S
 from roar_sim.links.netns import VethPair, call_in
 from roar_sim.robots.esc import MODEL
 from roar_sim.runs.fleet import Fleet
+from roar_sim.runs.progress import bar
 from roar.tracks.track import Track
 
 V2V_EVERY = round(spec.V2V_PERIOD_US / spec.TIMING_HOST_SEND_PERIOD_US)  # control periods per V2V message
@@ -91,8 +91,7 @@ def platoon(track: Track, gap_m: float = 1.5, cruise_m_s: float = 1.0, seconds: 
         follower.setup()
         hint = {}
         steps = round(seconds / PERIOD_S)
-        for step in tqdm(range(steps), desc="platoon", unit="step", file=sys.stderr, mininterval=0.5,
-                         disable=not progress, leave=False):
+        for step in bar(range(steps), desc="platoon", unit="step", show=progress, leave=False):
             t = fleet.time_s
             observed = {"lead": lead.observe(), "follow": follow.observe()}
             o = observed["lead"]

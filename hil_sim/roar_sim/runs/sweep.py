@@ -134,9 +134,9 @@ def sweep(runs: Sequence[Run], table: Table, fn: Callable[[Run], dict] | None = 
 
 
 def _bar(total: int, done: int):
-    from tqdm import tqdm
+    from roar_sim.runs.progress import bar
 
-    return tqdm(total=total, initial=done, desc="sweep", unit="run", file=sys.stderr, mininterval=0.5)
+    return bar(total=total, initial=done, desc="sweep", unit="run")
 
 
 def best(rows: Iterable[dict], track: str) -> dict | None:
