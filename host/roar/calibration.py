@@ -22,7 +22,6 @@ or have a neutral-set button). Steering trim has no such limit.
 
 from __future__ import annotations
 
-import os
 import tomllib
 from pathlib import Path
 
@@ -31,7 +30,7 @@ from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 from roar.checks import number
 from roar.errors import CalibrationError
 from roar.protocol import encode, spec
-from roar.user_files import read_parsed
+from roar.user_files import config_folder, read_parsed
 
 LO, HI, MID = spec.CONTROL_MIN_US, spec.CONTROL_MAX_US, spec.CONTROL_NEUTRAL_US
 ARM_WINDOW = spec.TIMING_ARM_WINDOW_US  # [us] the car arms on a throttle within this of MID
@@ -112,8 +111,8 @@ class Calibration(BaseModel):
 
 
 def default_path() -> Path:
-    base = os.environ.get("XDG_CONFIG_HOME") or Path.home() / ".config"
-    return Path(base) / "roar" / "calibration.toml"
+    """The user's calibration: ~/.config/roar/calibration.toml (or under $XDG_CONFIG_HOME)."""
+    return config_folder() / "calibration.toml"
 
 
 def load_default() -> Calibration:

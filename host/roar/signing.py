@@ -24,8 +24,9 @@ KEY_HEX_DIGITS = 2 * spec.SIGNED_KEY_BYTES
 
 def default_path() -> Path:
     """The user's key file: ~/.config/roar/key (or under $XDG_CONFIG_HOME)."""
-    base = os.environ.get("XDG_CONFIG_HOME") or Path.home() / ".config"
-    return Path(base) / "roar" / "key"
+    from roar.user_files import config_folder
+
+    return config_folder() / "key"
 
 
 def new_key() -> bytes:

@@ -1,5 +1,10 @@
 """Reading the files users write (calibration, tracks, waypoints) with one-line errors, and
-checking up front that an output file can be written (before a run, not after it)."""
+checking up front that an output file can be written (before a run, not after it).
+
+Missing folders are made only inside OUTPUT_HOME (out/ in the working directory, where the
+defaults write) and the user's roar folder (config_folder(): the calibration and the key), and an
+output folder the user names is made if its parent exists: anywhere else a missing folder is
+refused, so a typo (/nonexistent/dir) makes nothing."""
 
 from __future__ import annotations
 
@@ -39,14 +44,30 @@ def _blocked(path: Path) -> str | None:
     return None
 
 
+OUTPUT_HOME = Path("out")  # where the defaults write: missing folders are made in it (relative to the working directory)
+
+
+def config_folder() -> Path:
+    """The user's roar folder: ~/.config/roar (or under $XDG_CONFIG_HOME)."""
+    return Path(os.environ.get("XDG_CONFIG_HOME") or Path.home() / ".config") / "roar"
+
+
+def _may_make(folder: Path) -> bool:
+    """Whether a missing folder may be made: one inside OUTPUT_HOME or the user's roar folder."""
+    return any(folder.resolve().is_relative_to(home.resolve()) for home in (OUTPUT_HOME, config_folder()))
+
+
 def unwritable(path: str | Path) -> str | None:
-    """Why the file `path` cannot be written (one line), or None when it can. Creates missing folders."""
+    """Why the file `path` cannot be written (one line), or None when it can. Makes its folder only
+    inside OUTPUT_HOME; elsewhere a missing folder is refused."""
     path = Path(path)
     if str(path) in ("", "."):
         return "the file name is empty"
     blocked = _blocked(path.parent)
     if blocked:
         return f"cannot write {path}: {blocked}"
+    if not path.parent.is_dir() and not _may_make(path.parent):
+        return f"cannot write {path}: its folder {path.parent} does not exist (make it first)"
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as e:
@@ -60,11 +81,13 @@ def unwritable(path: str | Path) -> str | None:
 
 def unusable_folder(path: str | Path) -> str | None:
     """Why files cannot be written into the folder `path` (one line), or None when they can.
-    Creates it when missing."""
+    Makes it when missing and its parent exists (or inside OUTPUT_HOME)."""
     path = Path(path)
     blocked = _blocked(path)
     if blocked:
         return f"cannot write into {path}: {blocked}"
+    if not path.is_dir() and not path.parent.is_dir() and not _may_make(path):
+        return f"cannot write into {path}: its parent folder {path.parent} does not exist (make it first)"
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as e:

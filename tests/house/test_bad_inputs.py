@@ -390,3 +390,23 @@ def test_progress_in_a_log_is_one_plain_line_not_carriage_return_frames(argv, st
     done = subprocess.run([sys.executable, "-m", "roar.cli", *argv], capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert done.returncode in (0, 2), done.stderr[-2000:]
     assert "\r" not in done.stderr and started in done.stderr.splitlines(), done.stderr[-2000:]
+
+
+def test_a_missing_folder_is_refused_not_made_except_under_out(tmp_path, capsys, monkeypatch):
+    """A typo in a path makes no folder: an output whose folder does not exist is refused in one
+    line; under out/ (where the defaults write) the folders are made."""
+    typo = tmp_path / "nonexistent" / "dir"
+    err = one_line_error(capsys, "track", "oval", "--save", str(typo / "oval.json"))
+    assert "its folder" in err and "does not exist" in err and not (tmp_path / "nonexistent").exists()
+    err = one_line_error(capsys, "dataset", str(tmp_path / "none.mcap"), "--out", str(typo / "tub"))
+    assert "its parent folder" in err and "does not exist" in err and not (tmp_path / "nonexistent").exists()
+    assert "does not exist" in one_line_error(capsys, "vision", str(tmp_path / "nonexistent"))
+    monkeypatch.chdir(tmp_path)
+    assert main(["track", "oval", "--save", "out/tracks/oval.json"]) == 0
+    assert (tmp_path / "out" / "tracks" / "oval.json").is_file()
+
+
+def test_recording_into_a_name_that_is_not_mcap_says_so(tmp_path, capsys):
+    code = main(["record", "loop://", "--out", str(tmp_path / "run.png"), "--for", "0.1"])
+    err = capsys.readouterr().err
+    assert code == 0 and "does not end in .mcap" in err

@@ -35,6 +35,10 @@ def main(argv: list[str]) -> int:
         raise UserError("roar record drives with the keyboard: run it in a terminal, or give --for SECONDS")
     from roar.recorder import Recorder
 
+    if args.out.suffix.lower() != ".mcap":  # a typo like run.png would have an image replaced by a recording
+        print(f"roar record: note: {args.out} does not end in .mcap; an MCAP recording is written there all the same",
+              file=sys.stderr, flush=True)
+
     recorder = Recorder(args.out, {"car": args.url, "command": " ".join(sys.argv)},
                         simulated=args.url.split(":", 1)[0].lower() == "sim", serve_port=args.foxglove)
     if args.foxglove is not None:

@@ -29,8 +29,10 @@ MIN_FRAME_PX = 16  # [px] the shortest side of a frame the lane detector can loo
 
 def frames_in(folder: Path) -> list[Path]:
     """The RGB frames of a folder, in name order (depth arrays are not frames)."""
+    if not folder.exists():
+        raise FramesError(f"{folder} does not exist")
     if not folder.is_dir():
-        raise FramesError(f"{folder} is not a folder")
+        raise FramesError(f"{folder} is not a folder (nor an .mcap recording)")
     found = sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES
                    or (p.suffix == ".npy" and not p.name.endswith(DEPTH_SUFFIX)))
     if not found:
