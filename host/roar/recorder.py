@@ -16,7 +16,9 @@ start). Chunks are zstd-compressed, ~1 MiB each; the file is finished on close()
 program's exit and on Ctrl-C or SIGTERM (roar's commands turn both into a clean exit), so every
 reader opens it.
 
-Topics (TOPICS below): control messages as JSON (the text sent and its decoded pulses or speed),
+Topics (TOPICS below): control messages as JSON (the text and its decoded pulses or speed), twice
+(roar.transports.recording): as the script asked for them (/control), and as they went on the link
+(/wire/control: signed where a key signs, with the signing layer's own messages);
 the car's lines as foxglove.Log, telemetry fields and the car's state as JSON, the pose as
 foxglove.PoseInFrame and a world -> base_link foxglove.FrameTransform, lidar as
 foxglove.LaserScan, camera frames as foxglove.CompressedImage with a foxglove.CameraCalibration.
@@ -35,7 +37,8 @@ from pathlib import Path
 from roar.errors import RecordError
 from roar.transports.recording import RecordingTransport  # noqa: F401 (importable from here too)
 
-CONTROL = "/control"
+CONTROL = "/control"  # every control message as the script asked for it
+WIRE_CONTROL = "/wire/control"  # the same as it went on the link: signed, with the signing layer's own
 LINES = "/car/lines"
 TELEMETRY = "/car/telemetry"
 STATE = "/car/state"
@@ -45,7 +48,7 @@ SCAN = "/lidar"
 IMAGE = "/camera/image"
 DEPTH = "/camera/depth"
 CALIBRATION = "/camera/calibration"
-TOPICS = (CONTROL, LINES, TELEMETRY, STATE, POSE, TF, SCAN, IMAGE, DEPTH, CALIBRATION)
+TOPICS = (CONTROL, WIRE_CONTROL, LINES, TELEMETRY, STATE, POSE, TF, SCAN, IMAGE, DEPTH, CALIBRATION)
 WORLD_FRAME, CAR_FRAME, LIDAR_FRAME, CAMERA_FRAME = "world", "base_link", "lidar", "camera"
 SERVE_HOST = "127.0.0.1"  # live channels are served on loopback only
 FOXGLOVE_PORT = 8765  # Foxglove's own default
@@ -143,21 +146,12 @@ class Recorder:
     # -- what is recorded -------------------------------------------------------------------------
 
     def control(self, data: bytes, t_ns: int) -> None:
-        """A control message as it went to the car: its text and what it says."""
-        from roar.protocol.control import StreamDecoder
+        """A control message as the script asked for it: its text and what it says."""
+        self._log(CONTROL, _control_message(data), t_ns, schema=CONTROL_SCHEMA)
 
-        msg: dict = {"text": bytes(data).decode("ascii", "replace").strip()}
-        events = StreamDecoder().feed(bytes(data))
-        if bytes(data).startswith(b"GET "):  # the Junior's HTTP request: its first line says it
-            msg = {"text": msg["text"].splitlines()[0], "result": "http"}
-        elif events:  # what the car's own parser makes of it (the twin of the firmware's)
-            e = events[-1]
-            msg["result"] = str(e.result)
-            if e.command is not None:
-                msg.update(throttle_us=e.command.throttle_us, steering_us=e.command.steering_us)
-            if e.setpoint is not None:
-                msg.update(speed_mm_s=e.setpoint.speed_mm_s, steering_us=e.setpoint.steering_us)
-        self._log(CONTROL, msg, t_ns, schema=CONTROL_SCHEMA)
+    def wire_control(self, data: bytes, t_ns: int) -> None:
+        """A control message as it went on the link to the car (signed, where a key signs)."""
+        self._log(WIRE_CONTROL, _control_message(data), t_ns, schema=CONTROL_SCHEMA)
 
     def command(self, throttle: float, steering: float, t_ns: int, text: str = "") -> None:
         """A command on a link that carries fractions rather than a control message (the
@@ -329,6 +323,24 @@ class Recorder:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def _control_message(data: bytes) -> dict:
+    """A control message's record: its text and what the car's parser makes of it."""
+    from roar.protocol.control import StreamDecoder
+
+    msg: dict = {"text": bytes(data).decode("ascii", "replace").strip()}
+    events = StreamDecoder().feed(bytes(data))
+    if bytes(data).startswith(b"GET "):  # the Junior's HTTP request: its first line says it
+        msg = {"text": msg["text"].splitlines()[0], "result": "http"}
+    elif events:  # what the car's own parser makes of it (the twin of the firmware's)
+        e = events[-1]
+        msg["result"] = str(e.result)
+        if e.command is not None:
+            msg.update(throttle_us=e.command.throttle_us, steering_us=e.command.steering_us)
+        if e.setpoint is not None:
+            msg.update(speed_mm_s=e.setpoint.speed_mm_s, steering_us=e.setpoint.steering_us)
+    return msg
 
 
 def _pose(x: float, y: float, yaw: float, z: float = 0.0):

@@ -38,7 +38,7 @@ from roar.checks import number, timeout
 from roar.protocol import encode, encode_setpoint, spec
 from roar.sender import CommandSender
 from roar.telemetry import UNKNOWN, CarEvent, EventKind, VehicleState, parse_event, parse_telemetry
-from roar.transports import Transport, TransportError, open_url
+from roar.transports import TransportError, open_url
 
 log = logging.getLogger("roar")
 
@@ -73,20 +73,22 @@ class Vehicle:
         period_s = DEFAULT_PERIOD_S if rate_hz is None else 1.0 / _check_rate(rate_hz)
         self.url = url
         from roar.signing import resolve_key
+        from roar.transports.recording import RecordingTransport, RunClock, WireRecording
         from roar.transports.signing import SigningTransport
 
         signing_key = resolve_key(key)
-        self.transport: Transport = open_url(url, **transport_options)
+        link = open_url(url, **transport_options)
+        # the layers, in their one order (transports.recording): what the script asked is recorded
+        # at the top, then signed, then what went on the wire is recorded just above the link
+        clock = RunClock(link)
+        self._wire = WireRecording(link, None, clock)
         self.signer: SigningTransport | None = None  # the signing layer, when the Vehicle signs
         if signing_key is not None:
-            self.signer = SigningTransport(self.transport, signing_key)
-            self.transport = self.signer
+            self.signer = SigningTransport(self._wire, signing_key)
+        self.transport: RecordingTransport = RecordingTransport(self.signer or self._wire, None, clock)
         self.recorder = None
         if record is not None:
-            from roar.transports.recording import RecordingTransport
-
-            self.recorder = self._new_recorder(record)
-            self.transport = RecordingTransport(self.transport, self.recorder)
+            self.recorder = self.transport.recorder = self._wire.recorder = self._new_recorder(record)
         try:
             self.transport.open()
         except BaseException:
@@ -335,15 +337,10 @@ class Vehicle:
         """Start recording the run from now into `target` (an MCAP path or a roar.recorder.Recorder),
         finishing any recording under way; None: stop recording (the file is finished). Returns
         the recorder (None when stopped)."""
-        from roar.transports.recording import RecordingTransport
-
         self._check_usable()
         recorder = None if target is None else self._new_recorder(target)
-        if not isinstance(self.transport, RecordingTransport):
-            wrapped = RecordingTransport(self.transport, None)
-            self.transport = self._sender.transport = wrapped  # one reference swap: the sender's next write records
         previous, self.recorder = self.recorder, recorder
-        self.transport.recorder = recorder
+        self.transport.recorder = self._wire.recorder = recorder  # the next write and line are recorded
         if previous is not None:
             if self.protocol_version is not None:
                 previous.note("car", {"protocol_version": str(self.protocol_version)})

@@ -218,7 +218,7 @@ def test_a_keyed_car_over_ble_takes_only_signed_messages_in_pieces(radio):
         assert not [r for r in car.replies[replies_before:] if r.startswith("ERR")]
         # BLE cannot clear the key
         with Vehicle("ble://", key=KEY, **BACKENDS) as v:
-            v.transport.inner.write(b"\nKEY -\n")
+            v.transport.link.write(b"\nKEY -\n")
             time.sleep(0.1)
         assert car.board.session == 2
     finally:
@@ -250,7 +250,7 @@ def test_a_keyed_car_asks_for_encryption_and_a_signing_host_pairs_by_itself(radi
         with Vehicle("ble://", key=KEY, **BACKENDS) as v:
             v.drive(throttle=0.5)
             assert wait_for(lambda: outputs(car) == (1750, 1500))
-            assert v.transport.inner.encrypted and v.signer.session == 2
+            assert v.transport.link.encrypted and v.signer.session == 2
         assert car.write_links and set(car.write_links) == {(True, True)}
         before = len(car.writes)
         with Vehicle("ble://", key=False, reconnect=False, **BACKENDS) as v:

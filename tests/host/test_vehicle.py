@@ -115,7 +115,7 @@ def test_link_loss_with_reconnect_reopens_and_resends():
     with Vehicle("loop://?fail_after=3") as car:
         car.drive(0.4)
         assert wait_for(lambda: car.transport.opened >= 2)
-        car.transport.fail_after = -1
+        car.transport.link.fail_after = -1
         assert wait_for(lambda: car.connected and sent(car)[-1] == encode(1700, 1500))
 
 

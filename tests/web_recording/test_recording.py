@@ -115,7 +115,7 @@ def test_a_simulated_links_messages_before_its_first_step_are_not_stamped_on_ano
     """A sim:// link whose simulator has not stepped yet: what is written then is at simulated
     time 0, not on the host's clock, which (the simulator slipping behind a busy host) sorted it
     among later messages and made a neutral appear between two commands in replay."""
-    from roar.recorder import RecordingTransport
+    from roar.transports.recording import RecordingTransport, RunClock
 
     class NotYetStepped:
         scheme = "sim"
@@ -128,7 +128,7 @@ def test_a_simulated_links_messages_before_its_first_step_are_not_stamped_on_ano
             return self.state_now
 
     inner, path = NotYetStepped(), tmp_path / "run.mcap"
-    link = RecordingTransport(inner, Recorder(path, simulated=True))
+    link = RecordingTransport(inner, Recorder(path, simulated=True), RunClock(inner))
     link.write(encode(1500, 1500))
     time.sleep(0.05)  # the host's clock runs on; the simulator has not started
     inner.state_now = VehicleState(time_s=0.002, x_m=0.0, y_m=0.0, yaw_rad=0.0)
@@ -155,7 +155,7 @@ def test_recording_starts_and_stops_mid_run_into_finished_files(tmp_path):
         assert car.record(None) is None and car.recorder is None
         car.drive(0.0, 0.0)
         time.sleep(0.1)
-        after = len(car.transport.inner.writes)
+        after = len(car.transport.link.writes)
     got = {p: [m["throttle_us"] for _, _, m in messages(p, ["/control"])] for p in (first, second)}
     assert got[first] and set(got[first]) == {1700}  # nothing from before it started
     assert got[second] and set(got[second]) == {1300}  # nothing after it stopped
@@ -368,6 +368,41 @@ def test_replay_plots_a_run_and_plays_its_commands_to_a_car(tmp_path):
     again = commands(second)
     assert [m["throttle_us"] for _, m in again] == [m["throttle_us"] for _, m in recorded]
     assert all(abs(a - b) < 0.15 for (a, _), (b, _) in zip(again, recorded))
+
+
+def test_a_signed_run_records_the_wire_and_what_the_script_asked_and_replays_re_signed(tmp_path):
+    """With signing on, /wire/control holds what went on the link (signed, with the signing
+    layer's own neutral) and /control what the script asked; replay plays the asked commands,
+    re-signed by the replaying Vehicle, and the keyed car takes them (the recorded signatures
+    would be refused as replays)."""
+    from roar import Vehicle
+    from roar.replay import commands, play
+
+    key = bytes(range(16))
+    url = f"sim://?eeprom={tmp_path / 'car.eeprom'}"
+    with Vehicle(url, key=False) as car:  # put the key in the simulated car over its serial link
+        car.transport.link.write(f"\nKEY {key.hex()}\n".encode())
+        assert car.wait_for(timeout_s=5.0, since=0.0) is not None
+        time.sleep(0.3)
+    path = tmp_path / "signed.mcap"
+    with Vehicle(url, key=key, record=path) as car:
+        time.sleep(0.3)
+        car.send_pulses(1600, 1500)
+        time.sleep(0.4)
+        assert car.signer.session and car.errors == 0
+    asked = [m for _, _, m in messages(path, ["/control"])]
+    on_wire = [m for _, _, m in messages(path, ["/wire/control"])]
+    assert asked and all(m["text"].count(",") == 1 for m in asked)  # (T,S): as the script asked
+    signed = [m for m in on_wire if m["text"].count(",") == 3]  # (T,S,COUNTER,MAC), as the car took them
+    assert signed and {m["text"].split(",")[0] for m in signed} >= {"(1600", "(1500"}
+    assert len(on_wire) > len(asked)  # the unsigned probe before the session was known, and the signer's neutral
+    lines = [m.message for _, _, m in messages(path, ["/car/lines"])]
+    assert any(line.startswith("SESSION ") for line in lines)  # the handshake is on the record
+    recorded = commands(path)
+    assert [(m["throttle_us"], m["steering_us"]) for _, m in recorded][-2:] == [(1600, 1500), (1500, 1500)]
+    with Vehicle(url, key=key) as car:
+        assert play(path, car) == len(recorded)
+        assert car.errors == 0 and car.signer.refused == 0  # re-signed: taken
 
 
 def test_replay_to_a_real_car_asks_first(tmp_path):

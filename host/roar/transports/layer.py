@@ -4,8 +4,8 @@ Every part of Transport's interface passes through to the link below unless the 
 it; so does what a link offers beyond that interface (the simulator's robot, a loop link's log),
 and `link` is the link itself under every layer.
 
-The Vehicle stacks them in one order: recording over signing over the link, so a recording
-holds what the script asked for, before it was signed."""
+The Vehicle stacks them in one order (transports.recording): what the script asked is recorded at
+the top, then signed, then what went on the wire is recorded just above the link."""
 
 from __future__ import annotations
 
@@ -38,6 +38,35 @@ class TransportLayer(Transport):
     @property
     def link(self) -> Transport:
         return self.inner.link
+
+    # what the signing layer and the commands set and ask reaches the link itself
+    @property
+    def signs_itself(self):  # type: ignore[override]
+        return self.inner.signs_itself
+
+    @property
+    def signer(self):  # type: ignore[override]
+        return self.inner.signer
+
+    @signer.setter
+    def signer(self, value) -> None:
+        self.inner.signer = value
+
+    @property
+    def signing(self):  # type: ignore[override]
+        return self.inner.signing
+
+    @signing.setter
+    def signing(self, value: bool) -> None:
+        self.inner.signing = value
+
+    @property
+    def read_only(self):  # type: ignore[override]
+        return self.inner.read_only
+
+    @read_only.setter
+    def read_only(self, value: bool) -> None:
+        self.inner.read_only = value
 
     @classmethod
     def from_url(cls, target, options):  # pragma: no cover - a layer is built over a link, never from a URL
