@@ -243,3 +243,14 @@ def test_a_race_that_ends_short_says_why_in_one_line_and_exits_2(capsys):
     assert race.main(["--laps", "2", "--seconds", "3"]) == 2
     err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("race incomplete:")]
     assert len(err) == 1 and "0 of 2 laps within the 3 s time limit (too slow)" in err[0]
+
+
+def test_a_race_stopped_by_a_tunnels_cone_says_so_and_what_to_do():
+    """The reason names the cone (not only the walls it was pushed into) and the two ways on."""
+    from roar_sim.runs.race_result import RaceResult
+
+    track = get("tunnel:1")
+    result = RaceResult(track, np.ones(len(track.centerline)), cone_contacts=1242, wall_contacts=4217, travelled_m=6.0)
+    why = result.shortfall(1, 140.0)
+    assert why.index("ran into a cone in 1242") < why.index("touched a wall")
+    assert "tunnel:1,cones=0,people=0" in why and "roar challenge tunnel:1" in why

@@ -77,7 +77,15 @@ class RaceResult:
         done = len(self.lap_times_s)
         if done >= laps:
             return None
-        reasons = [f"it touched a wall in {self.wall_contacts} control periods"] if self.wall_contacts else []
+        reasons = []
+        if self.cone_contacts or self.people_contacts:  # a tunnel's cones and people stand in the way
+            what = " and ".join(f"{kind} in {n} control periods" for kind, n in
+                                (("a cone", self.cone_contacts), ("a person", self.people_contacts)) if n)
+            base = self.track.name.split(",")[0]
+            reasons.append(f"it ran into {what}: they stand in the way of a line driver; race {base},cones=0,people=0 "
+                           f"for the walls alone, or let `roar challenge {base}` drive round them")
+        if self.wall_contacts:
+            reasons.append(f"it touched a wall in {self.wall_contacts} control periods")
         if self.stops and self.stops[-1].until_s is None:
             reasons.append(self.stops[-1].line(self.path[-1][4] if self.path else 0.0))
         if self.travelled_m < 0:
