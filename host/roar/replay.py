@@ -15,7 +15,7 @@ import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from roar.errors import ReplayError
+from roar.errors import ReplayError, RoarError
 
 MAGIC = b"\x89MCAP0\r\n"  # the first bytes of every MCAP file (mcap.dev's specification)
 
@@ -31,8 +31,17 @@ class ChannelStats:
 
     @property
     def rate_hz(self) -> float:
+        """[Hz] while the channel ran: from its first message to its last."""
         span = (self.last_ns - self.first_ns) / 1e9
         return (self.count - 1) / span if self.count > 1 and span > 0 else 0.0
+
+    def rate_in(self, log: Log) -> float:
+        """[Hz] over the whole recording: what a channel that spoke twice in 12 s really gave."""
+        return self.count / log.duration_s if log.duration_s > 0 else 0.0
+
+    def quiet_ns(self, log: Log) -> int:
+        """[ns] the channel's longest silence in the recording, its start and end included."""
+        return max(self.longest_gap_ns, self.first_ns - log.start_ns, log.end_ns - self.last_ns)
 
 
 @dataclass
@@ -160,10 +169,12 @@ def summary(path: str | Path) -> str:
     if run.get("command"):
         lines.append(f"  recorded by: {run['command']}")
     width = max([len(t) for t in log.channels] + [7])
-    lines.append(f"  {'channel':<{width}}  {'schema':<26} {'messages':>8} {'rate':>9} {'longest gap':>12}")
+    lines.append(f"  {'channel':<{width}}  {'schema':<26} {'messages':>8} {'rate':>9} {'longest silence':>16}")
     for topic in sorted(log.channels):
         c = log.channels[topic]
-        lines.append(f"  {topic:<{width}}  {c.schema:<26} {c.count:>8,} {c.rate_hz:>6.1f} Hz {c.longest_gap_ns / 1e9:>10.3f} s")
+        lines.append(f"  {topic:<{width}}  {c.schema:<26} {c.count:>8,} {c.rate_in(log):>6.1f} Hz "
+                     f"{c.quiet_ns(log) / 1e9:>14.3f} s")
+    lines.append("  (rates over the whole recording; a silence counts from its start and to its end too)")
     return "\n".join(lines)
 
 
@@ -216,15 +227,22 @@ def plot(path: str | Path, png: str | Path) -> None:
     t0 = log.start_ns
     fig, (ax_path, ax_speed, ax_cmd) = plt.subplots(3, 1, figsize=(8, 11), gridspec_kw={"height_ratios": [3, 1, 1]})
     xy = [(m["x_m"], m["y_m"]) for _, m in states if "x_m" in m and "y_m" in m]
+    track = _track_of(log)
+    if track is not None:
+        from roar.tracks.drawing import draw_track
+
+        draw_track(ax_path, track)
     if xy:
-        ax_path.plot(*zip(*xy), lw=1.2)
+        ax_path.plot(*zip(*xy), lw=1.2, label="driven path")
         ax_path.plot(*xy[0], "go", label="start")
         ax_path.plot(*xy[-1], "rs", label="end")
         ax_path.legend(fontsize=8)
     else:
         ax_path.text(0.5, 0.5, "this link reported no position", ha="center", transform=ax_path.transAxes)
     ax_path.set_aspect("equal", adjustable="datalim")
-    ax_path.set(xlabel="x [m]", ylabel="y [m]", title=f"{log.path.name}: {log.metadata.get('run', {}).get('car', '')}")
+    run = log.metadata.get("run", {})
+    where = f", track {track.name}" if track is not None else ""
+    ax_path.set(xlabel="x [m]", ylabel="y [m]", title=f"{log.path.name}: {run.get('car', '')}{where}")
     speed = [((t - t0) / 1e9, m["speed_m_s"]) for t, m in states if "speed_m_s" in m]
     if speed:
         ax_speed.plot(*zip(*speed), lw=1)
@@ -238,6 +256,30 @@ def plot(path: str | Path, png: str | Path) -> None:
     fig.tight_layout()
     fig.savefig(png, dpi=100)
     plt.close(fig)
+
+
+def _track_of(log: Log):
+    """The track the recording names (its "track" record, or the sim:// URL's), where it loads
+    here (a built-in or seeded name, a file that is still there); else None."""
+    from roar.transports import TransportError, parse_url
+
+    run = log.metadata.get("run", {})
+    name = run.get("track", "")
+    if not name and run.get("car", "").lower().startswith("sim://"):
+        try:
+            _, target, options = parse_url(run["car"])
+        except TransportError:
+            return None
+        files = (".json", ".csv", ".yaml", ".yml")  # a path keeps its slashes, as sim:// reads it
+        name = options.get("track") or (target if target.lower().endswith(files) else target.strip("/"))
+    if not name or name == "open floor":
+        return None
+    try:
+        from roar.tracks import get
+
+        return get(name)
+    except (ImportError, RoarError, ValueError):
+        return None
 
 
 def localize(path: str | Path, known) -> list[tuple[tuple[float, float, float], tuple[float, float, float]]]:

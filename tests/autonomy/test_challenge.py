@@ -144,6 +144,7 @@ def test_roar_challenge_prints_the_score_and_plots_the_run(tmp_path):
     first = result.stdout.splitlines()[0]
     assert first.startswith("challenge tunnel:3 (pose oracle): finished in ") and "(+7 s each)" in first, first
     assert "score" in first and plot.stat().st_size > 20_000
+    assert result.stdout.splitlines().count(f"plot: {plot}") == 1  # said once
 
 
 @pytest.mark.parametrize("args, says", [
@@ -151,7 +152,7 @@ def test_roar_challenge_prints_the_score_and_plots_the_run(tmp_path):
     (["tunnel:x"], "the seed must be a whole number"),
     (["tunnel:3", "--fps", "0"], "--fps: must be a finite number"),
     (["tunnel:3", "--to", "900"], "--to must be 2.."),
-    (["tunnel:3", "--seed", "-1"], "must be a whole number 0 or more"),
+    (["tunnel:3", "--seed", "-1"], "must be a whole number 0..10^18"),
     (["tunnel:3", "--plot", "out.txt"], ".png"),
 ])
 def test_bad_input_ends_in_one_line(args, says):

@@ -254,3 +254,42 @@ def test_a_race_stopped_by_a_tunnels_cone_says_so_and_what_to_do():
     why = result.shortfall(1, 140.0)
     assert why.index("ran into a cone in 1242") < why.index("touched a wall")
     assert "tunnel:1,cones=0,people=0" in why and "roar challenge tunnel:1" in why
+
+
+def figure_eight_from_its_crossing(tmp_path):
+    """x = 6 sin t, y = 6 sin t cos t, 0.6 m each side: a CSV track that starts where it crosses itself."""
+    t = np.linspace(0, 2 * np.pi, 400, endpoint=False)
+    path = tmp_path / "eight_centerline.csv"
+    path.write_text("".join(f"{x:.4f}, {y:.4f}, 0.6, 0.6\n" for x, y in zip(6 * np.sin(t), 6 * np.sin(t) * np.cos(t))))
+    return get(str(path))
+
+
+def test_where_a_track_crosses_itself_the_cars_heading_says_which_leg(tmp_path):
+    track = figure_eight_from_its_crossing(tmp_path)
+    x, y, yaw = track.start_pose
+    s_start = track.project((x + 1e-4, y - 1e-4), heading=yaw)[1]
+    assert min(s_start, track.length_m - s_start) < 0.05  # at the start of the lap (just before it, or after)
+    assert track.project((x, y), heading=yaw + np.pi / 2)[1] == pytest.approx(track.length_m / 2, abs=0.1)
+
+
+def test_a_figure_eight_that_starts_at_its_crossing_is_timed_and_measured_on_the_leg_driven(tmp_path):
+    """Progress is tracked continuously from the start: lap 1 is timed as lap 2 is (it was twice
+    as long), the cross-track error is the car's from its own leg (it was 5.4 m on a 1.2 m track),
+    and the racing line `roar track --line` draws is accepted by the race's line check."""
+    track = figure_eight_from_its_crossing(tmp_path)
+    result = race.race(track, 2)
+    first, second = result.lap_times_s
+    assert first < 1.2 * second and result.max_cross_track_m < 0.6 and result.wall_contacts == 0, race.report(result)
+    race.check_line(track, race.optimal_line(track).points)  # raises WaypointError when a point is off the track
+
+
+def test_a_race_plot_draws_the_line_followed_with_its_limit_and_no_stray_points_at_the_start():
+    track = get("oval")
+    line = race.optimal_line(track).points
+    result = race.race(track, 1, waypoints=line)
+    into_lap = np.array([p[3] for p in result.path])
+    assert result.line is not None and into_lap.min() >= 0 and into_lap.max() < track.length_m
+    assert into_lap[0] < 0.1  # the standing start is at the start of the lap, not at its end
+    fig = race.plot(result)
+    labels = [text.get_text() for ax in fig.axes if ax.get_legend() for text in ax.get_legend().get_texts()]
+    assert "the line followed" in labels and "physical limit (the line followed)" in labels

@@ -208,6 +208,19 @@ def test_a_recording_stopped_mid_run_is_a_finished_file(tmp_path, how):
     assert "record sim://oval" in log.metadata["run"]["command"]
 
 
+def test_a_channel_that_spoke_twice_in_a_long_run_shows_a_low_rate_and_a_long_silence(tmp_path):
+    """Two lines 20 ms apart in a 12.6 s recording are 0.2 Hz with a 12.6 s silence, not 50 Hz."""
+    path = tmp_path / "run.mcap"
+    with Recorder(path) as rec:
+        for k in range(631):  # 12.6 s of control messages at 50 Hz
+            rec.control(encode(1500, 1500), k * 20_000_000)
+        rec.line("READY 1", 0)
+        rec.line("ARMED", 20_000_000)
+    row = next(line for line in summary(path).splitlines() if line.strip().startswith("/car/lines"))
+    rate, silence = float(row.split("Hz")[0].split()[-1]), float(row.split("Hz")[1].split()[0])
+    assert rate == pytest.approx(2 / 12.6, abs=0.05) and silence == pytest.approx(12.58, abs=0.01), row
+
+
 def test_roar_record_and_replay_summarise_a_run(tmp_path):
     path = tmp_path / "run.mcap"
     done = subprocess.run([sys.executable, "-m", "roar.cli", "record", "sim://oval", "--out", str(path), "--for", "1"],
@@ -341,6 +354,22 @@ def test_a_served_car_is_live_in_an_independent_foxglove_client(tmp_path):
     assert [int(e["logTime"]) for e in got["/control"]] == sorted(int(e["logTime"]) for e in got["/control"])
     assert got["/sim/firmware"][-1]["json"]["source"] == "host"
     assert all(e["json"]["time_s"] > 0 for e in got["/car/state"]) and all(e["bytes"] > 0 for e in got["/car/pose"])
+
+
+@pytest.mark.parametrize("metadata, track", [({"car": "sim://oval"}, "oval"), ({"car": "sim://?track=random:3"}, "random:3"),
+                                             ({"car": "sim://", "track": "figure-eight"}, "figure-eight"),
+                                             ({"car": "sim://"}, None), ({"car": "serial:///dev/ttyUSB0"}, None),
+                                             ({"car": "sim:///nowhere/gone.json"}, None)])
+def test_a_recordings_plot_draws_the_track_the_file_names(tmp_path, metadata, track):
+    from roar.replay import _track_of, plot, read_log
+
+    path = tmp_path / "run.mcap"
+    with Recorder(path, metadata, simulated=True) as rec:
+        rec.control(encode(1500, 1500), 0)
+    found = _track_of(read_log(path))
+    assert (found.name if found is not None else None) == track
+    plot(path, tmp_path / "run.png")  # drawn, with or without a track
+    assert (tmp_path / "run.png").stat().st_size > 5_000
 
 
 def test_replay_plots_a_run_and_plays_its_commands_to_a_car(tmp_path):

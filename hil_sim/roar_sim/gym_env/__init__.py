@@ -164,7 +164,7 @@ class RaceEnv(gym.Env):
         self.sim = self.kind(self.track, pose, gui=self.render_mode == "human")
         self.sim.arm()  # the ESC car boots latched until it hears neutral
         state = self.sim.state()
-        self._hint, self._s, self._cte = self.track.project((state.x, state.y))
+        self._hint, self._s, self._cte = self.track.project((state.x, state.y), heading=state.yaw)
         self._scan, self._steps = None, 0
         return self._observation(state), self._info()
 

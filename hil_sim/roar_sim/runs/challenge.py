@@ -403,9 +403,8 @@ def main(argv: list[str] | None = None) -> int:
             ax.legend(fontsize=7, loc="best")
             return fig
 
-        if not plotting.save(draw, args.plot):
+        if not plotting.save(draw, args.plot):  # (it says where the plot went)
             return ExitStatus.ERROR
-        print(f"plot: {args.plot}")
     return ExitStatus.OK if result.finished else ExitStatus.SHORT
 
 

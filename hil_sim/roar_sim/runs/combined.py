@@ -109,16 +109,16 @@ def combined_race(track: Track, laps: int = 1, boxes: Sequence[tuple[float, floa
                 sim_log.image(frame[0])
             return frame
 
-        def where(name: str, x: float, y: float) -> tuple[float, float]:
-            hint[name], s, left = track.project((x, y), hint[name])
+        def where(name: str, x: float, y: float, yaw: float) -> tuple[float, float]:
+            hint[name], s, left = track.project((x, y), hint[name], heading=yaw)
             return s, left
 
         def leader(obs) -> Leader | None:
             heard = follow_link.latest.get(LEADER_ID)
             if heard is None or obs.t_s - heard.received_s > spec.V2V_TIMEOUT_US / 1e6:
                 return None
-            s_lead, left = where("heard", heard.x, heard.y)
-            s_self, _ = where("follow", obs.x, obs.y)
+            s_lead, left = where("heard", heard.x, heard.y, heard.yaw)
+            s_self, _ = where("follow", obs.x, obs.y, obs.yaw)
             return Leader(track.arc_delta(s_self, s_lead), left, heard.speed)
 
         follower = lane_agent(camera, LaneDetector(BirdsEye(camera_model)), MODEL,
@@ -144,8 +144,8 @@ def combined_race(track: Track, laps: int = 1, boxes: Sequence[tuple[float, floa
             fleet.run(PERIOD_S)
             step += 1
             here, there = follow.state(), lead.state()
-            s_follow, _ = where("follow", here.x, here.y)
-            s_lead, _ = where("lead", there.x, there.y)
+            s_follow, _ = where("follow", here.x, here.y, here.yaw)
+            s_lead, _ = where("lead", there.x, there.y, there.yaw)
             travelled += 0.0 if last_s is None else track.arc_delta(last_s, s_follow)
             last_s = s_follow
             state = planner.state.name

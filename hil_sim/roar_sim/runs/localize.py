@@ -264,7 +264,7 @@ def kidnap_run(track: Track, at_s: float = 6.0, ahead_m: float = 5.0, seconds: f
             run.wall_contacts += bot.touching_wall()
             if obs.t_s >= at_s and not run.done:
                 s = bot.state()
-                _, along, _ = track.project((s.x, s.y))
+                _, along, _ = track.project((s.x, s.y), heading=s.yaw)
                 kidnap(bot, track.pose_at(along + ahead_m))
                 run.done = True
 

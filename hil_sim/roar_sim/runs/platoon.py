@@ -104,7 +104,7 @@ def platoon(track: Track, gap_m: float = 1.5, cruise_m_s: float = 1.0, seconds: 
             along, speed = {}, {}
             for name, car in (("lead", lead), ("follow", follow)):
                 s = car.state()
-                hint[name], along[name], _ = track.project((s.x, s.y), hint.get(name))
+                hint[name], along[name], _ = track.project((s.x, s.y), hint.get(name), heading=s.yaw)
                 speed[name] = s.speed
             run.times_s.append(fleet.time_s)
             run.gaps_m.append((along["lead"] - along["follow"]) % track.length_m)

@@ -23,6 +23,7 @@ laps than asked, with a one-line reason (time limit, wall contacts, distance cov
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from collections.abc import Sequence
 from contextlib import ExitStack
@@ -61,8 +62,9 @@ def check_line(track: Track, line: np.ndarray) -> None:
     """A waypoint line must lie on the track and run its way round (the car starts on the centre
     line's first point facing the second); WaypointError with a one-line reason otherwise."""
     hint, positions = None, []
+    heading = math.atan2(line[1][1] - line[0][1], line[1][0] - line[0][0])  # which leg, where two cross
     for i, point in enumerate(line):
-        hint, s_along, cte = track.project(point, None if hint is None else hint)
+        hint, s_along, cte = track.project(point, hint, heading=heading)
         half = track.half_widths_at(hint)[0 if cte > 0 else 1]
         if abs(cte) > half:
             raise WaypointError(f"waypoint {i + 1} at ({point[0]:.2f}, {point[1]:.2f}) is {abs(cte):.2f} m from "
@@ -130,6 +132,8 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
             course.log = sim_log
         result = RaceResult(track, speed_profile(track.centerline, car.limits), robot=robot, boxes=len(boxes),
                             racing_limit_lap_s=optimal_line(track, robot).lap_time_s(car.limits))
+        if waypoints is not None:
+            result.line, result.line_speeds = line, speed_profile(line, car.limits)
         lights = course.lights if course else None
         result.green_at_s = lights.green_at_s if lights else None
         timeout_s = timeout_s or race_timeout_s(result, laps) + (result.green_at_s or 0.0)
@@ -143,11 +147,11 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
             if localized is not None:  # the race is scored on where the car truly is
                 truth = car.state()
                 obs = Observation(obs.t_s, truth.x, truth.y, truth.yaw, abs(truth.speed), truth.yaw_rate)
-            hint, s_now, cte = track.project((obs.x, obs.y), lap["hint"])
+            hint, s_now, cte = track.project((obs.x, obs.y), lap["hint"], heading=obs.yaw)
             lap.update(hint=hint, s=s_now, travelled=lap["travelled"] + track.arc_delta(lap["s"], s_now))
             result.travelled_m = lap["travelled"]
             result.cross_track_m.append(cte)
-            result.path.append((obs.x, obs.y, obs.speed, s_now, obs.t_s))
+            result.path.append((obs.x, obs.y, obs.speed, max(0.0, lap["travelled"]) % track.length_m, obs.t_s))
             result.wall_contacts += car.touching_wall()
             result.box_contacts += bool(boxes) and course.touching_box()
             result.cone_contacts += car.touching(world.cones)

@@ -37,9 +37,12 @@ class RaceResult:
     track: Track
     limit_speeds: np.ndarray  # [m/s] the physical-limit speed at each centre-line point
     racing_limit_lap_s: float = float("nan")  # [s] the physical-limit lap of the racing line
+    line: np.ndarray | None = None  # the line followed, when not the centre line (--line, --waypoints): x, y [m]
+    line_speeds: np.ndarray | None = None  # [m/s] its physical-limit speed at each point
     lap_times_s: list[float] = field(default_factory=list)
     cross_track_m: list[float] = field(default_factory=list)
-    path: list[tuple[float, float, float, float, float]] = field(default_factory=list)  # (x, y, speed, arc length, t)
+    # (x, y, speed, distance into the lap [m] (progress, 0 at the start line), t [s])
+    path: list[tuple[float, float, float, float, float]] = field(default_factory=list)
     robot: str = "esc"  # the robot's name (roar_sim.robots)
     wall_contacts: int = 0  # control periods with the car touching a wall
     travelled_m: float = 0.0  # [m] net progress along the track, all laps
@@ -141,6 +144,17 @@ def report(result: RaceResult) -> str:
     return "\n".join(lines)
 
 
+def _along(track: Track, line: np.ndarray) -> np.ndarray:
+    """[m] each point of a line projected along the track, followed from its first (continuously,
+    as a car would be: a figure eight's crossing stays on the leg driven)."""
+    heading = np.arctan2(line[1, 1] - line[0, 1], line[1, 0] - line[0, 0])
+    hint, along = None, []
+    for point in line:
+        hint, s, _ = track.project(point, hint, heading=heading)
+        along.append(s)
+    return np.asarray(along)
+
+
 def plot(result: RaceResult):
     """Left: the track and the driven path coloured by speed. Right: speed along the track for
     every lap against the physical-limit profile."""
@@ -148,10 +162,18 @@ def plot(result: RaceResult):
     plotting.draw_track(ax, result.track)
     p = np.array(result.path)
     plotting.draw_path(fig, ax, p[:, 0], p[:, 1], p[:, 2])
+    if result.line is not None:
+        closed = np.vstack([result.line, result.line[:1]])
+        ax.plot(closed[:, 0], closed[:, 1], color="tab:red", lw=1, label="the line followed")
     if result.localization is not None:
         result.localization.draw(ax)
-    ax.legend(loc="upper right", fontsize=8)
-    ax_v.plot(result.track.arc_start, result.limit_speeds, color="black", lw=1.5, label="physical limit")
+    ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.16), ncol=3, fontsize=8)  # below the track, not on it
+    ax_v.plot(result.track.arc_start, result.limit_speeds, color="black", lw=1.5, label="physical limit (centre line)")
+    if result.line is not None and result.line_speeds is not None:
+        along = _along(result.track, result.line)
+        order = np.argsort(along)
+        ax_v.plot(along[order], result.line_speeds[order], color="tab:red", lw=1.2,
+                  label="physical limit (the line followed)")
     ax_v.scatter(p[:, 3], p[:, 2], c=p[:, 2], s=3, cmap="viridis", label="driven")
     ax_v.set_xlabel("distance along the track [m]")
     ax_v.set_ylabel("speed [m/s]")

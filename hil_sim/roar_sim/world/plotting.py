@@ -8,6 +8,8 @@ import sys
 from pathlib import Path
 from typing import Callable
 
+from roar.tracks.drawing import draw_track  # noqa: F401 (the runs' plots draw tracks from here too)
+
 
 def subplots(**kwargs):
     """(fig, ax) from a headless (Agg) matplotlib."""
@@ -17,17 +19,6 @@ def subplots(**kwargs):
     import matplotlib.pyplot as plt
 
     return plt.subplots(constrained_layout=True, **kwargs)
-
-
-def draw_track(ax, track) -> None:
-    """Walls (black) and centre line (dashed grey) of a track, closed loops."""
-    import numpy as np
-
-    for wall in track.walls:
-        closed = np.vstack([wall, wall[:1]])
-        ax.plot(closed[:, 0], closed[:, 1], color="black", lw=1.5)
-    cl = np.vstack([track.centerline, track.centerline[:1]])
-    ax.plot(cl[:, 0], cl[:, 1], color="grey", lw=0.8, ls="--", label="centre line")
 
 
 def draw_path(fig, ax, x, y, speed) -> None:

@@ -36,7 +36,8 @@ class StartLights:
 
     def __init__(self, world, track: Track, green_at_s: float) -> None:
         self.client, self.green_at_s = world.client, green_at_s
-        right = track.half_widths_at(track.project(track.pose_at(AHEAD_M)[:2])[0])[1]
+        ahead = track.pose_at(AHEAD_M)
+        right = track.half_widths_at(track.project(ahead[:2], heading=ahead[2])[0])[1]
         x, y, yaw = track.pose_at(AHEAD_M, -(right + BEYOND_EDGE_M))
         orn = pb.getQuaternionFromEuler([0, 0, yaw])
         # the housing and lamps face back along the track, towards the car at the start

@@ -37,6 +37,7 @@ MIN_POINTS = 8
 MAX_NAME_CHARS = 60  # a track's name as shown: longer ones are cut
 MIN_SPACING_M = 0.01  # [m]
 SMALL_WINDOW = 12  # segments each side: project() searches this few in plain floats
+SAME_PLACE_M = 0.1  # [m] segments this much further than the nearest are as near, for locate()
 MAX_SPACING_M = 2.0  # [m]
 MIN_HALF_WIDTH_M = 0.2  # [m] from the centre line to either wall
 MIN_WIDTH_M, MAX_WIDTH_M = 0.4, 5.0  # [m] wall to wall
@@ -222,10 +223,14 @@ class Track:
         return bool(self.region.contains(point)) and self.region.exterior.distance(point) >= margin_m and \
             all(ring.distance(point) >= margin_m for ring in self.region.interiors)
 
-    def project(self, xy, hint: int | None = None, window: int = 40) -> tuple[int, float, float]:
+    def project(self, xy, hint: int | None = None, window: int = 40,
+                heading: float | None = None) -> tuple[int, float, float]:
         """(segment index, arc-length position [m], signed cross-track error [m], left positive) of a
         point. With `hint` (the previous index) only nearby segments are searched, so progress is
-        followed through a figure-eight crossing."""
+        followed through a figure-eight crossing; with no hint, a `heading` [rad] (the car's, the
+        line's) picks the leg that runs its way where two legs cross (locate())."""
+        if hint is None and heading is not None:
+            hint = self.locate(xy, heading)
         if hint is not None and window <= SMALL_WINDOW:
             return self._project_near(float(xy[0]), float(xy[1]), hint, window)
         pts, ab, ab2 = self.centerline, self._segments, self._segments_sq
@@ -241,6 +246,20 @@ class Track:
         s = float(self.arc_start[seg] + t[k] * self.segment_lengths[seg])
         cross = dx[k] * (py - ay[k]) - dy[k] * (px - ax[k])
         return seg, s, float(math.copysign(math.hypot(ex[k], ey[k]), cross))
+
+    def locate(self, xy, heading: float) -> int:
+        """The segment a pose (a point and a heading [rad]) is on: of the segments as near as the
+        nearest (within SAME_PLACE_M), the one running most its way. Where a track crosses itself
+        (a figure eight), either leg is as near; the way the car faces says which leg it drives.
+        The start of every continuous tracking of progress (laps, cross-track error, line checks,
+        rewards): from there each step searches near the last segment only."""
+        pts, ab, ab2 = self.centerline, self._segments, self._segments_sq
+        px, py = float(xy[0]), float(xy[1])
+        t = np.clip(((px - pts[:, 0]) * ab[:, 0] + (py - pts[:, 1]) * ab[:, 1]) / ab2, 0.0, 1.0)
+        d2 = (pts[:, 0] + t * ab[:, 0] - px) ** 2 + (pts[:, 1] + t * ab[:, 1] - py) ** 2
+        near = np.sqrt(d2) <= math.sqrt(float(d2.min())) + SAME_PLACE_M  # at the crossing: both legs
+        along = (ab[:, 0] * math.cos(heading) + ab[:, 1] * math.sin(heading)) / np.sqrt(ab2)  # cos of the angle
+        return int(np.argmax(np.where(near, along, -np.inf)))  # of those, the one running most its way
 
     def _project_near(self, px: float, py: float, hint: int, window: int) -> tuple[int, float, float]:
         """project() over a few segments, in plain floats: numpy's per-call cost is most of the
