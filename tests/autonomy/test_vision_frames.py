@@ -71,7 +71,7 @@ def test_bad_folders_and_frames_fail_in_one_line(tmp_path, capsys):
     assert main(["vision", str(tmp_path), "--fov", "0"]) == 1
     errors = capsys.readouterr().err.splitlines()
     assert len(errors) == 5 and all(e.startswith("roar vision: error: ") for e in errors), errors
-    assert "is not a folder" in errors[0] and "no frames" in errors[1] and "not an image" in errors[2]
+    assert "does not exist" in errors[0] and "no frames" in errors[1] and "not an image" in errors[2]
     assert "H x W x 3" in errors[3] and "--fov" in errors[4]
 
 

@@ -68,7 +68,8 @@ def test_the_strip_is_a_lane_with_a_wall_at_its_end():
 
 @pytest.mark.parametrize("name, message", [
     ("drag:5", "length must be a finite number 10..100 m, got 5"),
-    ("drag:forty", "the length in metres must be a whole number"),
+    ("drag:forty", "length must be a finite number 10..100 m, got 'forty'"),
+    ("drag:nan", "length must be a finite number 10..100 m, got nan"),
     ("drag:40,width=9", "width must be a finite number 0.8..3 m"),
     ("drag:40,stop=nan", "stop must be a finite number 2..20 m, got nan"),
     ("drag:40,lanes=2", "unknown parameter 'lanes'"),

@@ -277,6 +277,7 @@ def test_a_tunnel_course_keeps_cones_passable_people_by_the_walls_and_the_map_wa
 
 
 def test_roar_world_plots_a_tunnel_and_writes_its_map_route_and_course(tmp_path):
+    (tmp_path / "maps").mkdir()  # a folder that is not there is not made: a typo makes none
     out = roar("world", "tunnel:2", "--plot", "t.png", "--save", "maps/t2_map.yaml", cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     assert "cones" in out.stdout and (tmp_path / "t.png").read_bytes()[:4] == b"\x89PNG"

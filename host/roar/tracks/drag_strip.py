@@ -46,7 +46,7 @@ def parse(name: str) -> StripSpec:
     """The strip a `drag:LENGTH[,width=,stop=]` name describes; TrackError (one line) otherwise."""
     length, values = split_options(name, "drag:", USAGE, ("width", "stop"))
     try:
-        return StripSpec(number("length", _float(length.strip()), *LENGTH_RANGE_M, "m", given=length.strip()),
+        return StripSpec(number("length", _float(length.strip()), *LENGTH_RANGE_M, "m"),
                          number("width", _float(values.get("width", DEFAULT_WIDTH_M)), *WIDTH_RANGE_M, "m"),
                          number("stop", _float(values.get("stop", DEFAULT_STOP_M)), *STOP_RANGE_M, "m"))
     except ValueError as e:
