@@ -71,8 +71,14 @@ def test_recorded_frames_give_the_same_lanes_and_a_debug_view(oval, tmp_path):
     for recorded in (np.asarray(Image.open(tmp_path / "frame.png")), np.load(tmp_path / "frame.npy")):
         detector = LaneDetector(BirdsEye(SIMULATED_CAR_CAMERA.model(W, H)))
         assert detector.detect(recorded).offset_m == pytest.approx(live.offset_m, abs=1e-9)
-    debug_view(detector, rgb).savefig(tmp_path / "debug.png")
+    fig = debug_view(detector, rgb)
+    fig.savefig(tmp_path / "debug.png")
     assert (tmp_path / "debug.png").stat().st_size > 20_000
+    birds_eye = fig.axes[1]  # in metres, and a legend that says what its numbers are
+    assert (birds_eye.get_xlabel(), birds_eye.get_ylabel()) == ("to the left [m]", "ahead [m]")
+    assert birds_eye.get_xlim()[0] > 0 > birds_eye.get_xlim()[1] and 0 < birds_eye.get_ylim()[0] < birds_eye.get_ylim()[1]
+    texts = [t.get_text() for t in birds_eye.get_legend().get_texts()]
+    assert texts and all("fit confidence" in t for t in texts)
 
 
 def test_the_birds_eye_view_is_metric_near_and_far():

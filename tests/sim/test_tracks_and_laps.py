@@ -293,3 +293,8 @@ def test_a_race_plot_draws_the_line_followed_with_its_limit_and_no_stray_points_
     fig = race.plot(result)
     labels = [text.get_text() for ax in fig.axes if ax.get_legend() for text in ax.get_legend().get_texts()]
     assert "the line followed" in labels and "physical limit (the line followed)" in labels
+
+
+def test_a_race_with_no_lap_says_how_long_it_drove():
+    result = race.race(get("oval"), 2, timeout_s=3.0)
+    assert not result.lap_times_s and "laps completed: 0 (0.00 s), in 3.0" in race.report(result)

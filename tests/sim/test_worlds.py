@@ -381,3 +381,19 @@ def test_tunnels_of_one_seed_with_other_counts_paint_their_own_markers():
     floor.paints(crowded)
     x, y, _ = plain.course.markers[0]
     assert floor.colour_at(plain, (x, y)) == floor.MARKER_RGB
+
+
+@pytest.mark.parametrize("seed", [1, 4])
+def test_a_saved_track_reads_back_with_the_bends_it_was_written_with(tmp_path, seed):
+    """Written at a micrometre, read back: the same length and the same tightest bend (at 0.1 mm,
+    a 2.04 m bend read back as 2.01 m)."""
+    from roar.tracks.track_files import to_json
+
+    track = get(f"random:{seed}")
+    (tmp_path / "t.json").write_text(to_json(track))
+    (tmp_path / "t_centerline.csv").write_text(centreline_csv(track))
+    tightest = 1 / curvature(track.centerline).max()
+    for path in (tmp_path / "t.json", tmp_path / "t_centerline.csv"):
+        again = get(str(path))
+        assert again.length_m == pytest.approx(track.length_m, rel=1e-6)
+        assert 1 / curvature(again.centerline).max() == pytest.approx(tightest, rel=1e-4), path.name

@@ -30,6 +30,10 @@ import numpy as np
 
 from roar.checks import printable, shown
 from roar.tracks.track import MAX_NAME_CHARS, MIN_SPACING_M, Track, TrackError
+
+# [decimals of a metre] a written point: micrometres, so a track reads back with the bends it was
+# written with (at 0.1 mm, a 2.04 m bend read back as 2.01 m: curvature comes from neighbours 5 cm apart)
+DIGITS = 6
 from roar.user_files import read_parsed, read_text
 
 CENTRELINE_COLUMNS = "x_m, y_m, w_tr_right_m, w_tr_left_m"
@@ -68,7 +72,7 @@ def to_json(track: Track) -> str:
     if not track.uniform_width:
         raise TrackError(f"track {track.name!r} is not one width all round: write it as a centre-line .csv")
     return json.dumps({"name": track.name, "width_m": track.width_m,
-                       "centerline": [[round(float(x), 4), round(float(y), 4)] for x, y in track.centerline]})
+                       "centerline": [[round(float(x), DIGITS), round(float(y), DIGITS)] for x, y in track.centerline]})
 
 
 def _rows(path: Path, separator: str, columns: str) -> list[tuple[int, list[float]]]:
@@ -127,7 +131,7 @@ def load_centreline_csv(path: str | Path, name: str | None = None) -> Track:
 
 def centreline_csv(track: Track) -> str:
     lines = [f"# {CENTRELINE_COLUMNS}"]
-    lines += [f"{x:.4f}, {y:.4f}, {right:.4f}, {left:.4f}"
+    lines += [f"{x:.{DIGITS}f}, {y:.{DIGITS}f}, {right:.4f}, {left:.4f}"
               for (x, y), (left, right) in zip(track.centerline, track.half_widths)]
     return "\n".join(lines) + "\n"
 

@@ -347,21 +347,22 @@ def debug_view(detector: LaneDetector, rgb: np.ndarray):
     fig, axes = plt.subplots(1, 3, figsize=(12, 4), constrained_layout=True)
     axes[0].imshow(rgb)
     axes[0].set_title("camera")
-    axes[1].imshow(d["birds_eye"])
+    grid = detector.bev.grid  # the bird's-eye image in metres: across (left +) and ahead of the car
+    axes[1].imshow(d["birds_eye"], extent=(grid.y_left, grid.y_right, grid.x_near, grid.x_far))
     axes[1].set_title("bird's-eye, windows and fits")
+    axes[1].set(xlabel="to the left [m]", ylabel="ahead [m]")
     colours = {"left": "cyan", "right": "magenta", "yellow": "orange"}
-    xs = np.linspace(detector.bev.grid.x_near, detector.bev.grid.x_far, 30)
+    xs = np.linspace(grid.x_near, grid.x_far, 30)
     for name, line in d["lines"].items():
         if line is None:
             continue
-        r, c = detector.bev.to_pixel(xs, line.y(xs))
-        axes[1].plot(c, r, color=colours[name], lw=1.5, label=f"{name} {line.confidence:.2f}")
-        pr, pc = detector.bev.to_pixel(line.points[:, 0], line.points[:, 1])
-        axes[1].scatter(pc, pr, s=12, color=colours[name])
+        axes[1].plot(line.y(xs), xs, color=colours[name], lw=1.5,
+                     label=f"{name} line, fit confidence {line.confidence:.2f}")
+        axes[1].scatter(line.points[:, 1], line.points[:, 0], s=12, color=colours[name])
     if any(line is not None for line in d["lines"].values()):  # a legend of nothing is a warning
-        axes[1].legend(fontsize=7, loc="lower right")
+        axes[1].legend(fontsize=7, loc="lower right", title="dots: the windows' centres", title_fontsize=7)
     axes[2].imshow(np.dstack([d["white"], d["yellow"], np.zeros_like(d["white"])]))
     axes[2].set_title("masks: white (red), yellow (green)")
-    for ax in axes:
+    for ax in (axes[0], axes[2]):
         ax.axis("off")
     return fig
