@@ -127,7 +127,7 @@ def report(result: RaceResult) -> str:
                  f"({result.moved_at_s - result.green_at_s:.3f} s)")
         lines.append(f"start lights: green at {result.green_at_s:.2f} s; {moved}")
     driven_s = result.path[-1][4] if result.path else 0.0  # [s] from the start of the race
-    lines.append(f"laps completed: {len(result.lap_times_s)} ({sum(result.lap_times_s):.2f} s), in {driven_s:.2f} s "
+    lines.append(f"laps completed: {len(result.lap_times_s)} ({sum(result.lap_times_s):.2f} s), in {driven_s:.1f} s "
                  f"of driving (simulated)")
     lines.append(f"cross-track error: max {result.max_cross_track_m:.3f} m, RMS {result.rms_cross_track_m:.3f} m")
     lines.append(f"wall contacts: {result.wall_contacts}")
