@@ -298,3 +298,51 @@ def test_a_race_plot_draws_the_line_followed_with_its_limit_and_no_stray_points_
 def test_a_race_with_no_lap_says_how_long_it_drove():
     result = race.race(get("oval"), 2, timeout_s=3.0)
     assert not result.lap_times_s and "laps completed: 0 (0.00 s), in 3.0" in race.report(result)
+
+
+def stadium(tmp_path, radius_m: float, name: str = "stadium"):
+    """4 m straights joined by half circles of radius_m, 1.2 m wide, as a centre-line CSV."""
+    t = np.linspace(-np.pi / 2, np.pi / 2, 30, endpoint=False)
+    straight = np.linspace(0, 4, 40, endpoint=False)
+    points = np.vstack([np.column_stack([straight, np.full(40, -radius_m)]),
+                        np.column_stack([4 + radius_m * np.cos(t), radius_m * np.sin(t)]),
+                        np.column_stack([4 - straight, np.full(40, radius_m)]),
+                        np.column_stack([-radius_m * np.cos(t), -radius_m * np.sin(t)])])
+    path = tmp_path / f"{name}_centerline.csv"
+    path.write_text("".join(f"{x:.6f}, {y:.6f}, 0.6, 0.6\n" for x, y in points))
+    return get(str(path))
+
+
+@pytest.mark.parametrize("radius_m", [0.31, 0.68])
+def test_a_bend_no_car_can_take_is_refused_for_the_cars_and_taken_by_the_junior(tmp_path, radius_m):
+    """The ESC and IARRC cars turn no tighter than 0.77 m: a tighter bend is refused in one line
+    (how tight, where, what the car can do), in a race and in the Gym environment; the Junior
+    turns on the spot and races it."""
+    from roar_sim import robots
+    from roar_sim.gym_env import RaceEnv
+
+    track = stadium(tmp_path, radius_m)
+    for robot in ("esc", "iarrc"):
+        with pytest.raises(TrackError) as refused:
+            race.race(track, 1, robot=robot)
+        why = str(refused.value)
+        said = float(why.split("radius of ")[1].split(" m")[0])
+        assert said == pytest.approx(radius_m, abs=0.02) and "m along its centre line, at (" in why and "\n" not in why
+        assert f"turns no tighter than {robots.get(robot).min_turn_radius_m():.2f} m" in why
+        with pytest.raises(TrackError):
+            RaceEnv(track, robot=robot)
+    assert robots.get("esc").min_turn_radius_m() == pytest.approx(0.77, abs=0.01)
+    result = race.race(track, 1, robot="junior")
+    assert len(result.lap_times_s) == 1, race.report(result)
+
+
+def test_a_kink_in_a_file_is_no_bend_and_a_wide_bend_is_raced(tmp_path):
+    """Bends are measured over a chord: a 10 degree kink at one point does not refuse a track a
+    car can drive, and a 0.9 m bend is raced."""
+    track = stadium(tmp_path, 0.9)
+    assert track.tightest_bend()[0] == pytest.approx(0.9, rel=0.05)
+    race.race(track, 1)  # accepted: the car turns 0.77 m
+    kinked = track.centerline.copy()
+    kinked[20] += (0.0, 0.0045)  # a 10 degree kink on the straight (5 cm on each side)
+    k = Track("kinked", kinked, 1.2)
+    assert k.tightest_bend()[0] == pytest.approx(track.tightest_bend()[0], rel=0.01)  # the kink is not the tightest

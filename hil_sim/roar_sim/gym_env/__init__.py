@@ -128,6 +128,7 @@ class RaceEnv(gym.Env):
             raise ValueError("RaceEnv: " + "; ".join(problems))
         lidar_beams = (LIDAR_BEAMS if self.kind.has_lidar else 0) if lidar_beams is None else lidar_beams
         self.track = track if isinstance(track, Track) else get(track)
+        self.kind.check_track(self.track)  # a bend the robot cannot turn: no lap to learn
         self.robot, self.lidar_beams = robot, lidar_beams
         self._shortest_m = float(self.track.segment_lengths.min())  # [m] of a centre-line segment
         self.camera_size, self.max_seconds = camera, max_seconds

@@ -30,7 +30,7 @@ from roar.autopilot.limits import HOLDS_LINE, circle
 from roar_sim import UnknownRobot
 from roar.telemetry import VehicleState
 from roar_sim.core.lockstep import CONTROL_PERIOD_S, Lockstep
-from roar.tracks.track import Track
+from roar.tracks.track import Track, TrackError
 
 Pose = tuple[float, float, float]  # x [m], y [m], yaw [rad]
 
@@ -82,6 +82,24 @@ class Robot(Lockstep):
     has_lidar: ClassVar[bool] = False
     ultrasonic_max_m: ClassVar[float | None] = None  # [m] its ultrasonic ranger's reach, if it has one
     track: Track | None
+    model: ClassVar  # what its driver plans with: a CarModel or DiffDriveModel (its turning radius among it)
+
+    @classmethod
+    def min_turn_radius_m(cls, profile=None) -> float:
+        """[m] the tightest circle the robot can drive (with a car profile, for the ESC car)."""
+        return cls.model.min_turn_radius_m
+
+    @classmethod
+    def check_track(cls, track: Track, profile=None) -> None:
+        """TrackError (one line: which bend, where, what radius) when the track's centre line
+        bends tighter than the robot can turn: its driver would wedge it into the wall there, and
+        no physical-limit lap exists to measure it against."""
+        radius, along, (x, y) = track.tightest_bend()
+        least = cls.min_turn_radius_m(profile)
+        if radius < least:
+            raise TrackError(f"track {track.name!r} bends with a radius of {radius:.2f} m {along:.1f} m along its "
+                             f"centre line, at ({x:.2f}, {y:.2f}): the {cls.title} turns no tighter than {least:.2f} m; "
+                             f"open the bend out, or race a robot that can take it")
 
     def __init__(self, track: Track | None, realtime: bool = False, speedup: float = 1.0) -> None:
         self.track, self.realtime, self.speedup = track, realtime, speedup

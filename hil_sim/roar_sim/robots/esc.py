@@ -17,6 +17,8 @@ Commands reach it as they reach a real one, as control messages on its serial po
 
 from __future__ import annotations
 
+import math
+
 from roar.autopilot import Agent, CarLimits, CarModel, race_agent
 from roar.autopilot.limits import straight_line
 from roar.autopilot.pure_pursuit import PurePursuit
@@ -49,11 +51,18 @@ class EscCar(Robot):
     title = "ESC car"
     half_width_m = 0.15  # [m] half its width as the walls feel it (wheels and steering), measured
     limits = LIMITS
+    model = MODEL  # the default profile's; an instance with another profile has its own
     links = ("serial", "stream")
     laterals = ("pursuit", "pid")
     lane_driving = True
     replies = True
     has_lidar = True
+
+    @classmethod
+    def min_turn_radius_m(cls, profile=None) -> float:
+        """[m] at full steering, of the car the profile describes (default: the ROAR car)."""
+        car = profile if isinstance(profile, car_profile.CarProfile) else car_profile.load(*(profile,) if profile else ())
+        return car.wheelbase_m / math.tan(car.max_steer_rad)
 
     def __init__(self, track: Track | None = None, pose: Pose | None = None, realtime: bool = False,
                  speedup: float = 1.0, gui: bool = False, firmware: CarConfig | None = None,

@@ -84,6 +84,7 @@ class IarrcCar(Robot):
     title = "IARRC car"
     half_width_m = 0.15  # [m] half its width as the walls feel it (the same racecar as the ESC car's)
     limits = LIMITS
+    model = MODEL
     links = ("serial",)
     laterals = ("pursuit", "pid")
     replies = True

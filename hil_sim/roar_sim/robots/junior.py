@@ -83,6 +83,7 @@ class Junior(Robot):
     title = "ROAR Junior"
     half_width_m = 0.09  # [m] half its width: the wheels' outer faces
     limits = LIMITS
+    model = MODEL
     links = ("http",)
     ultrasonic_max_m = MAX_RANGE_M
 

@@ -110,6 +110,7 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
     if (start_lights is not None or avoid or frames or shaky_camera is not None) and lateral != "lane":
         raise ValueError("start lights, the TFmini, writing frames and a shaky camera are for the lane driver (the ESC car "
                          "driving by its camera)")
+    kind.check_track(track, profile)  # a bend it cannot turn: one line, before anything is built
     line = track.centerline if waypoints is None else np.asarray(waypoints)[:, :2]
     if waypoints is not None:
         check_line(track, line)

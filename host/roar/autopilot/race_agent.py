@@ -27,6 +27,11 @@ class CarModel:
     max_steer_rad: float  # [rad] front-wheel angle at steering = +-1
     limits: CarLimits
 
+    @property
+    def min_turn_radius_m(self) -> float:
+        """[m] the tightest circle it can drive: at full steering, wheelbase / tan(angle)."""
+        return self.wheelbase_m / math.tan(self.max_steer_rad)
+
 
 @dataclass(frozen=True)
 class DiffDriveModel:
@@ -34,6 +39,7 @@ class DiffDriveModel:
 
     track_width_m: float  # [m] between the wheels' contact points
     limits: CarLimits
+    min_turn_radius_m: float = 0.0  # [m] it turns on the spot
 
 
 @dataclass(frozen=True)

@@ -38,6 +38,7 @@ MAX_NAME_CHARS = 60  # a track's name as shown: longer ones are cut
 MIN_SPACING_M = 0.01  # [m]
 SMALL_WINDOW = 12  # segments each side: project() searches this few in plain floats
 SAME_PLACE_M = 0.1  # [m] segments this much further than the nearest are as near, for locate()
+BEND_CHORD_M = 0.25  # [m] before and after a point: the circle through them is the bend's (bend_radii())
 MAX_SPACING_M = 2.0  # [m]
 MIN_HALF_WIDTH_M = 0.2  # [m] from the centre line to either wall
 MIN_WIDTH_M, MAX_WIDTH_M = 0.4, 5.0  # [m] wall to wall
@@ -165,6 +166,27 @@ class Track:
         yaw = math.atan2(b[1] - a[1], b[0] - a[0])
         x, y = a + t * (b - a)
         return float(x - offset_m * math.sin(yaw)), float(y + offset_m * math.cos(yaw)), yaw
+
+    def bend_radii(self, chord_m: float = BEND_CHORD_M) -> np.ndarray:
+        """[m] the radius of the centre line at each of its points: of the circle through the
+        points chord_m before and after it along the line. Over a chord, not from the next
+        points: a kink of a few degrees in a file (or its rounding) is no bend a car must take."""
+        s, n = self.arc_start, len(self.centerline)
+        x = np.concatenate([self.centerline[:, 0]] * 3)
+        y = np.concatenate([self.centerline[:, 1]] * 3)
+        along = np.concatenate([s - self.length_m, s, s + self.length_m])
+        a = np.column_stack([np.interp(s - chord_m, along, x), np.interp(s - chord_m, along, y)])
+        c = np.column_stack([np.interp(s + chord_m, along, x), np.interp(s + chord_m, along, y)])
+        b = self.centerline
+        sides = np.linalg.norm(b - a, axis=1) * np.linalg.norm(c - b, axis=1) * np.linalg.norm(a - c, axis=1)
+        cross = np.abs((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0])
+        return np.where(cross > 1e-12, sides / np.maximum(2 * cross, 1e-12), np.inf)[:n]
+
+    def tightest_bend(self) -> tuple[float, float, tuple[float, float]]:
+        """(radius [m], where along the line [m], (x, y) [m]) of the centre line's tightest bend."""
+        radii = self.bend_radii()
+        i = int(np.argmin(radii))
+        return float(radii[i]), float(self.arc_start[i]), (float(self.centerline[i, 0]), float(self.centerline[i, 1]))
 
     def half_widths_at(self, segment: int) -> tuple[float, float]:
         """[m] (left, right) from the centre line to the walls at a segment's start point."""
