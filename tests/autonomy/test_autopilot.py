@@ -172,15 +172,21 @@ def test_follower_rejects_bad_parameters():
 
 # --- longitudinal control ------------------------------------------------------------------------
 
-def test_direction_comes_from_recent_throttle():
-    d = DirectionEstimator(window=5)
+def test_a_car_moving_forward_stays_forward_however_long_it_brakes():
+    """Reverse throttle on a car that moves forward is braking until it is seen stopped (a long
+    stop from a fast car was taken for reversing after half a second, and it coasted); once
+    stopped, reverse throttle moves it backwards."""
+    d = DirectionEstimator()
     assert d.direction == 1
-    for t in (0.5, 0.5, -0.2, -0.9, -0.9):
-        d.update(t)
-    assert d.direction == -1
-    for _ in range(5):
-        d.update(0.3)
-    assert d.direction == 1
+    d.update(0.5, 0.0)  # pushed forward from rest
+    d.update(0.5, 2.0)
+    for _ in range(100):  # two seconds of braking at speed
+        assert d.update(-0.5, 6.0) == 1
+    d.update(-0.5, 0.1)  # stopped
+    assert d.update(-0.5, 0.1) == -1  # reverse now means backwards
+    assert d.update(-0.5, 0.8) == -1
+    d.update(0.0, 0.05)
+    assert d.update(0.3, 0.05) == 1
 
 
 def test_speed_controller_brakes_by_reversing_then_lets_go():

@@ -73,3 +73,37 @@ def test_roar_race_takes_a_car_profile(tmp_path):
 
     assert roar(["race", "--car-profile", "nope", "--laps", "1"]) == 1
     assert roar(["race", "--robot", "junior", "--car-profile", "f1tenth"]) == 1
+
+
+def test_a_fast_car_brakes_from_its_top_speed_in_a_straight_line():
+    """The speed controller brakes a car of any top speed: the F1TENTH-like car (7.9 m/s) asked to
+    slow from 7.5 to 3 m/s slows, and stays pointing down the straight (under full reverse its rear
+    wheels lost their grip and it turned 86 degrees; and after half a second of braking the
+    controller took it for reversing and let it coast)."""
+    import math
+
+    from roar.autopilot.longitudinal import SpeedController
+    from roar_sim.robots.esc import EscCar
+
+    with EscCar(profile="f1tenth") as car:
+        car.arm()
+        control = SpeedController(car.limits.max_speed_m_s)
+        yaws = []
+        while car.time_s < 4.0:
+            s = car.state()
+            target = 7.5 if car.time_s < 2.5 else 3.0
+            car.drive(control.step(target, abs(s.speed), 0.02), 0.0)
+            car.run(0.02)
+            if car.time_s >= 2.5:
+                yaws.append(s.yaw)
+        end = car.state()
+    assert abs(end.speed - 3.0) < 0.5, end.speed
+    assert max(abs(math.degrees(math.remainder(y - yaws[0], math.tau))) for y in yaws) < 5
+
+
+def test_the_speed_controllers_gains_scale_with_the_top_speed():
+    from roar.autopilot.longitudinal import SpeedController
+
+    roar, fast = SpeedController(2.93), SpeedController(7.9)
+    assert roar.pid.kp == pytest.approx(0.6) and roar.pid.ki == pytest.approx(0.4) and roar.brake_gain == pytest.approx(1.5)
+    assert fast.pid.kp * 7.9 == pytest.approx(roar.pid.kp * 2.93) and fast.brake_gain * 7.9 == pytest.approx(4.395)

@@ -7,7 +7,6 @@ of travel is taken from the recent throttle history."""
 
 from __future__ import annotations
 
-from collections import deque
 from dataclasses import dataclass, field
 
 from roar.autopilot.pid import PID
@@ -15,31 +14,57 @@ from roar.autopilot.pid import PID
 
 @dataclass
 class DirectionEstimator:
-    """+1 (forward) or -1 (reverse) from the sign of the recent throttle commands."""
+    """+1 (forward) or -1 (reverse): the way the car was last driven while it moved. A car seen
+    moving after forward throttle is moving forward until it is seen (nearly) stopped, however
+    long it brakes on reverse throttle; once stopped, the throttle's sign says which way it goes
+    next (reverse then means backwards)."""
 
-    window: int = 25  # control periods (0.5 s at 50 Hz)
-    _history: deque = field(default_factory=deque, init=False, repr=False)
+    stopped_m_s: float = 0.3  # [m/s] slower than this it is as good as stopped
+    _last: int = field(default=1, init=False, repr=False)  # the way it last moved under power
+    _moving: bool = field(default=False, init=False, repr=False)
 
-    def update(self, throttle: float) -> int:
-        self._history.append(throttle)
-        while len(self._history) > self.window:
-            self._history.popleft()
+    def update(self, throttle: float, speed_m_s: float | None = None) -> int:
+        if speed_m_s is not None and speed_m_s < self.stopped_m_s:
+            self._moving = False
+        if not self._moving and throttle != 0:
+            self._last = 1 if throttle > 0 else -1  # it will move the way it is now pushed
+            self._moving = speed_m_s is None or speed_m_s >= self.stopped_m_s
+        elif speed_m_s is not None and speed_m_s >= self.stopped_m_s:
+            self._moving = True
         return self.direction
 
     @property
     def direction(self) -> int:
-        return -1 if sum(self._history) < 0 else 1
+        return self._last
+
+
+# The gains in fractions of the car's top speed, so one controller serves a 3 m/s car and an 8 m/s
+# one alike (throttle 1 is its top speed): the ROAR car's (2.93 m/s) 0.6, 0.4 and 1.5 per m/s.
+TUNED_TOP_M_S = 2.93  # [m/s] the top speed the gains were tuned at
+KP_PER_TOP = 0.6 * TUNED_TOP_M_S  # throttle per (error / top speed)
+KI_PER_TOP = 0.4 * TUNED_TOP_M_S  # throttle per (integrated error [m] / top speed), per second
+BRAKE_GAIN_PER_TOP = 1.5 * TUNED_TOP_M_S  # reverse throttle per (excess / top speed)
 
 
 @dataclass
 class SpeedController:
     max_speed_m_s: float  # [m/s] at full throttle: feed-forward = target / max
     deadband: float = 0.05  # throttle the ESC ignores around neutral (its deadband / half range)
-    pid: PID = field(default_factory=lambda: PID(kp=0.6, ki=0.4, kd=0.0, out_min=0.0, out_max=1.0))
+    pid: PID | None = None  # default: KP_PER_TOP and KI_PER_TOP for this top speed
     brake_margin_m_s: float = 0.2  # [m/s] faster than the target by more than this: brake
-    brake_gain: float = 1.5  # reverse throttle per m/s over the target
+    brake_gain: float | None = None  # reverse throttle per m/s over the target (default: BRAKE_GAIN_PER_TOP)
     stop_speed_m_s: float = 0.3  # [m/s] below this never brake (the next step would be reversing)
+    # the strongest reverse throttle when braking: a fast car's rear wheels reversed at full power
+    # lose their grip and it spins (roar_sim: an 8 m/s car at full reverse turned 86 degrees)
+    max_reverse: float = 0.5
     direction: DirectionEstimator = field(default_factory=DirectionEstimator)
+
+    def __post_init__(self) -> None:
+        if self.pid is None:
+            self.pid = PID(kp=KP_PER_TOP / self.max_speed_m_s, ki=KI_PER_TOP / self.max_speed_m_s, kd=0.0,
+                           out_min=0.0, out_max=1.0)
+        if self.brake_gain is None:
+            self.brake_gain = BRAKE_GAIN_PER_TOP / self.max_speed_m_s
 
     def reset(self) -> None:
         self.pid.reset()
@@ -49,13 +74,13 @@ class SpeedController:
         moving_forward = self.direction.direction > 0
         excess = speed_m_s - target_m_s
         if moving_forward and excess > self.brake_margin_m_s and speed_m_s > self.stop_speed_m_s:
-            throttle = -min(1.0, self.brake_gain * excess)
+            throttle = -min(self.max_reverse, self.brake_gain * excess)
             self.pid.reset()
         else:
             ff = target_m_s / self.max_speed_m_s
             drive = self.pid.step(target_m_s - speed_m_s, dt_s, feed_forward=ff)
             throttle = 0.0 if drive <= 0 else self.deadband + (1 - self.deadband) * drive
-        self.direction.update(throttle)
+        self.direction.update(throttle, speed_m_s)
         return throttle
 
 
