@@ -6,7 +6,7 @@ that robot's measured limits. Target: <= 1.15 with zero wall contacts."""
 import numpy as np
 
 from roar_sim import robots
-from roar_sim.runs.race import RaceResult, race
+from roar_sim.runs.race import RaceResult, race, race_timeout_s
 from roar.tracks import get
 from roar.tracks.track import BUILTIN
 
@@ -20,7 +20,7 @@ def run() -> None:
         result = race(get(name), laps=LAPS, robot=robot)
         flying = result.lap_times_s[1:] or result.lap_times_s
         if not flying:
-            print(f"  {robot:6} {name:14} MISSED: {result.shortfall(LAPS, 0)}")
+            print(f"  {robot:6} {name:14} MISSED: {result.shortfall(LAPS, race_timeout_s(result, LAPS))}")
             continue
         best = min(flying)
         ratio = best / result.limit_lap_s
