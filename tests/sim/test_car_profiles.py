@@ -87,7 +87,7 @@ def test_a_fast_car_brakes_from_its_top_speed_in_a_straight_line():
 
     with EscCar(profile="f1tenth") as car:
         car.arm()
-        control = SpeedController(car.limits.max_speed_m_s)
+        control = SpeedController(car.limits.max_speed_m_s, max_reverse=car.limits.max_reverse)
         yaws = []
         while car.time_s < 4.0:
             s = car.state()

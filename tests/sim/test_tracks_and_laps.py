@@ -103,7 +103,7 @@ def test_the_autopilot_brakes_for_the_oval_corners_through_the_firmware():
     """The oval's corners are slower than its straights; the ESC has no brake, so the autopilot
     commands reverse and the firmware's brake/reverse sequence turns it into braking."""
     result = race.race(get("oval"), laps=2)
-    assert result.braking_periods >= 10
+    assert result.braking_periods >= 5  # (at the half reverse it brakes straight with, after lifting off first)
     assert result.slowest_m_s > -0.1
     corner = [v for x, y, v, *_ in result.path[len(result.path) // 2:] if abs(x) > 2.5]
     straight = [v for x, y, v, *_ in result.path[len(result.path) // 2:] if abs(x) < 0.5]

@@ -36,9 +36,13 @@ from roar_sim.world.scene import World
 from roar.tracks.track import Track
 
 FRAME_US = spec.TIMING_SERVO_FRAME_US  # [us]
+REVERSE_TRIES = (1.0, 0.75, 0.5, 0.35, 0.25)  # reverse throttle tried for braking, strongest first
+STRAIGHT_DEG = 5.0  # [deg] a stop from top speed that turns the car more than this does not brake it straight
+LIMITS_VERSION = 2  # of the way limits are measured: limits kept in the user's cache by an older one are measured again
 # The default profile's (roar) limits as measured from it; `roar limits esc` and the suite measure
-# them again. Any other profile's are measured on first use and kept in the user's cache.
-LIMITS = CarLimits(max_speed_m_s=2.93, max_accel_m_s2=1.78, max_brake_m_s2=3.35, max_lateral_m_s2=3.38)
+# them again. Any other profile's are measured on first use and kept in the user's cache. Full
+# reverse from its top speed turns the ROAR car 28 degrees before it stops: it brakes at half.
+LIMITS = CarLimits(max_speed_m_s=2.93, max_accel_m_s2=1.78, max_brake_m_s2=2.53, max_lateral_m_s2=3.38, max_reverse=0.5)
 MODEL = CarModel(wheelbase_m=car_profile.load().wheelbase_m, max_steer_rad=car_profile.load().max_steer_rad,
                  limits=LIMITS)
 N = spec.CONTROL_NEUTRAL_US
@@ -174,22 +178,31 @@ class EscCar(Robot):
     @classmethod
     def measure_limits(cls, profile: CarProfile | None = None) -> CarLimits:
         """Top speed and acceleration at full throttle, braking by reversing the motor (the ESC
-        has no brake of its own beyond the first tap), and the steady lateral acceleration it
-        holds on circles at fixed steering, faster and faster until the tyres slide."""
+        has no brake of its own beyond the first tap) at the strongest reverse that stops it in a
+        straight line (REVERSE_TRIES: a fast car's rear wheels reversed at full power lose their
+        grip and it spins), and the steady lateral acceleration it holds on circles at fixed
+        steering, faster and faster until the tyres slide."""
         def hold(car: EscCar, throttle_us: int, steering_us: int, seconds: float) -> list:
             return car.log_driving(lambda: car.write(encode(throttle_us, steering_us)), seconds)
 
-        with cls(profile=profile) as car:
-            hold(car, N, N, 0.2)
-            run = hold(car, spec.CONTROL_MAX_US, N, 4.0)
-            top, accel, brake = straight_line(run, hold(car, spec.CONTROL_MIN_US, N, 2.0))
+        for reverse in REVERSE_TRIES:  # the strongest reverse that stops it in a straight line
+            with cls(profile=profile) as car:
+                hold(car, N, N, 0.2)
+                run = hold(car, spec.CONTROL_MAX_US, N, 4.0)
+                stop = hold(car, round(N - reverse * (N - spec.CONTROL_MIN_US)), N, 2.0)
+            top = max(s.speed for _, s in run)
+            braking = [s for _, s in stop][:next((k for k, (_, s) in enumerate(stop) if s.speed <= 0.1 * top), None)]
+            turned = max(abs(math.remainder(s.yaw - run[-1][1].yaw, math.tau)) for s in braking or [run[-1][1]])
+            if turned <= math.radians(STRAIGHT_DEG):
+                break
+        top, accel, brake = straight_line(run, stop)
         def drive_circle(car: EscCar, throttle_us: int, steering_us: int) -> list:
             hold(car, N, N, 0.2)
             return hold(car, throttle_us, steering_us, 5.0)[-100:]  # the last 2 s
 
         lateral = grip_on_circles(lambda: cls(profile=profile), (1650, 1700, 1750, 1800), range(1700, 2001, 50),
                                   drive_circle)
-        return CarLimits(round(top, 2), round(accel, 2), round(brake, 2), round(lateral, 2))
+        return CarLimits(round(top, 2), round(accel, 2), round(brake, 2), round(lateral, 2), reverse)
 
 
 def profile_limits(profile: CarProfile) -> CarLimits:
@@ -204,7 +217,7 @@ def profile_limits(profile: CarProfile) -> CarLimits:
         return LIMITS
     if profile.fingerprint in _MEASURED:
         return _MEASURED[profile.fingerprint]
-    kept = user_cache("limits") / f"esc-{profile.fingerprint}.json"
+    kept = user_cache("limits") / f"esc-{profile.fingerprint}-v{LIMITS_VERSION}.json"
     try:
         limits = CarLimits(**json.loads(kept.read_text()))
     except (OSError, ValueError, TypeError):

@@ -305,4 +305,4 @@ def lane_agent(camera: Callable[[], tuple], detector: LaneDetector, car: CarMode
     for it (ROAR's combined driver: lane following, avoidance, platooning)."""
     return Agent(LanePerception(camera, detector, depth_camera, start, laser, leader),
                  LanePlanner(car, period_s, margin, keep_lane=laser is not None),
-                 LaneController(car, SpeedController(car.limits.max_speed_m_s), period_s))
+                 LaneController(car, SpeedController(car.limits.max_speed_m_s, max_reverse=car.limits.max_reverse), period_s))

@@ -54,9 +54,9 @@ class SpeedController:
     brake_margin_m_s: float = 0.2  # [m/s] faster than the target by more than this: brake
     brake_gain: float | None = None  # reverse throttle per m/s over the target (default: BRAKE_GAIN_PER_TOP)
     stop_speed_m_s: float = 0.3  # [m/s] below this never brake (the next step would be reversing)
-    # the strongest reverse throttle when braking: a fast car's rear wheels reversed at full power
-    # lose their grip and it spins (roar_sim: an 8 m/s car at full reverse turned 86 degrees)
-    max_reverse: float = 0.5
+    # the strongest reverse throttle when braking (CarLimits.max_reverse: a fast car's rear wheels
+    # reversed at full power lose their grip and it spins; an 8 m/s car at full reverse turned 86 degrees)
+    max_reverse: float = 1.0
     direction: DirectionEstimator = field(default_factory=DirectionEstimator)
 
     def __post_init__(self) -> None:

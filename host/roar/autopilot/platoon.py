@@ -92,7 +92,8 @@ def cruise_agent(points: np.ndarray, car: CarModel, period_s: float, cruise_m_s:
     """Laps `points` at cruise_m_s (slower where the line's curves demand it)."""
     _, planner, pursuit = _base(points, car, margin)
     return Agent(Passthrough(), CruisePlanner(planner, cruise_m_s),
-                 RaceController(car, pursuit, SpeedController(car.limits.max_speed_m_s), period_s))
+                 RaceController(car, pursuit, SpeedController(car.limits.max_speed_m_s, max_reverse=car.limits.max_reverse),
+                                period_s))
 
 
 def follow_agent(points: np.ndarray, car: CarModel, period_s: float, gap_m: float, leader: Callable[[], object | None],
@@ -101,4 +102,5 @@ def follow_agent(points: np.ndarray, car: CarModel, period_s: float, gap_m: floa
     sees one; stops when the leader goes silent."""
     xy, planner, pursuit = _base(points, car, margin)
     return Agent(Passthrough(), FollowPlanner(planner, xy, gap_m, leader, measured=measured),
-                 RaceController(car, pursuit, SpeedController(car.limits.max_speed_m_s), period_s))
+                 RaceController(car, pursuit, SpeedController(car.limits.max_speed_m_s, max_reverse=car.limits.max_reverse),
+                                period_s))

@@ -122,7 +122,7 @@ def race_agent(points: np.ndarray, car: CarModel, period_s: float, margin: float
     speeds = speed_profile(xy, car.limits.with_margin(margin))
     planner = RacePlanner(xy, speeds, follower, pursuit)
     heading = HeadingController(car.max_steer_rad) if lateral == "pid" else None
-    speed = speed or SpeedController(car.limits.max_speed_m_s)
+    speed = speed or SpeedController(car.limits.max_speed_m_s, max_reverse=car.limits.max_reverse)
     controller = RaceController(car, pursuit, speed, period_s, heading)
     return Agent(Passthrough(), planner, controller)
 

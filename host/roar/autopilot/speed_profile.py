@@ -20,6 +20,9 @@ class CarLimits:
     max_accel_m_s2: float  # [m/s^2] from rest at full throttle
     max_brake_m_s2: float  # [m/s^2] slowing down (for an ESC without brake: reversing the motor)
     max_lateral_m_s2: float  # [m/s^2] steady cornering before the tyres slide
+    # the strongest reverse throttle that brakes it in a straight line (a fast car's rear wheels
+    # reversed at full power lose their grip and it spins); max_brake_m_s2 is measured at it
+    max_reverse: float = 1.0
 
     def __post_init__(self) -> None:
         for name, value in vars(self).items():
@@ -30,7 +33,7 @@ class CarLimits:
         """The limits a driver plans with: `fraction` of the grip (cornering and braking), all of
         the car's own speed and acceleration (the motor cannot be overdriven anyway)."""
         return CarLimits(self.max_speed_m_s, self.max_accel_m_s2, fraction * self.max_brake_m_s2,
-                         fraction * self.max_lateral_m_s2)
+                         fraction * self.max_lateral_m_s2, self.max_reverse)
 
 
 def curvature(points: np.ndarray) -> np.ndarray:
