@@ -42,6 +42,23 @@ def pytest_collection_modifyitems(config, items):
                 _join_group(item, REALTIME_GROUP)
 
 
+BACKGROUND_NICE = 10  # the CPU-bound tests' priority under xdist: a realtime test's threads go first
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_setup(item):
+    """Under xdist the realtime tests' worker runs them at normal priority and every other test
+    (and what it starts) at BACKGROUND_NICE, so the CPU-bound tests beside a realtime one yield the
+    cores to it. Raising a priority back needs root (CI runs as root); elsewhere both stay low."""
+    if "PYTEST_XDIST_WORKER" not in os.environ:
+        return
+    nice = 0 if item.get_closest_marker("realtime") is not None else BACKGROUND_NICE
+    try:
+        os.setpriority(os.PRIO_PROCESS, 0, nice)
+    except PermissionError:
+        pass
+
+
 def _join_group(item, group: str) -> None:
     """What xdist's loadgroup does itself to group a test: a node id ending @GROUP, which its
     scheduler reads. With pytest 9.2's structured node ids, xdist 3.8's own assignment no longer

@@ -813,6 +813,35 @@ def frames_on_a_page(browser, car, count: int = 3) -> tuple[int, float]:
         return page.evaluate("roar.frames"), float(page.inner_text("#fps").split()[0])
 
 
+def test_a_camera_stream_that_ends_is_opened_again():
+    """A car's stream that ends (a Wi-Fi drop, a camera restarting) is opened again: the page says
+    so meanwhile, and the frames come on (it used to stop seeing for good)."""
+    import numpy as np
+
+    opened = []
+
+    def camera_stream():
+        opened.append(time.monotonic())
+        count = 3 if len(opened) == 1 else 10**6  # the first stream ends after three frames
+
+        def frames():
+            for _ in range(count):
+                time.sleep(0.02)
+                yield np.zeros((48, 64, 3), np.uint8)
+        return frames()
+
+    with Vehicle("loop://", calibration=Calibration()) as car:
+        car.camera_stream = camera_stream
+        server = WebServer(car, port=0)
+        server.has_camera = True  # (a loop:// link has none of its own)
+        server.start()
+        try:
+            assert wait_for(lambda: "opening it again" in server.problem, 3.0)
+            assert wait_for(lambda: len(opened) >= 2 and server.camera_frames > 10 and not server.problem, 5.0)
+        finally:
+            server.stop()
+
+
 def test_a_juniors_mjpeg_stream_reaches_the_page(browser):
     port = two_free_ports()
     with served("--robot", "junior", "--http", f"127.0.0.1:{port}", "--seconds", "60", lines=2):

@@ -66,6 +66,7 @@ def is_loopback(host: str) -> bool:
 
 
 MAX_REQUEST_LINE_BYTES = 8192  # [bytes] websockets' own limit for a request line
+STREAM_RETRY_S = 0.5  # [s] before a camera stream that ended (or failed) is opened again
 
 
 class WebServer:
@@ -438,23 +439,37 @@ class WebServer:
         from roar.camera import encode_jpeg
 
         stream = self.vehicle.camera_stream()
-        frames = iter(stream) if stream is not None else None
+        streaming = stream is not None
+        frames = iter(stream) if streaming else None
         period = 1.0 / self.camera_fps
         times: list[float] = []
+        seeing = None  # the camera's own problem, shown until frames come again
         while not self._camera_stop.is_set():
             started = time.monotonic()
             try:
-                if frames is not None:
+                if streaming and frames is None:  # the stream ended: open it again, as a browser would
+                    reopened = self.vehicle.camera_stream()
+                    frames = iter(reopened) if reopened is not None else None
+                    rgb = None
+                elif frames is not None:
                     rgb = next(frames)
                 else:
                     got = self.vehicle.camera(*CAMERA_SIZE)
                     rgb = None if got is None else got[0]
             except StopIteration:
-                self.problem = "the camera's stream ended"
-                return
+                self.problem = seeing = "the camera's stream ended: opening it again"
+                frames, rgb = None, None
+                self._camera_stop.wait(STREAM_RETRY_S)
             except Exception as e:  # a camera that fails is shown, and the car drives on
-                self.problem = f"camera: {e}"
+                self.problem = seeing = f"camera: {e}"
                 rgb = None
+                if streaming:
+                    frames = None
+                    self._camera_stop.wait(STREAM_RETRY_S)
+            if rgb is not None and seeing is not None:
+                if self.problem == seeing:
+                    self.problem = ""
+                seeing = None
             if rgb is not None:
                 self._frame = encode_jpeg(rgb, JPEG_QUALITY)
                 self.camera_frames += 1
