@@ -119,12 +119,15 @@ def test_failed_runs_are_reported_and_the_others_kept_then_rerun(tmp_path):
     assert got[0.4]["status"] == got[0.7]["status"] == "ok"
     assert got[0.5]["status"] == "failed" and got[0.5]["error"] == "ValueError: no grip"
     assert got[0.6]["status"] == "failed" and "worker running it died" in got[0.6]["error"]
-    assert sorted(calls.read_text().split()) == ["0.4", "0.7"]
+    # a run that finished beside the dying one may have lost its result with the broken pool and
+    # run again alone: each good run ran, the failing ones never reached their end
+    assert set(calls.read_text().split()) == {"0.4", "0.7"}
+    calls.write_text("")
 
     fixed = subprocess.run([sys.executable, str(script), str(table), "fixed", str(calls)], capture_output=True,
                            text=True, timeout=120, env=env)
     assert fixed.returncode == 0, fixed.stderr
-    assert sorted(calls.read_text().split()) == ["0.4", "0.5", "0.6", "0.7"]  # only the failed ones again
+    assert sorted(calls.read_text().split()) == ["0.5", "0.6"]  # only the failed ones again
     final = rows(table)
     assert [r["margin"] for r in final] == ["0.4", "0.5", "0.6", "0.7"]
     assert all(r["status"] == "ok" for r in final)
