@@ -32,7 +32,9 @@ NEUTRAL = (1500, 1500)  # [us] with the default calibration
 CHROMIUM = "/usr/bin/chromium"
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
                  "--disable-sync", "--no-first-run"]
-SLACK_S = 0.05  # [s] beyond the dead man, for the car's thread and a busy machine
+# [s] beyond the dead man, for the car's thread and a busy machine: the suite runs a CPU-bound test beside
+# this one on two cores, and the server, the simulator, Chromium and the sender then took up to 71 ms
+SLACK_S = 0.1
 
 
 # --- the rules, on their own ------------------------------------------------------------------------
