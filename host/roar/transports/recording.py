@@ -71,9 +71,6 @@ class RecordingTransport(TransportLayer):
         self.recorder = recorder
         self.clock = clock or RunClock(inner.link)
 
-    def now_ns(self, state=None) -> int:
-        return self.clock.now_ns(state)
-
     def write(self, data: bytes) -> None:
         self.inner.write(data)
         rec = self.recorder
