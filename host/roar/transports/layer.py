@@ -14,59 +14,35 @@ from typing import Any
 from roar.transports.base import Transport
 
 
+def _from_inner(name: str, settable: bool = False) -> property:
+    """The wrapped transport's attribute `name`, read (and, if settable, set) through the layer:
+    Transport declares these on the class, so __getattr__ never sees them."""
+
+    def get(self):
+        return getattr(self.inner, name)
+
+    def set_(self, value) -> None:
+        setattr(self.inner, name, value)
+
+    return property(get, set_ if settable else None, doc=f"the link's {name}")
+
+
 class TransportLayer(Transport):
     def __init__(self, inner: Transport) -> None:
         self.inner = inner
 
     # the wrapped link's identity
-    @property
-    def scheme(self):  # type: ignore[override]
-        return self.inner.scheme
-
-    @property
-    def url(self):  # type: ignore[override]
-        return self.inner.url
-
-    @property
-    def min_period_s(self):  # type: ignore[override]
-        return self.inner.min_period_s
-
-    @property
-    def replies(self):  # type: ignore[override]
-        return self.inner.replies
-
-    @property
-    def link(self) -> Transport:
-        return self.inner.link
+    scheme = _from_inner("scheme")  # type: ignore[assignment]
+    url = _from_inner("url")  # type: ignore[assignment]
+    min_period_s = _from_inner("min_period_s")  # type: ignore[assignment]
+    replies = _from_inner("replies")  # type: ignore[assignment]
+    link = _from_inner("link")  # type: ignore[assignment]
 
     # what the signing layer and the commands set and ask reaches the link itself
-    @property
-    def signs_itself(self):  # type: ignore[override]
-        return self.inner.signs_itself
-
-    @property
-    def signer(self):  # type: ignore[override]
-        return self.inner.signer
-
-    @signer.setter
-    def signer(self, value) -> None:
-        self.inner.signer = value
-
-    @property
-    def signing(self):  # type: ignore[override]
-        return self.inner.signing
-
-    @signing.setter
-    def signing(self, value: bool) -> None:
-        self.inner.signing = value
-
-    @property
-    def read_only(self):  # type: ignore[override]
-        return self.inner.read_only
-
-    @read_only.setter
-    def read_only(self, value: bool) -> None:
-        self.inner.read_only = value
+    signs_itself = _from_inner("signs_itself")  # type: ignore[assignment]
+    signer = _from_inner("signer", settable=True)  # type: ignore[assignment]
+    signing = _from_inner("signing", settable=True)  # type: ignore[assignment]
+    read_only = _from_inner("read_only", settable=True)  # type: ignore[assignment]
 
     @classmethod
     def from_url(cls, target, options):  # pragma: no cover - a layer is built over a link, never from a URL
