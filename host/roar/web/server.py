@@ -264,8 +264,11 @@ class WebServer:
         given = cookie[TOKEN_COOKIE].value if TOKEN_COOKIE in cookie else ""
         return bool(given) and hmac.compare_digest(given, self.token or "")
 
-    def _refuse(self, connection, status, reason: str, text: str):
+    def count_refusal(self, reason: str) -> None:
         self.refused[reason] = self.refused.get(reason, 0) + 1
+
+    def _refuse(self, connection, status, reason: str, text: str):
+        self.count_refusal(reason)
         response = connection.respond(status, text + "\n")
         for k, v in HEADERS.items():
             response.headers[k] = v
@@ -501,7 +504,7 @@ def _methods_checked(server: WebServer):
             method = line.split(b" ", 1)[0].decode("ascii", "replace")
             if method in ALLOWED_METHODS:
                 return super().data_received(buffered)
-            server.refused["method not allowed"] = server.refused.get("method not allowed", 0) + 1
+            server.count_refusal("method not allowed")
             text = f"{method} is not allowed here: the page takes GET\n".encode("ascii", "replace")
             self.transport.write(b"HTTP/1.1 405 Method Not Allowed\r\nAllow: %s\r\nConnection: close\r\n"
                                  b"Content-Type: text/plain\r\nContent-Length: %d\r\n\r\n%s"
