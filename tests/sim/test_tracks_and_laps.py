@@ -272,6 +272,17 @@ def test_where_a_track_crosses_itself_the_cars_heading_says_which_leg(tmp_path):
     assert track.project((x, y), heading=yaw + np.pi / 2)[1] == pytest.approx(track.length_m / 2, abs=0.1)
 
 
+def test_a_line_through_a_crossing_is_followed_on_the_leg_it_drives(tmp_path):
+    """Track.follow keeps to the leg driven: along a figure eight's centre line from its crossing,
+    every point is on the line (0 cross-track) and progress only grows, through the crossing too."""
+    track = figure_eight_from_its_crossing(tmp_path)
+    line = track.centerline[::3]
+    _, along, cte = track.follow(line)
+    steps = track.arc_delta(along[:-1], along[1:])  # the first point may read as the lap's end
+    assert np.abs(cte).max() < 1e-6 and np.all(steps > 0) and steps.sum() > 0.95 * track.length_m, (along, cte)
+    assert along[len(along) // 2] == pytest.approx(track.arc_start[3 * (len(along) // 2)])
+
+
 def test_a_figure_eight_that_starts_at_its_crossing_is_timed_and_measured_on_the_leg_driven(tmp_path):
     """Progress is tracked continuously from the start: lap 1 is timed as lap 2 is (it was twice
     as long), the cross-track error is the car's from its own leg (it was 5.4 m on a 1.2 m track),

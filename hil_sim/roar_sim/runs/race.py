@@ -23,7 +23,6 @@ laps than asked, with a one-line reason (time limit, wall contacts, distance cov
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from collections.abc import Sequence
 from contextlib import ExitStack
@@ -61,16 +60,13 @@ MAX_PARTICLES = 100_000  # the filter's particles a race may ask for
 def check_line(track: Track, line: np.ndarray) -> None:
     """A waypoint line must lie on the track and run its way round (the car starts on the centre
     line's first point facing the second); WaypointError with a one-line reason otherwise."""
-    hint, positions = None, []
-    heading = math.atan2(line[1][1] - line[0][1], line[1][0] - line[0][0])  # which leg, where two cross
-    for i, point in enumerate(line):
-        hint, s_along, cte = track.project(point, hint, heading=heading)
-        half = track.half_widths_at(hint)[0 if cte > 0 else 1]
+    segments, positions, ctes = track.follow(line)
+    for i, (point, seg, cte) in enumerate(zip(line, segments, ctes)):
+        half = track.half_widths_at(int(seg))[0 if cte > 0 else 1]
         if abs(cte) > half:
             raise WaypointError(f"waypoint {i + 1} at ({point[0]:.2f}, {point[1]:.2f}) is {abs(cte):.2f} m from "
                                 f"the centre line, outside the track (its wall is {half:.2f} m from it there)")
-        positions.append(s_along)
-    if track.arc_delta(np.array(positions), np.roll(positions, -1)).sum() < 0:
+    if track.arc_delta(positions, np.roll(positions, -1)).sum() < 0:
         raise WaypointError("the waypoints run against the track's direction (the car starts facing along the "
                             "centre line from its first point): reverse their order")
 

@@ -146,17 +146,6 @@ def report(result: RaceResult) -> str:
     return "\n".join(lines)
 
 
-def _along(track: Track, line: np.ndarray) -> np.ndarray:
-    """[m] each point of a line projected along the track, followed from its first (continuously,
-    as a car would be: a figure eight's crossing stays on the leg driven)."""
-    heading = np.arctan2(line[1, 1] - line[0, 1], line[1, 0] - line[0, 0])
-    hint, along = None, []
-    for point in line:
-        hint, s, _ = track.project(point, hint, heading=heading)
-        along.append(s)
-    return np.asarray(along)
-
-
 def plot(result: RaceResult):
     """Left: the track and the driven path coloured by speed. Right: speed along the track for
     every lap against the physical-limit profile."""
@@ -172,7 +161,7 @@ def plot(result: RaceResult):
     ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.16), ncol=3, fontsize=8)  # below the track, not on it
     ax_v.plot(result.track.arc_start, result.limit_speeds, color="black", lw=1.5, label="physical limit (centre line)")
     if result.line is not None and result.line_speeds is not None:
-        along = _along(result.track, result.line)
+        along = result.track.follow(result.line)[1]
         order = np.argsort(along)
         ax_v.plot(along[order], result.line_speeds[order], color="tab:red", lw=1.2,
                   label="physical limit (the line followed)")

@@ -269,6 +269,19 @@ class Track:
         cross = dx[k] * (py - ay[k]) - dy[k] * (px - ax[k])
         return seg, s, float(math.copysign(math.hypot(ex[k], ey[k]), cross))
 
+    def follow(self, line) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(segment index, arc-length position [m], signed cross-track error [m]) of every point of a
+        line, followed continuously from its first point, which faces its second (as a car would
+        drive it: a figure eight's crossing stays on the leg driven)."""
+        line = np.asarray(line, dtype=float)
+        hint, heading = None, math.atan2(line[1, 1] - line[0, 1], line[1, 0] - line[0, 0])
+        rows = []
+        for point in line:
+            hint, s, cte = self.project(point, hint, heading=heading)
+            rows.append((hint, s, cte))
+        seg, s, cte = zip(*rows)
+        return np.asarray(seg, dtype=int), np.asarray(s), np.asarray(cte)
+
     def locate(self, xy, heading: float) -> int:
         """The segment a pose (a point and a heading [rad]) is on: of the segments as near as the
         nearest (within SAME_PLACE_M), the one running most its way. Where a track crosses itself
