@@ -46,7 +46,7 @@ MAX_EXTENT_M = 200.0  # [m] side of the square the track must fit in
 MAX_DISTANCE_M = 1000.0  # [m] of any point from the origin
 MIN_CROSSING_DEG = 45.0  # [deg] shallowest angle at which the track may cross itself
 MIN_BEND_RADIUS_M = 0.3  # [m] along the centre line: tighter than any car here turns
-BEND_CHORD_M = 0.3  # [m] the bend check's circle passes through points this far either side
+CHECK_CHORD_M = 0.3  # [m] the shape check's bend circle passes through points this far either side
 CHECK_STEP_M = 0.1  # [m] the shape checks look at the centre line this often (or every width/4)
 WALL_TOLERANCE_M = 0.005  # [m] walls follow the area's edge within this
 WALL_GAP_M = 0.06  # [m] between two parts of a track parted by a wall (a wall box is 0.05 m thick)
@@ -365,8 +365,8 @@ def _shape_problem(pts: np.ndarray, halves: np.ndarray) -> tuple[str | None, np.
     widths = halves.sum(axis=1)
     step = min(CHECK_STEP_M, float(widths.min()) / 4)
     dense, owner = _resample(pts, step)
-    # Bend: the circle through each point and its neighbours BEND_CHORD_M away on either side.
-    k = max(1, int(round(BEND_CHORD_M / step)))
+    # Bend: the circle through each point and its neighbours CHECK_CHORD_M away on either side.
+    k = max(1, int(round(CHECK_CHORD_M / step)))
     a, b, c = np.roll(dense, k, axis=0), dense, np.roll(dense, -k, axis=0)
     ab, bc, ca = (np.linalg.norm(b - a, axis=1), np.linalg.norm(c - b, axis=1), np.linalg.norm(a - c, axis=1))
     cross = np.abs((b - a)[:, 0] * (c - b)[:, 1] - (b - a)[:, 1] * (c - b)[:, 0])
