@@ -311,8 +311,8 @@ def test_a_race_with_no_lap_says_how_long_it_drove():
     assert not result.lap_times_s and "laps completed: 0 (0.00 s), in 3.0" in race.report(result)
 
 
-def stadium(tmp_path, radius_m: float, name: str = "stadium"):
-    """4 m straights joined by half circles of radius_m, 1.2 m wide, as a centre-line CSV."""
+def stadium(tmp_path, radius_m: float, name: str = "stadium", width_m: float = 1.2):
+    """4 m straights joined by half circles of radius_m, width_m wide, as a centre-line CSV."""
     t = np.linspace(-np.pi / 2, np.pi / 2, 30, endpoint=False)
     straight = np.linspace(0, 4, 40, endpoint=False)
     points = np.vstack([np.column_stack([straight, np.full(40, -radius_m)]),
@@ -320,7 +320,7 @@ def stadium(tmp_path, radius_m: float, name: str = "stadium"):
                         np.column_stack([4 - straight, np.full(40, radius_m)]),
                         np.column_stack([-radius_m * np.cos(t), -radius_m * np.sin(t)])])
     path = tmp_path / f"{name}_centerline.csv"
-    path.write_text("".join(f"{x:.6f}, {y:.6f}, 0.6, 0.6\n" for x, y in points))
+    path.write_text("".join(f"{x:.6f}, {y:.6f}, {width_m / 2}, {width_m / 2}\n" for x, y in points))
     return get(str(path))
 
 
@@ -345,6 +345,26 @@ def test_a_bend_no_car_can_take_is_refused_for_the_cars_and_taken_by_the_junior(
     assert robots.get("esc").min_turn_radius_m() == pytest.approx(0.77, abs=0.01)
     result = race.race(track, 1, robot="junior")
     assert len(result.lap_times_s) == 1, race.report(result)
+
+
+@pytest.mark.parametrize("radius_m, width_m", [(0.68, 2.2), (0.74, 1.2)])
+def test_a_hairpin_tighter_than_the_car_turns_is_raced_where_the_track_is_wide_enough_to_run_wide(
+        tmp_path, radius_m, width_m):
+    """The ESC car turns no tighter than 0.77 m, but runs wide of a 0.68 m hairpin on a 2.2 m
+    track (the F1TENTH circuits' width) and of a 0.74 m one on a 1.2 m track: both are raced, two
+    laps without a wall, where the same 0.68 m hairpin 1.2 m wide is refused (above)."""
+    track = stadium(tmp_path, radius_m, width_m=width_m)
+    result = race.race(track, 2)
+    assert len(result.lap_times_s) == 2 and result.wall_contacts == 0, race.report(result)
+
+
+def test_a_bend_is_measured_over_at_least_the_files_point_spacing():
+    """A 1 m circle of 16 points 0.39 m apart (the F1TENTH circuits' files have them ~0.4 m
+    apart): the corners between points are no tighter bends (over the 0.25 m chord alone, the
+    F1TENTH Monza's 0.72 m hairpin measured 0.54 m)."""
+    angles = np.linspace(0, 2 * np.pi, 16, endpoint=False)
+    track = Track("sparse", np.column_stack([np.cos(angles), np.sin(angles)]) * 1.0 + (3, 3), 1.2)
+    assert track.tightest_bend()[0] == pytest.approx(1.0, rel=0.05)
 
 
 def test_a_kink_in_a_file_is_no_bend_and_a_wide_bend_is_raced(tmp_path):

@@ -32,6 +32,9 @@ from roar.telemetry import VehicleState
 from roar_sim.core.lockstep import CONTROL_PERIOD_S, Lockstep
 from roar.tracks.track import Track, TrackError
 
+DRIVER_WIDE_M = 0.35  # [m] how far wide of a hairpin's centre line the autopilot runs, turning no tighter than it
+# can (measured: 0.35 m at a 0.74 m hairpin for the ESC car's 0.77 m); Robot.too_tight() adds what it cannot turn
+
 Pose = tuple[float, float, float]  # x [m], y [m], yaw [rad]
 
 
@@ -91,15 +94,40 @@ class Robot(Lockstep):
 
     @classmethod
     def check_track(cls, track: Track, profile=None) -> None:
-        """TrackError (one line: which bend, where, what radius) when the track's centre line
-        bends tighter than the robot can turn: its driver would wedge it into the wall there, and
-        no physical-limit lap exists to measure it against."""
-        radius, along, (x, y) = track.tightest_bend()
+        """TrackError (one line: which bend, where, what radius) when the track bends tighter
+        than the robot can take it: its driver would wedge it into the wall there, and no
+        physical-limit lap exists to measure it against (too_tight())."""
+        problem = cls.too_tight(track, profile)
+        if problem:
+            raise TrackError(f"track {track.name!r} {problem}; open the bend out or widen the track there, or race a "
+                             f"robot that can take it")
+
+    @classmethod
+    def too_tight(cls, track: Track, profile=None) -> str | None:
+        """Where the track's centre line bends tighter than the robot turns by more than the
+        track's width lets it run wide, in words; None where it can take every bend. At full lock
+        a car runs up to 2 (R - r) wide of a hairpin of radius r (R: its tightest circle), beyond
+        the DRIVER_WIDE_M its driver runs wide of any hairpin and its own half width: that must
+        stay inside the wall on the bend's outside (measured: the ESC car laps a 0.68 m hairpin
+        2.2 m wide and a 0.74 m one 1.2 m wide, and wedges in a 0.68 m one 1.2 m wide, a 0.5 m
+        one 1.6 m wide and a 0.31 m one 2.2 m wide)."""
         least = cls.min_turn_radius_m(profile)
-        if radius < least:
-            raise TrackError(f"track {track.name!r} bends with a radius of {radius:.2f} m {along:.1f} m along its "
-                             f"centre line, at ({x:.2f}, {y:.2f}): the {cls.title} turns no tighter than {least:.2f} m; "
-                             f"open the bend out, or race a robot that can take it")
+        radii = track.bend_radii()
+        if not (radii < least).any():
+            return None
+        left, right = track.half_widths[:, 0], track.half_widths[:, 1]
+        outside = np.where(track.turns_left(), right, left)  # [m] from the centre line to the bend's outer wall
+        wide = 2 * np.maximum(0.0, least - radii)
+        room = outside - cls.half_width_m - DRIVER_WIDE_M
+        short = wide - room
+        i = int(np.argmax(short))
+        if short[i] <= 0:
+            return None
+        x, y = track.centerline[i]
+        return (f"bends with a radius of {radii[i]:.2f} m {track.arc_start[i]:.1f} m along its centre line, at "
+                f"({x:.2f}, {y:.2f}): the {cls.title} turns no tighter than {least:.2f} m: running wide "
+                f"there its side would reach {wide[i] + DRIVER_WIDE_M + cls.half_width_m:.2f} m out from the centre "
+                f"line, and the wall is {outside[i]:.2f} m out")
 
     def __init__(self, track: Track | None, realtime: bool = False, speedup: float = 1.0) -> None:
         self.track, self.realtime, self.speedup = track, realtime, speedup

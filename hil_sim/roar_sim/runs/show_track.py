@@ -44,10 +44,10 @@ def summary(track: Track) -> str:
     lines = [f"{track.name}: {track.length_m:.1f} m round, {widths.min():.2f}..{widths.max():.2f} m wide, tightest "
              f"bend of the centre line {radius:.2f} m ({along:.1f} m along); {len(track.walls)} "
              f"wall{'s' if len(track.walls) != 1 else ''}; start ({x:.2f}, {y:.2f}) facing {np.degrees(yaw):.0f} degrees"]
-    too_tight = [f"the {kind.title} (turns no tighter than {kind.min_turn_radius_m():.2f} m)"
-                 for kind in map(robots.get, robots.names()) if kind.min_turn_radius_m() > radius]
-    if too_tight:
-        lines.append(f"too tight a bend for {' and '.join(too_tight)}: races of those are refused")
+    for kind in map(robots.get, robots.names()):
+        problem = kind.too_tight(track)
+        if problem:
+            lines.append(f"too tight for the {kind.title}, whose races are refused here: it {problem}")
     if track.course is not None:
         from roar.tracks.tunnel import describe
 

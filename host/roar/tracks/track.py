@@ -169,8 +169,11 @@ class Track:
 
     def bend_radii(self, chord_m: float = BEND_CHORD_M) -> np.ndarray:
         """[m] the radius of the centre line at each of its points: of the circle through the
-        points chord_m before and after it along the line. Over a chord, not from the next
-        points: a kink of a few degrees in a file (or its rounding) is no bend a car must take."""
+        points chord_m (at least the points' median spacing) before and after it along the line.
+        Over a chord, not from the next points: a kink of a few degrees in a file (or its
+        rounding) is no bend a car must take, nor is the corner between two points of a file
+        that has them 0.4 m apart (the F1TENTH circuits')."""
+        chord_m = max(chord_m, float(np.median(self.segment_lengths)))
         s, n = self.arc_start, len(self.centerline)
         x = np.concatenate([self.centerline[:, 0]] * 3)
         y = np.concatenate([self.centerline[:, 1]] * 3)
@@ -181,6 +184,12 @@ class Track:
         sides = np.linalg.norm(b - a, axis=1) * np.linalg.norm(c - b, axis=1) * np.linalg.norm(a - c, axis=1)
         cross = np.abs((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0])
         return np.where(cross > 1e-12, sides / np.maximum(2 * cross, 1e-12), np.inf)[:n]
+
+    def turns_left(self) -> np.ndarray:
+        """Whether the centre line turns left (anticlockwise) at each of its points."""
+        before = self.centerline - np.roll(self.centerline, 1, axis=0)
+        after = np.roll(self.centerline, -1, axis=0) - self.centerline
+        return before[:, 0] * after[:, 1] - before[:, 1] * after[:, 0] > 0
 
     def tightest_bend(self) -> tuple[float, float, tuple[float, float]]:
         """(radius [m], where along the line [m], (x, y) [m]) of the centre line's tightest bend."""
