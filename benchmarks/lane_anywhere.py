@@ -1,8 +1,11 @@
 """The camera-only lane driver on tracks no one tuned it for: two laps on each of the random tracks
-random:1..20 (1.2 m wide, bends >= 1.5 m) and five 2.2 m wide ones with bends >= 1 m (the real
-circuits' shape), a row per seed: laps, wall contacts, the largest cross-track error (target 0,
-<= 0.25 m), its best lap against the pose-based autopilot's on the same track (target <= 1.3),
-and its stops, each explained. Then the same 20 with the shaking, noisy camera (target: >= 18 of
+random:1..20 (1.2 m wide, bends >= 1.5 m) and five 2.2 m wide ones with bends >= 1 m, and a lap of
+each of the circuit-like tracks circuit:1..10 (260-490 m, 2.2 m wide, the real circuits' shape:
+roar.tracks.circuit_track), a row per track: laps, wall contacts, the largest cross-track error
+(target 0, <= 0.25 m), its best lap against the pose-based autopilot's on the same track (target
+<= 1.3; on a circuit only shown: the camera sees 2.5 m of road, so the lane driver keeps to 2.2 m/s
+where the pose driver reaches the car's top speed on straights of tens of metres), and its stops,
+each explained. Then the same 20 with the shaking, noisy camera (target: >= 18 of
 20 meet the lap targets), and 20 standing starts after waiting 0-5 s for the start lights, one on
 each of the 20 tracks (target: 20 of 20 leave the first bend behind, without touching a wall)."""
 
@@ -16,10 +19,13 @@ from roar.tracks import get
 from roar_sim.runs.race import race, race_timeout_s
 from roar_sim.world.start_lights import green_moment
 
-TITLE = "camera-only laps on unseen random tracks (targets: 2 laps, 0 wall contacts, cross-track <= 0.25 m, <= 1.3 x pose)"
+TITLE = ("camera-only laps on unseen random and circuit-like tracks (targets: 2 laps, a circuit 1, 0 wall contacts, "
+         "cross-track <= 0.25 m, <= 1.3 x pose)")
 NARROW = [f"random:{seed}" for seed in range(1, 21)]
 WIDE = [f"random:{seed},width=2.2,radius=1" for seed in range(1, 6)]
+CIRCUITS = [f"circuit:{seed}" for seed in range(1, 11)]
 LAPS = 2
+CIRCUIT_LAPS = 1  # a circuit's lap is 260-490 m: several minutes of camera frames
 MAX_CROSS_TRACK_M = 0.25  # [m]
 MAX_RATIO = 1.3
 SHAKY_TARGET = 18  # of the 20 narrow tracks
@@ -29,16 +35,18 @@ EXIT_BEYOND_M = 1.0  # [m] driven past the first bend's exit, to count as having
 
 
 def one(name: str) -> str:
+    laps = CIRCUIT_LAPS if name in CIRCUITS else LAPS
     track = get(name)
-    by_camera = race(track, laps=LAPS, lateral="lane")
-    by_pose = race(track, laps=LAPS)
+    by_camera = race(track, laps=laps, lateral="lane")
+    by_pose = race(track, laps=laps)
     end_s = by_camera.path[-1][4] if by_camera.path else 0.0
     stops = "; ".join(stop.line(end_s) for stop in by_camera.stops) or "no stops"
-    if len(by_camera.lap_times_s) < LAPS:
-        return f"  {name:32} MISSED: {by_camera.shortfall(LAPS, race_timeout_s(by_camera, LAPS))}"
+    if len(by_camera.lap_times_s) < laps:
+        return f"  {name:32} MISSED: {by_camera.shortfall(laps, race_timeout_s(by_camera, laps))}"
     ratio = min(by_camera.lap_times_s) / min(by_pose.lap_times_s)
-    ok = by_camera.wall_contacts == 0 and by_camera.max_cross_track_m <= MAX_CROSS_TRACK_M and ratio <= MAX_RATIO
-    return (f"  {name:32} {LAPS} laps, best {min(by_camera.lap_times_s):5.2f} s = {ratio:.2f} x pose, wall contacts "
+    paced = ratio <= MAX_RATIO or name in CIRCUITS  # a circuit's straights: the camera's sight caps the lane driver
+    ok = by_camera.wall_contacts == 0 and by_camera.max_cross_track_m <= MAX_CROSS_TRACK_M and paced
+    return (f"  {name:32} {laps} lap{'s' * (laps > 1)}, best {min(by_camera.lap_times_s):5.2f} s = {ratio:.2f} x pose, wall contacts "
             f"{by_camera.wall_contacts}, max cross-track {by_camera.max_cross_track_m:.2f} m, {stops}  "
             f"{'ok' if ok else 'MISSED'}")
 
@@ -77,7 +85,7 @@ def standing(name: str, seed: int) -> str:
 
 
 def run(names: list[str] | None = None) -> None:
-    names = names or [*NARROW, *WIDE]
+    names = names or [*NARROW, *WIDE, *CIRCUITS]
     with ProcessPoolExecutor(max_workers=2) as pool:  # two races at once: this machine's cores
         rows = list(pool.map(one, names))
         for row in rows:

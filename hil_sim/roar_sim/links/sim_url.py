@@ -5,7 +5,7 @@ roar-platform[sim].
 
     sim://                        an open floor, no walls
     sim://oval   sim://figure-eight   a built-in track
-    sim://?track=random:7         any track name: random:SEED, tunnel:SEED (roar.tracks)
+    sim://?track=random:7         any track name: random:SEED, circuit:SEED, tunnel:SEED (roar.tracks)
     sim:///home/me/track.json     a track file: .json, a centre-line .csv, a map .yaml
 
 Options: robot=esc|iarrc|junior (roar_sim.robots; default esc): the IARRC car takes speed
@@ -87,7 +87,7 @@ class SimTransport(Transport):
         track = target if target.lower().endswith((".json", ".csv", ".yaml", ".yml")) else target.strip("/")
         named = pop_option(options, "track", str, None)
         if named is not None and not named.strip():
-            raise TransportError("track= is empty: name a track (sim://?track=oval, random:SEED, tunnel:SEED, a file)")
+            raise TransportError("track= is empty: name a track (sim://?track=oval, random:SEED, circuit:SEED, tunnel:SEED, a file)")
         if named is not None and track:
             raise TransportError(f"sim://{target}?track={named}: name the track once (sim://NAME or sim://?track=NAME)")
         track = named if named is not None else track

@@ -218,7 +218,8 @@ def parser() -> argparse.ArgumentParser:
                    help="time limit in simulated seconds (default: 4 x the physical-limit laps + 10)")
     p.add_argument("--track", default=None,
                    help="oval, figure-eight, course (long straights, for boxes), random:SEED[,length=MIN-MAX,width=M,radius=M,"
-                        "straightness=0..1], tunnel:SEED[,width=M,cones=N,markers=N,people=N], drag:LENGTH[,width=M,"
+                        "straightness=0..1], circuit:SEED[,length=MIN-MAX,width=M] (a real circuit's shape, 260-490 m), "
+                        "tunnel:SEED[,width=M,cones=N,markers=N,people=N], drag:LENGTH[,width=M,"
                         "stop=M] (a drag strip), or a file: .json, an F1TENTH/TUM centre-line .csv, a map .yaml "
                         "(default: oval; drag:40 for --event drag)")
     p.add_argument("--event", choices=["circuit", "drag"], default="circuit",

@@ -1,6 +1,6 @@
 """What a track's name may be, wherever one is taken (`roar race --track`, `sim://?track=`, the
 Gym environment, `roar sweep`, `roar track`): a built-in track, `random:SEED[,...]`,
-`tunnel:SEED[,...]`, `drag:LENGTH[,...]` (the IARRC drag race's strip), or a file: .json (the project's), .csv (an F1TENTH/TUM centre line) or
+`circuit:SEED[,...]` (the shape of a real 1:10 circuit), `tunnel:SEED[,...]`, `drag:LENGTH[,...]` (the IARRC drag race's strip), or a file: .json (the project's), .csv (an F1TENTH/TUM centre line) or
 .yaml (an F1TENTH/ROS map)."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from pathlib import Path
 from roar.checks import printable, shown
 from roar.tracks.track import BUILTIN, Track, TrackError
 
-FORMS = "oval, figure-eight, course, random:SEED, tunnel:SEED, drag:LENGTH, or a .json, .csv or .yaml file"
+FORMS = "oval, figure-eight, course, random:SEED, circuit:SEED, tunnel:SEED, drag:LENGTH, or a .json, .csv or .yaml file"
 
 
 MAX_SEED_RANGE = 1000  # seeds one range may name
@@ -32,7 +32,7 @@ def split_names(text: str) -> list[str]:
 
 def _seeds(name: str) -> list[str]:
     """`kind:A-B[,options]` as kind:A .. kind:B, each with the options; any other name as it is."""
-    match = re.fullmatch(r"(random|tunnel):(\d{1,9})-(\d{1,9})(,.*)?", name)
+    match = re.fullmatch(r"(random|circuit|tunnel):(\d{1,9})-(\d{1,9})(,.*)?", name)
     if not match:
         return [name]
     kind, first, last, options = match.group(1), int(match.group(2)), int(match.group(3)), match.group(4) or ""
@@ -54,6 +54,10 @@ def get(name_or_path: str) -> Track:
         from roar.tracks import random_track
 
         return random_track.generate(random_track.parse(name))
+    if name.startswith("circuit:"):
+        from roar.tracks import circuit_track
+
+        return circuit_track.generate(circuit_track.parse(name))
     if name.startswith("tunnel:"):
         from roar.tracks import tunnel
 

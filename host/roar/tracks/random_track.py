@@ -26,7 +26,7 @@ from roar.tracks.track import MAX_WIDTH_M, MIN_BEND_RADIUS_M, MIN_WIDTH_M, Track
 PREFIX = "random:"
 SPACING_M = 0.1  # [m] between centre-line points
 MAX_DRAWS = 400  # polygons drawn before a seed's parameters are called impossible
-LENGTH_RANGE_M = (10.0, 400.0)  # [m] lengths a random track may be asked for
+LENGTH_RANGE_M = (10.0, 500.0)  # [m] lengths a random track may be asked for
 MAX_RADIUS_M = 20.0  # [m] tightest radius that may be asked for
 MIN_CORNER_TURN_RAD = math.radians(8)  # [rad] a corner turning less is dropped
 
@@ -113,33 +113,33 @@ def _draw(rng: np.random.Generator, spec: RandomTrackSpec) -> np.ndarray | None:
     angles = np.sort(rng.uniform(0, 2 * math.pi, corners))
     radii = rng.uniform(0.35, 1.0, corners)
     polygon = np.stack([radii * np.cos(angles), radii * np.sin(angles)], axis=1)
-    polygon = _drop_straight_corners(polygon)
+    polygon = drop_straight_corners(polygon)
     if polygon is None:
         return None
-    polygon *= length / _perimeter(polygon)
+    polygon *= length / perimeter(polygon)
     arcs = _round_corners(polygon, rng, spec)
     if arcs is None:
         return None
-    path = _sample(arcs)
-    path *= length / _perimeter(path)  # the corners shortened it: back to the drawn length
-    start = _middle_of_longest_straight(path)
+    path = sample_arcs(arcs)
+    path *= length / perimeter(path)  # the corners shortened it: back to the drawn length
+    start = middle_of_longest_straight(path)
     return np.round(np.roll(path, -start, axis=0), 6)
 
 
-def _perimeter(points: np.ndarray) -> float:
+def perimeter(points: np.ndarray) -> float:
     return float(np.linalg.norm(np.roll(points, -1, axis=0) - points, axis=1).sum())
 
 
-def _turns(polygon: np.ndarray) -> np.ndarray:
+def corner_turns(polygon: np.ndarray) -> np.ndarray:
     """[rad] signed turn at each corner (anticlockwise positive)."""
     into = polygon - np.roll(polygon, 1, axis=0)
     out = np.roll(polygon, -1, axis=0) - polygon
     return np.arctan2(into[:, 0] * out[:, 1] - into[:, 1] * out[:, 0], np.einsum("ij,ij->i", into, out))
 
 
-def _drop_straight_corners(polygon: np.ndarray) -> np.ndarray | None:
+def drop_straight_corners(polygon: np.ndarray) -> np.ndarray | None:
     while len(polygon) >= 3:
-        turns = _turns(polygon)
+        turns = corner_turns(polygon)
         flat = int(np.argmin(np.abs(turns)))
         if abs(turns[flat]) >= MIN_CORNER_TURN_RAD:
             return polygon if len(polygon) >= 3 else None
@@ -150,7 +150,7 @@ def _drop_straight_corners(polygon: np.ndarray) -> np.ndarray | None:
 def _round_corners(polygon: np.ndarray, rng: np.random.Generator, spec: RandomTrackSpec) -> list | None:
     """Per corner (arc start, arc centre, radius, signed turn): each corner's arc as large as the
     straightness leaves room for, none below radius_m."""
-    turns = _turns(polygon)
+    turns = corner_turns(polygon)
     sides = np.linalg.norm(np.roll(polygon, -1, axis=0) - polygon, axis=1)  # corner i to i+1
     room = np.minimum(sides, np.roll(sides, 1)) / 2  # tangent length each corner may use
     tan_half = np.tan(np.abs(turns) / 2)
@@ -158,18 +158,18 @@ def _round_corners(polygon: np.ndarray, rng: np.random.Generator, spec: RandomTr
     if np.any(biggest < spec.radius_m * 1.02) or np.any(np.abs(turns) > math.radians(170)):
         return None
     share = (1 - spec.straightness) * rng.uniform(0.4, 1.0, len(polygon))
-    return _corner_arcs(polygon, spec.radius_m * 1.02 + (biggest - spec.radius_m * 1.02) * share)
+    return corner_arcs(polygon, spec.radius_m * 1.02 + (biggest - spec.radius_m * 1.02) * share)
 
 
 def rounded_polygon(polygon, radii_m) -> np.ndarray:
     """A closed centre line (points every SPACING_M) round a polygon's corners (anticlockwise),
     each corner an arc of its radius [m] and straights between: a track of any shape, by hand."""
-    return _sample(_corner_arcs(np.asarray(polygon, dtype=float), np.broadcast_to(radii_m, (len(polygon),))))
+    return sample_arcs(corner_arcs(np.asarray(polygon, dtype=float), np.broadcast_to(radii_m, (len(polygon),))))
 
 
-def _corner_arcs(polygon: np.ndarray, radius: np.ndarray) -> list:
+def corner_arcs(polygon: np.ndarray, radius: np.ndarray) -> list:
     """Per corner (arc start, arc centre, radius, signed turn)."""
-    turns = _turns(polygon)
+    turns = corner_turns(polygon)
     tan_half = np.tan(np.abs(turns) / 2)
     arcs = []
     for i, corner in enumerate(polygon):
@@ -181,7 +181,7 @@ def _corner_arcs(polygon: np.ndarray, radius: np.ndarray) -> list:
     return arcs
 
 
-def _sample(arcs: list) -> np.ndarray:
+def sample_arcs(arcs: list) -> np.ndarray:
     """Points every ~SPACING_M along the arcs and the straights between them."""
     points = []
     for i, (start, centre, radius, turn) in enumerate(arcs):
@@ -196,7 +196,7 @@ def _sample(arcs: list) -> np.ndarray:
     return np.vstack(points)
 
 
-def _middle_of_longest_straight(path: np.ndarray) -> int:
+def middle_of_longest_straight(path: np.ndarray) -> int:
     heading = np.roll(path, -1, axis=0) - path
     heading = np.arctan2(heading[:, 1], heading[:, 0])
     straight = np.abs((np.roll(heading, -1) - heading + math.pi) % (2 * math.pi) - math.pi) < 1e-6
