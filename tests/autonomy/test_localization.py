@@ -140,6 +140,21 @@ def test_odometry_integrates_a_circle_and_ignores_readings_that_are_no_numbers()
     assert math.hypot(*odo.pose[:2]) < 0.02  # back where it started after one circle
 
 
+def test_odometry_from_front_wheel_encoders_keeps_the_rear_axles_arc():
+    """Round a 0.75 m circle the front wheels (0.325 m ahead) run 9 % further than the rear axle:
+    told where they are, the odometry draws the rear axle's circle; not told, one 9 % wider."""
+    radius, wheelbase, speed, dt = 0.75, 0.325, 1.0, 0.02  # [m], [m], [m/s] of the rear axle, [s]
+    front = speed * math.hypot(radius, wheelbase) / radius  # [m/s] the front wheels' speed
+    told, untold = Odometry((0.0, 0.0, 0.0), front_axle_m=wheelbase), Odometry((0.0, 0.0, 0.0))
+    widest = {told: 0.0, untold: 0.0}  # [m] from the start: the circle's diameter
+    for k in range(int(2 * math.pi * radius / speed / dt) + 1):
+        for odo in (told, untold):
+            odo.update(k * dt, front * k * dt, speed / radius)
+            widest[odo] = max(widest[odo], math.hypot(*odo.pose[:2]))
+    assert widest[told] == pytest.approx(2 * radius, rel=0.01)
+    assert widest[untold] == pytest.approx(2 * math.hypot(radius, wheelbase), rel=0.01)
+
+
 def test_an_encoder_counts_metres():
     assert Encoder(10_240, 0.0505).metres(10_240) == pytest.approx(2 * math.pi * 0.0505)
 
@@ -259,6 +274,25 @@ def test_a_kidnapped_filter_finds_out_and_finds_the_car_again():
     assert pf.restarts >= 1  # it knew it was lost
     settled = settled_at(errors)
     assert settled is not None and settled - 4.0 <= 10.0, errors[::25]
+
+
+def test_a_filter_slid_along_its_heading_looks_there_before_it_starts_over():
+    """Odometry that ran 2 m long on a straight (a slipping wheel, a straight with nothing ahead to
+    measure) leaves the filter lost: it finds the car along its own heading, with no global restart."""
+    grid = room()
+    sim = Synthetic(grid, seed=7)
+    pf = ParticleFilter(grid, particles=500, seed=7)
+    pf.start_at(loop_path(0.0))
+    drive(pf, sim, 2.0)
+    assert pf.localized
+
+    def slid_on(t):  # 2 m further along the bottom straight from 2 s on
+        return loop_path(t + 2.0)
+
+    errors = drive(pf, sim, 6.0, t0=2.0, truth=slid_on)
+    assert pf.restarts == 0
+    settled = settled_at(errors, within_m=0.15)
+    assert settled is not None and settled - 2.0 <= 3.0, errors[::25]
 
 
 # --- the local grid ---------------------------------------------------------------------------------

@@ -139,7 +139,8 @@ class LocalizedCar:
         self.sensors = WheelOdometry(robot.plant, seed)
         self.lidar = Lidar(robot.plant, None if seed is None else seed + 1, SCAN_BEAMS)
         s = robot.state()
-        self.odometry = Odometry((s.x, s.y, s.yaw))
+        profile = getattr(robot.plant, "profile", None)  # encoders on the front wheels, the pose at the rear axle
+        self.odometry = Odometry((s.x, s.y, s.yaw), profile.wheelbase_m if profile is not None else 0.0)
         self.filter = ParticleFilter(grid, particles, beams, sensor=robot.plant.lidar_mount(), seed=seed)
         self.setup = {"particles": particles, "beams": beams, "seed": seed, "sensor": list(robot.plant.lidar_mount()),
                       "start": None}  # what a replay needs to run the same filter (roar.replay.localize)

@@ -56,6 +56,9 @@ NEAR_TOLERANCE_M = 0.1  # [m] (+ 5 % of the range) between that reading and a ce
 NEAR_HEADING_RAD = math.radians(4)  # [rad] spread of the headings drawn from it
 SCAN_PLACED = 0.8  # share of a global start's particles placed by the scan (the rest anywhere: the nearest wall
 # may be behind the lidar, where it does not see)
+SEARCH_ALONG_M = 4.0  # [m] a filter lost after being localized first looks this far either way along its heading
+# (4 % of a 90 m straight, the longest of the real circuits': a wheel's radius or its slip that far off) ...
+SEARCH_ACROSS_M, SEARCH_YAW_RAD = 0.2, 0.05  # [m], [rad] ... and this much across and turned (standard deviations)
 RESAMPLE_BELOW = 0.5  # resample when the effective number of particles falls below this share of them: until
 # then the weights carry over from scan to scan and the odometry's noise spreads the particles out
 
@@ -140,6 +143,7 @@ class ParticleFilter:
         self.localized = False
         self._good, self._bad = 0.0, 0  # [m] driven with a good fit; scans in a row with a bad one
         self._was_localized = False
+        self._searched_along = False  # lost, it looked along its heading: the next loss restarts it globally
         self.restarts = 0  # global restarts after the filter was lost
         self.corrections = self.skipped_scans = self.skipped_beams = 0
 
@@ -267,6 +271,9 @@ class ParticleFilter:
         self.corrections += 1
         self._moved_m = self._turned_rad = 0.0
         if self.recovery and self._bad >= LOST_SCANS and (self._was_localized or self.converged):
+            if self._was_localized and not self._searched_along:
+                self._search_along()  # first where the odometry says it is, give or take a straight's drift
+                return True
             self.restarts += 1
             self.start_global()
             return True
@@ -283,12 +290,31 @@ class ParticleFilter:
         agree = np.where(at_max, expected >= self.max_range_m - FIT_TOLERANCE_M,
                          np.abs(expected - ranges) <= FIT_TOLERANCE_M)
         self.fit = float(np.mean(agree))
+        if self.fit >= FIT_GOOD:
+            self._searched_along = False
         self._good = self._good + moved_m if self.fit >= FIT_GOOD and self.converged else 0.0
         self._bad = self._bad + 1 if self.fit < FIT_LOST else 0
         if self._good >= LOCALIZED_M:
             self.localized = self._was_localized = True
         elif self._bad >= LOST_SCANS:
             self.localized = False
+
+    def _search_along(self) -> None:
+        """Lost after being localized: particles spread along the estimate's heading, SEARCH_ALONG_M
+        either way (what the odometry may have drifted along a straight the scan cannot place the
+        car on), before a global restart if that fails too."""
+        self._searched_along = True
+        n = self.count
+        x, y, yaw = self._estimate
+        along = self.rng.uniform(-SEARCH_ALONG_M, SEARCH_ALONG_M, n)
+        across = self.rng.normal(0.0, SEARCH_ACROSS_M, n)
+        c, s = math.cos(yaw), math.sin(yaw)
+        self.poses = np.column_stack([x + c * along - s * across, y + s * along + c * across,
+                                      self.rng.normal(yaw, SEARCH_YAW_RAD, n)])
+        self.weights = np.full(n, 1.0 / n)
+        self._bad, self._good = 0, 0.0
+        self._moved_m = self._turned_rad = math.inf
+        self._update_estimate()
 
     def _resample(self) -> None:
         n = self.count
