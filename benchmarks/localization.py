@@ -99,7 +99,8 @@ def global_start(name: str) -> str:
     took = None if settled is None else settled - moved
     ok = took is not None and took <= GLOBAL_TARGET_S
     why = "" if ok else (f" (the filter held a look-alike place for a while: {log.restarts} restarts after finding "
-                         f"itself lost; the car touched a wall in {result.wall_contacts} control periods)")
+                         f"itself lost; unsure {log.challenges} times{': ' + log.unsure if log.unsure else ''}; "
+                         f"the car touched a wall in {result.wall_contacts} control periods)")
     return (f"  {name:28} converged {'never' if took is None else f'{max(took, 0.0):.2f} s'} after the car first moved"
             f"{why}  {'ok' if ok else 'MISSED'}")
 

@@ -44,6 +44,7 @@ class LocalizationLog:
     true: list[tuple[float, float, float]] = field(default_factory=list)
     odometry: list[tuple[float, float, float]] = field(default_factory=list)
     fit: list[float] = field(default_factory=list)  # share of the last scan's beams agreeing with the map
+    localized: list[bool] = field(default_factory=list)  # whether the filter said it was localized
     particles: np.ndarray | None = None  # (P, 3) at the end
     count: int = 0  # the filter's particles
     beams: int = 0  # beams a scan it weighed
@@ -51,6 +52,8 @@ class LocalizationLog:
     converged_at_s: float | None = None  # [s] when the filter first declared itself localized (a global start)
     skipped_beams: int = 0  # beams no measurement (NaN, negative, below the minimum range)
     restarts: int = 0  # global restarts after the filter found itself lost
+    unsure: str = ""  # the last time it would have been localized but a look-alike place fitted as well: why
+    challenges: int = 0  # times that happened
 
     def rms_position_m(self, after_s: float = 0.0) -> float:
         e = np.array([e for t, e in zip(self.times_s, self.position_error_m) if t >= after_s])
@@ -93,6 +96,10 @@ class LocalizationLog:
                 f"odometry alone ended {drift:.2f} m off")
         if self.restarts:
             line += f"; lost and restarted over the whole map {self.restarts} times"
+        if self.challenges:
+            line += f"; unsure {self.challenges} times ({self.unsure})"
+            if self.localized and not self.localized[-1]:
+                line += ", still at the end"
         if self.skipped_beams:
             line += f"; {self.skipped_beams} beams skipped (no measurement)"
         return line
@@ -195,12 +202,14 @@ class LocalizedCar:
         log.true.append((truth.x, truth.y, truth.yaw))
         log.odometry.append(odo)
         log.fit.append(self.filter.fit)
+        log.localized.append(self.filter.localized)
         log.particles = self.filter.poses
         log.skipped_beams = self.filter.skipped_beams
         self.exploring = self.explore or not (self.oracle or self.filter.localized)
         if self.filter.localized and log.converged_at_s is None:
             log.converged_at_s = t
         log.restarts = self.filter.restarts
+        log.challenges, log.unsure = self.filter.challenges, self.filter.unsure or log.unsure
         return Observation(t, x, y, yaw, abs(speed), rate)
 
     def send(self, command: Command) -> None:

@@ -16,7 +16,13 @@ localized once the particles have converged and the fit has held above FIT_GOOD 
 drove LOCALIZED_M; a filter that was localized, or whose particles have converged, and
 whose fit stays below FIT_LOST for LOST_SCANS scans -- the car was carried off, or a global
 start converged on the wrong place -- is lost, and starts again over the whole free space
-(pf.restarts counts it). Things the map lacks (people, cones)
+(pf.restarts counts it); one that was localized first looks SEARCH_ALONG_M either way along its
+heading (odometry that ran long on a straight). Unsure: before a global start declares itself
+localized it looks for a rival, a pose RIVAL_APART_M or more away that fits this scan and the
+scans kept over the last LOCALIZED_M as well (a look-alike corridor: particles gathered in it have
+a small spread and a good fit, so neither catches it); found, the rivals join the particles, the
+filter stays unlocalized (pf.unsure says why) and a car drives on its pose only once no rival
+is left. Things the map lacks (people, cones)
 cut a few beams short: they lower the fit, not below FIT_LOST.
 """
 
@@ -56,6 +62,16 @@ NEAR_TOLERANCE_M = 0.1  # [m] (+ 5 % of the range) between that reading and a ce
 NEAR_HEADING_RAD = math.radians(4)  # [rad] spread of the headings drawn from it
 SCAN_PLACED = 0.8  # share of a global start's particles placed by the scan (the rest anywhere: the nearest wall
 # may be behind the lidar, where it does not see)
+RIVAL_CANDIDATES = 20_000  # poses placed by the scan (as a global start places them) to look for a look-alike place
+RIVAL_APART_M = 2.0  # [m] a pose this far from the estimate whose scan fits ...
+RIVAL_FIT_MARGIN = 0.05  # ... within this share of beams of the estimate's fit is a rival: the filter is unsure
+RIVAL_REFINED, RIVAL_JITTERS = 128, 16  # the best candidates refined, the jittered copies of each per round
+RIVAL_REFINE = (np.array([0.15, 0.15, 0.05]), np.array([0.05, 0.05, 0.02]))  # [m, m, rad] each round's jitter
+RIVAL_HISTORY_M = 1.0  # [m] while searching, a scan is kept each time the car drove this far (LOCALIZED_M's worth):
+# a rival must fit them too, seen from where the odometry says the car was (one scan of a winding road fits many
+# places; the road's last metres fit only where it winds the same way)
+RIVAL_SHARE = 0.3  # share of the particles given to the rivals, so the places compete until the car drives past
+# where they differ
 SEARCH_ALONG_M = 4.0  # [m] a filter lost after being localized first looks this far either way along its heading
 # (4 % of a 90 m straight, the longest of the real circuits': a wheel's radius or its slip that far off) ...
 SEARCH_ACROSS_M, SEARCH_YAW_RAD = 0.2, 0.05  # [m], [rad] ... and this much across and turned (standard deviations)
@@ -144,6 +160,12 @@ class ParticleFilter:
         self._good, self._bad = 0.0, 0  # [m] driven with a good fit; scans in a row with a bad one
         self._was_localized = False
         self._searched_along = False  # lost, it looked along its heading: the next loss restarts it globally
+        self._from_global = False  # searching from a global start: challenged by rivals before it is localized
+        self.unsure = ""  # why a filter that would be localized is not: the look-alike places its scan fits too
+        self.challenges = 0  # times a would-be localized filter found a rival place
+        self._history: list[tuple] = []  # (odometry pose, angles, ranges, at_max) of scans kept while searching
+        self._history_m = 0.0  # [m] driven since the last one kept
+        self._nearest: tuple[np.ndarray, np.ndarray] | None = None  # the last scan's usable angles, ranges
         self.restarts = 0  # global restarts after the filter was lost
         self.corrections = self.skipped_scans = self.skipped_beams = 0
 
@@ -164,6 +186,8 @@ class ParticleFilter:
         self.poses = self._fresh(self.count * GLOBAL_FACTOR)
         self._reset(None)
         self._place_by_scan = True
+        self._from_global = True
+        self._history, self._history_m = [], math.inf
 
     def _reset(self, estimate: Pose | None) -> None:
         self.weights = np.full(len(self.poses), 1.0 / len(self.poses))
@@ -251,6 +275,9 @@ class ParticleFilter:
             self.poses = self._fresh_from_scan(len(self.poses), scan.angles[full] + self.sensor[2],
                                                np.minimum(scan.ranges[full], scan.range_max_m))
             self.weights = np.full(len(self.poses), 1.0 / len(self.poses))
+        if self._from_global and not self.localized:  # every beam, to place rivals by (_challenge)
+            full = scan.usable()
+            self._nearest = (scan.angles[full] + self.sensor[2], np.minimum(scan.ranges[full], scan.range_max_m))
         measured = np.minimum(np.round(ranges / self.grid.resolution_m), self.max_cells).astype(np.int64)
         measured[subset.ranges[usable] >= min(scan.range_max_m, self.max_range_m)] = self.max_cells
         sensors = _compose(self.poses, self.sensor[0], self.sensor[1], 0.0)
@@ -294,10 +321,68 @@ class ParticleFilter:
             self._searched_along = False
         self._good = self._good + moved_m if self.fit >= FIT_GOOD and self.converged else 0.0
         self._bad = self._bad + 1 if self.fit < FIT_LOST else 0
+        if self._from_global and not self.localized and self._odometry is not None:
+            self._history_m += moved_m
+            if self._history_m >= RIVAL_HISTORY_M:
+                self._history = self._history[-int(LOCALIZED_M / RIVAL_HISTORY_M):] + [
+                    (self._odometry, angles, ranges, at_max)]
+                self._history_m = 0.0
+        if self._good >= LOCALIZED_M and not self.localized and self._from_global and self._nearest is not None:
+            self._challenge(angles, ranges, at_max)
         if self._good >= LOCALIZED_M:
             self.localized = self._was_localized = True
+            self._from_global, self.unsure = False, ""
         elif self._bad >= LOST_SCANS:
             self.localized = False
+
+    def _challenge(self, angles: np.ndarray, ranges: np.ndarray, at_max: np.ndarray) -> None:
+        """Before a global start declares itself localized: poses placed by this scan all over the
+        map are checked for one that fits it about as well as the estimate, RIVAL_APART_M or more
+        away (a look-alike corridor fits as well as the right one, and particles may have gathered
+        in it with a small spread). Found: the filter stays unsure (.unsure says why), the rivals
+        join the particles and the car must drive LOCALIZED_M more with a good fit."""
+        candidates = self._fresh_from_scan(RIVAL_CANDIDATES, *self._nearest)
+        candidates = candidates[np.hypot(candidates[:, 0] - self._estimate[0],
+                                         candidates[:, 1] - self._estimate[1]) >= RIVAL_APART_M]
+        fit = self._fits(candidates, angles, ranges, at_max)
+        for spread in RIVAL_REFINE:  # the best few, each jittered, the best kept: a coarse pose near a look-alike
+            # place fits it as well as the estimate only once it is there within the fit's tolerance
+            best = candidates[np.argsort(fit)[-RIVAL_REFINED:]]
+            jittered = np.repeat(best, RIVAL_JITTERS, axis=0) + self.rng.normal(0.0, spread, (len(best) * RIVAL_JITTERS, 3))
+            apart = np.hypot(jittered[:, 0] - self._estimate[0], jittered[:, 1] - self._estimate[1]) >= RIVAL_APART_M
+            candidates = np.concatenate([best, jittered[apart]])
+            fit = np.concatenate([np.sort(fit)[-RIVAL_REFINED:], self._fits(jittered[apart], angles, ranges, at_max)])
+        rivals = candidates[fit >= self.fit - RIVAL_FIT_MARGIN]
+        if len(rivals) and self._history:  # ... and the scans kept on the way, from where the odometry put them
+            own = self._history_fits(np.array([self._estimate]))[0]
+            rivals = rivals[self._history_fits(rivals) >= own - RIVAL_FIT_MARGIN]
+        if not len(rivals):
+            return
+        self.challenges += 1
+        nearest = float(np.min(np.hypot(rivals[:, 0] - self._estimate[0], rivals[:, 1] - self._estimate[1])))
+        self.unsure = (f"{len(rivals)} of {RIVAL_CANDIDATES} poses placed by the scan fit it as well {nearest:.1f} m "
+                       f"or more from the estimate")
+        n = len(self.poses)
+        k = min(n, max(1, int(RIVAL_SHARE * n)))
+        replaced = self.rng.choice(n, k, replace=False)
+        self.poses[replaced] = rivals[self.rng.integers(0, len(rivals), k)]
+        self.weights = np.full(n, 1.0 / n)
+        self._good = 0.0
+        self._update_estimate()
+
+    def _history_fits(self, poses: np.ndarray) -> np.ndarray:
+        """Each pose's (P, 3) mean fit of the scans kept while searching, each seen from where the
+        odometry says the car was then (the pose moved back by the odometry since)."""
+        now = self._odometry
+        fits = [self._fits(_compose(poses, *relative(now, odo)), angles, ranges, at_max)
+                for odo, angles, ranges, at_max in self._history]
+        return np.mean(fits, axis=0)
+
+    def _fits(self, poses: np.ndarray, angles: np.ndarray, ranges: np.ndarray, at_max: np.ndarray) -> np.ndarray:
+        """The share of the scan's beams agreeing with the map from each pose (P, 3): the fit."""
+        expected = self.caster.cast(_compose(poses, self.sensor[0], self.sensor[1], 0.0), angles)
+        return np.where(at_max[None, :], expected >= self.max_range_m - FIT_TOLERANCE_M,
+                        np.abs(expected - ranges[None, :]) <= FIT_TOLERANCE_M).mean(axis=1)
 
     def _search_along(self) -> None:
         """Lost after being localized: particles spread along the estimate's heading, SEARCH_ALONG_M
