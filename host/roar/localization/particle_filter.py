@@ -348,7 +348,8 @@ class ParticleFilter:
         for spread in RIVAL_REFINE:  # the best few, each jittered, the best kept: a coarse pose near a look-alike
             # place fits it as well as the estimate only once it is there within the fit's tolerance
             best = candidates[np.argsort(fit)[-RIVAL_REFINED:]]
-            jittered = np.repeat(best, RIVAL_JITTERS, axis=0) + self.rng.normal(0.0, spread, (len(best) * RIVAL_JITTERS, 3))
+            jittered = np.repeat(best, RIVAL_JITTERS, axis=0)
+            jittered += self.rng.normal(0.0, spread, jittered.shape)
             apart = np.hypot(jittered[:, 0] - self._estimate[0], jittered[:, 1] - self._estimate[1]) >= RIVAL_APART_M
             candidates = np.concatenate([best, jittered[apart]])
             fit = np.concatenate([np.sort(fit)[-RIVAL_REFINED:], self._fits(jittered[apart], angles, ranges, at_max)])

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from roar.checks import printable
-from roar.tracks.random_track import (LENGTH_RANGE_M, corner_arcs, corner_turns, drop_straight_corners,
+from roar.tracks.random_track import (LENGTH_RANGE_M, corner_arcs, corner_turns, drop_straight_corners, first_drawn,
                                       middle_of_longest_straight, perimeter, sample_arcs)
 from roar.tracks.seeds import seeded
 from roar.tracks.track import MAX_WIDTH_M, MIN_WIDTH_M, Track, TrackError
@@ -121,26 +121,8 @@ def parse(name: str) -> CircuitSpec:
 
 def generate(spec: CircuitSpec) -> Track:
     """The circuit a spec names (see the module's text)."""
-    rng = np.random.Generator(np.random.PCG64(spec.seed))
-    last = "no polygon could be drawn"
-    for _ in range(MAX_DRAWS):
-        points = _draw(rng, spec)
-        if points is None:
-            continue
-        try:
-            track = Track(spec.name, points, spec.width_m)
-        except TrackError as e:
-            last = str(e).split(": ", 1)[-1]
-            continue
-        if not (track.uniform_width and len(track.walls) == 2):  # one infield: never near nor across itself
-            last = "it comes within its width of itself"
-            continue
-        problem = shape(track).problem()
-        if problem is None:
-            return track
-        last = problem
-    raise TrackError(f"{spec.name}: no circuit with these parameters in {MAX_DRAWS} draws (the last: {last}); try "
-                     f"the default length")
+    return first_drawn(spec.name, spec.width_m, lambda rng: _draw(rng, spec), spec.seed, MAX_DRAWS, "circuit",
+                       "the default length", lambda track: shape(track).problem())
 
 
 def shape(track: Track) -> Figures:

@@ -88,22 +88,33 @@ def _spec_problem(spec: RandomTrackSpec) -> str | None:
 
 def generate(spec: RandomTrackSpec) -> Track:
     """The track a spec names (see the module's text)."""
-    rng = np.random.Generator(np.random.PCG64(spec.seed))
+    return first_drawn(spec.name, spec.width_m, lambda rng: _draw(rng, spec), spec.seed, MAX_DRAWS,
+                       "track", "a longer length, a smaller radius or width")
+
+
+def first_drawn(name: str, width_m: float, draw, seed: int, draws: int, what: str, hint: str,
+                problem=lambda track: None) -> Track:
+    """The first of up to `draws` centre lines draw(rng) gives (None: none this time) that makes
+    a track with one infield (never near nor across itself) and no problem(track) (a message);
+    else TrackError naming the last reason and the hint."""
+    rng = np.random.Generator(np.random.PCG64(seed))
     last = "no polygon could be drawn"
-    for _ in range(MAX_DRAWS):
-        points = _draw(rng, spec)
+    for _ in range(draws):
+        points = draw(rng)
         if points is None:
             continue
         try:
-            track = Track(spec.name, points, spec.width_m)
+            track = Track(name, points, width_m)
         except TrackError as e:
             last = str(e).split(": ", 1)[-1]
             continue
-        if track.uniform_width and len(track.walls) == 2:  # one infield: never near nor across itself
+        if not (track.uniform_width and len(track.walls) == 2):
+            last = "it comes within its width of itself"
+            continue
+        last = problem(track)
+        if last is None:
             return track
-        last = "it comes within its width of itself"
-    raise TrackError(f"{spec.name}: no track with these parameters in {MAX_DRAWS} draws (the last: {last}); try a "
-                     f"longer length, a smaller radius or width")
+    raise TrackError(f"{name}: no {what} with these parameters in {draws} draws (the last: {last}); try {hint}")
 
 
 def _draw(rng: np.random.Generator, spec: RandomTrackSpec) -> np.ndarray | None:
