@@ -259,18 +259,21 @@ def test_a_global_start_finds_where_the_car_is(start_s):
     assert pf.localized
 
 
-def test_a_kidnapped_filter_finds_out_and_finds_the_car_again():
+def carried_ahead(seed: int, after_s: float, ahead_s: float, seconds: float):
+    """A filter started at the car's pose and driven after_s round the loop; then the car is
+    carried ahead_s further round it (at 1 m/s) without a word and driven `seconds` more.
+    (the filter, its errors after the carry)"""
     grid = room()
-    sim = Synthetic(grid, seed=5)
-    pf = ParticleFilter(grid, particles=500, seed=5)
+    sim = Synthetic(grid, seed=seed)
+    pf = ParticleFilter(grid, particles=500, seed=seed)
     pf.start_at(loop_path(0.0))
-    drive(pf, sim, 4.0)
+    drive(pf, sim, after_s)
     assert pf.localized
+    return pf, drive(pf, sim, seconds, t0=after_s, truth=lambda t: loop_path(t + ahead_s))
 
-    def carried_off(t):  # 5 m further round the loop from 4 s on, without a word to the filter
-        return loop_path(t + 5.0)
 
-    errors = drive(pf, sim, 10.0, t0=4.0, truth=carried_off)
+def test_a_kidnapped_filter_finds_out_and_finds_the_car_again():
+    pf, errors = carried_ahead(5, 4.0, 5.0, 10.0)  # 5 m further round the loop from 4 s on
     assert pf.restarts >= 1  # it knew it was lost
     settled = settled_at(errors)
     assert settled is not None and settled - 4.0 <= 10.0, errors[::25]
@@ -279,17 +282,7 @@ def test_a_kidnapped_filter_finds_out_and_finds_the_car_again():
 def test_a_filter_slid_along_its_heading_looks_there_before_it_starts_over():
     """Odometry that ran 2 m long on a straight (a slipping wheel, a straight with nothing ahead to
     measure) leaves the filter lost: it finds the car along its own heading, with no global restart."""
-    grid = room()
-    sim = Synthetic(grid, seed=7)
-    pf = ParticleFilter(grid, particles=500, seed=7)
-    pf.start_at(loop_path(0.0))
-    drive(pf, sim, 2.0)
-    assert pf.localized
-
-    def slid_on(t):  # 2 m further along the bottom straight from 2 s on
-        return loop_path(t + 2.0)
-
-    errors = drive(pf, sim, 6.0, t0=2.0, truth=slid_on)
+    pf, errors = carried_ahead(7, 2.0, 2.0, 6.0)  # 2 m further along the bottom straight from 2 s on
     assert pf.restarts == 0
     settled = settled_at(errors, within_m=0.15)
     assert settled is not None and settled - 2.0 <= 3.0, errors[::25]

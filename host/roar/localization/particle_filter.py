@@ -165,7 +165,7 @@ class ParticleFilter:
         self.challenges = 0  # times a would-be localized filter found a rival place
         self._history: list[tuple] = []  # (odometry pose, angles, ranges, at_max) of scans kept while searching
         self._history_m = 0.0  # [m] driven since the last one kept
-        self._nearest: tuple[np.ndarray, np.ndarray] | None = None  # the last scan's usable angles, ranges
+        self._scan: LaserScan | None = None  # the last one weighed (a challenge places its rivals by all its beams)
         self.restarts = 0  # global restarts after the filter was lost
         self.corrections = self.skipped_scans = self.skipped_beams = 0
 
@@ -271,13 +271,9 @@ class ParticleFilter:
         ranges = np.minimum(subset.ranges[usable], self.max_range_m)
         if self._place_by_scan:
             self._place_by_scan = False
-            full = scan.usable()
-            self.poses = self._fresh_from_scan(len(self.poses), scan.angles[full] + self.sensor[2],
-                                               np.minimum(scan.ranges[full], scan.range_max_m))
+            self.poses = self._fresh_from_scan(len(self.poses), *self._every_beam(scan))
             self.weights = np.full(len(self.poses), 1.0 / len(self.poses))
-        if self._from_global and not self.localized:  # every beam, to place rivals by (_challenge)
-            full = scan.usable()
-            self._nearest = (scan.angles[full] + self.sensor[2], np.minimum(scan.ranges[full], scan.range_max_m))
+        self._scan = scan
         measured = np.minimum(np.round(ranges / self.grid.resolution_m), self.max_cells).astype(np.int64)
         measured[subset.ranges[usable] >= min(scan.range_max_m, self.max_range_m)] = self.max_cells
         sensors = _compose(self.poses, self.sensor[0], self.sensor[1], 0.0)
@@ -312,11 +308,7 @@ class ParticleFilter:
 
     def _judge(self, angles: np.ndarray, ranges: np.ndarray, at_max: np.ndarray, moved_m: float) -> None:
         """The fit of the scan from the estimate, and from it whether the filter is localized or lost."""
-        sensor = _compose(np.array([self._estimate]), self.sensor[0], self.sensor[1], 0.0)
-        expected = self.caster.cast(sensor, angles)[0]
-        agree = np.where(at_max, expected >= self.max_range_m - FIT_TOLERANCE_M,
-                         np.abs(expected - ranges) <= FIT_TOLERANCE_M)
-        self.fit = float(np.mean(agree))
+        self.fit = float(self._fits(np.array([self._estimate]), angles, ranges, at_max)[0])
         if self.fit >= FIT_GOOD:
             self._searched_along = False
         self._good = self._good + moved_m if self.fit >= FIT_GOOD and self.converged else 0.0
@@ -327,7 +319,7 @@ class ParticleFilter:
                 self._history = self._history[-int(LOCALIZED_M / RIVAL_HISTORY_M):] + [
                     (self._odometry, angles, ranges, at_max)]
                 self._history_m = 0.0
-        if self._good >= LOCALIZED_M and not self.localized and self._from_global and self._nearest is not None:
+        if self._good >= LOCALIZED_M and not self.localized and self._from_global:
             self._challenge(angles, ranges, at_max)
         if self._good >= LOCALIZED_M:
             self.localized = self._was_localized = True
@@ -341,16 +333,15 @@ class ParticleFilter:
         away (a look-alike corridor fits as well as the right one, and particles may have gathered
         in it with a small spread). Found: the filter stays unsure (.unsure says why), the rivals
         join the particles and the car must drive LOCALIZED_M more with a good fit."""
-        candidates = self._fresh_from_scan(RIVAL_CANDIDATES, *self._nearest)
-        candidates = candidates[np.hypot(candidates[:, 0] - self._estimate[0],
-                                         candidates[:, 1] - self._estimate[1]) >= RIVAL_APART_M]
+        candidates = self._fresh_from_scan(RIVAL_CANDIDATES, *self._every_beam(self._scan))
+        candidates = candidates[self._apart_m(candidates) >= RIVAL_APART_M]
         fit = self._fits(candidates, angles, ranges, at_max)
         for spread in RIVAL_REFINE:  # the best few, each jittered, the best kept: a coarse pose near a look-alike
             # place fits it as well as the estimate only once it is there within the fit's tolerance
             best = candidates[np.argsort(fit)[-RIVAL_REFINED:]]
             jittered = np.repeat(best, RIVAL_JITTERS, axis=0)
             jittered += self.rng.normal(0.0, spread, jittered.shape)
-            apart = np.hypot(jittered[:, 0] - self._estimate[0], jittered[:, 1] - self._estimate[1]) >= RIVAL_APART_M
+            apart = self._apart_m(jittered) >= RIVAL_APART_M
             candidates = np.concatenate([best, jittered[apart]])
             fit = np.concatenate([np.sort(fit)[-RIVAL_REFINED:], self._fits(jittered[apart], angles, ranges, at_max)])
         rivals = candidates[fit >= self.fit - RIVAL_FIT_MARGIN]
@@ -360,7 +351,7 @@ class ParticleFilter:
         if not len(rivals):
             return
         self.challenges += 1
-        nearest = float(np.min(np.hypot(rivals[:, 0] - self._estimate[0], rivals[:, 1] - self._estimate[1])))
+        nearest = float(np.min(self._apart_m(rivals)))
         self.unsure = (f"{len(rivals)} of {RIVAL_CANDIDATES} poses placed by the scan fit it as well {nearest:.1f} m "
                        f"or more from the estimate")
         n = len(self.poses)
@@ -370,6 +361,15 @@ class ParticleFilter:
         self.weights = np.full(n, 1.0 / n)
         self._good = 0.0
         self._update_estimate()
+
+    def _every_beam(self, scan: LaserScan) -> tuple[np.ndarray, np.ndarray]:
+        """The scan's usable beams' angles in the car's frame and ranges (what poses are placed by)."""
+        full = scan.usable()
+        return scan.angles[full] + self.sensor[2], np.minimum(scan.ranges[full], scan.range_max_m)
+
+    def _apart_m(self, poses: np.ndarray) -> np.ndarray:
+        """[m] each pose's (P, 3) distance from the estimate."""
+        return np.hypot(poses[:, 0] - self._estimate[0], poses[:, 1] - self._estimate[1])
 
     def _history_fits(self, poses: np.ndarray) -> np.ndarray:
         """Each pose's (P, 3) mean fit of the scans kept while searching, each seen from where the
