@@ -123,3 +123,38 @@ def test_the_renderer_option_is_the_lane_drivers():
 
     with pytest.raises(UserError, match="--renderer draws the lane driver's camera: it needs --driver lane"):
         race.main(["--renderer", "egl"])
+
+
+def test_tiles_split_a_mesh_keeping_every_triangle_once():
+    from roar_sim.world.tiles import TILE_M, split
+
+    rng = np.random.default_rng(0)
+    centres = rng.uniform(-50, 50, (300, 1, 3))
+    vertices = (centres + rng.uniform(-0.3, 0.3, (300, 3, 3))).reshape(-1, 3)  # small triangles all over
+    triangles = np.concatenate([np.arange(900).reshape(-1, 3), rng.integers(0, 900, (100, 3))])  # and some not
+    pieces = split(vertices, triangles)
+    assert len(pieces) > 4
+    drawn = np.concatenate([v[t].reshape(-1, 9) for v, t in pieces])
+    assert sorted(map(tuple, drawn.round(9))) == sorted(map(tuple, vertices[triangles].reshape(-1, 9).round(9)))
+    for v, t in pieces:  # each tile's triangles in one TILE_M square by their centroids
+        cells = np.floor(v[t].mean(axis=1)[:, :2] / TILE_M)
+        assert (cells == cells[0]).all()
+
+
+@pytest.mark.parametrize("s_m", [0.0, 60.0, 150.0])
+def test_a_frame_with_far_tiles_hidden_is_the_frame_with_every_tile_drawn(s_m):
+    """TinyRenderer frames skip the walls' and paint's tiles beyond the far plane or behind the camera
+    (a 272 m circuit: 13.4 ms a frame before): what is drawn is the same, pixel for pixel."""
+    track = get("circuit:29")
+    world = World(track, 1 / 240, renderer="tiny")
+    x, y, yaw = track.pose_at(s_m)
+    camera = ((x, y, 0.25), yaw, math.radians(12), *SIZE, 60.0)
+    culled_rgb, culled_depth = world.render(*camera)
+    hidden = sum(int((~tiles.shown).sum()) for tiles in world.tiles)
+    assert hidden > 0.5 * sum(len(tiles.bodies) for tiles in world.tiles)
+    world._cull = False
+    for tiles in world.tiles:
+        tiles.show_near((x, y), yaw, math.inf)  # every tile shown again
+    rgb, depth = world.render(*camera)
+    world.close()
+    assert np.array_equal(culled_rgb, rgb) and np.array_equal(culled_depth, depth)

@@ -15,9 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from roar.tracks import Track
-from roar_sim.world.bullet import pb
 from roar_sim.world.cache import per_shape
-from roar_sim.world.renderer import mesh_file
+from roar_sim.world.tiles import Tiles, tile_files
 
 ASPHALT_RGB = (64, 64, 69)  # the ground's colour (roar_sim.world.scene)
 EDGE_LINE_RGB = (240, 240, 240)
@@ -174,20 +173,13 @@ def _joined(rgb: tuple[int, int, int], meshes: list[tuple[np.ndarray, np.ndarray
                  np.vstack(triangles).astype(int) if triangles else np.empty((0, 3), int))
 
 
-def add_floor(track: Track, client: int) -> list[int]:
-    """Add the track's paint (visual only: the car drives on the ground below) and return its
-    bodies, one a colour."""
-    bodies = []
-    for paint, path in _paint_files(track):
-        visual = pb.createVisualShape(pb.GEOM_MESH, fileName=path, rgbaColor=[*(k / 255 for k in paint.rgb), 1],
-                                      physicsClientId=client)
-        bodies.append(pb.createMultiBody(0, -1, visual, [0, 0, 0], physicsClientId=client))
-    return bodies
+def add_floor(track: Track, client: int) -> list[Tiles]:
+    """Add the track's paint (visual only: the car drives on the ground below), one Tiles a colour."""
+    return [Tiles.add(client, files, [*(k / 255 for k in paint.rgb), 1]) for paint, files in _paint_files(track)]
 
 
-def _paint_files(track: Track) -> list[tuple[Paint, str]]:
-    """Each paint with its OBJ file, written once per track shape: a new world of the same track
-    (every Gym reset) only loads them."""
-    return per_shape("floor paint files", track, lambda: [
-        (paint, mesh_file(paint.vertices.tolist(), paint.triangles.ravel().tolist()))
-        for paint in paints(track) if len(paint.triangles)])
+def _paint_files(track: Track) -> list[tuple[Paint, list]]:
+    """Each paint with its tiles' OBJ files (roar_sim.world.tiles), written once per track shape:
+    a new world of the same track (every Gym reset) only loads them."""
+    return per_shape("floor paint tiles", track, lambda: [
+        (paint, tile_files(paint.vertices, paint.triangles)) for paint in paints(track) if len(paint.triangles)])

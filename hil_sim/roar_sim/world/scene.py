@@ -17,12 +17,14 @@ import pybullet_data
 from roar_sim import SimError
 from roar_sim.world import renderer as renderers
 from roar_sim.world.floor import add_floor
+from roar_sim.world.tiles import Tiles, frustum_reach_m, tile_files
 from roar_sim.world.obstacles import add_cone, add_person
 from roar_sim.world.bullet import pb, silenced
 from roar.tracks import Track
 from roar_sim.world.cache import per_shape
 
 WALL_HEIGHT_M, WALL_THICKNESS_M = 0.3, 0.05  # [m] higher than the lidar (0.17 m)
+WALL_RGBA = (0.8, 0.8, 0.8, 1.0)  # light grey
 WALL_PIECE_M = 0.15  # [m] longest wall box: the camera's renderer drops whole triangles that cross its near plane
 GROUND_HALF_M = 25.0  # [m] asphalt shown beyond the track (or around the origin without one)
 EGL_CHATTY_FRAMES = 2  # EGL prints its vendor on stdout within its first frames
@@ -109,11 +111,14 @@ class World:
         pb.setPhysicsEngineParameter(numSolverIterations=SOLVER_ITERATIONS, physicsClientId=c)
         # Nearest-first for the camera's software renderer: a pixel already covered by a wall or the
         # floor is rejected by its depth test before it is shaded again for what lies beneath.
-        self.walls = self._build_walls(track) if track else []
+        self._cull = self.renderer_name == "tiny" and not gui  # tiles out of a frame's reach hidden (tiles.py)
+        self.walls = [_mesh_body(c, *wall_mesh(track))] if track else []  # one body: the physics stays fast
+        self.tiles = [Tiles.add(c, wall_tile_files(track), WALL_RGBA)] if track else []  # what the camera sees of them
         course = track.course if track else None  # a tunnel world's cones and people (not in its map)
         self.cones = [add_cone(self, x, y) for x, y in course.cones] if course else []
         self.people = [add_person(self, x, y) for x, y in course.people] if course else []
-        self.floor = add_floor(track, c) if track else []  # the paint's bodies
+        self.tiles += add_floor(track, c) if track else []
+        self.floor = [b for tiles in self.tiles[1:] for b in tiles.bodies]  # the paint's bodies
         self.ground = self._add_ground(track)
         if gui:
             self._frame_gui(track)
@@ -147,11 +152,6 @@ class World:
             centre, size = tuple((lo + hi) / 2), float(max(hi - lo))
         pb.resetDebugVisualizerCamera(size, 0, -60, [centre[0], centre[1], 0], physicsClientId=c)
 
-    def _build_walls(self, track: Track) -> list[int]:
-        """One static triangle mesh of wall boxes along both edges (one body keeps the physics
-        fast)."""
-        return [_mesh_body(self.client, *wall_mesh(track), visual=wall_mesh_file(track))]
-
     def ray_test(self, starts: list, ends: list) -> list:
         """pb.rayTestBatch for a sensor on a robot in this world. While the world holds nothing but
         its walls, ground, floor and that robot, the rays go to a second client that holds only the
@@ -168,7 +168,7 @@ class World:
         return [(self.walls[0], *h[1:]) if h[0] == walls else h for h in hits]
 
     def _own_bodies(self) -> list[int]:
-        return [*self.walls, *self.floor, self.ground]
+        return [*self.walls, *(b for tiles in self.tiles for b in tiles.bodies), self.ground]
 
     def planar_motion(self, body: int) -> tuple[float, float, float, float, float]:
         """(x [m], y [m], yaw [rad], speed along the heading [m/s], yaw rate [rad/s]) of a body
@@ -188,6 +188,10 @@ class World:
                far_m: float = 10.0, near_m: float = 0.05) -> tuple[np.ndarray, np.ndarray]:
         """(RGB uint8 HxWx3, depth float32 HxW [m]) from a camera at `position` looking along `yaw`,
         tilted down by `pitch` [rad], in the world's light (self.light: None is PyBullet's own)."""
+        if self._cull:
+            reach = frustum_reach_m(far_m, fov_deg, width / height)
+            for tiles in self.tiles:
+                tiles.show_near(position, yaw, reach)
         forward = np.array([math.cos(yaw), math.sin(yaw), -math.tan(pitch)])
         view = pb.computeViewMatrix(list(position), (np.array(position) + forward).tolist(), [0, 0, 1])
         proj = pb.computeProjectionMatrixFOV(fov_deg, width / height, near_m, far_m)
@@ -221,7 +225,7 @@ def _walls_only(track: Track) -> tuple[int, int, threading.Lock]:
     world of that track in this process (the walls never move)."""
     def make() -> tuple[int, int, threading.Lock]:
         client = pb.connect(pb.DIRECT)
-        return client, _mesh_body(client, *wall_mesh(track), visual=None), threading.Lock()
+        return client, _mesh_body(client, *wall_mesh(track)), threading.Lock()
 
     return per_shape("walls-only ray client", track, make)
 
@@ -232,9 +236,9 @@ def wall_mesh(track: Track) -> tuple[list[list[float]], list[int]]:
     return per_shape("wall mesh", track, lambda: _build_wall_mesh(track))
 
 
-def wall_mesh_file(track: Track) -> str:
-    """The wall mesh as an OBJ file (what the renderers draw), written once per track shape."""
-    return per_shape("wall mesh file", track, lambda: renderers.mesh_file(*wall_mesh(track)))
+def wall_tile_files(track: Track) -> list:
+    """The wall mesh in tiles, as OBJ files (what the renderers draw), written once per track shape."""
+    return per_shape("wall tile files", track, lambda: tile_files(*wall_mesh(track)))
 
 
 def _build_wall_mesh(track: Track) -> tuple[list[list[float]], list[int]]:
@@ -248,13 +252,14 @@ def _build_wall_mesh(track: Track) -> tuple[list[list[float]], list[int]]:
     return vertices, indices
 
 
-def _mesh_body(client: int, vertices: list, indices: list, visual: str | None) -> int:
-    """A static body of the triangle mesh (drawn in light grey from the OBJ file `visual`, if given)."""
+def _mesh_body(client: int, vertices: list, indices: list) -> int:
+    """A static body of the triangle mesh, unseen (World.tiles draw it): its visual shape is one
+    point-sized transparent triangle (without one, the EGL plugin draws the collision mesh, and
+    crashes on a mesh given as vertices)."""
     shape = pb.createCollisionShape(pb.GEOM_MESH, vertices=vertices, indices=indices,
                                     flags=pb.GEOM_FORCE_CONCAVE_TRIMESH, physicsClientId=client)
-    look = pb.createVisualShape(pb.GEOM_MESH, fileName=visual, rgbaColor=[0.8, 0.8, 0.8, 1],
-                                physicsClientId=client) if visual else -1
-    return pb.createMultiBody(0, shape, look, [0, 0, 0], physicsClientId=client)
+    unseen = renderers.mesh_visual(client, [[0.0, 0.0, -1.0]] * 3, [0, 1, 2], rgba=[0, 0, 0, 0])
+    return pb.createMultiBody(0, shape, unseen, [0, 0, 0], physicsClientId=client)
 
 
 def _add_box(vertices: list, indices: list, a: np.ndarray, b: np.ndarray) -> None:
