@@ -33,7 +33,8 @@ PARTICLES, BEAMS = 2500, 60
 MAX_RMS_M, MAX_HEADING_DEG, DIVERGED_M = 0.10, 2.0, 1.0
 GLOBAL_TARGET_S, KIDNAP_TARGET_S = 5.0, 10.0
 GRID_TARGET_MS = 2.0
-LAP_WORLDS = ["tunnel:2,cones=0,people=8", "tunnel:8,cones=0,people=8", "random:1", "random:2", "random:3"]
+LAP_WORLDS = ["tunnel:2,cones=0,people=8", "tunnel:8,cones=0,people=8", "random:1", "random:2", "random:3",
+              "circuit:3", "circuit:17"]  # circuits: straights of 30-90 m, longer than the lidar sees
 GLOBAL_WORLDS = ["random:1", "random:2", "random:3", "random:4", "random:5", "tunnel:2,cones=0", "tunnel:8,cones=0"]
 KIDNAP_WORLDS = ["random:1", "random:2", "random:3", "random:4", "random:5"]
 SCAN_FOV_RAD = math.radians(270)
@@ -83,7 +84,8 @@ def laps(name: str) -> str:
     ok = (len(result.lap_times_s) == 3 and result.wall_contacts == 0 and rms <= MAX_RMS_M and heading <= MAX_HEADING_DEG
           and worst < DIVERGED_M and log.restarts == 0)
     return (f"  {name:28} {len(result.lap_times_s)} laps, wall contacts {result.wall_contacts}, position RMS {rms:.3f} m, "
-            f"max {worst:.3f} m, heading RMS {heading:.2f} deg  {'ok' if ok else 'MISSED'}")
+            f"max {worst:.3f} m, heading RMS {heading:.2f} deg, odometry scale learnt {log.odometry_scale:.3f}  "
+            f"{'ok' if ok else 'MISSED'}")
 
 
 def global_start(name: str) -> str:

@@ -248,6 +248,48 @@ def test_the_filter_tracks_a_car_whose_odometry_drifts():
     assert np.all(np.linalg.eigvalsh(pf.covariance) >= -1e-12) and pf.spread_m < 0.1
 
 
+RING_LENGTH_M, RING_WIDTH_M, RING_LANE_M = 40.0, 10.0, 1.6  # [m] outside, and the corridor's width
+
+
+def ring() -> OccupancyMap:
+    """A corridor round a 40 m x 10 m block: straights longer than the lidar sees twice over (10 m),
+    where a scan cannot tell how far along the car is, and four corners where it can."""
+    w, h = int((RING_LENGTH_M + 2) / RES), int((RING_WIDTH_M + 2) / RES)
+    occ = np.zeros((h, w), bool)
+    occ[:2, :] = occ[-2:, :] = occ[:, :2] = occ[:, -2:] = True
+    inner = int((1 + RING_LANE_M) / RES)
+    occ[inner:h - inner, inner:w - inner] = True
+    return OccupancyMap(occ, ~occ, RES, (0.0, 0.0, 0.0))
+
+
+def ring_path(t_s: float, speed: float = 3.0) -> tuple[float, float, float]:
+    """A pose [m, m, rad] at t_s along the middle of ring()'s corridor at `speed` [m/s]."""
+    c = 1 + RING_LANE_M / 2
+    corners = np.array([[c, c], [RING_LENGTH_M + 2 - c, c], [RING_LENGTH_M + 2 - c, RING_WIDTH_M + 2 - c],
+                        [c, RING_WIDTH_M + 2 - c]])
+    sides = np.linalg.norm(np.roll(corners, -1, axis=0) - corners, axis=1)
+    s = (t_s * speed) % sides.sum()
+    i = int(np.searchsorted(np.cumsum(sides), s, side="right"))
+    a, b = corners[i], corners[(i + 1) % 4]
+    p = a + (s - (np.cumsum(sides)[i] - sides[i])) / sides[i] * (b - a)
+    return float(p[0]), float(p[1]), math.atan2(b[1] - a[1], b[0] - a[0])
+
+
+def test_the_filter_learns_how_far_its_odometry_reads_wrong_and_lags_less_on_long_straights():
+    """Odometry 5 % long: on a straight the scan cannot place the car on, only the odometry carries
+    it, 1 m ahead after 20 m; the corners show the filter how far off it was, and it learns the scale."""
+    grid, lap_s = ring(), 2 * (RING_LENGTH_M + RING_WIDTH_M - 2 * (1 + RING_LANE_M / 2)) / 3.0
+    second_lap = {}
+    for calibrate in (False, True):
+        pf = ParticleFilter(grid, particles=500, seed=3, calibrate=calibrate)
+        pf.start_at(ring_path(0.0))
+        errors = [e for t, e in drive(pf, Synthetic(grid, seed=3), 2 * lap_s, truth=ring_path) if t > lap_s]
+        second_lap[calibrate] = (float(np.sqrt(np.mean(np.square(errors)))), max(errors), pf.odometry_scale)
+    rms, worst, scale = second_lap[True]
+    assert abs(scale * 1.05 - 1) < 0.015 and second_lap[False][2] == 1.0, second_lap
+    assert rms < 0.6 * second_lap[False][0] and worst < 0.7 * second_lap[False][1], second_lap
+
+
 @pytest.mark.parametrize("start_s", [0.0, 15.0])
 def test_a_global_start_finds_where_the_car_is(start_s):
     grid = room()

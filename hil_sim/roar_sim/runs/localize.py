@@ -54,6 +54,7 @@ class LocalizationLog:
     restarts: int = 0  # global restarts after the filter found itself lost
     unsure: str = ""  # the last time it would have been localized but a look-alike place fitted as well: why
     challenges: int = 0  # times that happened
+    odometry_scale: float = 1.0  # the odometry's scale the filter learnt (its distances times this)
 
     def rms_position_m(self, after_s: float = 0.0) -> float:
         e = np.array([e for t, e in zip(self.times_s, self.position_error_m) if t >= after_s])
@@ -93,7 +94,7 @@ class LocalizationLog:
         line = (f"localization ({self.count} particles x {self.beams} beams, lidar at {1 / SCAN_PERIOD_S:.0f} Hz, "
                 f"{start}): position error RMS {self.rms_position_m(after):.3f} m, max "
                 f"{self.max_position_m(after):.3f} m; heading RMS {math.degrees(self.rms_heading_rad(after)):.2f} deg; "
-                f"odometry alone ended {drift:.2f} m off")
+                f"odometry alone ended {drift:.2f} m off (scale learnt {self.odometry_scale:.3f})")
         if self.restarts:
             line += f"; lost and restarted over the whole map {self.restarts} times"
         if self.challenges:
@@ -209,6 +210,7 @@ class LocalizedCar:
         if self.filter.localized and log.converged_at_s is None:
             log.converged_at_s = t
         log.restarts = self.filter.restarts
+        log.odometry_scale = self.filter.odometry_scale
         log.challenges, log.unsure = self.filter.challenges, self.filter.unsure or log.unsure
         return Observation(t, x, y, yaw, abs(speed), rate)
 

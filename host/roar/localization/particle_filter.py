@@ -23,7 +23,9 @@ scans kept over the last LOCALIZED_M as well (a look-alike corridor: particles g
 a small spread and a good fit, so neither catches it); found, the rivals join the particles, the
 filter stays unlocalized (pf.unsure says why) and a car drives on its pose only once no rival
 is left. Things the map lacks (people, cones)
-cut a few beams short: they lower the fit, not below FIT_LOST.
+cut a few beams short: they lower the fit, not below FIT_LOST. Calibrated: while localized, the
+filter learns the odometry's scale (pf.odometry_scale) from how far the scans move the estimate
+along its heading from where the odometry put it (see _calibrate).
 """
 
 from __future__ import annotations
@@ -75,6 +77,13 @@ RIVAL_SHARE = 0.3  # share of the particles given to the rivals, so the places c
 SEARCH_ALONG_M = 4.0  # [m] a filter lost after being localized first looks this far either way along its heading
 # (4 % of a 90 m straight, the longest of the real circuits': a wheel's radius or its slip that far off) ...
 SEARCH_ACROSS_M, SEARCH_YAW_RAD = 0.2, 0.05  # [m], [rad] ... and this much across and turned (standard deviations)
+CALIBRATE_EVERY_M = 10.0  # [m] driven localized between two updates of the odometry's scale, from how far the
+# scans moved the estimate along its heading from where the odometry alone put it (a wheel's true rolling radius is
+# not the one assumed: 3.5 % on the simulated car at 3 m/s; along a straight the scan cannot place the car on, only
+# the odometry carries it, 1 m behind after 30 m with that error)
+CALIBRATE_GAIN = 0.3  # share of the error seen over those metres corrected at each update ...
+CALIBRATE_STEP = 0.02  # ... by at most this much of the scale (a jump of the estimate is not a wheel's radius)
+CALIBRATE_RANGE = (0.8, 1.25)  # the scale never leaves these
 RESAMPLE_BELOW = 0.5  # resample when the effective number of particles falls below this share of them: until
 # then the weights carry over from scan to scan and the odometry's noise spreads the particles out
 
@@ -114,7 +123,8 @@ def low_variance_resample(weights: np.ndarray, count: int, rng: np.random.Genera
 class ParticleFilter:
     def __init__(self, grid: OccupancyMap, particles: int = 2500, beams: int = 60, max_range_m: float = 10.0,
                  sensor: Pose = (0.0, 0.0, 0.0), model: BeamModel = BeamModel(), noise: MotionNoise = MotionNoise(),
-                 seed: int | None = None, recovery: bool = True, caster: str = "march") -> None:
+                 seed: int | None = None, recovery: bool = True, caster: str = "march",
+                 calibrate: bool = True) -> None:
         if not isinstance(grid, OccupancyMap):
             raise LocalizationError(f"a particle filter needs an OccupancyMap (roar.tracks.load_map), got "
                                     f"{type(grid).__name__}")
@@ -167,6 +177,9 @@ class ParticleFilter:
         self._history_m = 0.0  # [m] driven since the last one kept
         self._scan: LaserScan | None = None  # the last one weighed (a challenge places its rivals by all its beams)
         self.restarts = 0  # global restarts after the filter was lost
+        self.calibrate = calibrate
+        self.odometry_scale = 1.0  # the odometry's distances times this are the car's, as learnt (calibrate=True)
+        self._drift_m = self._calibrating_m = 0.0  # [m] along the heading, scans against the odometry; [m] driven
         self.corrections = self.skipped_scans = self.skipped_beams = 0
 
     # --- where the particles start ---------------------------------------------------------------
@@ -238,6 +251,7 @@ class ParticleFilter:
             self._odometry = odometry
             return
         dx, dy, dyaw = relative(self._odometry, odometry)
+        dx, dy = dx * self.odometry_scale, dy * self.odometry_scale
         self._odometry = odometry
         if not len(self.poses):
             return
@@ -289,8 +303,10 @@ class ParticleFilter:
         log_w -= log_w.max()
         w = np.exp(log_w)
         self.weights = w / w.sum()
+        predicted, driven_m = self.pose, math.hypot(self._since[0], self._since[1])  # where the odometry put it
         self._update_estimate()
         self._judge(angles, ranges, measured == self.max_cells, min(self._moved_m, 1.0))
+        self._calibrate(predicted, driven_m)
         self.corrections += 1
         self._moved_m = self._turned_rad = 0.0
         if self.recovery and self._bad >= LOST_SCANS and (self._was_localized or self.converged):
@@ -326,6 +342,23 @@ class ParticleFilter:
             self._from_global, self.unsure = False, ""
         elif self._bad >= LOST_SCANS:
             self.localized = False
+
+    def _calibrate(self, predicted: Pose, driven_m: float) -> None:
+        """Learn the odometry's scale while localized with a good fit: the scan moved the estimate
+        along its heading from where the odometry put it; summed over CALIBRATE_EVERY_M driven, that
+        is the share of the distance the odometry misses (none on a straight the scan cannot place
+        the car on: the car is where the odometry says; the lag it built shows at the next bend)."""
+        if not (self.calibrate and self.localized and self.fit >= FIT_GOOD):
+            self._drift_m = self._calibrating_m = 0.0  # searching or lost: its jumps say nothing of the wheels
+            return
+        ahead = (math.cos(predicted[2]), math.sin(predicted[2]))
+        self._drift_m += (self._estimate[0] - predicted[0]) * ahead[0] + (self._estimate[1] - predicted[1]) * ahead[1]
+        self._calibrating_m += driven_m
+        if self._calibrating_m >= CALIBRATE_EVERY_M:
+            share = self._drift_m / self._calibrating_m
+            change = float(np.clip(CALIBRATE_GAIN * share, -CALIBRATE_STEP, CALIBRATE_STEP))
+            self.odometry_scale = float(np.clip(self.odometry_scale * (1 + change), *CALIBRATE_RANGE))
+            self._drift_m = self._calibrating_m = 0.0
 
     def _challenge(self, angles: np.ndarray, ranges: np.ndarray, at_max: np.ndarray) -> None:
         """Before a global start declares itself localized: poses placed by this scan all over the
