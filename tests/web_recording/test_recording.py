@@ -561,14 +561,14 @@ def test_a_recorded_filter_replays_open_loop_bit_for_bit(tmp_path):
     pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
     from roar.replay import localize
     from roar.tracks import get
-    from roar.tracks.occupancy_map import track_map
     from roar_sim.runs.localize import Localize
     from roar_sim.runs.race import race
+    from roar_sim.world.scene import world_map
 
     path = tmp_path / "race.mcap"
     track = get("tunnel:2,cones=0,people=4")
     race(track, laps=1, timeout_s=4.0, localize=Localize(track, particles=400), log=path)
-    pairs = localize(path, track_map(track))
+    pairs = localize(path, world_map(track))  # the map the race localized on
     assert len(pairs) >= 195
     assert all(recorded == replayed for recorded, replayed in pairs)  # the same floats, not nearly
     assert len({p for p, _ in pairs}) > 100  # it moved: not a pose compared with itself

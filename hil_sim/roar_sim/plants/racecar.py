@@ -155,9 +155,14 @@ class Racecar:
         """[rad] the rear-left wheel's angle since the start (where the encoder sits)."""
         return pb.getJointState(self.car, REAR_WHEELS[0], physicsClientId=self.client)[0]
 
-    def front_wheels_turned(self) -> float:
-        """[rad] the two undriven front wheels' mean angle since the start (wheel odometry's encoders)."""
-        return sum(pb.getJointState(self.car, w, physicsClientId=self.client)[0] for w in FRONT_WHEELS) / 2
+    def front_axle(self) -> tuple[float, float, float]:
+        """(x [m], y [m], heading [rad]): the middle of the front wheels and the way they roll (the
+        car's yaw and the mean of the steering hinges' angles); wheel odometry's encoders."""
+        c = self.client
+        xs, ys = zip(*(pb.getLinkState(self.car, w, physicsClientId=c)[4][:2] for w in FRONT_WHEELS))
+        steer = sum(pb.getJointState(self.car, h, physicsClientId=c)[0] for h in (LEFT_HINGE, RIGHT_HINGE)) / 2
+        yaw = pb.getEulerFromQuaternion(pb.getBasePositionAndOrientation(self.car, physicsClientId=c)[1])[2]
+        return sum(xs) / 2, sum(ys) / 2, yaw + steer
 
     def wall_contacts(self, of: list[int] | None = None) -> int:
         """How many wall bodies (or bodies of `of`) the car touches right now."""

@@ -26,9 +26,9 @@ from roar.localization.local_grid import LocalGrid
 from roar.localization.pose_history import PoseHistory
 from roar.planning import Footprint
 from roar.planning.course_driver import CourseDriver
-from roar.tracks.occupancy_map import track_map
 from roar.tracks.track import Track, TrackError
 from roar.tracks.tunnel import MARKER_SIZE_M
+from roar_sim.world.scene import world_map
 from roar.vision.geometry import SIMULATED_CAR_CAMERA
 from roar.vision.tracking import CONFIRM_HITS
 from roar.vision.view import CameraView
@@ -182,7 +182,7 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
     route = route_to_goal(track, goal_m)
     goal_xy = tuple(route[-1])
     result = ChallengeResult(track.name, oracle, scoring, course=course)
-    known = track_map(track)
+    known = world_map(track)
     local = LocalGrid(10.0, known.resolution_m, known)
     cam_model = SIMULATED_CAR_CAMERA.model(*CAMERA_SIZE)
     with robots.get(robot)(track) as bot:

@@ -19,12 +19,13 @@ from roar.autopilot import Command, Observation
 from roar.localization import Odometry, ParticleFilter
 from roar.autopilot.open_way import OpenWay
 from roar.localization.local_grid import LocalGrid
-from roar.tracks.occupancy_map import OccupancyMap, track_map
+from roar.tracks.occupancy_map import OccupancyMap
 from roar.tracks.track import Track
 from roar_sim.core.lockstep import CONTROL_PERIOD_S
 from roar_sim.robots import Robot
 from roar_sim.sensors.lidar import Lidar
 from roar_sim.sensors.odometry import WheelOdometry
+from roar_sim.world.scene import world_map
 
 SCAN_PERIOD_S = 0.04  # [s] the lidar's scans at 25 Hz (a UST-10LX gives 40 Hz)
 SCAN_BEAMS = 1080  # the lidar's beams (the filter uses `beams` of them)
@@ -117,7 +118,7 @@ class LocalizationLog:
 
 @dataclass(frozen=True)
 class Localize:
-    """How a race localizes: the known map is the track's (roar.tracks.occupancy_map.track_map:
+    """How a race localizes: the known map is the track's world's (roar_sim.world.scene.world_map:
     its walls only), the filter's particles and beams, a global start, the sensors' seed."""
 
     track: Track
@@ -127,7 +128,7 @@ class Localize:
     seed: int = 1
 
     def car(self, robot: Robot) -> LocalizedCar:
-        return LocalizedCar(robot, track_map(self.track), self.seed, self.particles, self.beams,
+        return LocalizedCar(robot, world_map(self.track), self.seed, self.particles, self.beams,
                             start=None if self.global_start else "true")
 
 

@@ -97,7 +97,9 @@ def save(track: Track, path: Path) -> list[Path]:
         path.write_text(track_files.centreline_csv(track), encoding="utf-8")
         return [path]
     if suffix in (".yaml", ".yml"):
-        occupancy_map.save_map(path, occupancy_map.track_map(track, MAP_RESOLUTION_M))
+        from roar_sim.world.scene import world_map  # the walls where the simulator's stand
+
+        occupancy_map.save_map(path, world_map(track, MAP_RESOLUTION_M))
         name = track_files._stem(path)
         route = path.with_name(f"{name}_centerline.csv")
         route.write_text(track_files.centreline_csv(track), encoding="utf-8")

@@ -21,6 +21,7 @@ from roar_sim.world.tiles import Tiles, frustum_reach_m, tile_files
 from roar_sim.world.obstacles import add_cone, add_person
 from roar_sim.world.bullet import pb, silenced
 from roar.tracks import Track
+from roar.tracks.occupancy_map import OccupancyMap, track_map
 from roar_sim.world.cache import per_shape
 
 WALL_HEIGHT_M, WALL_THICKNESS_M = 0.3, 0.05  # [m] higher than the lidar (0.17 m)
@@ -234,6 +235,14 @@ def wall_mesh(track: Track) -> tuple[list[list[float]], list[int]]:
     """(vertices, indices) of the wall boxes along the edges of the track's driving area
     (Track.walls: folds trimmed, a figure-eight's crossing open), computed once per track shape."""
     return per_shape("wall mesh", track, lambda: _build_wall_mesh(track))
+
+
+def world_map(track: Track, resolution_m: float = 0.05) -> OccupancyMap:
+    """The map of a track's simulated world (roar.tracks.occupancy_map.track_map) with the walls
+    where their faces stand: the boxes are centred on the track's edges, half their thickness in.
+    Drawn at the edges, every wall lay 2.5 cm beyond where the lidar read it, and the particle
+    filter slid along straights."""
+    return track_map(track, resolution_m, inset_m=WALL_THICKNESS_M / 2)
 
 
 def wall_tile_files(track: Track) -> list:

@@ -170,9 +170,11 @@ def save_map(path: str | Path, grid: OccupancyMap) -> None:
                     f"free_thresh: {DEFAULTS['free_thresh']}\n", encoding="utf-8")
 
 
-def track_map(track: Track, resolution_m: float = 0.05, margin_m: float = 0.5) -> OccupancyMap:
+def track_map(track: Track, resolution_m: float = 0.05, margin_m: float = 0.5, inset_m: float = 0.0) -> OccupancyMap:
     """The track as a map: its driving area free, WALL_CELLS of wall round it, unknown beyond.
-    Only the walls: what stands on a tunnel's floor (cones, people) is not in the map."""
+    Only the walls: what stands on a tunnel's floor (cones, people) is not in the map. inset_m [m]:
+    the walls' faces stand this far into the driving area (the simulator's walls are centred on its
+    edges: roar_sim.world.scene.world_map)."""
     import shapely
     from scipy import ndimage
 
@@ -182,7 +184,8 @@ def track_map(track: Track, resolution_m: float = 0.05, margin_m: float = 0.5) -
     grid = OccupancyMap(np.zeros((rows, cols), bool), np.zeros((rows, cols), bool), resolution_m,
                         (float(lo[0]), float(lo[1]), 0.0))
     centres = grid.cell_centres()
-    free = shapely.contains_xy(track.region, centres[:, 0], centres[:, 1]).reshape(rows, cols)
+    area = track.region.buffer(-inset_m) if inset_m > 0 else track.region
+    free = shapely.contains_xy(area, centres[:, 0], centres[:, 1]).reshape(rows, cols)
     wall = ndimage.binary_dilation(free, iterations=WALL_CELLS) & ~free
     return OccupancyMap(wall, free, resolution_m, grid.origin)
 
