@@ -84,6 +84,13 @@ CALIBRATE_EVERY_M = 10.0  # [m] driven localized between two updates of the odom
 CALIBRATE_GAIN = 0.3  # share of the error seen over those metres corrected at each update ...
 CALIBRATE_STEP = 0.02  # ... by at most this much of the scale (a jump of the estimate is not a wheel's radius)
 CALIBRATE_RANGE = (0.8, 1.25)  # the scale never leaves these
+LEARNT_ALONG_PER_M = 0.03  # [m/m] the motion's noise ahead once the scale is learnt: twice the odometry's error as the
+# windows showed it, never below this nor above MotionNoise.along_per_m (an unknown scale: a cloud wide enough to hold
+# a 5 % error; kept that wide on a learnt one, the cloud wandered 0.7 m along straights) ...
+ERROR_KEPT = 0.8  # ... that error: the largest share a window showed, kept at this much a window after, counting
+TOLD_ENOUGH = 10.0  # only windows whose scans narrowed the particles along the heading by this much, summed share by
+# share (a window on a straight the scan cannot place the car on shows no error, though the scale may still be off:
+# its scans narrow them by 3-6, a bend's by 14-40)
 RESAMPLE_BELOW = 0.5  # resample when the effective number of particles falls below this share of them: until
 # then the weights carry over from scan to scan and the odometry's noise spreads the particles out
 
@@ -180,6 +187,8 @@ class ParticleFilter:
         self.calibrate = calibrate
         self.odometry_scale = 1.0  # the odometry's distances times this are the car's, as learnt (calibrate=True)
         self._drift_m = self._calibrating_m = 0.0  # [m] along the heading, scans against the odometry; [m] driven
+        self._told = 0.0  # how much the window's scans narrowed the particles along the heading (see _calibrate)
+        self._odometry_error = noise.along_per_m / 2  # its share of the distance the last windows showed (see predict)
         self.corrections = self.skipped_scans = self.skipped_beams = 0
 
     # --- where the particles start ---------------------------------------------------------------
@@ -257,8 +266,10 @@ class ParticleFilter:
             return
         dist = math.hypot(dx, dy)
         n, nz = len(self.poses), self.noise
+        along = min(nz.along_per_m, max(LEARNT_ALONG_PER_M, 2 * self._odometry_error)) if self.calibrate else \
+            nz.along_per_m
         self.poses = _compose(self.poses,
-                              dx + self.rng.normal(0.0, nz.along_per_m * dist + nz.floor_m, n),
+                              dx + self.rng.normal(0.0, along * dist + nz.floor_m, n),
                               dy + self.rng.normal(0.0, nz.across_per_m * dist + nz.floor_m, n),
                               dyaw + self.rng.normal(0.0, nz.turn_per_rad * abs(dyaw) + nz.turn_per_m * dist
                                                      + nz.floor_rad, n))
@@ -299,14 +310,16 @@ class ParticleFilter:
         else:  # the benchmark's plain reference: every ray walked cell by cell, then the table
             expected = np.minimum(self._walker.cast_cells(sensors, angles) + 0.5, self.max_cells).astype(np.int64)
             log_l = table[measured[None, :], expected].sum(axis=1)
-        log_w = np.log(np.maximum(self.weights, 1e-300)) + log_l
+        prior = self.weights
+        log_w = np.log(np.maximum(prior, 1e-300)) + log_l
         log_w -= log_w.max()
         w = np.exp(log_w)
         self.weights = w / w.sum()
         predicted, driven_m = self.pose, math.hypot(self._since[0], self._since[1])  # where the odometry put it
+        told = 1.0 - self._along_spread(self.weights) / max(self._along_spread(prior), 1e-12)
         self._update_estimate()
         self._judge(angles, ranges, measured == self.max_cells, min(self._moved_m, 1.0))
-        self._calibrate(predicted, driven_m)
+        self._calibrate(predicted, driven_m, max(0.0, told))
         self.corrections += 1
         self._moved_m = self._turned_rad = 0.0
         if self.recovery and self._bad >= LOST_SCANS and (self._was_localized or self.converged):
@@ -343,22 +356,30 @@ class ParticleFilter:
         elif self._bad >= LOST_SCANS:
             self.localized = False
 
-    def _calibrate(self, predicted: Pose, driven_m: float) -> None:
+    def _along_spread(self, weights: np.ndarray) -> float:
+        """[m^2] the particles' variance along the estimate's heading under these weights."""
+        a = self.poses[:, 0] * math.cos(self._estimate[2]) + self.poses[:, 1] * math.sin(self._estimate[2])
+        return float(weights @ (a - weights @ a) ** 2)
+
+    def _calibrate(self, predicted: Pose, driven_m: float, told: float) -> None:
         """Learn the odometry's scale while localized with a good fit: the scan moved the estimate
         along its heading from where the odometry put it; summed over CALIBRATE_EVERY_M driven, that
         is the share of the distance the odometry misses (none on a straight the scan cannot place
         the car on: the car is where the odometry says; the lag it built shows at the next bend)."""
         if not (self.calibrate and self.localized and self.fit >= FIT_GOOD):
-            self._drift_m = self._calibrating_m = 0.0  # searching or lost: its jumps say nothing of the wheels
+            self._drift_m = self._calibrating_m = self._told = 0.0  # searching or lost: its jumps tell nothing
             return
         ahead = (math.cos(predicted[2]), math.sin(predicted[2]))
         self._drift_m += (self._estimate[0] - predicted[0]) * ahead[0] + (self._estimate[1] - predicted[1]) * ahead[1]
         self._calibrating_m += driven_m
+        self._told += told
         if self._calibrating_m >= CALIBRATE_EVERY_M:
             share = self._drift_m / self._calibrating_m
             change = float(np.clip(CALIBRATE_GAIN * share, -CALIBRATE_STEP, CALIBRATE_STEP))
             self.odometry_scale = float(np.clip(self.odometry_scale * (1 + change), *CALIBRATE_RANGE))
-            self._drift_m = self._calibrating_m = 0.0
+            if self._told >= TOLD_ENOUGH:  # the scans placed the car along its way: the error shown is what is left
+                self._odometry_error = max(ERROR_KEPT * self._odometry_error, abs(share))
+            self._drift_m = self._calibrating_m = self._told = 0.0
 
     def _challenge(self, angles: np.ndarray, ranges: np.ndarray, at_max: np.ndarray) -> None:
         """Before a global start declares itself localized: poses placed by this scan all over the
