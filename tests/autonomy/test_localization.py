@@ -248,11 +248,11 @@ def test_the_filter_tracks_a_car_whose_odometry_drifts():
     assert np.all(np.linalg.eigvalsh(pf.covariance) >= -1e-12) and pf.spread_m < 0.1
 
 
-RING_LENGTH_M, RING_WIDTH_M, RING_LANE_M = 40.0, 10.0, 1.6  # [m] outside, and the corridor's width
+RING_LENGTH_M, RING_WIDTH_M, RING_LANE_M = 30.0, 8.0, 1.6  # [m] outside, and the corridor's width
 
 
 def ring() -> OccupancyMap:
-    """A corridor round a 40 m x 10 m block: straights longer than the lidar sees twice over (10 m),
+    """A corridor round a 30 m x 8 m block: straights three times as long as the lidar sees (10 m),
     where a scan cannot tell how far along the car is, and four corners where it can."""
     w, h = int((RING_LENGTH_M + 2) / RES), int((RING_WIDTH_M + 2) / RES)
     occ = np.zeros((h, w), bool)
