@@ -37,16 +37,20 @@ def room() -> OccupancyMap:
     return OccupancyMap(occ, ~occ, RES, (0.0, 0.0, 0.0))
 
 
+def around(corners, t_s: float, speed: float) -> tuple[float, float, float]:
+    """A pose [m, m, rad] at t_s on a loop through the corners [m] at `speed` [m/s]."""
+    corners = np.asarray(corners, float)
+    sides = np.linalg.norm(np.roll(corners, -1, axis=0) - corners, axis=1)
+    s = (t_s * speed) % sides.sum()
+    i = int(np.searchsorted(np.cumsum(sides), s, side="right"))
+    a, b = corners[i], corners[(i + 1) % len(corners)]
+    p = a + (s - (np.cumsum(sides)[i] - sides[i])) / sides[i] * (b - a)
+    return float(p[0]), float(p[1]), math.atan2(b[1] - a[1], b[0] - a[0])
+
+
 def loop_path(t_s: float) -> tuple[float, float, float]:
     """A pose [m, m, rad] at t_s on a 1 m/s loop round the L-block (period 26 s)."""
-    corners = np.array([[1.5, 1.2], [8.5, 1.2], [8.5, 6.8], [1.5, 6.8]])
-    sides = np.linalg.norm(np.roll(corners, -1, axis=0) - corners, axis=1)
-    s = (t_s * 1.0) % sides.sum()
-    i = int(np.searchsorted(np.cumsum(sides), s, side="right"))
-    a, b = corners[i], corners[(i + 1) % 4]
-    f = (s - (np.cumsum(sides)[i] - sides[i])) / sides[i]
-    p = a + f * (b - a)
-    return float(p[0]), float(p[1]), math.atan2(b[1] - a[1], b[0] - a[0])
+    return around([[1.5, 1.2], [8.5, 1.2], [8.5, 6.8], [1.5, 6.8]], t_s, 1.0)
 
 
 class Synthetic:
@@ -265,14 +269,8 @@ def ring() -> OccupancyMap:
 def ring_path(t_s: float, speed: float = 3.0) -> tuple[float, float, float]:
     """A pose [m, m, rad] at t_s along the middle of ring()'s corridor at `speed` [m/s]."""
     c = 1 + RING_LANE_M / 2
-    corners = np.array([[c, c], [RING_LENGTH_M + 2 - c, c], [RING_LENGTH_M + 2 - c, RING_WIDTH_M + 2 - c],
-                        [c, RING_WIDTH_M + 2 - c]])
-    sides = np.linalg.norm(np.roll(corners, -1, axis=0) - corners, axis=1)
-    s = (t_s * speed) % sides.sum()
-    i = int(np.searchsorted(np.cumsum(sides), s, side="right"))
-    a, b = corners[i], corners[(i + 1) % 4]
-    p = a + (s - (np.cumsum(sides)[i] - sides[i])) / sides[i] * (b - a)
-    return float(p[0]), float(p[1]), math.atan2(b[1] - a[1], b[0] - a[0])
+    far_x, far_y = RING_LENGTH_M + 2 - c, RING_WIDTH_M + 2 - c
+    return around([[c, c], [far_x, c], [far_x, far_y], [c, far_y]], t_s, speed)
 
 
 def test_the_filter_learns_how_far_its_odometry_reads_wrong_and_lags_less_on_long_straights():

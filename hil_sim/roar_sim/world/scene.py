@@ -118,8 +118,9 @@ class World:
         course = track.course if track else None  # a tunnel world's cones and people (not in its map)
         self.cones = [add_cone(self, x, y) for x, y in course.cones] if course else []
         self.people = [add_person(self, x, y) for x, y in course.people] if course else []
-        self.tiles += add_floor(track, c) if track else []
-        self.floor = [b for tiles in self.tiles[1:] for b in tiles.bodies]  # the paint's bodies
+        paint = add_floor(track, c) if track else []
+        self.floor = [b for tiles in paint for b in tiles.bodies]  # the paint's bodies
+        self.tiles += paint
         self.ground = self._add_ground(track)
         if gui:
             self._frame_gui(track)

@@ -316,10 +316,10 @@ class ParticleFilter:
         w = np.exp(log_w)
         self.weights = w / w.sum()
         predicted, driven_m = self.pose, math.hypot(self._since[0], self._since[1])  # where the odometry put it
-        told = 1.0 - self._along_spread(self.weights) / max(self._along_spread(prior), 1e-12)
+        heading = self._estimate[2]  # the last scan's, along which the particles' spread is compared
         self._update_estimate()
         self._judge(angles, ranges, measured == self.max_cells, min(self._moved_m, 1.0))
-        self._calibrate(predicted, driven_m, max(0.0, told))
+        self._calibrate(predicted, driven_m, prior, heading)
         self.corrections += 1
         self._moved_m = self._turned_rad = 0.0
         if self.recovery and self._bad >= LOST_SCANS and (self._was_localized or self.converged):
@@ -356,12 +356,12 @@ class ParticleFilter:
         elif self._bad >= LOST_SCANS:
             self.localized = False
 
-    def _along_spread(self, weights: np.ndarray) -> float:
-        """[m^2] the particles' variance along the estimate's heading under these weights."""
-        a = self.poses[:, 0] * math.cos(self._estimate[2]) + self.poses[:, 1] * math.sin(self._estimate[2])
+    def _along_spread(self, weights: np.ndarray, heading: float) -> float:
+        """[m^2] the particles' variance along `heading` [rad] under these weights."""
+        a = self.poses[:, 0] * math.cos(heading) + self.poses[:, 1] * math.sin(heading)
         return float(weights @ (a - weights @ a) ** 2)
 
-    def _calibrate(self, predicted: Pose, driven_m: float, told: float) -> None:
+    def _calibrate(self, predicted: Pose, driven_m: float, prior: np.ndarray, heading: float) -> None:
         """Learn the odometry's scale while localized with a good fit: the scan moved the estimate
         along its heading from where the odometry put it; summed over CALIBRATE_EVERY_M driven, that
         is the share of the distance the odometry misses (none on a straight the scan cannot place
@@ -372,7 +372,8 @@ class ParticleFilter:
         ahead = (math.cos(predicted[2]), math.sin(predicted[2]))
         self._drift_m += (self._estimate[0] - predicted[0]) * ahead[0] + (self._estimate[1] - predicted[1]) * ahead[1]
         self._calibrating_m += driven_m
-        self._told += told
+        told = 1.0 - self._along_spread(self.weights, heading) / max(self._along_spread(prior, heading), 1e-12)
+        self._told += max(0.0, told)  # how much this scan narrowed the particles along the heading
         if self._calibrating_m >= CALIBRATE_EVERY_M:
             share = self._drift_m / self._calibrating_m
             change = float(np.clip(CALIBRATE_GAIN * share, -CALIBRATE_STEP, CALIBRATE_STEP))
