@@ -107,3 +107,29 @@ def test_the_speed_controllers_gains_scale_with_the_top_speed():
     roar, fast = SpeedController(2.93), SpeedController(7.9)
     assert roar.pid.kp == pytest.approx(0.6) and roar.pid.ki == pytest.approx(0.4) and roar.brake_gain == pytest.approx(1.5)
     assert fast.pid.kp * 7.9 == pytest.approx(roar.pid.kp * 2.93) and fast.brake_gain * 7.9 == pytest.approx(4.395)
+
+
+def test_the_f1tenth_car_laps_a_random_track_at_its_limit_without_touching_a_wall():
+    """Issue 43, item 6 (every profile on every track: make bench). The F1TENTH-like car turns a
+    third less than its steering asks at 3.4 m/s and its grip fades above 3.9 m/s: before the
+    curvature tracker and the measured fade it touched walls on 11 of 13 tracks."""
+    from roar.tracks import get
+    from roar_sim.runs.race import race
+
+    with esc.EscCar(profile="f1tenth") as car:
+        assert car.limits.lateral_fade  # measured: it holds less grip at its higher speeds
+    assert esc.LIMITS.lateral_fade == ()  # the ROAR car holds its grip up to its top speed
+    result = race(get("random:1"), laps=2, profile="f1tenth")
+    assert len(result.lap_times_s) == 2 and result.wall_contacts == 0
+    assert result.best_ratio <= 1.10
+
+
+def test_a_profile_whose_car_cannot_be_measured_is_refused_in_one_line(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    profile = tmp_path / "rocket.toml"  # its wheels would turn at 37 m/s: it never drives a steady run
+    profile.write_text('title = "rocket"\nwheelbase_m = 0.2677\nmass_kg = 6.3206\nmotor_speed_rad_s = 4894.6\n'
+                       'gear_ratio = 5.5039\nmotor_torque_nm = 3.0045\ntyre_friction = 1.4843\nmax_steer_rad = 0.2127\n'
+                       'steer_rate_rad_s = 2.1268\n')
+    with pytest.raises(ProfileError, match=r"rocket: its limits cannot be measured.*36.6 m/s") as e:
+        esc.profile_limits(car_profile.load(str(profile)))
+    assert "\n" not in str(e.value)

@@ -65,7 +65,9 @@ def test_each_robots_limits_table_is_what_driving_it_measures(name):
 def test_the_iarrc_car_races_by_speed_setpoints_without_touching_a_wall():
     result = race(get("oval"), laps=2, robot="iarrc")
     assert len(result.lap_times_s) == 2 and result.wall_contacts == 0
-    assert result.best_ratio < 1.3  # its own PID holds the profile's speeds, a little behind
+    # its own PID holds the profile's speeds, a little behind; the curvature tracker keeps it on its
+    # line out of the bends (issue 43, item 20: 1.17 on the oval before)
+    assert result.best_ratio <= 1.15
 
 
 @pytest.mark.parametrize("name", ["esc", "iarrc", "junior"])

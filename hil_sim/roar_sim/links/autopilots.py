@@ -57,7 +57,7 @@ class SimAutopilot:
         if self._t0 is None:
             self._t0 = state.time_s
         observation = Observation(state.time_s - self._t0, state.x_m, state.y_m, state.yaw_rad,
-                                  abs(state.speed_m_s), state.yaw_rate_rad_s or 0.0)
+                                  abs(state.speed_m_s), state.yaw_rate_rad_s)
         command = self.agent.step(observation)
         return self.robot.host_drive(command.throttle, command.steering)
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import importlib
 import math
+import statistics
 import pkgutil
 from collections.abc import Callable
 from typing import ClassVar
@@ -26,7 +27,7 @@ from typing import ClassVar
 import numpy as np
 
 from roar.autopilot import Agent, CarLimits, Command, Observation
-from roar.autopilot.limits import HOLDS_LINE, circle
+from roar.autopilot.limits import HOLDS_LINE, circle, fade, tracked
 from roar_sim import UnknownRobot
 from roar.telemetry import VehicleState
 from roar_sim.core.lockstep import CONTROL_PERIOD_S, Lockstep
@@ -224,19 +225,27 @@ class Robot(Lockstep):
         return log
 
 
-def grip_on_circles(make: Callable[[], Robot], steerings, speeds, drive_circle) -> float:
-    """[m/s^2] the most lateral acceleration a robot holds on steady circles: for each steering,
-    fresh robots from make() driven faster and faster (drive_circle(robot, speed, steering) -> the
-    log of its steady part) until the circle widens beyond HOLDS_LINE of the slowest one's radius,
-    where the tyres slide (understeer)."""
-    lateral = 0.0
+def grip_on_circles(make: Callable[[], Robot], steerings, speeds, drive_circle) -> tuple[float, tuple]:
+    """(the most lateral acceleration [m/s^2] a robot holds on steady circles, and how it fades
+    with speed: CarLimits.lateral_fade). For each steering, fresh robots from make() are driven
+    faster and faster (drive_circle(robot, speed, steering) -> the log of its steady part): a
+    circle within HOLDS_LINE of the slowest one's radius counts as grip (its tyres do not slide);
+    the row goes on while the autopilot's curvature tracker could still hold the circle
+    (roar.autopilot.limits.tracked), and its last such circle is where that steering's grip ends."""
+    peak, ends = (0.0, 0.0), []
     for steering in steerings:
-        base_radius = None
+        base_radius, last, slid = None, None, False
         for speed in speeds:
             with make() as robot:
-                radius, accel_lateral = circle(drive_circle(robot, speed, steering))
+                log = drive_circle(robot, speed, steering)
+            radius, accel_lateral = circle(log)
             base_radius = base_radius or radius  # the slowest run: no slip
-            if radius > HOLDS_LINE * base_radius:
+            if not tracked(base_radius, radius):
+                if last is not None:
+                    ends.append(last)
                 break
-            lateral = max(lateral, accel_lateral)
-    return lateral
+            last = (statistics.median(s.speed for _, s in log), accel_lateral)
+            slid = slid or radius > HOLDS_LINE * base_radius  # from here on the tyres slip
+            if not slid and accel_lateral > peak[1]:
+                peak = last
+    return peak[1], fade(peak, ends)

@@ -18,6 +18,7 @@ Commands reach it as they reach a real one, as control messages on its serial po
 from __future__ import annotations
 
 import math
+import statistics
 
 from roar.autopilot import Agent, CarLimits, CarModel, race_agent
 from roar.autopilot.limits import straight_line
@@ -30,15 +31,20 @@ from roar_sim.core.car import CarBoard, CarConfig, CarOutputs
 from roar_sim.plants.esc_servo import EscMode, HobbyEsc, SteeringServo
 from roar_sim.plants import car_profile
 from roar_sim.plants.car_profile import CarProfile
-from roar_sim.plants.racecar import CarState, Racecar
+from roar_sim import ProfileError
+from roar_sim.plants.racecar import WHEEL_RADIUS_M, CarState, Racecar
 from roar_sim.robots import Pose, ReplyLines, Robot, grip_on_circles
 from roar_sim.world.scene import World
 from roar.tracks.track import Track
 
 FRAME_US = spec.TIMING_SERVO_FRAME_US  # [us]
 REVERSE_TRIES = (1.0, 0.75, 0.5, 0.35, 0.25)  # reverse throttle tried for braking, strongest first
+STOP_WITHIN_S = 8.0  # [s] the longest a stop from top speed is waited for
 STRAIGHT_DEG = 5.0  # [deg] a stop from top speed that turns the car more than this does not brake it straight
-LIMITS_VERSION = 2  # of the way limits are measured: limits kept in the user's cache by an older one are measured again
+LIMITS_VERSION = 3  # of the way limits are measured: limits kept in the user's cache by an older one are measured again
+# [us] the steerings its grip is measured at: the larger ones find the peak, the smaller ones reach
+# the speeds where a fast car's grip fades
+CIRCLE_STEERINGS_US = (1560, 1600, 1650, 1700, 1750, 1800)
 # The default profile's (roar) limits as measured from it; `roar limits esc` and the suite measure
 # them again. Any other profile's are measured on first use and kept in the user's cache. Full
 # reverse from its top speed turns the ROAR car 28 degrees before it stops: it brakes at half.
@@ -189,8 +195,10 @@ class EscCar(Robot):
             with cls(profile=profile) as car:
                 hold(car, N, N, 0.2)
                 run = hold(car, spec.CONTROL_MAX_US, N, 4.0)
-                stop = hold(car, round(N - reverse * (N - spec.CONTROL_MIN_US)), N, 2.0)
-            top = max(s.speed for _, s in run)
+                top = max(s.speed for _, s in run)
+                stop = []
+                while len(stop) * CONTROL_PERIOD_S < STOP_WITHIN_S and (not stop or stop[-1][1].speed > 0.1 * top):
+                    stop += hold(car, round(N - reverse * (N - spec.CONTROL_MIN_US)), N, 1.0)  # till it stops
             braking = [s for _, s in stop][:next((k for k, (_, s) in enumerate(stop) if s.speed <= 0.1 * top), None)]
             turned = max(abs(math.remainder(s.yaw - run[-1][1].yaw, math.tau)) for s in braking or [run[-1][1]])
             if turned <= math.radians(STRAIGHT_DEG):
@@ -200,9 +208,9 @@ class EscCar(Robot):
             hold(car, N, N, 0.2)
             return hold(car, throttle_us, steering_us, 5.0)[-100:]  # the last 2 s
 
-        lateral = grip_on_circles(lambda: cls(profile=profile), (1650, 1700, 1750, 1800), range(1700, 2001, 50),
-                                  drive_circle)
-        return CarLimits(round(top, 2), round(accel, 2), round(brake, 2), round(lateral, 2), reverse)
+        lateral, fade = grip_on_circles(lambda: cls(profile=profile), CIRCLE_STEERINGS_US, range(1700, 2001, 50),
+                                        drive_circle)
+        return CarLimits(round(top, 2), round(accel, 2), round(brake, 2), round(lateral, 2), reverse, fade)
 
 
 def profile_limits(profile: CarProfile) -> CarLimits:
@@ -225,6 +233,12 @@ def profile_limits(profile: CarProfile) -> CarLimits:
         _MEASURING.add(profile.fingerprint)
         try:
             limits = EscCar.measure_limits(profile)
+        except (StopIteration, ZeroDivisionError, ValueError, statistics.StatisticsError):
+            # a run that never reached 90 % of its speed, never stopped, or never turned a circle
+            top = profile.motor.max_speed_rad_s * WHEEL_RADIUS_M * profile.scale
+            raise ProfileError(f"{profile.title}: its limits cannot be measured: driving it at full throttle, braking "
+                               f"and on circles gave no steady run (its wheels' top speed is {top:.1f} m/s; a 1/10 car "
+                               f"reaches 2-10 m/s)") from None
         finally:
             _MEASURING.discard(profile.fingerprint)
         try:

@@ -237,8 +237,8 @@ class IarrcCar(Robot):
             hold(car, 0, n, 0.3)
             return hold(car, speed_mm_s, steering_us, 5.0)[-100:]  # the last 2 s
 
-        lateral = grip_on_circles(cls, (1650, 1700, 1750, 1800), range(1000, fastest + 1, 500), drive_circle)
-        return CarLimits(round(top, 2), round(accel, 2), round(brake, 2), round(lateral, 2))
+        lateral, fade = grip_on_circles(cls, (1650, 1700, 1750, 1800), range(1000, fastest + 1, 500), drive_circle)
+        return CarLimits(round(top, 2), round(accel, 2), round(brake, 2), round(lateral, 2), lateral_fade=fade)
 
 
 ROBOT = IarrcCar

@@ -22,15 +22,27 @@ REL_TOLERANCE, ABS_TOLERANCE = 0.05, 0.02  # how far a measurement may be from i
 
 
 def agrees(measured: CarLimits, table: CarLimits) -> bool:
-    return all(math.isclose(getattr(measured, k), getattr(table, k), rel_tol=REL_TOLERANCE, abs_tol=ABS_TOLERANCE)
-               for k in vars(table))
+    def close(a: float, b: float) -> bool:
+        return math.isclose(a, b, rel_tol=REL_TOLERANCE, abs_tol=ABS_TOLERANCE)
+
+    fades = measured.lateral_fade, table.lateral_fade
+    return (all(close(getattr(measured, k), getattr(table, k)) for k in vars(table) if k != "lateral_fade")
+            and len(fades[0]) == len(fades[1])
+            and all(close(a, b) for p, q in zip(*fades) for a, b in zip(p, q)))
+
+
+def fade_text(fade: tuple) -> str:
+    return ", ".join(f"{a:.2f} at {v:.2f} m/s" for v, a in fade) or "none"
 
 
 def report(name: str, measured: CarLimits, table: CarLimits) -> str:
     kind = robots.get(name)
     lines = [f"{kind.title} ({name}):"]
     for key, value in vars(measured).items():
-        lines.append(f"  {key:18} {value:6.2f}   (table: {getattr(table, key):.2f})")
+        if key == "lateral_fade":
+            lines.append(f"  {key:18} {fade_text(value)}   (table: {fade_text(table.lateral_fade)})")
+        else:
+            lines.append(f"  {key:18} {value:6.2f}   (table: {getattr(table, key):.2f})")
     return "\n".join(lines)
 
 

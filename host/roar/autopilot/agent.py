@@ -25,7 +25,7 @@ class Observation:
     y: float  # [m]
     yaw: float  # [rad] anticlockwise from +x
     speed: float  # [m/s] magnitude (a speedometer does not know the direction)
-    yaw_rate: float = 0.0  # [rad/s]
+    yaw_rate: float | None = None  # [rad/s] the gyro's; None: the car has no gyro
 
 
 @dataclass(frozen=True)

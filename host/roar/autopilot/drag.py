@@ -89,7 +89,7 @@ class DragPerception(Module[Observation, DragSeen]):
 
     def step(self, value: Observation) -> DragSeen:
         rgb, _ = self.camera()
-        self.heading_rad += value.yaw_rate * self.period_s
+        self.heading_rad += (value.yaw_rate or 0.0) * self.period_s
         lanes = self.detector.detect(rgb)
         return DragSeen(lanes, value.speed, self.heading_rad, self.laser(), self.detector.half_width_m)
 

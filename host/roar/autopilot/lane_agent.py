@@ -241,7 +241,7 @@ class LanePlanner(Module[Seen, LanePlan]):
         self.lost_s = 0.0
         # the bend ahead, or the arc to the goal where the line is seen too little to show its bend
         curvature = max(lanes.centre.curvature(), abs(PurePursuit.curvature(0.0, 0.0, 0.0, goal)))
-        speed = min(self.max_speed_m_s, limits.max_speed_m_s, math.sqrt(limits.max_lateral_m_s2 / max(curvature, 1e-3)))
+        speed = min(self.max_speed_m_s, float(limits.corner_speed(max(curvature, 1e-3))))
         state = LaneState.FOLLOWING if lanes.source in ("yellow", "edges") else LaneState.ONE_LINE
         if state is LaneState.ONE_LINE:
             speed *= ONE_LINE_FACTOR

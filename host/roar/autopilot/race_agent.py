@@ -3,7 +3,8 @@ line's curvature allows.
 
     perception  Passthrough: the car reports its pose and speed
     planning    LoopWaypointFollower -> goal point l_d ahead + target speed from the profile
-    control     PurePursuit -> steering; SpeedController (PID, brakes through the FSM) -> throttle
+    control     PurePursuit -> curvature; CurvatureTracker (the gyro) -> steering;
+                SpeedController (PID, brakes through the FSM) -> throttle
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from roar.autopilot.agent import Agent, Command, Module, Observation, Passthrough
+from roar.autopilot.curvature_tracking import CurvatureTracker
 from roar.autopilot.longitudinal import SpeedController, SpeedSetpoint
 from roar.autopilot.pid import PID
 from roar.autopilot.pure_pursuit import PurePursuit, goal_on_path
@@ -85,25 +87,37 @@ class HeadingController:
 
 
 class RaceController(Module[tuple[Observation, Plan], Command]):
-    """Steering from pure pursuit (default) or the heading PID; throttle from the speed controller."""
+    """Steering from pure pursuit (default) or the heading PID; throttle from the speed controller.
+    Pure pursuit's curvature goes through `tracker` (default: a CurvatureTracker; None: steer by
+    the kinematic bicycle alone), which adds what the gyro says the car turns short of it."""
 
     def __init__(self, car: CarModel, pursuit: PurePursuit, speed: SpeedController | SpeedSetpoint, period_s: float,
-                 heading: HeadingController | None = None) -> None:
+                 heading: HeadingController | None = None, tracker: CurvatureTracker | None = None) -> None:
         self.car, self.pursuit, self.speed, self.period_s, self.heading = car, pursuit, speed, period_s, heading
+        self.tracker = tracker
 
     def setup(self) -> None:
         self.speed.reset()
         if self.heading is not None:
             self.heading.reset()
+        if self.tracker is not None:
+            self.tracker.reset()
 
     def step(self, value: tuple[Observation, Plan]) -> Command:
         obs, plan = value
         if self.heading is not None:
             angle = self.heading.steering_angle(obs, plan.goal, self.period_s)
         else:
-            angle = self.pursuit.steering_angle(obs.x, obs.y, obs.yaw, plan.goal)
+            asked = self.pursuit.curvature(obs.x, obs.y, obs.yaw, plan.goal)
+            if self.tracker is not None:
+                asked = self.tracker.step(asked, obs.speed, obs.yaw_rate, self.period_s)
+            angle = math.atan(self.car.wheelbase_m * asked)
         steering = max(-1.0, min(1.0, -angle / self.car.max_steer_rad))  # left angle = negative command
         throttle = self.speed.step(plan.target_speed_m_s, obs.speed, self.period_s)
+        if self.tracker is not None and self.tracker.sliding and throttle > 0:
+            # the tyres slide: no more drive than holds the speed it has (a wheel spun up takes the
+            # grip the bend needs), as a driver lifts off in a slide
+            throttle = 0.0
         return Command(throttle, steering)
 
 
@@ -123,7 +137,8 @@ def race_agent(points: np.ndarray, car: CarModel, period_s: float, margin: float
     planner = RacePlanner(xy, speeds, follower, pursuit)
     heading = HeadingController(car.max_steer_rad) if lateral == "pid" else None
     speed = speed or SpeedController(car.limits.max_speed_m_s, max_reverse=car.limits.max_reverse)
-    controller = RaceController(car, pursuit, speed, period_s, heading)
+    tracker = CurvatureTracker() if lateral == "pursuit" else None
+    controller = RaceController(car, pursuit, speed, period_s, heading, tracker)
     return Agent(Passthrough(), planner, controller)
 
 
