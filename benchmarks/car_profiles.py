@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.race_ratio import where_slow
 from roar.tracks import TrackError, get
 from roar.tracks.track import BUILTIN
 from roar_sim import ProfileError
@@ -73,7 +74,7 @@ def run() -> None:
                 ok = ratio <= TARGET and result.wall_contacts == 0
                 missed += not ok
                 cause = "" if ok else (f"  MISSED: {result.wall_contacts} control periods on a wall" if result.wall_contacts
-                                       else f"  MISSED by {ratio - TARGET:+.3f}")
+                                       else f"  MISSED by {ratio - TARGET:+.3f}: {where_slow(result)}")
                 print(f"    {name:14} laps {len(result.lap_times_s)}, best {min(result.lap_times_s):6.2f} s, "
                       f"ratio {ratio:.3f}, wall contacts {result.wall_contacts}{cause}")
         print(f"  {missed} runs missed the target" if missed else "  every profile met the target on every track")

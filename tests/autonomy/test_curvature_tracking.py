@@ -94,3 +94,66 @@ def test_a_fade_is_kept_only_where_the_grip_falls_below_its_peak():
 def test_a_fade_that_is_not_a_falling_curve_is_refused(fade_points):
     with pytest.raises(ValueError, match="lateral_fade"):
         CarLimits(8.0, 4.0, 3.5, 8.0, lateral_fade=fade_points)
+
+
+class Circling:
+    """A car on a steady circle for grip_on_circles: at steering s [m] (its slowest radius) and
+    speed v, radius(s, v) [m]; its log is 100 states of that circle."""
+
+    def __init__(self, radius):
+        self.radius = radius
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def drive(self, speed, steering):
+        r = self.radius(steering, speed)
+        state = type("State", (), {"speed": speed, "yaw_rate": speed / r})
+        return [(k * PERIOD_S, state) for k in range(100)]
+
+
+def grip_of(radius):
+    pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
+    from roar_sim.robots import grip_on_circles
+
+    car = Circling(radius)
+    return grip_on_circles(lambda: car, (1.0, 2.0, 4.0), (1.0, 2.0, 3.0, 4.0, 5.0, 6.0),
+                           lambda robot, speed, steering: robot.drive(speed, steering))
+
+
+def test_circles_give_the_peak_grip_and_where_it_fades():
+    # the tyres hold 6 m/s^2 up to 3 m/s, then less: the car runs wide, faster runs wider
+    def radius(steering, speed):
+        grip = 6.0 if speed <= 3.0 else 6.0 - 1.5 * (speed - 3.0)
+        return max(steering, speed ** 2 / grip)
+
+    peak, fade_points = grip_of(radius)
+    assert peak == pytest.approx(4.5)  # 3 m/s on the 2 m circle (on the 1 m one, 3 m/s pushes 50 % wide)
+    assert fade_points == ((3.0, 4.5), (4.0, 4.0))  # the 4 m circle's last before it ran twice as wide
+    assert grip_of(lambda steering, speed: max(steering, speed ** 2 / 6.0))[1] == ()  # no fade below its top speed
+
+
+def test_a_circle_that_spins_tighter_is_not_grip():
+    # from 3 m/s on the 2 m circle the car spins: its circle shrinks to a third
+    def radius(steering, speed):
+        return steering / 3 if speed >= 3.0 else steering
+
+    peak, _ = grip_of(radius)
+    assert peak == pytest.approx(2.0 ** 2 / 1.0)  # the 1 m circle at 2 m/s: no spin counts
+
+
+def test_the_throttle_is_lifted_in_a_slide_but_not_for_one_periods_jump():
+    tracker = CurvatureTracker()
+    for _ in range(20):
+        tracker.step(0.2, 4.0, 4.0 * 0.2, PERIOD_S)  # turning as asked
+    assert tracker.drive_share == 1.0
+    tracker.step(0.8, 4.0, 4.0 * 0.2, PERIOD_S)  # one period's jump of what is asked (a corrected pose)
+    assert tracker.drive_share > 0.5
+    for _ in range(15):  # 0.3 s turning the other way than asked: the rear has stepped out
+        tracker.step(0.2, 4.0, -4.0 * 0.2, PERIOD_S)
+    assert tracker.drive_share == 0.0
+    tracker.reset()
+    assert tracker.drive_share == 1.0

@@ -231,7 +231,9 @@ def grip_on_circles(make: Callable[[], Robot], steerings, speeds, drive_circle) 
     faster and faster (drive_circle(robot, speed, steering) -> the log of its steady part): a
     circle within HOLDS_LINE of the slowest one's radius counts as grip (its tyres do not slide);
     the row goes on while the autopilot's curvature tracker could still hold the circle
-    (roar.autopilot.limits.tracked), and its last such circle is where that steering's grip ends."""
+    (roar.autopilot.limits.tracked) and the car does not spin (a circle tighter than the slowest
+    by HOLDS_LINE: its rear wheels spun up lose their grip), and its last such circle is where
+    that steering's grip ends."""
     peak, ends = (0.0, 0.0), []
     for steering in steerings:
         base_radius, last, slid = None, None, False
@@ -240,7 +242,7 @@ def grip_on_circles(make: Callable[[], Robot], steerings, speeds, drive_circle) 
                 log = drive_circle(robot, speed, steering)
             radius, accel_lateral = circle(log)
             base_radius = base_radius or radius  # the slowest run: no slip
-            if not tracked(base_radius, radius):
+            if not tracked(base_radius, radius) or radius < base_radius / HOLDS_LINE:  # pushed wide, or spun
                 if last is not None:
                     ends.append(last)
                 break

@@ -114,10 +114,10 @@ class RaceController(Module[tuple[Observation, Plan], Command]):
             angle = math.atan(self.car.wheelbase_m * asked)
         steering = max(-1.0, min(1.0, -angle / self.car.max_steer_rad))  # left angle = negative command
         throttle = self.speed.step(plan.target_speed_m_s, obs.speed, self.period_s)
-        if self.tracker is not None and self.tracker.sliding and throttle > 0:
-            # the tyres slide: no more drive than holds the speed it has (a wheel spun up takes the
-            # grip the bend needs), as a driver lifts off in a slide
-            throttle = 0.0
+        if self.tracker is not None and throttle > 0:
+            # the tyres slide: less drive, none in a full slide (a wheel spun up takes the grip the
+            # bend needs), as a driver lifts off
+            throttle *= self.tracker.drive_share
         return Command(throttle, steering)
 
 
