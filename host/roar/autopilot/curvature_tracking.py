@@ -44,9 +44,6 @@ FLOOR_PER_M = 0.1  # [1/m] ...plus this (a trim error turns the car on a straigh
 MIN_SPEED_M_S = 1.0
 SLIPPING_PER_M = 0.1  # [1/m] turning this far from what is asked, the car starts to slide: less throttle...
 SLIDING_PER_M = 0.25  # [1/m] ...and none from here
-# [s] what is sent, low-passed by this, is paired with the turn a period later (0.05-0.2 s fitted
-# worse: the IARRC car's laps 1.13-1.20 x its limit against 1.12-1.13)
-STEER_LAG_S = 0.02
 SLIP_S = 0.1  # [s] how long the turning is watched for a slide (a low-pass of |asked - driven|)
 
 
@@ -58,15 +55,13 @@ class CurvatureTracker:
     min_speed_m_s: float = MIN_SPEED_M_S
     gain: float = field(default=1.0, init=False)  # the car turns gain * sent + bias
     bias_per_m: float = field(default=0.0, init=False)  # [1/m]
-    error_per_m: float = field(default=0.0, init=False)  # [1/m] asked - driven, at the last step (0: unknown)
     slip_per_m: float = field(default=0.0, init=False)  # [1/m] |asked - driven| over the last SLIP_S
     _sums: list = field(default_factory=lambda: [0.0] * 5, init=False, repr=False)  # weight, s, s^2, d, s d
     _sent: float | None = field(default=None, init=False, repr=False)  # [1/m] last period's
     _asked: float = field(default=0.0, init=False, repr=False)  # [1/m] last period's
-    _steered: float = field(default=0.0, init=False, repr=False)  # [1/m] what was sent, as the car follows it
 
     def reset(self) -> None:
-        self.gain, self.bias_per_m, self.error_per_m, self.slip_per_m = 1.0, 0.0, 0.0, 0.0
+        self.gain, self.bias_per_m, self.slip_per_m = 1.0, 0.0, 0.0
         self._sums, self._sent, self._asked = [0.0] * 5, None, 0.0
 
     @property
@@ -79,22 +74,20 @@ class CurvatureTracker:
     def step(self, asked_per_m: float, speed_m_s: float, yaw_rate_rad_s: float | None, dt_s: float) -> float:
         """[1/m] the curvature to steer for, so that the car drives `asked_per_m` (left positive)
         at speed_m_s (a magnitude), turning at yaw_rate_rad_s (None or NaN: no gyro reading) now."""
-        self.error_per_m = 0.0
         if yaw_rate_rad_s is not None and math.isfinite(yaw_rate_rad_s) and speed_m_s >= self.min_speed_m_s:
-            driven = yaw_rate_rad_s / speed_m_s
-            self.error_per_m = self._asked - driven  # what it turns now answers last period's command
+            driven = yaw_rate_rad_s / speed_m_s  # what it turns now answers last period's command
             # a slide lasts: one period's jump of what is asked (a pose corrected by a scan) is not one
-            self.slip_per_m += (abs(self.error_per_m) - self.slip_per_m) * min(1.0, dt_s / SLIP_S)
+            self.slip_per_m += (abs(self._asked - driven) - self.slip_per_m) * min(1.0, dt_s / SLIP_S)
             if self._sent is not None:
-                self._learn(self._steered, driven, dt_s)
+                # paired with the turn a period later (what was sent low-passed over 0.05-0.2 s, as
+                # the servo follows it, fitted worse: the IARRC car's laps 1.13-1.20 x its limit
+                # against 1.12-1.13)
+                self._learn(self._sent, driven, dt_s)
         else:
             self.slip_per_m -= self.slip_per_m * min(1.0, dt_s / SLIP_S)
         sent = (asked_per_m - self.bias_per_m) / self.gain
         bound = self.share * abs(asked_per_m) + self.floor_per_m
         sent = max(asked_per_m - bound, min(asked_per_m + bound, sent))
-        if self._sent is None:
-            self._steered = sent
-        self._steered += (sent - self._steered) * min(1.0, dt_s / STEER_LAG_S)
         self._sent, self._asked = sent, asked_per_m
         return sent
 

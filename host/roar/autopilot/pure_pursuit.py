@@ -32,12 +32,7 @@ class PurePursuit:
 
     def steering_angle(self, x: float, y: float, yaw: float, goal: tuple[float, float]) -> float:
         """[rad] front-wheel angle (left positive) that puts the rear axle on the arc to goal."""
-        dx, dy = goal[0] - x, goal[1] - y
-        alpha = math.atan2(dy, dx) - yaw
-        distance = math.hypot(dx, dy)
-        if distance < 1e-9:
-            return 0.0
-        return math.atan(2 * self.wheelbase_m * math.sin(alpha) / distance)
+        return math.atan(self.wheelbase_m * self.curvature(x, y, yaw, goal))
 
 
 def goal_on_path(points: np.ndarray, start_index: int, distance_m: float) -> tuple[float, float]:
