@@ -41,7 +41,7 @@ FRAME_US = spec.TIMING_SERVO_FRAME_US  # [us]
 REVERSE_TRIES = (1.0, 0.75, 0.5, 0.35, 0.25)  # reverse throttle tried for braking, strongest first
 STOP_WITHIN_S = 8.0  # [s] the longest a stop from top speed is waited for
 STRAIGHT_DEG = 5.0  # [deg] a stop from top speed that turns the car more than this does not brake it straight
-LIMITS_VERSION = 3  # of the way limits are measured: limits kept in the user's cache by an older one are measured again
+LIMITS_VERSION = 4  # of the way limits are measured: limits kept in the user's cache by an older one are measured again
 # [us] the steerings its grip is measured at: the larger ones find the peak, the smaller ones reach
 # the speeds where a fast car's grip fades
 CIRCLE_STEERINGS_US = (1560, 1600, 1650, 1700, 1750, 1800)
