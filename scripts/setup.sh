@@ -69,6 +69,14 @@ if [[ ! -x .venv/bin/python ]] || ! { fresh "$stamp" || { [[ $level == run ]] &&
   touch "$stamp"
 fi
 
+# The ROS 2 message types no wheel has (roar.ros2.interfaces), built into .venv: once, and again
+# when their definitions change
+if [[ $level == test ]] && .venv/bin/python -c "import rclpy" 2>/dev/null; then
+  built=$(.venv/bin/python -m roar.ros2.interfaces 2>&1) ||
+    { echo "$built" >&2; echo "setup: the ROS 2 message types did not build" >&2; exit 1; }
+  grep -v ": current$" <<<"$built" || true
+fi
+
 # DonkeyCar's own tub reader in a side environment (it wants Python 3.11 and numpy < 2), to check
 # the tubs `roar dataset` writes. Not fatal: where it cannot install, that test skips and says why.
 if [[ $level == test ]]; then

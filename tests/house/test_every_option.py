@@ -40,6 +40,7 @@ BASE = {
     "calibrate": ["loop://", "--file", "{tmp}/calibration.toml"],
     "key": ["show", "serial:///dev/roar-none", "--file", "{tmp}/key"],  # (no car there: one line, after the key file)
     "web": ["loop://", "--port", "18887", "--for", "0.3"],
+    "ros2": ["loop://", "--for", "0.3"],
     "scan": ["--timeout", "0.1"],
     "ports": [],
     "stream": ["udp://127.0.0.1", "--seconds", "0.3"],
@@ -64,6 +65,7 @@ RUNS = {
     ("send", "--steering", "-1"): "full left",
     ("send", "--speed", "0"): "zero speed (a car with a speed controller; loop:// has none: one line)",
     ("send", "--speed", "-1"): "1 m/s backwards",
+    ("ros2", "--domain", "0"): "ROS domain 0",
     ("race", "--boxes", "0"): "no boxes",
     ("race", "--seconds", "inf"): "no time limit: the race ends after its lap",
     ("race", "--start-lights", "0"): "start lights drawn from seed 0 (needs --driver lane: one line)",

@@ -177,6 +177,12 @@ class SimTransport(Transport):
     def camera(self, width: int = 160, height: int = 120):
         return self._ask(lambda sim: sim.plant.camera(width, height))
 
+    def model(self):
+        return self.kind.model
+
+    def track(self) -> str | None:
+        return self.track_name or None
+
     @property
     def autopilots(self) -> tuple[str, ...]:
         """What autopilot(name) offers this robot (roar web's choice): roar_sim.links.autopilots."""

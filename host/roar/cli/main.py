@@ -23,6 +23,7 @@ EXAMPLES = """examples:
   roar replay run.mcap                   what a recording holds: duration, channels, rates, gaps
   roar dataset run.mcap --out tub        its camera frames and commands as a DonkeyCar tub
   roar web sim://oval                    drive from a browser: http://127.0.0.1:8887
+  roar ros2 sim://oval                   the car as a ROS 2 node: /drive in, /odom, /scan, /tf out
   roar calibrate ble://                  set trim and end-points, saved for next time
   roar key set serial:///dev/ttyACM0     only you drive it from now on (signed messages)
   roar <command> --help                  more about one command
@@ -36,6 +37,7 @@ BUILT_IN = {
     "replay": Command("what an MCAP recording holds", "roar.cli.replay"),
     "dataset": Command("camera frames and commands of a recording, for imitation learning", "roar.cli.dataset"),
     "web": Command("drive and watch a car from a browser (phone or laptop)", "roar.cli.web"),
+    "ros2": Command("serve the car as a ROS 2 node (/drive, /cmd_vel in; /odom, /scan, /tf out)", "roar.cli.ros2"),
     "calibrate": Command("set trim and end-points interactively", "roar.cli.calibrate"),
     "key": Command("signed control: only the holder of the key drives the car", "roar.cli.key"),
     "scan": Command("list Bluetooth LE cars nearby", "roar.cli.scan"),

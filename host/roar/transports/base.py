@@ -96,6 +96,16 @@ class Transport(ABC):
         reply lines (BLE's session characteristic); (0, 0): the car has no key; None: cannot ask."""
         return None
 
+    def model(self) -> Any:
+        """What the car is, where the link knows it (the simulator's robots): a
+        roar.autopilot.CarModel (wheelbase, steering lock, limits) or DiffDriveModel; else None."""
+        return None
+
+    def track(self) -> str | None:
+        """The name of the track or map the car drives on, where the link knows it (roar.tracks.get
+        takes it); else None."""
+        return None
+
     @property
     def autopilots(self) -> tuple[str, ...]:
         """The drivers of the car's own that autopilot(name) offers (the simulator's; roar web's choice)."""

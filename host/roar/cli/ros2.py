@@ -1,0 +1,137 @@
+"""`roar ros2 URL`: the car at URL as a ROS 2 node (roar.ros2.bridge) until Ctrl-C or --for;
+neutral at the end."""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+
+from roar.cli.sdk import ArgumentParser, UserError, add_calibration_option, number_option, open_vehicle
+
+# What a car whose link does not say what it is (a real car over serial, BLE, Wi-Fi) is taken to
+# be unless told: the ROAR car's figures (roar_sim's default profile, its measured top speed)
+WHEELBASE_M = 0.325  # [m]
+MAX_STEER_DEG = 22.9  # [deg] the front wheels' angle at full steering (0.4 rad)
+TOP_SPEED_M_S = 2.93  # [m/s] at full throttle
+ROS_ARGS = "--ros-args"
+
+
+def domain_option(text: str) -> int:
+    value = number_option(0, 232, "")(text)
+    if value != int(value):
+        raise UserError(f"--domain must be a whole number 0..232, got {text!r}")
+    return int(value)
+
+
+def parser() -> ArgumentParser:
+    p = ArgumentParser(
+        prog="roar ros2",
+        description="Serve the car as a ROS 2 node: /drive (ackermann_msgs/AckermannDriveStamped: speed m/s, "
+                    "steering angle rad) and /cmd_vel (geometry_msgs/Twist) drive it; /odom, /tf, /imu, /scan "
+                    "(a car with a lidar), /map (a track), /clock (the simulator) and /diagnostics say what it "
+                    "measures. No command for --timeout puts it to neutral. Discovery stays on this machine "
+                    "unless --discovery subnet. Arguments after --ros-args go to ROS (remapping: -r /drive:=/x).",
+        epilog="examples:\n  roar ros2 sim://oval                    the simulated car on the oval, /map included\n"
+               "  roar ros2 sim://oval --f1tenth          f1tenth_gym_ros's names: /ego_racecar/odom, /scan, /drive\n"
+               "  roar ros2 serial:///dev/ttyUSB0 --wheelbase 0.33 --top-speed 4\n"
+               "  ros2 topic pub /drive ackermann_msgs/msg/AckermannDriveStamped \"{drive: {speed: 1.0}}\" -r 20")
+    p.add_argument("url", metavar="URL", nargs="?", default="sim://",
+                   help="the car (default sim://; sim://oval: the simulator on a track)")
+    p.add_argument("--f1tenth", action="store_true",
+                   help="f1tenth_gym_ros's topic and frame names (/ego_racecar/odom in the map frame, "
+                        "ego_racecar/base_link, ego_racecar/laser), so its nodes drive this car unchanged")
+    p.add_argument("--timeout", type=number_option(0.02, 5.0, "s"), default=0.25, metavar="SECONDS",
+                   help="no /drive or /cmd_vel for this long -> neutral (default 0.25; it cannot be turned off)")
+    p.add_argument("--domain", type=domain_option, default=None, metavar="ID",
+                   help="the ROS domain (default: ROS_DOMAIN_ID, else 0)")
+    p.add_argument("--discovery", choices=("localhost", "subnet"), default=None,
+                   help="where nodes are found (default: ROS_AUTOMATIC_DISCOVERY_RANGE, else localhost)")
+    p.add_argument("--map", metavar="TRACK", default=None,
+                   help="serve this track or map on /map (default: the simulator's track)")
+    p.add_argument("--wheelbase", type=number_option(0.05, 2.0, "m", low_open=True), default=None, metavar="M",
+                   help=f"a car whose link does not say: its wheelbase (default {WHEELBASE_M})")
+    p.add_argument("--max-steer", type=number_option(1, 60, "deg"), default=None, metavar="DEG",
+                   help=f"... its front wheels' angle at full steering (default {MAX_STEER_DEG})")
+    p.add_argument("--top-speed", type=number_option(0.1, 50, "m/s"), default=None, metavar="M/S",
+                   help=f"... its speed at full throttle (default {TOP_SPEED_M_S})")
+    p.add_argument("--for", dest="seconds", type=number_option(0, 86400, "s", low_open=True), default=None,
+                   metavar="SECONDS", help="stop after this long (default: Ctrl-C)")
+    add_calibration_option(p)
+    return p
+
+
+def car_model(link_model, args):
+    """What the car is: the link's model, unless the user says otherwise; else the defaults."""
+    from dataclasses import replace
+
+    from roar.autopilot import CarLimits, CarModel
+
+    told = {k: v for k, v in (("wheelbase", args.wheelbase), ("max_steer", args.max_steer),
+                              ("top_speed", args.top_speed)) if v is not None}
+    if link_model is not None and not told:
+        return link_model
+    if link_model is not None and not hasattr(link_model, "wheelbase_m"):
+        raise UserError(f"--{'/--'.join(k.replace('_', '-') for k in told)}: this car steers by its wheels' "
+                        "speeds and its link says what it is")
+    model = link_model or CarModel(WHEELBASE_M, math.radians(MAX_STEER_DEG), CarLimits(
+        max_speed_m_s=TOP_SPEED_M_S, max_accel_m_s2=1.78, max_brake_m_s2=2.53, max_lateral_m_s2=3.38))
+    if "top_speed" in told:
+        model = replace(model, limits=replace(model.limits, max_speed_m_s=told["top_speed"]))
+    if "wheelbase" in told:
+        model = replace(model, wheelbase_m=told["wheelbase"])
+    if "max_steer" in told:
+        model = replace(model, max_steer_rad=math.radians(told["max_steer"]))
+    return model
+
+
+def main(argv: list[str]) -> int:
+    ros_args = argv[argv.index(ROS_ARGS):] if ROS_ARGS in argv else []
+    args = parser().parse_args(argv[:len(argv) - len(ros_args)])
+    try:
+        import rclpy
+        from rclpy.signals import SignalHandlerOptions
+
+        from roar.ros2.bridge import F1TENTH, STANDARD, Bridge
+    except ImportError as e:
+        raise UserError(f"roar ros2 needs {e.name}: pip install 'roar-platform[ros2]' "
+                        "(the ROS 2 wheels, for Python 3.11)") from None
+    if args.domain is not None:
+        os.environ["ROS_DOMAIN_ID"] = str(args.domain)
+    if args.discovery is not None or "ROS_AUTOMATIC_DISCOVERY_RANGE" not in os.environ:
+        os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = (args.discovery or "localhost").upper()
+    if args.map is not None:
+        from roar.tracks import get
+
+        get(args.map)  # a name or file that is no track: one line now, not once the node is up
+    from roar.ros2.interfaces import ensure
+
+    ensure(log=lambda line: print(f"roar ros2: {line}", flush=True))
+    with open_vehicle(args) as car:
+        model = car_model(car.transport.link.model(), args)
+        track = args.map or car.transport.link.track()
+        # our own SIGINT and SIGTERM handling (run_command's): Ctrl-C ends everything at once
+        rclpy.init(args=["roar", *ros_args], signal_handler_options=SignalHandlerOptions.NO)
+        node = rclpy.create_node("roar")
+        bridge = None
+        try:
+            names = F1TENTH if args.f1tenth else STANDARD
+            bridge = Bridge(car, node, model, names, timeout_s=args.timeout, track=track,
+                            log=lambda line: print(f"roar ros2: {line}", flush=True))
+            print(f"roar ros2: {car.url} is node /roar on ROS domain {os.environ.get('ROS_DOMAIN_ID', '0')} "
+                  f"({os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'].lower()}); drive it on {names.drive} or "
+                  f"{names.cmd_vel}; Ctrl-C ends (the car goes to neutral)", flush=True)
+            end = None if args.seconds is None else time.monotonic() + args.seconds
+            while end is None or time.monotonic() < end:
+                rclpy.spin_once(node, timeout_sec=0.05)
+        finally:
+            if bridge is not None:
+                bridge.close()
+            node.destroy_node()
+            rclpy.try_shutdown()
+            if bridge is not None:  # on Ctrl-C too
+                c = bridge.counts
+                print(f"{c.commands} command(s) driven, {c.refused} refused ({c.last_refusal or 'none'}), "
+                      f"{c.timeouts} timeout(s) to neutral; {c.odoms} odometry and {c.scans} scan message(s) "
+                      "published; the car was left at neutral", flush=True)
+    return 0

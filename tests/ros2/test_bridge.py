@@ -1,0 +1,304 @@
+"""roar ros2: the car as a ROS 2 node, driven by plain rclpy nodes in other processes (the
+examples a user would write), with the real rclpy from the ROS 2 wheels."""
+
+import itertools
+import json
+import math
+import os
+import textwrap
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+rclpy = pytest.importorskip("rclpy", reason="the ROS 2 wheels: pip install 'roar-platform[ros2]'")
+
+from roar.ros2 import interfaces  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[2]
+ROAR = [sys.executable, "-m", "roar.cli"]
+_domains = itertools.count(os.getpid() % 50 * 4 + 10)  # this worker's own ROS domains: no two tests share one
+
+
+def ros_env() -> dict[str, str]:
+    """A fresh ROS domain, discovery on this machine only."""
+    return {**os.environ, "ROS_DOMAIN_ID": str(next(_domains)), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
+
+
+def needs_types():
+    missing = [p for p in interfaces.PACKAGES if not interfaces.available(p)]
+    if missing:
+        pytest.skip(f"{', '.join(missing)} not built: python -m roar.ros2.interfaces (needs cmake and g++)")
+
+
+def test_the_built_types_are_the_upstream_types():
+    """ackermann_msgs and tf2_msgs as built here hash as the upstream packages' own types: a node
+    built against those talks to ours (ROS 2 compares the hashes on discovery)."""
+    needs_types()
+    for name, expected in interfaces.TYPE_HASHES.items():
+        package, _, message = name.split("/")
+        described = json.loads((interfaces.prefix() / "share" / package / "msg" / f"{message}.json").read_text())
+        assert described["type_hashes"][0] == {"type_name": name, "hash_string": expected}
+        assert interfaces.current(package)
+
+
+def serve(url: str, *options: str, env: dict[str, str]) -> subprocess.Popen:
+    bridge = subprocess.Popen([*ROAR, "ros2", url, *options], env=env, stdout=subprocess.PIPE,
+                              stderr=subprocess.STDOUT, text=True)
+    line = bridge.stdout.readline()
+    assert "is node /roar" in line, line + bridge.stdout.read()
+    return bridge
+
+
+def stop(bridge: subprocess.Popen) -> str:
+    """Ctrl-C: it ends within a second, leaving the car at neutral, and says what it did."""
+    bridge.send_signal(signal.SIGINT)
+    start = time.monotonic()
+    out, _ = bridge.communicate(timeout=10)
+    assert time.monotonic() - start < 1.0, out
+    assert bridge.returncode == 130, out
+    assert "the car was left at neutral" in out, out
+    return out
+
+
+def laps_in(trace: Path, track: str = "oval") -> tuple[float, float]:
+    """(laps driven along the centre line, the largest distance from it [m]) of a sim:// trace."""
+    from roar.tracks import get
+
+    rows = np.loadtxt(trace, delimiter=",", skiprows=1)[:, 1:3]
+    moved = np.r_[True, np.any(np.diff(rows, axis=0) != 0, axis=1)]
+    t = get(track)
+    _, s, cte = t.follow(rows[moved])
+    ds = np.diff(s)
+    length = t.length_m
+    ds = np.where(ds < -length / 2, ds + length, np.where(ds > length / 2, ds - length, ds))
+    return float(ds.sum() / length), float(np.abs(cte).max())
+
+
+def within_walls(cte_m: float) -> bool:
+    from roar_sim import robots
+
+    return cte_m < 0.6 - robots.get("esc").half_width_m  # the oval: 0.6 m each side of its centre line
+
+
+@pytest.mark.realtime
+def test_an_f1tenth_pure_pursuit_node_laps_the_oval(tmp_path):
+    """A plain rclpy node written for f1tenth_gym_ros (/ego_racecar/odom in, /drive out at 40 Hz)
+    drives our simulated car a whole lap, unchanged, against `roar ros2 --f1tenth`."""
+    needs_types()
+    env, trace, line = ros_env(), tmp_path / "drive.csv", tmp_path / "oval.csv"
+    subprocess.run([*ROAR, "track", "oval", "--save", str(line)], check=True, capture_output=True)
+    bridge = serve(f"sim://oval?speedup=2&trace={trace}", "--f1tenth", env=env)
+    try:
+        node = subprocess.run([sys.executable, str(ROOT / "examples/ros2_pure_pursuit.py"), str(line), "--f1tenth",
+                               "--laps", "1", "--speed", "1.2", "--timeout", "40"],
+                              env=env, capture_output=True, text=True, timeout=60)
+    finally:
+        out = stop(bridge)
+    assert node.returncode == 0, node.stdout + node.stderr
+    assert "lap 1:" in node.stdout
+    laps, cte = laps_in(trace)
+    assert laps >= 1.0 and within_walls(cte), (laps, cte)
+    driven = int(out.split(" command(s) driven")[0].split()[-1])
+    assert driven > 40 * 14 / 2 / 2, out  # 40 Hz over a lap of ~14 s driven at twice real time, halved for slack
+
+
+@pytest.mark.realtime
+def test_a_wall_follower_laps_the_oval_by_its_scan_alone(tmp_path):
+    needs_types()
+    env, trace = ros_env(), tmp_path / "drive.csv"
+    bridge = serve(f"sim://oval?speedup=2&trace={trace}", env=env)
+    try:
+        node = subprocess.run([sys.executable, str(ROOT / "examples/ros2_wall_follow.py"), "--for", "16"],
+                              env=env, capture_output=True, text=True, timeout=40)
+    finally:
+        stop(bridge)
+    assert node.returncode == 0, node.stdout + node.stderr
+    laps, cte = laps_in(trace)
+    assert laps >= 1.0 and within_walls(cte), (laps, cte)
+
+
+# a user's node that publishes /drive at 40 Hz: 1 s of a real command, then 0.5 s of NaN (refused:
+# no command a car could mean, so it must not keep the car going), then it dies
+DRIVES_THEN_DIES = textwrap.dedent("""
+    import time, rclpy
+    from ackermann_msgs.msg import AckermannDriveStamped
+    rclpy.init()
+    node = rclpy.create_node("user")
+    pub = node.create_publisher(AckermannDriveStamped, "/drive", 10)
+    time.sleep(1.0)  # discovery
+    for i in range(60):
+        msg = AckermannDriveStamped()
+        msg.drive.speed, msg.drive.steering_angle = (1.0, 0.1) if i < 40 else (float("nan"), 0.0)
+        pub.publish(msg)
+        time.sleep(1 / 40)
+""")
+
+
+@pytest.mark.realtime
+def test_silence_and_a_dead_node_put_the_car_to_neutral_within_the_timeout(monkeypatch):
+    """The Vehicle re-sends its last command forever; the bridge's timeout is what stops a car
+    whose ROS node went silent or died: neutral on the wire within 250 ms and one tick of the last
+    command it drove. Messages no car could mean (NaN) are counted, not driven, and keep nothing
+    alive."""
+    needs_types()
+    from roar import Vehicle
+    from roar.autopilot import CarLimits, CarModel
+    from roar.protocol import encode
+    from roar.ros2.bridge import PERIOD_S, TIMEOUT_S, Bridge
+
+    env = ros_env()
+    for key in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE"):
+        monkeypatch.setenv(key, env[key])
+    model = CarModel(0.325, 0.4, CarLimits(max_speed_m_s=3.0, max_accel_m_s2=1.8, max_brake_m_s2=2.5,
+                                           max_lateral_m_s2=3.4))
+    neutral = encode(1500, 1500)
+    rclpy.init()
+    node = rclpy.create_node("roar")
+    with Vehicle("loop://", calibration=None) as car:
+        bridge = Bridge(car, node, model)
+        last_driven = []
+        take = bridge._take
+
+        def taking(topic, make):
+            before = bridge.counts.commands
+            take(topic, make)
+            if bridge.counts.commands > before:
+                last_driven.append(time.monotonic())
+
+        bridge._take = taking
+        user = subprocess.Popen([sys.executable, "-c", DRIVES_THEN_DIES], env=env)
+        try:
+            end = time.monotonic() + 6.0  # at most; half a second after the user's node died
+            while time.monotonic() < end:
+                rclpy.spin_once(node, timeout_sec=0.01)
+                if user.poll() is not None:
+                    end = min(end, time.monotonic() + 0.5)
+        finally:
+            user.kill()
+            node.destroy_node()
+            rclpy.try_shutdown()
+        writes = list(car.transport.link.writes)
+    assert user.returncode == 0
+    assert bridge.counts.commands >= 30 and bridge.counts.refused >= 10, bridge.counts
+    assert bridge.counts.last_refusal == "/drive: not a finite number"
+    driving = [t for t, m in writes if t <= last_driven[-1] and m != neutral]
+    assert driving, "the commands never reached the wire"
+    first_neutral = next(t for t, m in writes if t > last_driven[-1] and m == neutral)
+    assert first_neutral - last_driven[-1] <= TIMEOUT_S + PERIOD_S + 0.02, first_neutral - last_driven[-1]
+    assert first_neutral - last_driven[-1] >= TIMEOUT_S - PERIOD_S  # not before the timeout either
+    assert bridge.counts.timeouts == 1
+
+
+def test_ros_commands_become_the_cars_commands():
+    """No ROS graph: what /drive and /cmd_vel ask, as steering and throttle (or a speed)."""
+    from roar.autopilot import CarLimits, CarModel, DiffDriveModel
+    from roar.ros2.commands import Driver, Refused, ackermann, twist
+
+    limits = CarLimits(max_speed_m_s=3.0, max_accel_m_s2=1.8, max_brake_m_s2=2.5, max_lateral_m_s2=3.4)
+    car = Driver(CarModel(0.325, 0.4, limits))
+    left = ackermann(1.0, 0.2, 0.325)
+    assert car.steering(left) == pytest.approx(-0.5)  # left is a negative command, half of a 0.4 rad lock
+    assert car.steering(ackermann(1.0, 1.2, 0.325)) == -1.0  # past the lock: full lock
+    assert car.steering(twist(1.0, 1.0)) == pytest.approx(-math.atan(0.325) / 0.4)  # 1 rad/s at 1 m/s
+    assert twist(0.0, 1.0).curvature_per_m == 0.0  # an Ackermann car cannot turn in place
+    assert car.command(ackermann(-1.5, 0.0, 0.325), None, 0.02) == {"throttle": -0.5, "steering": 0.0}
+    assert car.command(ackermann(9.0, 0.0, 0.325), None, 0.02)["throttle"] == 1.0  # beyond its top speed: top speed
+    # from standstill: more than the feed-forward (1.5 / 3)
+    assert car.command(ackermann(1.5, 0.0, 0.325), 0.0, 0.02)["throttle"] > 0.5
+    speed_car = Driver(CarModel(0.325, 0.4, limits), by_speed=True)
+    assert speed_car.command(ackermann(1.5, 0.0, 0.325), 0.0, 0.02) == {"speed": 1.5, "steering": 0.0}
+    assert speed_car.neutral() == {"speed": 0.0, "steering": 0.0}
+    junior = Driver(DiffDriveModel(0.2, limits))
+    assert junior.steering(twist(1.0, 1.0)) == pytest.approx(-0.1)  # the wheels' speeds differ by 1 x 0.2 / 2
+    for bad in ((math.nan, 0.0), (1.0, math.inf), (60.0, 0.0), (1.0, math.pi / 2)):
+        with pytest.raises(Refused):
+            ackermann(*bad, 0.325)
+    with pytest.raises(Refused):
+        twist(math.nan, 0.0)
+
+
+def test_without_the_extra_it_names_the_extra(tmp_path):
+    (tmp_path / "rclpy.py").write_text("raise ImportError('no ROS here', name='rclpy')\n")
+    env = {**os.environ, "PYTHONPATH": f"{tmp_path}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"}
+    run = subprocess.run([*ROAR, "ros2", "loop://", "--for", "0.1"], env=env, capture_output=True, text=True,
+                         timeout=30)
+    assert run.returncode == 1
+    assert run.stderr.strip() == ("roar ros2: error: roar ros2 needs rclpy: pip install 'roar-platform[ros2]' "
+                                  "(the ROS 2 wheels, for Python 3.11)")
+
+
+@pytest.mark.realtime
+def test_topics_frames_stamps_and_qos_as_documented(monkeypatch):
+    """What a ROS user's tools see of `roar ros2 sim://oval`: /scan to best-effort and reliable
+    subscribers alike, /odom and /imu with covariances, the TF tree, stamps on the simulator's
+    /clock, and /map to a subscriber that joins late (transient local)."""
+    needs_types()
+    from diagnostic_msgs.msg import DiagnosticArray
+    from nav_msgs.msg import OccupancyGrid, Odometry
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+    from rosgraph_msgs.msg import Clock
+    from sensor_msgs.msg import Imu, LaserScan
+    from tf2_msgs.msg import TFMessage
+
+    env = ros_env()
+    for key in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE"):
+        monkeypatch.setenv(key, env[key])
+    bridge = serve("sim://oval?speedup=2", env=env)
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    got: dict[str, list] = {}
+    rclpy.init()
+    node = rclpy.create_node("probe")
+    try:
+        def keep(name):
+            return lambda msg: got.setdefault(name, []).append(msg)
+
+        for name, kind, topic, qos in (("scan best effort", LaserScan, "/scan", qos_profile_sensor_data),
+                                       ("scan reliable", LaserScan, "/scan", 10), ("odom", Odometry, "/odom", 10),
+                                       ("imu", Imu, "/imu", qos_profile_sensor_data), ("clock", Clock, "/clock", 10),
+                                       ("tf", TFMessage, "/tf", 10), ("tf_static", TFMessage, "/tf_static", latched),
+                                       ("diagnostics", DiagnosticArray, "/diagnostics", 10)):
+            node.create_subscription(kind, topic, keep(name), qos)
+        end = time.monotonic() + 3.0
+        while time.monotonic() < end:
+            rclpy.spin_once(node, timeout_sec=0.01)
+        node.create_subscription(OccupancyGrid, "/map", keep("map"), latched)  # late: transient local
+        end = time.monotonic() + 1.0
+        while time.monotonic() < end and "map" not in got:
+            rclpy.spin_once(node, timeout_sec=0.01)
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+        stop(bridge)
+    assert len(got.get("scan best effort", [])) > 20 and len(got.get("scan reliable", [])) > 20, got.keys()
+    scan = got["scan reliable"][-1]
+    assert scan.header.frame_id == "laser" and len(scan.ranges) == 1080
+    assert scan.angle_min == pytest.approx(-math.radians(135)) and scan.angle_max == pytest.approx(math.radians(135))
+    assert scan.angle_min + scan.angle_increment * (len(scan.ranges) - 1) == pytest.approx(scan.angle_max)
+    odom = got["odom"][-1]
+    assert (odom.header.frame_id, odom.child_frame_id) == ("odom", "base_link")
+    assert (odom.pose.pose.position.x, odom.pose.pose.position.y) == pytest.approx((0.0, -1.5), abs=0.05)  # the start
+    assert odom.pose.covariance[0] > 0 and odom.twist.covariance[35] > 0
+    assert got["imu"][-1].orientation_covariance[0] == -1  # no orientation, as REP 145 says
+    clocks = {(c.clock.sec, c.clock.nanosec) for c in got["clock"]}
+    assert all((m.header.stamp.sec, m.header.stamp.nanosec) in clocks for m in got["odom"][-10:])
+    sim_s = max(s + ns * 1e-9 for s, ns in clocks)
+    assert sim_s > 4.0  # 3 s and more of wall time at twice real time
+    edges = {(t.header.frame_id, t.child_frame_id) for m in got["tf"] + got["tf_static"] for t in m.transforms}
+    assert edges == {("odom", "base_link"), ("base_link", "laser"), ("map", "odom")}
+    grid = got["map"][0]
+    assert grid.header.frame_id == "map" and grid.info.resolution == pytest.approx(0.05)
+    cells = np.asarray(grid.data).reshape(grid.info.height, grid.info.width)
+    assert {0, 100} <= set(np.unique(cells))
+
+    def cell(x, y):  # ROS's grid: row-major from the origin, rows along +y
+        return cells[int((y - grid.info.origin.position.y) / 0.05), int((x - grid.info.origin.position.x) / 0.05)]
+
+    assert cell(0.0, -1.5) == 0  # the start, and its walls 0.6 m to each side
+    assert 100 in [cell(0.0, y) for y in (-0.95, -0.9, -0.85)] and 100 in [cell(0.0, y) for y in (-2.15, -2.1, -2.05)]
+    status = got["diagnostics"][-1].status[0]
+    assert status.name == "roar: sim://oval?speedup=2" and status.message == "ok"
