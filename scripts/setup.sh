@@ -77,6 +77,24 @@ if [[ $level == test ]] && .venv/bin/python -c "import rclpy" 2>/dev/null; then
   grep -v ": current$" <<<"$built" || true
 fi
 
+# A ROS 2 user's node on an older distribution (Jazzy) in a side environment, to check that it and
+# our Kilted node work together. Not fatal: where it cannot install, that test skips and says why.
+if [[ $level == test ]]; then
+  side=.venv-ros2-jazzy
+  if [[ ! -f $side/.installed || tests/ros2/jazzy-requirements.txt -nt $side/.installed ]]; then
+    if command -v python3.11 >/dev/null; then
+      echo "setup: $side (a ROS 2 Jazzy node's environment)"
+      { [[ -x $side/bin/python ]] || python3.11 -m venv "$side"; } &&
+        $side/bin/python -m pip install --disable-pip-version-check -r tests/ros2/jazzy-requirements.txt \
+          >"$side.log" 2>&1 &&
+        .venv/bin/python -m roar.ros2.interfaces --prefix "$side" >>"$side.log" 2>&1 && touch "$side/.installed" ||
+        echo "setup: ROS 2 Jazzy did not install (see $side.log): its test will skip" >&2
+    else
+      echo "setup: no python3.11 for a ROS 2 Jazzy node: its test will skip" >&2
+    fi
+  fi
+fi
+
 # DonkeyCar's own tub reader in a side environment (it wants Python 3.11 and numpy < 2), to check
 # the tubs `roar dataset` writes. Not fatal: where it cannot install, that test skips and says why.
 if [[ $level == test ]]; then

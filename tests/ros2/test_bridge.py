@@ -302,3 +302,47 @@ def test_topics_frames_stamps_and_qos_as_documented(monkeypatch):
     assert 100 in [cell(0.0, y) for y in (-0.95, -0.9, -0.85)] and 100 in [cell(0.0, y) for y in (-2.15, -2.1, -2.05)]
     status = got["diagnostics"][-1].status[0]
     assert status.name == "roar: sim://oval?speedup=2" and status.message == "ok"
+
+
+JAZZY = ROOT / ".venv-ros2-jazzy"
+JAZZY_NODE = textwrap.dedent("""
+    import time, rclpy
+    from ackermann_msgs.msg import AckermannDriveStamped
+    from rclpy.qos import qos_profile_sensor_data
+    from sensor_msgs.msg import LaserScan
+    rclpy.init()
+    node = rclpy.create_node("jazzy_user")
+    scans = []
+    node.create_subscription(LaserScan, "/scan", lambda m: scans.append(len(m.ranges)), qos_profile_sensor_data)
+    pub = node.create_publisher(AckermannDriveStamped, "/drive", 10)
+    end = time.monotonic() + 3.0
+    while time.monotonic() < end:
+        msg = AckermannDriveStamped()
+        msg.drive.speed = 1.0
+        pub.publish(msg)
+        rclpy.spin_once(node, timeout_sec=0.025)
+    print(len(scans), scans[-1] if scans else 0)
+""")
+
+
+@pytest.mark.realtime
+def test_a_node_on_an_older_distribution_drives_ours():
+    """Users' stacks run older distributions: a node on ROS 2 Jazzy (rclpy 7, another environment)
+    finds our Kilted node, hears its /scan and drives it on /drive."""
+    if not (JAZZY / ".installed").is_file():
+        pytest.skip("no .venv-ros2-jazzy: scripts/setup.sh test makes it "
+                    "(pip install -r tests/ros2/jazzy-requirements.txt)")
+    env = ros_env()
+    bridge = serve("sim://oval", env=env)
+    try:
+        # its own libraries: not the ones this environment's start-up hook put on the path
+        own = {k: v for k, v in env.items() if k not in ("LD_LIBRARY_PATH", "_ROS_WHEELS_BOOTSTRAP_COMPLETE",
+                                                         "AMENT_PREFIX_PATH", "PYTHONPATH")}
+        node = subprocess.run([str(JAZZY / "bin/python"), "-c", JAZZY_NODE], env=own, capture_output=True, text=True,
+                              timeout=30)
+    finally:
+        out = stop(bridge)
+    assert node.returncode == 0, node.stderr
+    scans, beams = map(int, node.stdout.split())
+    assert scans > 30 and beams == 1080, node.stdout
+    assert int(out.split(" command(s) driven")[0].split()[-1]) > 30, out

@@ -6,6 +6,7 @@ bring, and installed into this Python environment's prefix, where those wheels p
 (lib/, share/, lib/pythonX.Y/site-packages/). Built once; built again when a definition changes.
 
     python -m roar.ros2.interfaces      (make setup runs it; needs cmake and a C/C++ compiler)
+    python -m roar.ros2.interfaces --prefix OTHER_VENV    into another environment (another distribution's)
 
 Without them, /drive and /tf are not offered and everything else works (roar.ros2.bridge)."""
 
@@ -17,7 +18,6 @@ import os
 import shutil
 import subprocess
 import sys
-import sysconfig
 import tempfile
 from pathlib import Path
 
@@ -69,7 +69,7 @@ def available(package: str) -> bool:
 
 def build_environment(root: Path) -> dict[str, str]:
     env = dict(os.environ)
-    libs = [str(root / "lib"), *map(str, sorted(Path(sysconfig.get_paths()["purelib"]).glob("ros_*.libs")))]
+    libs = [str(root / "lib"), *map(str, sorted(root.glob("lib/python3*/site-packages/ros_*.libs")))]
     env["LD_LIBRARY_PATH"] = os.pathsep.join([*libs, env.get("LD_LIBRARY_PATH", "")]).rstrip(os.pathsep)
     for name in ("AMENT_PREFIX_PATH", "CMAKE_PREFIX_PATH"):
         env[name] = os.pathsep.join([str(root), env.get(name, "")]).rstrip(os.pathsep)
@@ -78,9 +78,11 @@ def build_environment(root: Path) -> dict[str, str]:
 
 
 def build(package: str, root: Path | None = None, log=print) -> None:
-    """Generate, compile and install `package` into `root` (default: this environment's);
-    InterfaceBuildError with the tool to install or the log's last lines."""
+    """Generate, compile and install `package` into `root`: a Python environment with the ROS 2
+    wheels (default: this one; another: its own Python runs the generators); InterfaceBuildError
+    with the tool to install or the log's last lines."""
     root = root or prefix()
+    python = Path(sys.executable) if root == prefix() else root / "bin" / "python"
     missing = [tool for tool in ("cmake", "cc", "c++") if shutil.which(tool) is None]
     if missing:
         raise InterfaceBuildError(f"building {package} needs {', '.join(missing)}: apt install cmake g++")
@@ -89,7 +91,7 @@ def build(package: str, root: Path | None = None, log=print) -> None:
         build_dir, log_path = Path(tmp) / "build", Path(tmp) / "build.log"
         steps = [
             ["cmake", "-S", str(DEFINITIONS / package), "-B", str(build_dir), *ninja, f"-DCMAKE_INSTALL_PREFIX={root}",
-             "-DBUILD_TESTING=OFF", "-DCMAKE_BUILD_TYPE=Release", f"-DPython3_EXECUTABLE={sys.executable}"],
+             "-DBUILD_TESTING=OFF", "-DCMAKE_BUILD_TYPE=Release", f"-DPython3_EXECUTABLE={python}"],
             ["cmake", "--build", str(build_dir), "--target", "install", "--parallel", str(os.cpu_count() or 1)],
         ]
         log(f"building {package} from its definitions into {root} (once)...")
@@ -114,18 +116,29 @@ def ensure(log=print) -> list[str]:
     return [package for package in PACKAGES if not available(package)]
 
 
-def main() -> int:
-    try:
-        import rclpy  # noqa: F401  (the wheels the build needs)
-    except ImportError as e:
-        print(f"the ROS 2 message builds need {e.name}: pip install 'roar-platform[ros2]'", file=sys.stderr)
+def main(argv: list[str] | None = None) -> int:
+    import argparse
+
+    p = argparse.ArgumentParser(prog="python -m roar.ros2.interfaces", description=__doc__.split("\n\n")[0])
+    p.add_argument("--prefix", type=Path, default=None,
+                   help="another Python environment with the ROS 2 wheels to build into (default: this one)")
+    root = p.parse_args(argv).prefix
+    if root is None:
+        try:
+            import rclpy  # noqa: F401  (the wheels the build needs)
+        except ImportError as e:
+            print(f"the ROS 2 message builds need {e.name}: pip install 'roar-platform[ros2]'", file=sys.stderr)
+            return 1
+    elif not (root / "share" / "rosidl_default_generators").is_dir():
+        print(f"{root} has no rosidl generators: pip install ros-<distro>-rosidl-default-generators there",
+              file=sys.stderr)
         return 1
     for package in PACKAGES:
-        if current(package):
+        if current(package, root):
             print(f"{package}: current")
             continue
         try:
-            build(package)
+            build(package, root)
         except InterfaceBuildError as e:
             print(e, file=sys.stderr)
             return 1
