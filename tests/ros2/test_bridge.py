@@ -242,7 +242,7 @@ def test_topics_frames_stamps_and_qos_as_documented(monkeypatch):
     from nav_msgs.msg import OccupancyGrid, Odometry
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
     from rosgraph_msgs.msg import Clock
-    from sensor_msgs.msg import Imu, LaserScan
+    from sensor_msgs.msg import CameraInfo, Image, Imu, LaserScan
     from tf2_msgs.msg import TFMessage
 
     env = ros_env()
@@ -261,7 +261,9 @@ def test_topics_frames_stamps_and_qos_as_documented(monkeypatch):
                                        ("scan reliable", LaserScan, "/scan", 10), ("odom", Odometry, "/odom", 10),
                                        ("imu", Imu, "/imu", qos_profile_sensor_data), ("clock", Clock, "/clock", 10),
                                        ("tf", TFMessage, "/tf", 10), ("tf_static", TFMessage, "/tf_static", latched),
-                                       ("diagnostics", DiagnosticArray, "/diagnostics", 10)):
+                                       ("diagnostics", DiagnosticArray, "/diagnostics", 10),
+                                       ("image", Image, "/camera/image_raw", qos_profile_sensor_data),
+                                       ("camera_info", CameraInfo, "/camera/camera_info", 10)):
             node.create_subscription(kind, topic, keep(name), qos)
         end = time.monotonic() + 3.0
         while time.monotonic() < end:
@@ -289,7 +291,20 @@ def test_topics_frames_stamps_and_qos_as_documented(monkeypatch):
     sim_s = max(s + ns * 1e-9 for s, ns in clocks)
     assert sim_s > 4.0  # 3 s and more of wall time at twice real time
     edges = {(t.header.frame_id, t.child_frame_id) for m in got["tf"] + got["tf_static"] for t in m.transforms}
-    assert edges == {("odom", "base_link"), ("base_link", "laser"), ("map", "odom")}
+    assert edges == {("odom", "base_link"), ("base_link", "laser"), ("base_link", "camera_optical"), ("map", "odom")}
+    image, info = got["image"][-1], got["camera_info"][-1]
+    assert (image.width, image.height, image.encoding, image.header.frame_id) == (320, 240, "rgb8", "camera_optical")
+    pixels = np.frombuffer(bytes(image.data), dtype=np.uint8).reshape(240, 320, 3)
+    assert pixels.std() > 10  # a picture, not a blank
+    focal = 120 / math.tan(math.radians(70) / 2)  # the simulated car's camera: 70 degrees vertically
+    assert info.k[0] == pytest.approx(focal) and info.k[4] == pytest.approx(focal) and info.k[2] == 159.5
+    assert 5 <= len(got["image"]) <= 3 * 10 + 2  # at 10 frames a second of wall time
+    mount = next(t for m in got["tf_static"] for t in m.transforms if t.child_frame_id == "camera_optical")
+    q = mount.transform.rotation
+    # the optical axis (the rotation's third column) in the car's frame: ahead, pitched down a quarter
+    axis = (2 * (q.x * q.z + q.w * q.y), 2 * (q.y * q.z - q.w * q.x), 1 - 2 * (q.x ** 2 + q.y ** 2))
+    pitch = math.atan(0.25)
+    assert axis == pytest.approx((math.cos(pitch), 0.0, -math.sin(pitch)), abs=1e-6)
     grid = got["map"][0]
     assert grid.header.frame_id == "map" and grid.info.resolution == pytest.approx(0.05)
     cells = np.asarray(grid.data).reshape(grid.info.height, grid.info.width)

@@ -180,6 +180,9 @@ class SimTransport(Transport):
     def model(self):
         return self.kind.model
 
+    def camera_preset(self):
+        return self.kind.camera
+
     def track(self) -> str | None:
         return self.track_name or None
 

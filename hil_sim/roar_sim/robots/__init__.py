@@ -84,6 +84,7 @@ class Robot(Lockstep):
     lane_driving: ClassVar[bool] = False  # it can drive by its camera alone (roar race --driver lane)
     replies: ClassVar[bool] = False  # it answers its host with lines (READY, ERR, TEL, ...)
     has_lidar: ClassVar[bool] = False
+    camera: ClassVar = None  # its camera's field of view and mount (roar.vision.geometry.CameraPreset)
     ultrasonic_max_m: ClassVar[float | None] = None  # [m] its ultrasonic ranger's reach, if it has one
     track: Track | None
     model: ClassVar  # what its driver plans with: a CarModel or DiffDriveModel (its turning radius among it)

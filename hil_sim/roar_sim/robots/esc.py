@@ -36,6 +36,7 @@ from roar_sim.plants.racecar import WHEEL_RADIUS_M, CarState, Racecar
 from roar_sim.robots import Pose, ReplyLines, Robot, grip_on_circles
 from roar_sim.world.scene import World
 from roar.tracks.track import Track
+from roar.vision.geometry import SIMULATED_CAR_CAMERA
 
 FRAME_US = spec.TIMING_SERVO_FRAME_US  # [us]
 REVERSE_TRIES = (1.0, 0.75, 0.5, 0.35, 0.25)  # reverse throttle tried for braking, strongest first
@@ -67,6 +68,7 @@ class EscCar(Robot):
     lane_driving = True
     replies = True
     has_lidar = True
+    camera = SIMULATED_CAR_CAMERA
 
     @classmethod
     def min_turn_radius_m(cls, profile=None) -> float:

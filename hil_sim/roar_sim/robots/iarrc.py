@@ -33,6 +33,7 @@ from roar_sim.plants.car_profile import URDF_WHEELBASE_M, Motor
 from roar_sim.plants.racecar import CarState, Racecar
 from roar_sim.robots import Pose, ReplyLines, Robot, grip_on_circles
 from roar.tracks.track import Track
+from roar.vision.geometry import SIMULATED_CAR_CAMERA
 from roar_wire import sbus
 
 FRAME_US = spec.TIMING_SERVO_FRAME_US  # [us] ESC/servo frame
@@ -89,6 +90,7 @@ class IarrcCar(Robot):
     laterals = ("pursuit", "pid")
     replies = True
     has_lidar = True
+    camera = SIMULATED_CAR_CAMERA
 
     def __init__(self, track: Track | None = None, pose: Pose | None = None, realtime: bool = False,
                  speedup: float = 1.0, gui: bool = False, motor: Motor = IARRC_MOTOR, esc: HobbyEsc | None = None,

@@ -34,6 +34,8 @@ from roar_sim.plants.junior import WHEEL_TRACK_M, JuniorPlant, JuniorState
 from roar_sim.robots import Pose, Robot
 from roar_sim.sensors.ultrasonic import MAX_RANGE_M
 from roar.tracks.track import Track
+from roar.vision.geometry import CameraPreset
+from roar_sim.plants import junior as junior_plant
 
 PING_US = 60_000  # [us] between ultrasonic readings (the firmware's ping period)
 LIMITS = CarLimits(max_speed_m_s=0.55, max_accel_m_s2=3.11, max_brake_m_s2=1.36, max_lateral_m_s2=0.89)
@@ -82,6 +84,8 @@ class Junior(Robot):
     name = "junior"
     title = "ROAR Junior"
     half_width_m = 0.09  # [m] half its width: the wheels' outer faces
+    camera = CameraPreset(fov_deg=junior_plant.CAMERA_FOV_DEG, x_m=junior_plant.CAMERA_POS_M[0],
+                          z_m=junior_plant.CAMERA_POS_M[2], pitch_rad=junior_plant.CAMERA_PITCH_RAD)
     limits = LIMITS
     model = MODEL
     links = ("http",)

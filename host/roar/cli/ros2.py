@@ -29,8 +29,8 @@ def parser() -> ArgumentParser:
         prog="roar ros2",
         description="Serve the car as a ROS 2 node: /drive (ackermann_msgs/AckermannDriveStamped: speed m/s, "
                     "steering angle rad) and /cmd_vel (geometry_msgs/Twist) drive it; /odom, /tf, /imu, /scan "
-                    "(a car with a lidar), /map (a track), /clock (the simulator) and /diagnostics say what it "
-                    "measures. No command for --timeout puts it to neutral. Discovery stays on this machine "
+                    "(a car with a lidar), /camera/*, /map (a track), /clock (the simulator) and /diagnostics say "
+                    "what it measures. No command for --timeout puts it to neutral. Discovery stays on this machine "
                     "unless --discovery subnet. Arguments after --ros-args go to ROS (remapping: -r /drive:=/x).",
         epilog="examples:\n  roar ros2 sim://oval                    the simulated car on the oval, /map included\n"
                "  roar ros2 sim://oval --f1tenth          f1tenth_gym_ros's names: /ego_racecar/odom, /scan, /drive\n"
@@ -47,6 +47,8 @@ def parser() -> ArgumentParser:
                    help="the ROS domain (default: ROS_DOMAIN_ID, else 0)")
     p.add_argument("--discovery", choices=("localhost", "subnet"), default=None,
                    help="where nodes are found (default: ROS_AUTOMATIC_DISCOVERY_RANGE, else localhost)")
+    p.add_argument("--camera", type=number_option(0, 30, "Hz"), default=10.0, metavar="HZ",
+                   help="camera frames a second on /camera/image_raw, camera_info and depth (default 10; 0: none)")
     p.add_argument("--map", metavar="TRACK", default=None,
                    help="serve this track or map on /map (default: the simulator's track)")
     p.add_argument("--wheelbase", type=number_option(0.05, 2.0, "m", low_open=True), default=None, metavar="M",
@@ -116,7 +118,7 @@ def main(argv: list[str]) -> int:
         bridge = None
         try:
             names = F1TENTH if args.f1tenth else STANDARD
-            bridge = Bridge(car, node, model, names, timeout_s=args.timeout, track=track,
+            bridge = Bridge(car, node, model, names, timeout_s=args.timeout, track=track, camera_hz=args.camera,
                             log=lambda line: print(f"roar ros2: {line}", flush=True))
             print(f"roar ros2: {car.url} is node /roar on ROS domain {os.environ.get('ROS_DOMAIN_ID', '0')} "
                   f"({os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'].lower()}); drive it on {names.drive} or "

@@ -24,6 +24,8 @@ from roar.ros2.commands import Ask, Driver, Refused, ackermann, twist
 
 PERIOD_S = 0.02  # [s] the bridge's tick: odometry, clock, scan, the command timeout
 TIMEOUT_S = 0.25  # [s] no command for this long -> neutral (the firmware's own failsafe is 250 ms too)
+CAMERA_HZ = 10.0  # [Hz] frames published (each one rendered or fetched on a thread of its own)
+CAMERA_SIZE = (320, 240)  # [px] the simulator's frames (a real car's camera gives its own size)
 DIAGNOSTICS_PERIOD_S = 1.0  # [s]
 # [m^2, rad^2] what /odom's covariances say: dead reckoning's spread (a 2D car: z, roll and pitch
 # unknown, said by a huge variance, as 2D drivers do)
@@ -45,12 +47,16 @@ class Names:
     odom_frame: str = "odom"
     base_frame: str = "base_link"
     laser_frame: str = "laser"
+    camera_frame: str = "camera_optical"  # z ahead, x right, y down (REP 103's optical frame)
+    image: str = "/camera/image_raw"
+    camera_info: str = "/camera/camera_info"
+    depth: str = "/camera/depth/image_raw"
 
 
 STANDARD = Names()
 # f1tenth_gym_ros: odometry in the map frame (its car's pose is the simulator's truth there)
 F1TENTH = Names(odom="/ego_racecar/odom", odom_frame="map", base_frame="ego_racecar/base_link",
-                laser_frame="ego_racecar/laser")
+                laser_frame="ego_racecar/laser", camera_frame="ego_racecar/camera_optical")
 
 
 @dataclass
@@ -74,7 +80,7 @@ class Bridge:
     """The node's publishers, subscriptions and tick over one Vehicle (left at neutral by close)."""
 
     def __init__(self, vehicle, node, model, names: Names = STANDARD, timeout_s: float = TIMEOUT_S,
-                 track: str | None = None, log=print) -> None:
+                 track: str | None = None, camera_hz: float = CAMERA_HZ, log=print) -> None:
         from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
         from diagnostic_msgs.msg import DiagnosticArray
         from geometry_msgs.msg import Twist
@@ -133,7 +139,10 @@ class Bridge:
         else:
             log("no tf2_msgs here: /tf is not offered; python -m roar.ros2.interfaces builds it")
         self.timer = node.create_timer(PERIOD_S, self.tick)
+        self.camera = Camera(self, camera_hz) if camera_hz > 0 and vehicle.camera(*CAMERA_SIZE) is not None else None
         self._publish_static(track)
+        if self.camera is not None:
+            self.camera.start()
 
     # --- what the car is ----------------------------------------------------------------------
 
@@ -311,6 +320,8 @@ class Bridge:
             laser.child_frame_id = self.names.laser_frame
             laser.transform.rotation.w = 1.0
             transforms.append(laser)
+            if self.camera is not None and self.camera.preset is not None:
+                transforms.append(self.camera.mount(stamp))
             if self.names.odom_frame != self.names.map_frame:  # odom starts where the car starts on the map
                 odom = TransformStamped()
                 odom.header.stamp, odom.header.frame_id = stamp, self.names.map_frame
@@ -322,7 +333,100 @@ class Bridge:
             self.map_pub.publish(occupancy_grid(track, self.names.map_frame, stamp))
 
     def close(self) -> None:
+        if self.camera is not None:
+            self.camera.stop()
         self.vehicle.drive(**self.driver.neutral())
+
+
+class Camera:
+    """The car's camera on /camera/image_raw (rgb8), /camera/camera_info and, where it gives depth,
+    /camera/depth/image_raw (32FC1, metres), at `hz` from a thread of its own: a frame takes a
+    render (the simulator) or an HTTP fetch (a Junior), longer than the bridge's 20 ms tick."""
+
+    def __init__(self, bridge: Bridge, hz: float) -> None:
+        import threading
+
+        from sensor_msgs.msg import CameraInfo, Image
+
+        self.bridge, self.period_s = bridge, 1.0 / hz
+        self.preset = bridge.link.camera_preset()
+        names, sensors = bridge.names, bridge.qos["sensors"]
+        self.image_pub = bridge.node.create_publisher(Image, names.image, sensors)
+        self.info_pub = bridge.node.create_publisher(CameraInfo, names.camera_info, sensors)
+        self.depth_pub = bridge.node.create_publisher(Image, names.depth, sensors)
+        self.frames = 0
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="roar-ros2-camera", daemon=True)
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=2.0)
+
+    def _run(self) -> None:
+        next_at = time.monotonic()
+        while not self._stop.is_set():
+            frame = self.bridge.vehicle.camera(*CAMERA_SIZE)
+            if frame is not None:
+                self.publish(*frame, self.bridge.stamp(self.bridge.vehicle.state()))
+            next_at = max(next_at + self.period_s, time.monotonic())
+            self._stop.wait(next_at - time.monotonic())
+
+    def publish(self, rgb, depth, stamp) -> None:
+        import numpy as np
+        from sensor_msgs.msg import CameraInfo, Image
+
+        frame = self.bridge.names.camera_frame
+        height, width = rgb.shape[:2]
+        image = Image(height=height, width=width, encoding="rgb8", step=width * 3)
+        image.header.stamp, image.header.frame_id = stamp, frame
+        image.data = np.ascontiguousarray(rgb, dtype=np.uint8).tobytes()
+        self.image_pub.publish(image)
+        info = CameraInfo(height=height, width=width, distortion_model="plumb_bob")
+        info.header = image.header
+        info.d = [0.0] * 5
+        if self.preset is not None:  # a pinhole without distortion; else K all zero: uncalibrated
+            m = self.preset.model(width, height)
+            info.k = [m.fx, 0.0, m.cx, 0.0, m.fy, m.cy, 0.0, 0.0, 1.0]
+            info.p = [m.fx, 0.0, m.cx, 0.0, 0.0, m.fy, m.cy, 0.0, 0.0, 0.0, 1.0, 0.0]
+        info.r = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+        self.info_pub.publish(info)
+        if depth is not None:
+            d = Image(height=height, width=width, encoding="32FC1", step=width * 4)
+            d.header = image.header
+            d.data = np.ascontiguousarray(depth, dtype=np.float32).tobytes()
+            self.depth_pub.publish(d)
+        self.frames += 1
+
+    def mount(self, stamp):
+        """base_link -> the camera's optical frame: its mount, pitched down, axes turned to z ahead,
+        x right, y down."""
+        from geometry_msgs.msg import TransformStamped
+
+        p = self.preset
+        c, s = math.cos(p.pitch_rad), math.sin(p.pitch_rad)
+        # the optical axes in the car's frame (x ahead, y left, z up): the rotation's columns
+        x_axis, y_axis, z_axis = (0.0, -1.0, 0.0), (-s, 0.0, -c), (c, 0.0, -s)
+        t = TransformStamped()
+        t.header.stamp, t.header.frame_id = stamp, self.bridge.names.base_frame
+        t.child_frame_id = self.bridge.names.camera_frame
+        t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = p.x_m, p.y_m, p.z_m
+        t.transform.rotation = rotation_quaternion(x_axis, y_axis, z_axis)
+        return t
+
+
+def rotation_quaternion(x_axis, y_axis, z_axis):
+    """The quaternion of the rotation whose matrix has these columns."""
+    from geometry_msgs.msg import Quaternion
+
+    (m00, m10, m20), (m01, m11, m21), (m02, m12, m22) = x_axis, y_axis, z_axis
+    w = math.sqrt(max(0.0, 1 + m00 + m11 + m22)) / 2
+    x = math.copysign(math.sqrt(max(0.0, 1 + m00 - m11 - m22)) / 2, m21 - m12)
+    y = math.copysign(math.sqrt(max(0.0, 1 - m00 + m11 - m22)) / 2, m02 - m20)
+    z = math.copysign(math.sqrt(max(0.0, 1 - m00 - m11 + m22)) / 2, m10 - m01)
+    return Quaternion(x=x, y=y, z=z, w=w)
 
 
 def diagonal(values) -> list[float]:

@@ -101,6 +101,11 @@ class Transport(ABC):
         roar.autopilot.CarModel (wheelbase, steering lock, limits) or DiffDriveModel; else None."""
         return None
 
+    def camera_preset(self) -> Any:
+        """The car's camera as a roar.vision.geometry.CameraPreset (field of view, mount) where the
+        link knows it (the simulator's robots); else None."""
+        return None
+
     def track(self) -> str | None:
         """The name of the track or map the car drives on, where the link knows it (roar.tracks.get
         takes it); else None."""
