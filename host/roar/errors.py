@@ -116,6 +116,14 @@ class ReplayError(RoarError):
     """A recording that cannot be read (one line)."""
 
 
+class Ros2Error(RoarError):
+    """roar ros2: the message types that did not build, a rosbag2 that cannot be read or written."""
+
+
+class RefusedCommand(Ros2Error, ValueError):
+    """A ROS command no car could mean (not finite, an absurd speed or angle): counted, not driven."""
+
+
 class WebError(RoarError):
     """A web server that cannot start: a port in use, a bad host."""
 

@@ -41,6 +41,8 @@ BASE = {
     "key": ["show", "serial:///dev/roar-none", "--file", "{tmp}/key"],  # (no car there: one line, after the key file)
     "web": ["loop://", "--port", "18887", "--for", "0.3"],
     "ros2": ["loop://", "--for", "0.3"],
+    "ros2 --bag": ["--bag", "{recording}", "--out", "{tmp}/bag"],
+    "ros2 --localize": ["--localize", "{tmp}/no_bag", "--map", "oval"],  # (no bag there: one line, after the options)
     "scan": ["--timeout", "0.1"],
     "ports": [],
     "stream": ["udp://127.0.0.1", "--seconds", "0.3"],
@@ -66,6 +68,7 @@ RUNS = {
     ("send", "--speed", "0"): "zero speed (a car with a speed controller; loop:// has none: one line)",
     ("send", "--speed", "-1"): "1 m/s backwards",
     ("ros2", "--domain", "0"): "ROS domain 0",
+    ("ros2", "--camera", "0"): "no camera topics",
     ("race", "--boxes", "0"): "no boxes",
     ("race", "--seconds", "inf"): "no time limit: the race ends after its lap",
     ("race", "--start-lights", "0"): "start lights drawn from seed 0 (needs --driver lane: one line)",

@@ -29,6 +29,12 @@ EXAMPLES = """examples:
   roar <command> --help                  more about one command
 """
 
+def _ros2_variants():
+    from roar.cli.ros2 import variants
+
+    return variants()
+
+
 # roar's own commands: one module each under roar.cli, with its parser() and main(argv)
 BUILT_IN = {
     "send": Command("hold one command for a while, then stop", "roar.cli.send"),
@@ -37,7 +43,8 @@ BUILT_IN = {
     "replay": Command("what an MCAP recording holds", "roar.cli.replay"),
     "dataset": Command("camera frames and commands of a recording, for imitation learning", "roar.cli.dataset"),
     "web": Command("drive and watch a car from a browser (phone or laptop)", "roar.cli.web"),
-    "ros2": Command("serve the car as a ROS 2 node (/drive, /cmd_vel in; /odom, /scan, /tf out)", "roar.cli.ros2"),
+    "ros2": Command("serve the car as a ROS 2 node (/drive, /cmd_vel in; /odom, /scan, /tf out); --bag: a rosbag2",
+                    "roar.cli.ros2", variants=_ros2_variants),
     "calibrate": Command("set trim and end-points interactively", "roar.cli.calibrate"),
     "key": Command("signed control: only the holder of the key drives the car", "roar.cli.key"),
     "scan": Command("list Bluetooth LE cars nearby", "roar.cli.scan"),

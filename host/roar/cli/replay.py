@@ -1,5 +1,6 @@
 """`roar replay run.mcap`: what a recording holds (duration, clock, car; per channel the count,
-rate and longest gap), drawn with --plot, or its commands played to a car with --to."""
+rate and longest gap), drawn with --plot, or its commands played to a car with --to; a rosbag2
+folder: its topics, types, counts and rates."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ def parser() -> ArgumentParser:
                                    "longest gap, so a stalled sensor or link shows at a glance. --plot draws it; "
                                    "--to URL plays its commands to a car (the simulator, or a real one after you "
                                    "confirm) through the library, which re-sends them and ends at neutral.")
-    p.add_argument("file", type=path_option, metavar="MCAP", help="the recording")
+    p.add_argument("file", type=path_option, metavar="MCAP", help="the recording (or a rosbag2 folder: its topics)")
     p.add_argument("--plot", type=path_option, metavar="PNG", help="draw the path, the speed and the commands")
     p.add_argument("--to", metavar="URL", help="play the recorded commands to this car at their recorded times "
                                                "(a real car asks first; the failsafe rules hold as ever)")
@@ -30,6 +31,15 @@ def main(argv: list[str]) -> int:
     from roar.vehicle import Vehicle
 
     args = parser().parse_args(argv)
+    if args.file.is_dir() and (args.file / "metadata.yaml").is_file():  # a rosbag2 (a ROS user's, or --bag's)
+        if args.plot is not None or args.to is not None:
+            raise UserError(f"{args.file} is a rosbag2: it is summarised only (--plot and --to take a roar recording)")
+        try:
+            from roar.ros2.bag import summary as bag_summary
+        except ImportError as e:
+            raise UserError(f"reading a rosbag2 needs {e.name}: pip install 'roar-platform[ros2]'") from None
+        print(bag_summary(args.file))
+        return 0
     if args.plot is not None and unwritable(args.plot):
         raise UserError(f"--plot {unwritable(args.plot)}")
     print(summary(args.file), flush=True)

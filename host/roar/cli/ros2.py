@@ -6,8 +6,10 @@ from __future__ import annotations
 import math
 import os
 import time
+from pathlib import Path
 
-from roar.cli.sdk import ArgumentParser, UserError, add_calibration_option, number_option, open_vehicle
+from roar.cli.sdk import (ArgumentParser, UserError, add_calibration_option, number_option, open_vehicle,
+                          path_option)
 
 # What a car whose link does not say what it is (a real car over serial, BLE, Wi-Fi) is taken to
 # be unless told: the ROAR car's figures (roar_sim's default profile, its measured top speed)
@@ -31,7 +33,8 @@ def parser() -> ArgumentParser:
                     "steering angle rad) and /cmd_vel (geometry_msgs/Twist) drive it; /odom, /tf, /imu, /scan "
                     "(a car with a lidar), /camera/*, /map (a track), /clock (the simulator) and /diagnostics say "
                     "what it measures. No command for --timeout puts it to neutral. Discovery stays on this machine "
-                    "unless --discovery subnet. Arguments after --ros-args go to ROS (remapping: -r /drive:=/x).",
+                    "unless --discovery subnet. Arguments after --ros-args go to ROS (remapping: -r /drive:=/x). "
+                    "roar ros2 --bag RECORDING --out FOLDER writes a recording as a rosbag2.",
         epilog="examples:\n  roar ros2 sim://oval                    the simulated car on the oval, /map included\n"
                "  roar ros2 sim://oval --f1tenth          f1tenth_gym_ros's names: /ego_racecar/odom, /scan, /drive\n"
                "  roar ros2 serial:///dev/ttyUSB0 --wheelbase 0.33 --top-speed 4\n"
@@ -63,6 +66,84 @@ def parser() -> ArgumentParser:
     return p
 
 
+def bag_parser() -> ArgumentParser:
+    p = ArgumentParser(prog="roar ros2 --bag",
+                       description="Write a roar recording (roar record, --log) as a rosbag2: ROS 2 types, CDR, MCAP "
+                                   "storage, for ros2 bag, rosbags and Foxglove (roar.ros2.bag has the topics).",
+                       epilog="example:\n  roar ros2 --bag run.mcap --out run_bag")
+    p.add_argument("recording", metavar="RECORDING", type=path_option, help="a roar recording (.mcap)")
+    p.add_argument("--out", type=path_option, required=True, metavar="FOLDER", help="the rosbag2 folder (a new one)")
+    return p
+
+
+def localize_parser() -> ArgumentParser:
+    p = ArgumentParser(prog="roar ros2 --localize",
+                       description="Run our particle filter over a rosbag2 (anyone's: a LaserScan topic, an Odometry "
+                                   "topic of poses, and the map the run was on) and write its pose track as CSV: "
+                                   "t_s, the odometry's x, y, yaw, the filter's x, y, yaw, its spread.",
+                       epilog="example:\n  roar ros2 --localize run_bag --map maps/oval_map.yaml --out out/track.csv")
+    p.add_argument("bag", metavar="BAG", type=path_option, help="a rosbag2 folder")
+    p.add_argument("--map", required=True, metavar="MAP", help="the map: a track name, a map .yaml, a .json or .csv")
+    p.add_argument("--out", type=path_option, default=None, metavar="CSV",
+                   help="the pose track (default out/<bag>_track.csv)")
+    p.add_argument("--start", choices=("global", "odom"), default="global",
+                   help="global: anywhere on the map (default); odom: at the first odometry pose")
+    p.add_argument("--scan", default="/scan", metavar="TOPIC", help="default /scan")
+    p.add_argument("--odom", default="/odom", metavar="TOPIC", help="default /odom")
+    return p
+
+
+def variants() -> dict:
+    """--bag converts a recording, --localize runs the filter over a bag: each its own parser."""
+    return {("--bag",): bag_parser(), ("--localize",): localize_parser()}
+
+
+def localize_main(argv: list[str]) -> int:
+    args = localize_parser().parse_args(argv)
+    try:
+        from roar.ros2.bag import localize
+        from roar.tracks import get
+        from roar.tracks.occupancy_map import load_map, track_map
+    except ImportError as e:
+        raise UserError(f"roar ros2 --localize needs {e.name}: pip install 'roar-platform[ros2]'") from None
+    from roar.user_files import unwritable
+
+    out = args.out or Path("out") / f"{args.bag.name}_track.csv"
+    if args.out is None:
+        out.parent.mkdir(exist_ok=True)  # out/ is ours to make; a folder the user names must exist
+    if unwritable(out):
+        raise UserError(f"--out {unwritable(out)}")
+    known = load_map(args.map) if str(args.map).lower().endswith((".yaml", ".yml")) else track_map(get(args.map))
+    track = localize(args.bag, known, args.scan, args.odom, args.start)
+    with open(out, "w") as f:
+        f.write("t_s,odom_x_m,odom_y_m,odom_yaw_rad,x_m,y_m,yaw_rad,spread_m\n")
+        for t, odom, pose, spread in track:
+            f.write(",".join(f"{v:.4f}" for v in (t, *odom, *pose, spread)) + "\n")
+    converged = next((t for t, _, _, spread in track if spread < 0.2), None)
+    print(f"{len(track)} scans localized over {track[-1][0] - track[0][0]:.1f} s; "
+          + (f"the particles gathered within 0.2 m at {converged - track[0][0]:.1f} s" if converged is not None
+             else "the particles never gathered within 0.2 m")
+          + f"; last pose ({track[-1][2][0]:.2f}, {track[-1][2][1]:.2f}, {math.degrees(track[-1][2][2]):.0f} deg); "
+          f"track: {out}")
+    return 0
+
+
+def bag_main(argv: list[str]) -> int:
+    args = bag_parser().parse_args(argv)
+    try:
+        from roar.ros2.bag import convert
+    except ImportError as e:
+        raise UserError(f"roar ros2 --bag needs {e.name}: pip install 'roar-platform[ros2]'") from None
+    try:
+        counts = convert(args.recording, args.out)
+    except ImportError as e:
+        raise UserError(f"roar ros2 --bag needs {e.name}: pip install 'roar-platform[ros2]'") from None
+    left = counts.pop("left out")
+    written = ", ".join(f"{topic} {n}" for topic, n in sorted(counts.items())) or "nothing"
+    print(f"wrote {args.out} (rosbag2, MCAP): {written}; {left} message(s) of other topics left out")
+    return 0
+
+
 def car_model(link_model, args):
     """What the car is: the link's model, unless the user says otherwise; else the defaults."""
     from dataclasses import replace
@@ -88,6 +169,10 @@ def car_model(link_model, args):
 
 
 def main(argv: list[str]) -> int:
+    if "--bag" in argv:
+        return bag_main([a for a in argv if a != "--bag"])
+    if "--localize" in argv:
+        return localize_main([a for a in argv if a != "--localize"])
     ros_args = argv[argv.index(ROS_ARGS):] if ROS_ARGS in argv else []
     args = parser().parse_args(argv[:len(argv) - len(ros_args)])
     try:

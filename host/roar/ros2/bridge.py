@@ -20,7 +20,8 @@ import time
 from dataclasses import dataclass, field
 
 from roar.localization.odometry import Odometry
-from roar.ros2.commands import Ask, Driver, Refused, ackermann, twist
+from roar.errors import RefusedCommand
+from roar.ros2.commands import Ask, Driver, ackermann, twist
 
 PERIOD_S = 0.02  # [s] the bridge's tick: odometry, clock, scan, the command timeout
 TIMEOUT_S = 0.25  # [s] no command for this long -> neutral (the firmware's own failsafe is 250 ms too)
@@ -163,7 +164,7 @@ class Bridge:
     def _take(self, topic: str, make) -> None:
         try:
             ask = make()
-        except Refused as e:
+        except RefusedCommand as e:
             self.counts.refused += 1
             self.counts.last_refusal = f"{topic}: {e}"
             return

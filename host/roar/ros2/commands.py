@@ -14,6 +14,7 @@ import math
 from dataclasses import dataclass, field
 
 from roar.autopilot import CarModel, DiffDriveModel, SpeedController
+from roar.errors import RefusedCommand
 
 ABSURD_SPEED_M_S = 50.0  # [m/s] no 1/10 car: a command asking more is refused, not clipped
 # [m/s] slower than this a Twist's yaw rate asks for no steering (an Ackermann car cannot turn in place)
@@ -29,25 +30,21 @@ class Ask:
     curvature_per_m: float = 0.0
 
 
-class Refused(ValueError):
-    """A command no car could mean: counted by the bridge, not driven."""
-
-
 def ackermann(speed_m_s: float, steering_rad: float, wheelbase_m: float) -> Ask:
     if not (math.isfinite(speed_m_s) and math.isfinite(steering_rad)):
-        raise Refused("not a finite number")
+        raise RefusedCommand("not a finite number")
     if abs(speed_m_s) > ABSURD_SPEED_M_S:
-        raise Refused(f"speed {speed_m_s:g} m/s")
+        raise RefusedCommand(f"speed {speed_m_s:g} m/s")
     if abs(steering_rad) >= math.pi / 2:
-        raise Refused(f"steering angle {steering_rad:g} rad")
+        raise RefusedCommand(f"steering angle {steering_rad:g} rad")
     return Ask(speed_m_s, math.tan(steering_rad) / wheelbase_m)
 
 
 def twist(speed_m_s: float, yaw_rate_rad_s: float) -> Ask:
     if not (math.isfinite(speed_m_s) and math.isfinite(yaw_rate_rad_s)):
-        raise Refused("not a finite number")
+        raise RefusedCommand("not a finite number")
     if abs(speed_m_s) > ABSURD_SPEED_M_S:
-        raise Refused(f"speed {speed_m_s:g} m/s")
+        raise RefusedCommand(f"speed {speed_m_s:g} m/s")
     return Ask(speed_m_s, 0.0 if abs(speed_m_s) < STANDSTILL_M_S else yaw_rate_rad_s / speed_m_s)
 
 

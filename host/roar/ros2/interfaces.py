@@ -21,7 +21,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from roar.errors import RoarError
+from roar.errors import Ros2Error
 
 DEFINITIONS = Path(__file__).parent / "definitions"
 PACKAGES = ("ackermann_msgs", "tf2_msgs")
@@ -34,10 +34,6 @@ TYPE_HASHES = {
     "tf2_msgs/msg/TFMessage": "RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087",
 }
 STAMP = "roar-definitions.sha256"  # in share/<package>/: the definitions it was built from
-
-
-class InterfaceBuildError(RoarError):
-    pass
 
 
 def fingerprint(package: str) -> str:
@@ -79,13 +75,13 @@ def build_environment(root: Path) -> dict[str, str]:
 
 def build(package: str, root: Path | None = None, log=print) -> None:
     """Generate, compile and install `package` into `root`: a Python environment with the ROS 2
-    wheels (default: this one; another: its own Python runs the generators); InterfaceBuildError
+    wheels (default: this one; another: its own Python runs the generators); Ros2Error
     with the tool to install or the log's last lines."""
     root = root or prefix()
     python = Path(sys.executable) if root == prefix() else root / "bin" / "python"
     missing = [tool for tool in ("cmake", "cc", "c++") if shutil.which(tool) is None]
     if missing:
-        raise InterfaceBuildError(f"building {package} needs {', '.join(missing)}: apt install cmake g++")
+        raise Ros2Error(f"building {package} needs {', '.join(missing)}: apt install cmake g++")
     ninja = ["-G", "Ninja"] if shutil.which("ninja") else []
     with tempfile.TemporaryDirectory(prefix=f"roar-{package}-") as tmp:
         build_dir, log_path = Path(tmp) / "build", Path(tmp) / "build.log"
@@ -99,7 +95,7 @@ def build(package: str, root: Path | None = None, log=print) -> None:
             for step in steps:
                 if subprocess.run(step, stdout=out, stderr=subprocess.STDOUT, env=build_environment(root)).returncode:
                     tail = log_path.read_text().strip().splitlines()[-12:]
-                    raise InterfaceBuildError(f"building {package} failed; the build's last lines:\n" + "\n".join(tail))
+                    raise Ros2Error(f"building {package} failed; the build's last lines:\n" + "\n".join(tail))
     (root / "share" / package / STAMP).write_text(fingerprint(package) + "\n")
 
 
@@ -110,7 +106,7 @@ def ensure(log=print) -> list[str]:
         if not current(package):
             try:
                 build(package, log=log)
-            except InterfaceBuildError as e:
+            except Ros2Error as e:
                 log(str(e))
     importlib.invalidate_caches()
     return [package for package in PACKAGES if not available(package)]
@@ -139,7 +135,7 @@ def main(argv: list[str] | None = None) -> int:
             continue
         try:
             build(package, root)
-        except InterfaceBuildError as e:
+        except Ros2Error as e:
             print(e, file=sys.stderr)
             return 1
     return 0
