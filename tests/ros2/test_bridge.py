@@ -331,7 +331,10 @@ JAZZY_NODE = textwrap.dedent("""
     scans = []
     node.create_subscription(LaserScan, "/scan", lambda m: scans.append(len(m.ranges)), qos_profile_sensor_data)
     pub = node.create_publisher(AckermannDriveStamped, "/drive", 10)
-    end = time.monotonic() + 3.0
+    found = time.monotonic() + 10.0  # discovery (slower on a busy machine), then 2 s of driving
+    while not scans and time.monotonic() < found:
+        rclpy.spin_once(node, timeout_sec=0.05)
+    end = time.monotonic() + 2.0
     while time.monotonic() < end:
         msg = AckermannDriveStamped()
         msg.drive.speed = 1.0

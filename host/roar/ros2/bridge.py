@@ -140,10 +140,16 @@ class Bridge:
         else:
             log("no tf2_msgs here: /tf is not offered; python -m roar.ros2.interfaces builds it")
         self.timer = node.create_timer(PERIOD_S, self.tick)
-        self.camera = Camera(self, camera_hz) if camera_hz > 0 and vehicle.camera(*CAMERA_SIZE) is not None else None
+        self.camera = Camera(self) if camera_hz > 0 and vehicle.camera(*CAMERA_SIZE) is not None else None
         self._publish_static(track)
+        # sensors that take the simulator's thread (a scan's rays, a render) or a link's round trip
+        # are read on threads of their own: the executor's thread stays free for the commands
+        self.pollers = [Poller("scan", PERIOD_S, lambda: self._publish_scan(self.stamp(self.vehicle.state())))
+                        ] if self.scan_pub is not None else []
         if self.camera is not None:
-            self.camera.start()
+            self.pollers.append(Poller("camera", 1.0 / camera_hz, self.camera.step))
+        for poller in self.pollers:
+            poller.start()
 
     # --- what the car is ----------------------------------------------------------------------
 
@@ -210,8 +216,6 @@ class Bridge:
             self._publish_odometry(state, pose, stamp)
         if state is not None and state.yaw_rate_rad_s is not None:
             self._publish_imu(state, stamp)
-        if self.scan_pub is not None:
-            self._publish_scan(stamp)
         if time.monotonic() - self._last_diagnostics >= DIAGNOSTICS_PERIOD_S:
             self._last_diagnostics = time.monotonic()
             self._publish_diagnostics(state, stamp)
@@ -334,30 +338,21 @@ class Bridge:
             self.map_pub.publish(occupancy_grid(track, self.names.map_frame, stamp))
 
     def close(self) -> None:
-        if self.camera is not None:
-            self.camera.stop()
+        for poller in self.pollers:
+            poller.stop()
         self.vehicle.drive(**self.driver.neutral())
 
 
-class Camera:
-    """The car's camera on /camera/image_raw (rgb8), /camera/camera_info and, where it gives depth,
-    /camera/depth/image_raw (32FC1, metres), at `hz` from a thread of its own: a frame takes a
-    render (the simulator) or an HTTP fetch (a Junior), longer than the bridge's 20 ms tick."""
+class Poller:
+    """Calls `read` every period_s [s] on a thread of its own until stopped (a late call is not
+    made up for: the next comes a period after it)."""
 
-    def __init__(self, bridge: Bridge, hz: float) -> None:
+    def __init__(self, name: str, period_s: float, read) -> None:
         import threading
 
-        from sensor_msgs.msg import CameraInfo, Image
-
-        self.bridge, self.period_s = bridge, 1.0 / hz
-        self.preset = bridge.link.camera_preset()
-        names, sensors = bridge.names, bridge.qos["sensors"]
-        self.image_pub = bridge.node.create_publisher(Image, names.image, sensors)
-        self.info_pub = bridge.node.create_publisher(CameraInfo, names.camera_info, sensors)
-        self.depth_pub = bridge.node.create_publisher(Image, names.depth, sensors)
-        self.frames = 0
+        self.period_s, self.read = period_s, read
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="roar-ros2-camera", daemon=True)
+        self._thread = threading.Thread(target=self._run, name=f"roar-ros2-{name}", daemon=True)
 
     def start(self) -> None:
         self._thread.start()
@@ -369,11 +364,31 @@ class Camera:
     def _run(self) -> None:
         next_at = time.monotonic()
         while not self._stop.is_set():
-            frame = self.bridge.vehicle.camera(*CAMERA_SIZE)
-            if frame is not None:
-                self.publish(*frame, self.bridge.stamp(self.bridge.vehicle.state()))
+            self.read()
             next_at = max(next_at + self.period_s, time.monotonic())
             self._stop.wait(next_at - time.monotonic())
+
+
+class Camera:
+    """The car's camera on /camera/image_raw (rgb8), /camera/camera_info and, where it gives depth,
+    /camera/depth/image_raw (32FC1, metres), a frame each step() (a Poller's: a frame takes a
+    render in the simulator or an HTTP fetch from a Junior, longer than the bridge's 20 ms tick)."""
+
+    def __init__(self, bridge: Bridge) -> None:
+        from sensor_msgs.msg import CameraInfo, Image
+
+        self.bridge = bridge
+        self.preset = bridge.link.camera_preset()
+        names, sensors = bridge.names, bridge.qos["sensors"]
+        self.image_pub = bridge.node.create_publisher(Image, names.image, sensors)
+        self.info_pub = bridge.node.create_publisher(CameraInfo, names.camera_info, sensors)
+        self.depth_pub = bridge.node.create_publisher(Image, names.depth, sensors)
+        self.frames = 0
+
+    def step(self) -> None:
+        frame = self.bridge.vehicle.camera(*CAMERA_SIZE)
+        if frame is not None:
+            self.publish(*frame, self.bridge.stamp(self.bridge.vehicle.state()))
 
     def publish(self, rgb, depth, stamp) -> None:
         import numpy as np
