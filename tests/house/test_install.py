@@ -1,7 +1,8 @@
 """Installs as users make them, each into a fresh virtual environment outside the checkout: the
 base package alone (`pip install roar-platform`, no extras) drives a loop:// car, pulls in neither
 the simulator nor Bluetooth, and says in one line what to install for them; the wheel with the
-simulator (`[sim]`) builds the firmware core from the sources it carries and races a lap."""
+simulator (`[sim]`) builds the firmware core from the sources it carries and races a lap; `[ros2]`
+brings rclpy and builds the two message types no wheel has on first use."""
 
 import os
 import subprocess
@@ -45,12 +46,32 @@ def test_the_base_install_drives_a_car_without_the_simulator_or_bluetooth(base_v
 
 @pytest.mark.parametrize("argv, extra", [(["send", "sim://", "--for", "0.1"], "sim"), (["race"], "sim"),
                                          (["sim", "--serial"], "sim"), (["sweep"], "sweep"), (["scan"], "ble"),
-                                         (["send", "ble://", "--for", "0.1"], "ble")])
+                                         (["send", "ble://", "--for", "0.1"], "ble"),
+                                         (["ros2", "loop://", "--for", "0.1"], "ros2")])
 def test_the_simulator_and_bluetooth_say_what_to_install(base_venv, argv, extra):
     proc = run(base_venv, "roar", *argv)
     assert proc.returncode == 1
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and f"pip install 'roar-platform[{extra}]'" in lines[0], proc.stderr
+
+
+# --- ROS 2: the wheels, and the two message types built on first use ----------------------------------
+
+@pytest.mark.skipif(sys.version_info[:2] != (3, 11), reason="the ROS 2 wheels are built for Python 3.11")
+def test_the_ros2_extra_installs_and_builds_its_types_on_first_use(tmp_path):
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
+    proc = subprocess.run([str(venv / "bin" / "pip"), "install", "-q", "--disable-pip-version-check",
+                           f"{ROOT}[ros2]"], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    env = {k: v for k, v in os.environ.items() if k not in ("LD_LIBRARY_PATH", "_ROS_WHEELS_BOOTSTRAP_COMPLETE",
+                                                            "AMENT_PREFIX_PATH", "PYTHONPATH")}
+    first = run(venv / "bin", "roar", "ros2", "loop://", "--for", "0.3", "--domain", "231", env=env)
+    assert first.returncode == 0, first.stderr
+    assert "building ackermann_msgs" in first.stdout and "is node /roar" in first.stdout, first.stdout
+    again = run(venv / "bin", "roar", "ros2", "loop://", "--for", "0.3", "--domain", "231", env=env)
+    assert again.returncode == 0 and "building" not in again.stdout, again.stdout  # once
+    assert run(venv / "bin", "python", "-c", "import ackermann_msgs.msg, tf2_msgs.msg", env=env).returncode == 0
 
 
 # --- the wheel, with the simulator, outside any checkout ---------------------------------------------
