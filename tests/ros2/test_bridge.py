@@ -503,3 +503,43 @@ def test_our_particle_filter_runs_over_a_foreign_bag(tmp_path):
     assert np.sqrt(np.mean(error ** 2)) < 0.1 and error.max() < 0.3, (np.sqrt(np.mean(error ** 2)), error.max())
     odometry_error = np.hypot(rows[:, 1] - truth[:, 0], rows[:, 2] - truth[:, 1])
     assert odometry_error[-1] > 0.3  # the odometry alone drifted: the map did the work
+
+
+DRIVES_ON = textwrap.dedent("""
+    import time, rclpy
+    from ackermann_msgs.msg import AckermannDriveStamped
+    rclpy.init()
+    node = rclpy.create_node("user")
+    pub = node.create_publisher(AckermannDriveStamped, "/drive", 10)
+    while True:
+        msg = AckermannDriveStamped()
+        msg.drive.speed, msg.drive.steering_angle = 1.0, 0.2
+        pub.publish(msg)
+        time.sleep(1 / 40)
+""")
+
+
+@pytest.mark.realtime
+def test_a_killed_bridge_leaves_the_car_to_its_own_failsafe(pty_car):
+    """The bridge killed outright (SIGKILL: no neutral sent) while a ROS node drives a car on a
+    serial port: nothing re-sends the last command, and the car's firmware stops it 250 ms after
+    the last message it got."""
+    needs_types()
+    env = ros_env()
+    bridge = serve(f"serial://{pty_car.path}", "--camera", "0", env=env)
+    user = subprocess.Popen([sys.executable, "-c", DRIVES_ON], env=env)
+    try:
+        from conftest import wait_for
+
+        assert wait_for(lambda: pty_car.sim.outputs.throttle_us > 1500, timeout_s=10), "the ROS node never drove it"
+        assert pty_car.sim.outputs.steering_us < 1500  # 0.2 rad to the left: a command below centre
+        bridge.kill()
+        killed_s = pty_car.sim.time_s
+        assert wait_for(lambda: pty_car.sim.outputs.throttle_us == 1500, timeout_s=2.0, poll_s=0.002)
+        stopped_after_s = pty_car.sim.time_s - killed_s
+    finally:
+        for process in (user, bridge):
+            process.kill()
+            process.wait(timeout=10)
+        bridge.stdout.close()
+    assert 0.25 - 0.05 <= stopped_after_s <= 0.25 + 0.05, stopped_after_s  # the last message came <= 20 ms before
