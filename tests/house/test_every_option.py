@@ -42,7 +42,7 @@ BASE = {
     "web": ["loop://", "--port", "18887", "--for", "0.3"],
     "ros2": ["loop://", "--for", "0.3"],
     "ros2 --bag": ["--bag", "{recording}", "--out", "{tmp}/bag"],
-    "ros2 --localize": ["--localize", "{tmp}/no_bag", "--map", "oval"],  # (no bag there: one line, after the options)
+    "ros2 --localize-bag": ["--localize-bag", "{tmp}/no_bag", "--map", "oval"],  # (no bag there: one line, after the options)
     "scan": ["--timeout", "0.1"],
     "ports": [],
     "stream": ["udp://127.0.0.1", "--seconds", "0.3"],

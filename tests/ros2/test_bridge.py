@@ -108,18 +108,42 @@ def test_an_f1tenth_pure_pursuit_node_laps_the_oval(tmp_path):
 
 
 @pytest.mark.realtime
-def test_a_wall_follower_laps_the_oval_by_its_scan_alone(tmp_path):
+def test_a_wall_follower_laps_the_oval_by_its_scan_alone_and_the_bridge_localizes_it(tmp_path, monkeypatch):
+    """A plain rclpy node laps the oval by /scan alone; meanwhile `--localize` runs our particle
+    filter on the bridge, and its /pose (in the map frame, on the simulator's clock) follows the
+    simulator's own trace of the car."""
     needs_types()
+    from geometry_msgs.msg import PoseWithCovarianceStamped
+
     env, trace = ros_env(), tmp_path / "drive.csv"
-    bridge = serve(f"sim://oval?speedup=2&trace={trace}", env=env)
+    for key in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE"):
+        monkeypatch.setenv(key, env[key])
+    bridge = serve(f"sim://oval?speedup=2&trace={trace}", "--localize", "--camera", "0", env=env)
+    poses = []
+    rclpy.init()
+    probe = rclpy.create_node("probe")
+    probe.create_subscription(PoseWithCovarianceStamped, "/pose", lambda m: poses.append(
+        (m.header.stamp.sec + m.header.stamp.nanosec * 1e-9, m.pose.pose.position.x, m.pose.pose.position.y,
+         m.header.frame_id)), 10)
     try:
-        node = subprocess.run([sys.executable, str(ROOT / "examples/ros2_wall_follow.py"), "--for", "16"],
-                              env=env, capture_output=True, text=True, timeout=40)
+        node = subprocess.Popen([sys.executable, str(ROOT / "examples/ros2_wall_follow.py"), "--for", "16"],
+                                env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        while node.poll() is None:
+            rclpy.spin_once(probe, timeout_sec=0.02)
+        out = node.stdout.read()
+        node.stdout.close()
     finally:
+        probe.destroy_node()
+        rclpy.try_shutdown()
         stop(bridge)
-    assert node.returncode == 0, node.stdout + node.stderr
+    assert node.returncode == 0, out
     laps, cte = laps_in(trace)
     assert laps >= 1.0 and within_walls(cte), (laps, cte)
+    truth = np.loadtxt(trace, delimiter=",", skiprows=1)
+    t, x, y = (np.array([p[i] for p in poses]) for i in range(3))
+    assert len(t) > 100 and {p[3] for p in poses} == {"map"}
+    error = np.hypot(x - np.interp(t, truth[:, 0], truth[:, 1]), y - np.interp(t, truth[:, 0], truth[:, 2]))
+    assert np.sqrt(np.mean(error ** 2)) < 0.1 and error.max() < 0.25, (np.sqrt(np.mean(error ** 2)), error.max())
 
 
 # a user's node that publishes /drive at 40 Hz: 1 s of a real command, then 0.5 s of NaN (refused:
@@ -293,6 +317,8 @@ def test_topics_frames_stamps_and_qos_as_documented(monkeypatch):
     assert sim_s > 4.0  # 3 s and more of wall time at twice real time
     edges = {(t.header.frame_id, t.child_frame_id) for m in got["tf"] + got["tf_static"] for t in m.transforms}
     assert edges == {("odom", "base_link"), ("base_link", "laser"), ("base_link", "camera_optical"), ("map", "odom")}
+    laser = next(t for m in got["tf_static"] for t in m.transforms if t.child_frame_id == "laser")
+    assert laser.transform.translation.x == pytest.approx(0.265, abs=0.01)  # the racecar's hokuyo, ahead of the axle
     image, info = got["image"][-1], got["camera_info"][-1]
     assert (image.width, image.height, image.encoding, image.header.frame_id) == (320, 240, "rgb8", "camera_optical")
     pixels = np.frombuffer(bytes(image.data), dtype=np.uint8).reshape(240, 320, 3)
@@ -486,7 +512,7 @@ def write_foreign_bag(path: Path, name: str, laps: float = 1.0) -> np.ndarray:
 
 def test_our_particle_filter_runs_over_a_foreign_bag(tmp_path):
     """A ROS user's bag (written with rosbags, no roar in it): roar replay summarises it, and
-    roar ros2 --localize follows the car round a lap on the map where the odometry alone drifts."""
+    roar ros2 --localize-bag follows the car round a lap on the map where the odometry alone drifts."""
     bag, out = tmp_path / "their_bag", tmp_path / "track.csv"
     truth = write_foreign_bag(bag, "course")
     shown = subprocess.run([*ROAR, "replay", str(bag)], capture_output=True, text=True, timeout=60)
@@ -494,7 +520,7 @@ def test_our_particle_filter_runs_over_a_foreign_bag(tmp_path):
     scan_line = next(line for line in shown.stdout.splitlines() if line.split()[0] == "/scan")
     assert scan_line.split()[1:3] == ["sensor_msgs/msg/LaserScan", str(len(truth))]
     assert float(scan_line.split()[3]) == pytest.approx(10.0, abs=0.2)  # [Hz]
-    run = subprocess.run([*ROAR, "ros2", "--localize", str(bag), "--map", "course", "--start", "odom",
+    run = subprocess.run([*ROAR, "ros2", "--localize-bag", str(bag), "--map", "course", "--start", "odom",
                           "--out", str(out)], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
     rows = np.loadtxt(out, delimiter=",", skiprows=1)

@@ -180,6 +180,11 @@ class SimTransport(Transport):
     def model(self):
         return self.kind.model
 
+    def lidar_mount(self):
+        if self.sim is None or not self.sim.has_lidar:
+            return None
+        return self._ask(lambda sim: sim.plant.lidar_mount())
+
     def camera_preset(self):
         return self.kind.camera
 

@@ -34,7 +34,8 @@ def parser() -> ArgumentParser:
                     "(a car with a lidar), /camera/*, /map (a track), /clock (the simulator) and /diagnostics say "
                     "what it measures. No command for --timeout puts it to neutral. Discovery stays on this machine "
                     "unless --discovery subnet. Arguments after --ros-args go to ROS (remapping: -r /drive:=/x). "
-                    "roar ros2 --bag RECORDING --out FOLDER writes a recording as a rosbag2.",
+                    "roar ros2 --bag RECORDING --out FOLDER writes a recording as a rosbag2; roar ros2 --localize-bag "
+                    "BAG --map MAP runs our particle filter over anyone's.",
         epilog="examples:\n  roar ros2 sim://oval                    the simulated car on the oval, /map included\n"
                "  roar ros2 sim://oval --f1tenth          f1tenth_gym_ros's names: /ego_racecar/odom, /scan, /drive\n"
                "  roar ros2 serial:///dev/ttyUSB0 --wheelbase 0.33 --top-speed 4\n"
@@ -52,6 +53,9 @@ def parser() -> ArgumentParser:
                    help="where nodes are found (default: ROS_AUTOMATIC_DISCOVERY_RANGE, else localhost)")
     p.add_argument("--camera", type=number_option(0, 30, "Hz"), default=10.0, metavar="HZ",
                    help="camera frames a second on /camera/image_raw, camera_info and depth (default 10; 0: none)")
+    p.add_argument("--localize", action="store_true",
+                   help="run our particle filter on the scans and the map: the car's pose on /pose, map -> odom on "
+                        "/tf (needs a lidar and a map)")
     p.add_argument("--map", metavar="TRACK", default=None,
                    help="serve this track or map on /map (default: the simulator's track)")
     p.add_argument("--wheelbase", type=number_option(0.05, 2.0, "m", low_open=True), default=None, metavar="M",
@@ -77,11 +81,11 @@ def bag_parser() -> ArgumentParser:
 
 
 def localize_parser() -> ArgumentParser:
-    p = ArgumentParser(prog="roar ros2 --localize",
+    p = ArgumentParser(prog="roar ros2 --localize-bag",
                        description="Run our particle filter over a rosbag2 (anyone's: a LaserScan topic, an Odometry "
                                    "topic of poses, and the map the run was on) and write its pose track as CSV: "
                                    "t_s, the odometry's x, y, yaw, the filter's x, y, yaw, its spread.",
-                       epilog="example:\n  roar ros2 --localize run_bag --map maps/oval_map.yaml --out out/track.csv")
+                       epilog="example:\n  roar ros2 --localize-bag run_bag --map maps/oval_map.yaml --out out/track.csv")
     p.add_argument("bag", metavar="BAG", type=path_option, help="a rosbag2 folder")
     p.add_argument("--map", required=True, metavar="MAP", help="the map: a track name, a map .yaml, a .json or .csv")
     p.add_argument("--out", type=path_option, default=None, metavar="CSV",
@@ -94,8 +98,8 @@ def localize_parser() -> ArgumentParser:
 
 
 def variants() -> dict:
-    """--bag converts a recording, --localize runs the filter over a bag: each its own parser."""
-    return {("--bag",): bag_parser(), ("--localize",): localize_parser()}
+    """--bag converts a recording, --localize-bag runs the filter over a bag: each its own parser."""
+    return {("--bag",): bag_parser(), ("--localize-bag",): localize_parser()}
 
 
 def localize_main(argv: list[str]) -> int:
@@ -105,7 +109,7 @@ def localize_main(argv: list[str]) -> int:
         from roar.tracks import get
         from roar.tracks.occupancy_map import load_map, track_map
     except ImportError as e:
-        raise UserError(f"roar ros2 --localize needs {e.name}: pip install 'roar-platform[ros2]'") from None
+        raise UserError(f"roar ros2 --localize-bag needs {e.name}: pip install 'roar-platform[ros2]'") from None
     from roar.user_files import unwritable
 
     out = args.out or Path("out") / f"{args.bag.name}_track.csv"
@@ -171,8 +175,8 @@ def car_model(link_model, args):
 def main(argv: list[str]) -> int:
     if "--bag" in argv:
         return bag_main([a for a in argv if a != "--bag"])
-    if "--localize" in argv:
-        return localize_main([a for a in argv if a != "--localize"])
+    if "--localize-bag" in argv:
+        return localize_main([a for a in argv if a != "--localize-bag"])
     ros_args = argv[argv.index(ROS_ARGS):] if ROS_ARGS in argv else []
     args = parser().parse_args(argv[:len(argv) - len(ros_args)])
     try:
@@ -204,6 +208,7 @@ def main(argv: list[str]) -> int:
         try:
             names = F1TENTH if args.f1tenth else STANDARD
             bridge = Bridge(car, node, model, names, timeout_s=args.timeout, track=track, camera_hz=args.camera,
+                            localize=args.localize,
                             log=lambda line: print(f"roar ros2: {line}", flush=True))
             print(f"roar ros2: {car.url} is node /roar on ROS domain {os.environ.get('ROS_DOMAIN_ID', '0')} "
                   f"({os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'].lower()}); drive it on {names.drive} or "

@@ -44,6 +44,7 @@ class Names:
     scan: str = "/scan"
     imu: str = "/imu"
     map: str = "/map"
+    pose: str = "/pose"  # with --localize: the car on the map, as a particle filter says (amcl's amcl_pose)
     map_frame: str = "map"
     odom_frame: str = "odom"
     base_frame: str = "base_link"
@@ -81,7 +82,7 @@ class Bridge:
     """The node's publishers, subscriptions and tick over one Vehicle (left at neutral by close)."""
 
     def __init__(self, vehicle, node, model, names: Names = STANDARD, timeout_s: float = TIMEOUT_S,
-                 track: str | None = None, camera_hz: float = CAMERA_HZ, log=print) -> None:
+                 track: str | None = None, camera_hz: float = CAMERA_HZ, localize: bool = False, log=print) -> None:
         from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
         from diagnostic_msgs.msg import DiagnosticArray
         from geometry_msgs.msg import Twist
@@ -139,6 +140,26 @@ class Bridge:
             self.tf_static_pub = node.create_publisher(TFMessage, "/tf_static", latched)
         else:
             log("no tf2_msgs here: /tf is not offered; python -m roar.ros2.interfaces builds it")
+        self.lidar_mount = self.link.lidar_mount() or (0.0, 0.0, 0.0)  # where base_link -> laser goes
+        self.localizer = None  # a MapLocalizer from the first scan with odometry, with --localize
+        self._odom_pose = None  # the latest odometry pose (x, y, yaw), for the localizer's thread
+        self.pose_pub = None
+        if localize:
+            from geometry_msgs.msg import PoseWithCovarianceStamped
+
+            from roar.errors import Ros2Error
+
+            if names.odom_frame == names.map_frame:
+                raise Ros2Error("--localize publishes map -> odom: not with --f1tenth, whose odometry is in the "
+                                "map frame")
+            if self.scan_pub is None or not track:
+                raise Ros2Error("--localize needs a lidar and a map (a sim:// track, or --map): "
+                                f"{'no lidar' if self.scan_pub is None else 'no map'} here")
+            from roar.tracks import get
+            from roar.tracks.occupancy_map import load_map, track_map
+
+            self._known = load_map(track) if str(track).lower().endswith((".yaml", ".yml")) else track_map(get(track))
+            self.pose_pub = node.create_publisher(PoseWithCovarianceStamped, names.pose, sensors)
         self.timer = node.create_timer(PERIOD_S, self.tick)
         self.camera = Camera(self) if camera_hz > 0 and vehicle.camera(*CAMERA_SIZE) is not None else None
         self._publish_static(track)
@@ -213,6 +234,7 @@ class Bridge:
             self.clock_pub.publish(Clock(clock=stamp))
         pose = self._odometry_pose(state)
         if pose is not None:
+            self._odom_pose = pose
             self._publish_odometry(state, pose, stamp)
         if state is not None and state.yaw_rate_rad_s is not None:
             self._publish_imu(state, stamp)
@@ -289,6 +311,42 @@ class Bridge:
         msg.ranges = [float(r) for r in ranges]
         self.scan_pub.publish(msg)
         self.counts.scans += 1
+        if self.pose_pub is not None and self._odom_pose is not None:
+            self._localize(self._odom_pose, msg, stamp)
+
+    def _localize(self, odometry, scan, stamp) -> None:
+        """The particle filter on this scan: the car's pose on /pose, map -> odom on /tf."""
+        import numpy as np
+        from geometry_msgs.msg import PoseWithCovarianceStamped, TransformStamped
+
+        from roar.ros2.localizing import MapLocalizer
+
+        if self.localizer is None:  # the simulator's odometry starts at the car's start on its track
+            self.localizer = MapLocalizer(self._known, odometry if self.simulated else None, self.lidar_mount)
+        angles = scan.angle_min + scan.angle_increment * np.arange(len(scan.ranges))
+        t = stamp.sec + stamp.nanosec * 1e-9
+        (x, y, yaw), (ox, oy, oyaw) = self.localizer.step(odometry, angles, np.asarray(scan.ranges), t,
+                                                          scan.range_min, scan.range_max)
+        msg = PoseWithCovarianceStamped()
+        msg.header.stamp, msg.header.frame_id = stamp, self.names.map_frame
+        msg.pose.pose.position.x, msg.pose.pose.position.y = x, y
+        msg.pose.pose.orientation = quaternion(yaw)
+        c = self.localizer.covariance  # (x, y, yaw)
+        cov = [0.0] * 36
+        for i, a in enumerate((0, 1, 5)):
+            for j, b in enumerate((0, 1, 5)):
+                cov[a * 6 + b] = float(c[i, j])
+        msg.pose.covariance = cov
+        self.pose_pub.publish(msg)
+        if self._has_tf:
+            from tf2_msgs.msg import TFMessage
+
+            tf = TransformStamped()
+            tf.header.stamp, tf.header.frame_id = stamp, self.names.map_frame
+            tf.child_frame_id = self.names.odom_frame
+            tf.transform.translation.x, tf.transform.translation.y = ox, oy
+            tf.transform.rotation = quaternion(oyaw)
+            self.tf_pub.publish(TFMessage(transforms=[tf]))
 
     def _publish_diagnostics(self, state, stamp) -> None:
         from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -323,11 +381,13 @@ class Bridge:
             laser = TransformStamped()
             laser.header.stamp, laser.header.frame_id = stamp, self.names.base_frame
             laser.child_frame_id = self.names.laser_frame
-            laser.transform.rotation.w = 1.0
+            laser.transform.translation.x, laser.transform.translation.y = self.lidar_mount[:2]
+            laser.transform.rotation = quaternion(self.lidar_mount[2])
             transforms.append(laser)
             if self.camera is not None and self.camera.preset is not None:
                 transforms.append(self.camera.mount(stamp))
-            if self.names.odom_frame != self.names.map_frame:  # odom starts where the car starts on the map
+            if self.names.odom_frame != self.names.map_frame and self.pose_pub is None:
+                # odom starts where the car starts on the map (with --localize the filter says where)
                 odom = TransformStamped()
                 odom.header.stamp, odom.header.frame_id = stamp, self.names.map_frame
                 odom.child_frame_id = self.names.odom_frame

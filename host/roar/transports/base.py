@@ -101,6 +101,11 @@ class Transport(ABC):
         roar.autopilot.CarModel (wheelbase, steering lock, limits) or DiffDriveModel; else None."""
         return None
 
+    def lidar_mount(self) -> tuple[float, float, float] | None:
+        """(x ahead [m], y left [m], yaw [rad]) of the lidar on the car, where the link knows it (the
+        simulator's robots); else None."""
+        return None
+
     def camera_preset(self) -> Any:
         """The car's camera as a roar.vision.geometry.CameraPreset (field of view, mount) where the
         link knows it (the simulator's robots); else None."""
