@@ -94,7 +94,7 @@ def test_an_f1tenth_pure_pursuit_node_laps_the_oval(tmp_path):
     subprocess.run([*ROAR, "track", "oval", "--save", str(line)], check=True, capture_output=True)
     bridge = serve(f"sim://oval?speedup=2&trace={trace}", "--f1tenth", env=env)
     try:
-        node = subprocess.run([sys.executable, str(ROOT / "examples/ros2_pure_pursuit.py"), str(line), "--f1tenth",
+        node = subprocess.run([sys.executable, str(ROOT / "examples/ros2/pure_pursuit.py"), str(line), "--f1tenth",
                                "--laps", "1", "--speed", "1.2", "--timeout", "40"],
                               env=env, capture_output=True, text=True, timeout=60)
     finally:
@@ -126,7 +126,7 @@ def test_a_wall_follower_laps_the_oval_by_its_scan_alone_and_the_bridge_localize
         (m.header.stamp.sec + m.header.stamp.nanosec * 1e-9, m.pose.pose.position.x, m.pose.pose.position.y,
          m.header.frame_id)), 10)
     try:
-        node = subprocess.Popen([sys.executable, str(ROOT / "examples/ros2_wall_follow.py"), "--for", "16"],
+        node = subprocess.Popen([sys.executable, str(ROOT / "examples/ros2/wall_follow.py"), "--for", "16"],
                                 env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         while node.poll() is None:
             rclpy.spin_once(probe, timeout_sec=0.02)
@@ -569,3 +569,23 @@ def test_a_killed_bridge_leaves_the_car_to_its_own_failsafe(pty_car):
             process.wait(timeout=10)
         bridge.stdout.close()
     assert 0.25 - 0.05 <= stopped_after_s <= 0.25 + 0.05, stopped_after_s  # the last message came <= 20 ms before
+
+
+def test_the_launch_files_command_lines_are_ones_roar_ros2_takes():
+    """examples/ros2/roar_sim.launch.py (for a ROS install: launch is not on PyPI) makes command
+    lines that roar ros2's own parser accepts, for each combination of its arguments."""
+    import importlib.util
+
+    from roar.cli.ros2 import parser
+
+    spec = importlib.util.spec_from_file_location("launch_example", ROOT / "examples/ros2/roar_sim.launch.py")
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    defaults = {name: default for name, (default, _) in example.ARGUMENTS.items()}
+    for f1tenth, localize, url in itertools.product(("true", "false"), ("true", "false"),
+                                                    ("sim://", "serial:///dev/ttyUSB0")):
+        line = example.bridge_command(**{**defaults, "f1tenth": f1tenth, "localize": localize, "url": url})
+        assert line[:2] == ["roar", "ros2"]
+        args = parser().parse_args(line[2:])
+        assert args.f1tenth == (f1tenth == "true") and args.localize == (f1tenth == "false" and localize == "true")
+        assert args.url == ("sim://?track=oval" if url == "sim://" else url)

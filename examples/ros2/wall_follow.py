@@ -3,7 +3,7 @@ on /scan, sending AckermannDriveStamped on /drive. Nothing from roar, no map, no
 drives whatever serves those topics.
 
     roar ros2 sim://oval &
-    python examples/ros2_wall_follow.py --for 30 [--speed 1.0]
+    python examples/ros2/wall_follow.py --for 30 [--speed 1.0]
 
 Exits 0 after --for seconds; 2 when no scan came within 5 s.
 """

@@ -4,7 +4,7 @@ those topics, our car included.
 
     roar ros2 sim://oval &                          the simulated car as a ROS 2 node
     roar track oval --save oval.csv                 the centre line (x_m, y_m, ... per row)
-    python examples/ros2_pure_pursuit.py oval.csv   [--laps 1] [--speed 1.2] [--f1tenth]
+    python examples/ros2/pure_pursuit.py oval.csv   [--laps 1] [--speed 1.2] [--f1tenth]
 
 It prints each lap's time (by the odometry: the start line crossed after the whole line was
 driven) and exits 0 after --laps laps, 2 when it falls short within --timeout.
