@@ -572,13 +572,13 @@ def test_a_killed_bridge_leaves_the_car_to_its_own_failsafe(pty_car):
 
 
 def test_the_launch_files_command_lines_are_ones_roar_ros2_takes():
-    """examples/ros2/roar_sim.launch.py (for a ROS install: launch is not on PyPI) makes command
+    """examples/ros2/bridge.launch.py (for a ROS install: launch is not on PyPI) makes command
     lines that roar ros2's own parser accepts, for each combination of its arguments."""
     import importlib.util
 
     from roar.cli.ros2 import parser
 
-    spec = importlib.util.spec_from_file_location("launch_example", ROOT / "examples/ros2/roar_sim.launch.py")
+    spec = importlib.util.spec_from_file_location("launch_example", ROOT / "examples/ros2/bridge.launch.py")
     example = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(example)
     defaults = {name: default for name, (default, _) in example.ARGUMENTS.items()}

@@ -1,7 +1,7 @@
 """For users with a ROS 2 install: the car as a node beside your own, from one launch file.
 
-    ros2 launch examples/ros2/roar_sim.launch.py track:=oval f1tenth:=true
-    ros2 launch examples/ros2/roar_sim.launch.py url:=serial:///dev/ttyUSB0 localize:=false
+    ros2 launch examples/ros2/bridge.launch.py track:=oval f1tenth:=true
+    ros2 launch examples/ros2/bridge.launch.py url:=serial:///dev/ttyUSB0 localize:=false
 
 `roar ros2` is a plain process (roar's own rclpy from PyPI, or your install's); this starts it with
 the arguments below and ends it with the launch (SIGINT: the car goes to neutral). Add your nodes
