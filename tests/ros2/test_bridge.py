@@ -452,11 +452,14 @@ def test_a_recording_becomes_a_rosbag2_that_rosbags_reads(tmp_path):
     assert again.returncode == 1 and "exists" in again.stderr and len(again.stderr.strip().splitlines()) == 1
 
 
+LIDAR_AHEAD_M = 0.3  # [m] where the foreign bag's lidar sits ahead of its base_link (its /tf_static says)
+
+
 def write_foreign_bag(path: Path, name: str, laps: float = 1.0) -> np.ndarray:
     """A rosbag2 as another team's car would write it, made with rosbags: /scan (1,080 beams cast
-    on the track's map) at 10 Hz and /odom at 50 Hz, dead reckoning that drifts (each step 2 % long
-    and turned 0.01 rad/m off), driving track `name`'s centre line at 1 m/s. Returns the true
-    poses at the scans."""
+    on the track's map from a lidar LIDAR_AHEAD_M ahead, as /tf_static says) at 10 Hz and /odom at
+    50 Hz, dead reckoning that drifts (each step 2 % long and turned 0.01 rad/m off), driving track
+    `name`'s centre line at 1 m/s. Returns the true poses (of base_link) at the scans."""
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
 
@@ -472,13 +475,20 @@ def write_foreign_bag(path: Path, name: str, laps: float = 1.0) -> np.ndarray:
     angles = np.linspace(-math.radians(135), math.radians(135), 1080)
     truth = []
 
-    def stamp(ns):
+    def stamp(ns, frame="odom"):
         return t["std_msgs/msg/Header"](stamp=t["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9),
-                                       frame_id="map")
+                                       frame_id=frame)
 
     with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        statics = writer.add_connection("/tf_static", "tf2_msgs/msg/TFMessage", typestore=store)
         scans = writer.add_connection("/scan", "sensor_msgs/msg/LaserScan", typestore=store)
         odoms = writer.add_connection("/odom", "nav_msgs/msg/Odometry", typestore=store)
+        mount = t["geometry_msgs/msg/TransformStamped"](  # their lidar, LIDAR_AHEAD_M ahead of base_link
+            header=stamp(0, "base_link"), child_frame_id="laser", transform=t["geometry_msgs/msg/Transform"](
+                translation=t["geometry_msgs/msg/Vector3"](x=LIDAR_AHEAD_M, y=0.0, z=0.1),
+                rotation=t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)))
+        writer.write(statics, 0, store.serialize_cdr(t["tf2_msgs/msg/TFMessage"](transforms=[mount]),
+                                                     "tf2_msgs/msg/TFMessage"))
         steps = int(track.length_m * laps / 0.02)  # 1 m/s, 50 Hz
         o, last = track.pose_at(0.0), track.pose_at(0.0)
         for k in range(steps):
@@ -500,9 +510,10 @@ def write_foreign_bag(path: Path, name: str, laps: float = 1.0) -> np.ndarray:
                     angular=t["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0)), covariance=np.zeros(36)))
             writer.write(odoms, ns, store.serialize_cdr(odom, "nav_msgs/msg/Odometry"))
             if k % 5 == 0:
-                ranges = caster.cast(np.array([[x, y, yaw]]), angles)[0].astype(np.float32)
+                lidar = [x + LIDAR_AHEAD_M * math.cos(yaw), y + LIDAR_AHEAD_M * math.sin(yaw), yaw]
+                ranges = caster.cast(np.array([lidar]), angles)[0].astype(np.float32)
                 scan = t["sensor_msgs/msg/LaserScan"](
-                    header=stamp(ns), angle_min=float(angles[0]), angle_max=float(angles[-1]),
+                    header=stamp(ns, "laser"), angle_min=float(angles[0]), angle_max=float(angles[-1]),
                     angle_increment=float(angles[1] - angles[0]), time_increment=0.0, scan_time=0.1, range_min=0.06,
                     range_max=10.0, ranges=ranges, intensities=np.zeros(0, np.float32))
                 writer.write(scans, ns, store.serialize_cdr(scan, "sensor_msgs/msg/LaserScan"))

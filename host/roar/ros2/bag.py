@@ -25,6 +25,7 @@ import math
 from pathlib import Path
 
 from roar.errors import Ros2Error
+from roar.localization.odometry import Pose
 from roar.recorder import CALIBRATION, CONTROL, DEPTH, IMAGE, LINES, SCAN, STATE, TELEMETRY, TF, WIRE_CONTROL
 
 ODOM_FRAME, BASE_FRAME, LASER_FRAME, CAMERA_FRAME, MAP_FRAME = "odom", "base_link", "laser", "camera_optical", "map"
@@ -183,9 +184,10 @@ def localize(path: str | Path, known, scan_topic: str = "/scan", odom_topic: str
              start: str = "global", particles: int = 2500, seed: int = 0) -> list[tuple]:
     """Our particle filter over a foreign rosbag2: each scan on `scan_topic` weighed on the map
     `known` (an OccupancyMap), the particles moved between scans as the poses on `odom_topic`
-    (nav_msgs/Odometry) moved. start: "global" (anywhere on the map) or "odom" (at the first
-    odometry pose: a bag whose odom frame is the map's, as f1tenth_gym_ros's). Returns per scan
-    (t [s], the odometry's pose, the filter's pose, its spread [m])."""
+    (nav_msgs/Odometry) moved, the lidar where the bag's /tf_static puts the scan's frame on the
+    odometry's child frame (else at its origin). start: "global" (anywhere on the map) or "odom" (at
+    the first odometry pose: a bag whose odom frame is the map's, as f1tenth_gym_ros's). Returns per
+    scan (t [s], the odometry's pose, the filter's pose, its spread [m])."""
     import numpy as np
     from rosbags.typesys import Stores, get_typestore
 
@@ -195,7 +197,8 @@ def localize(path: str | Path, known, scan_topic: str = "/scan", odom_topic: str
         raise Ros2Error(f"start must be global or odom, got {start!r}")
     store = get_typestore(Stores.ROS2_KILTED)
     reader = open_bag(path)
-    out, odom, f = [], None, ParticleFilter(known, particles, seed=seed)
+    out, odom, base, f = [], None, None, None
+    mounts: dict[tuple[str, str], Pose] = {}  # (parent, child) frames -> (x, y, yaw) from /tf_static
     try:
         wanted = [c for c in reader.connections if c.topic in (scan_topic, odom_topic)]
         kinds = {c.topic: c.msgtype for c in wanted}
@@ -204,18 +207,29 @@ def localize(path: str | Path, known, scan_topic: str = "/scan", odom_topic: str
                 found = kinds.get(topic, "nothing")
                 raise Ros2Error(f"{path}: {topic} holds {found}, not {kind} "
                                 f"(topics: {', '.join(sorted(reader.topics))})")
+        wanted += [c for c in reader.connections
+                   if c.topic == "/tf_static" and c.msgtype == "tf2_msgs/msg/TFMessage"]
         for connection, t_ns, raw in reader.messages(connections=wanted):
             msg = store.deserialize_cdr(raw, connection.msgtype)
+            if connection.topic == "/tf_static":
+                for tf in msg.transforms:
+                    r, v = tf.transform.rotation, tf.transform.translation
+                    mounts[(tf.header.frame_id, tf.child_frame_id)] = (float(v.x), float(v.y),
+                                                                        2 * math.atan2(r.z, r.w))
+                continue
             if connection.topic == odom_topic:
                 p, q = msg.pose.pose.position, msg.pose.pose.orientation
-                odom = (float(p.x), float(p.y), 2 * math.atan2(q.z, q.w))
-                if not out and start == "odom" and not len(f.poses):
-                    f.start_at(odom)
+                odom, base = (float(p.x), float(p.y), 2 * math.atan2(q.z, q.w)), msg.child_frame_id
                 continue
             if odom is None:
                 continue  # no motion known yet
-            if not len(f.poses):
-                f.start_global()
+            if f is None:
+                f = ParticleFilter(known, particles, seed=seed,
+                                   sensor=mounts.get((base, msg.header.frame_id), (0.0, 0.0, 0.0)))
+                if start == "odom":
+                    f.start_at(odom)
+                else:
+                    f.start_global()
             f.predict(odom)
             ranges = np.asarray(msg.ranges, dtype=np.float64)
             angles = msg.angle_min + msg.angle_increment * np.arange(len(ranges))
