@@ -92,7 +92,7 @@ def test_an_f1tenth_pure_pursuit_node_laps_the_oval(tmp_path):
     needs_types()
     env, trace, line = ros_env(), tmp_path / "drive.csv", tmp_path / "oval.csv"
     subprocess.run([*ROAR, "track", "oval", "--save", str(line)], check=True, capture_output=True)
-    bridge = serve(f"sim://oval?speedup=2&trace={trace}", "--f1tenth", env=env)
+    bridge = serve(f"sim://oval?speedup=4&trace={trace}", "--f1tenth", env=env)
     try:
         node = subprocess.run([sys.executable, str(ROOT / "examples/ros2/pure_pursuit.py"), str(line), "--f1tenth",
                                "--laps", "1", "--speed", "1.2", "--timeout", "40"],
@@ -118,7 +118,7 @@ def test_a_wall_follower_laps_the_oval_by_its_scan_alone_and_the_bridge_localize
     env, trace = ros_env(), tmp_path / "drive.csv"
     for key in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE"):
         monkeypatch.setenv(key, env[key])
-    bridge = serve(f"sim://oval?speedup=2&trace={trace}", "--localize", "--camera", "0", env=env)
+    bridge = serve(f"sim://oval?speedup=4&trace={trace}", "--localize", env=env)
     poses = []
     rclpy.init()
     probe = rclpy.create_node("probe")
@@ -126,7 +126,7 @@ def test_a_wall_follower_laps_the_oval_by_its_scan_alone_and_the_bridge_localize
         (m.header.stamp.sec + m.header.stamp.nanosec * 1e-9, m.pose.pose.position.x, m.pose.pose.position.y,
          m.header.frame_id)), 10)
     try:
-        node = subprocess.Popen([sys.executable, str(ROOT / "examples/ros2/wall_follow.py"), "--for", "16"],
+        node = subprocess.Popen([sys.executable, str(ROOT / "examples/ros2/wall_follow.py"), "--for", "8"],
                                 env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         while node.poll() is None:
             rclpy.spin_once(probe, timeout_sec=0.02)
@@ -273,7 +273,7 @@ def test_topics_frames_stamps_and_qos_as_documented(monkeypatch):
     env = ros_env()
     for key in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE"):
         monkeypatch.setenv(key, env[key])
-    bridge = serve("sim://oval?speedup=2", env=env)
+    bridge = serve("sim://oval?speedup=2", "--camera", "10", env=env)
     latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
     got: dict[str, list] = {}
     rclpy.init()
@@ -563,7 +563,7 @@ def test_a_killed_bridge_leaves_the_car_to_its_own_failsafe(pty_car):
     the last message it got."""
     needs_types()
     env = ros_env()
-    bridge = serve(f"serial://{pty_car.path}", "--camera", "0", env=env)
+    bridge = serve(f"serial://{pty_car.path}", env=env)
     user = subprocess.Popen([sys.executable, "-c", DRIVES_ON], env=env)
     try:
         from conftest import wait_for
@@ -600,3 +600,37 @@ def test_the_launch_files_command_lines_are_ones_roar_ros2_takes():
         args = parser().parse_args(line[2:])
         assert args.f1tenth == (f1tenth == "true") and args.localize == (f1tenth == "false" and localize == "true")
         assert args.url == ("sim://?track=oval" if url == "sim://" else url)
+
+
+SPEED_NODE = textwrap.dedent("""
+    import sys, time, rclpy
+    from ackermann_msgs.msg import AckermannDriveStamped
+    rclpy.init()
+    node = rclpy.create_node("user")
+    pub = node.create_publisher(AckermannDriveStamped, sys.argv[1], 10)
+    end = time.monotonic() + 4.0
+    while time.monotonic() < end:
+        msg = AckermannDriveStamped()
+        msg.drive.speed = 1.0
+        pub.publish(msg)
+        time.sleep(1 / 40)
+""")
+
+
+@pytest.mark.realtime
+def test_the_iarrc_car_takes_drive_speeds_as_setpoints_on_a_remapped_topic(tmp_path):
+    """The IARRC car holds a speed itself: /drive's speed becomes its setpoint (its own PID, on its
+    own encoder, brings it there); and --ros-args reach rclpy: /drive remapped to /ego/drive."""
+    needs_types()
+    env, trace = ros_env(), tmp_path / "drive.csv"
+    bridge = serve(f"sim://?robot=iarrc&speedup=4&trace={trace}",
+                   "--ros-args", "-r", "/drive:=/ego/drive", env=env)
+    try:
+        node = subprocess.run([sys.executable, "-c", SPEED_NODE, "/ego/drive"], env=env, capture_output=True,
+                              text=True, timeout=30)
+    finally:
+        out = stop(bridge)
+    assert node.returncode == 0, node.stderr
+    assert int(out.split(" command(s) driven")[0].split()[-1]) > 50, out
+    speeds = np.loadtxt(trace, delimiter=",", skiprows=1)[:, 4]
+    assert 0.9 <= np.percentile(speeds, 95) <= 1.1, np.percentile(speeds, 95)  # held at the 1 m/s asked

@@ -25,7 +25,6 @@ from roar.ros2.commands import Ask, Driver, ackermann, twist
 
 PERIOD_S = 0.02  # [s] the bridge's tick: odometry, clock, scan, the command timeout
 TIMEOUT_S = 0.25  # [s] no command for this long -> neutral (the firmware's own failsafe is 250 ms too)
-CAMERA_HZ = 10.0  # [Hz] frames published (each one rendered or fetched on a thread of its own)
 CAMERA_SIZE = (320, 240)  # [px] the simulator's frames (a real car's camera gives its own size)
 DIAGNOSTICS_PERIOD_S = 1.0  # [s]
 # [m^2, rad^2] what /odom's covariances say: dead reckoning's spread (a 2D car: z, roll and pitch
@@ -82,7 +81,7 @@ class Bridge:
     """The node's publishers, subscriptions and tick over one Vehicle (left at neutral by close)."""
 
     def __init__(self, vehicle, node, model, names: Names = STANDARD, timeout_s: float = TIMEOUT_S,
-                 track: str | None = None, camera_hz: float = CAMERA_HZ, localize: bool = False, log=print) -> None:
+                 track: str | None = None, camera_hz: float = 0.0, localize: bool = False, log=print) -> None:
         from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
         from diagnostic_msgs.msg import DiagnosticArray
         from geometry_msgs.msg import Twist
