@@ -27,6 +27,9 @@ PERIOD_S = 0.02  # [s] the bridge's tick: odometry, clock, scan, the command tim
 TIMEOUT_S = 0.25  # [s] no command for this long -> neutral (the firmware's own failsafe is 250 ms too)
 CAMERA_SIZE = (320, 240)  # [px] the simulator's frames (a real car's camera gives its own size)
 DIAGNOSTICS_PERIOD_S = 1.0  # [s]
+# [s] the particle filter weighs a scan this often (on the scans' clock): enough to follow a car, and
+# its CPU (and the GIL it holds) leaves the threads that feed the car's failsafe their time
+LOCALIZE_PERIOD_S = 0.1
 # [m^2, rad^2] what /odom's covariances say: dead reckoning's spread (a 2D car: z, roll and pitch
 # unknown, said by a huge variance, as 2D drivers do)
 POSE_VARIANCE = (0.01, 0.01, 1e6, 1e6, 1e6, 0.01)
@@ -141,6 +144,7 @@ class Bridge:
             log("no tf2_msgs here: /tf is not offered; python -m roar.ros2.interfaces builds it")
         self.lidar_mount = self.link.lidar_mount() or (0.0, 0.0, 0.0)  # where base_link -> laser goes
         self.localizer = None  # a MapLocalizer from the first scan with odometry, with --localize
+        self._next_localize_s = -math.inf  # [s] on the scans' clock
         self._odom_pose = None  # the latest odometry pose (x, y, yaw), for the localizer's thread
         self.pose_pub = None
         if localize:
@@ -242,14 +246,16 @@ class Bridge:
             self._publish_diagnostics(state, stamp)
 
     def _odometry_pose(self, state):
-        """(x, y, yaw): speed and gyro integrated from the first reported pose; the link's pose
-        where it reports one but no speed (a phone's); None where it reports neither."""
+        """(x, y, yaw): the pose a real link measures (a phone's, by its visual-inertial odometry);
+        else speed and gyro integrated from the first reported pose (the simulator's pose is its
+        truth, which no car has: it gives only the start); None where the link reports neither."""
         if state is None:
             return None
-        if state.speed_m_s is None or state.yaw_rate_rad_s is None or state.time_s is None:
-            if None in (state.x_m, state.y_m, state.yaw_rad):
-                return None
+        has_pose = None not in (state.x_m, state.y_m, state.yaw_rad)
+        if has_pose and not self.simulated:
             return state.x_m, state.y_m, state.yaw_rad
+        if state.speed_m_s is None or state.yaw_rate_rad_s is None or state.time_s is None:
+            return (state.x_m, state.y_m, state.yaw_rad) if has_pose else None
         if self._odometry is None:
             start = (state.x_m or 0.0, state.y_m or 0.0, state.yaw_rad or 0.0)
             self._odometry = Odometry(start)
@@ -310,7 +316,9 @@ class Bridge:
         msg.ranges = [float(r) for r in ranges]
         self.scan_pub.publish(msg)
         self.counts.scans += 1
-        if self.pose_pub is not None and self._odom_pose is not None:
+        t = stamp.sec + stamp.nanosec * 1e-9
+        if self.pose_pub is not None and self._odom_pose is not None and t >= self._next_localize_s:
+            self._next_localize_s = t + LOCALIZE_PERIOD_S
             self._localize(self._odom_pose, msg, stamp)
 
     def _localize(self, odometry, scan, stamp) -> None:
