@@ -92,7 +92,7 @@ def test_an_f1tenth_pure_pursuit_node_laps_the_oval(tmp_path):
     needs_types()
     env, trace, line = ros_env(), tmp_path / "drive.csv", tmp_path / "oval.csv"
     subprocess.run([*ROAR, "track", "oval", "--save", str(line)], check=True, capture_output=True)
-    bridge = serve(f"sim://oval?speedup=4&trace={trace}", "--f1tenth", env=env)
+    bridge = serve(f"sim://oval?speedup=3&trace={trace}", "--f1tenth", env=env)  # the failsafe: 83 ms of ours
     try:
         node = subprocess.run([sys.executable, str(ROOT / "examples/ros2/pure_pursuit.py"), str(line), "--f1tenth",
                                "--laps", "1", "--speed", "1.2", "--timeout", "40"],
