@@ -636,3 +636,53 @@ def test_the_iarrc_car_takes_drive_speeds_as_setpoints_on_a_remapped_topic(tmp_p
     assert int(out.split(" command(s) driven")[0].split()[-1]) > 50, out
     speeds = np.loadtxt(trace, delimiter=",", skiprows=1)[:, 4]
     assert 0.9 <= np.percentile(speeds, 95) <= 1.1, np.percentile(speeds, 95)  # held at the 1 m/s asked
+
+
+@pytest.mark.realtime
+def test_a_phone_on_the_car_gives_odom_from_its_own_pose_and_its_camera(monkeypatch):
+    """udp://, ROAR's own set-up (a phone on the car streams its pose, camera and depth; roar sim
+    --stream stands in for it): /drive drives the car through it, /odom follows the phone's pose,
+    and /camera/image_raw and depth carry its frames."""
+    needs_types()
+    from ackermann_msgs.msg import AckermannDriveStamped
+    from nav_msgs.msg import Odometry
+    from rclpy.qos import qos_profile_sensor_data
+    from sensor_msgs.msg import Image
+
+    env = ros_env()
+    for key in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE"):
+        monkeypatch.setenv(key, env[key])
+    phone = subprocess.Popen([*ROAR, "sim", "--stream", "--seconds", "20", "--size", "160x120"], cwd=ROOT,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    bridge = None
+    got: dict[str, list] = {}
+    rclpy.init()
+    node = rclpy.create_node("user")
+    try:
+        assert "streaming the simulated car" in phone.stdout.readline()
+        bridge = serve("udp://127.0.0.1", "--camera", "5", env=env)
+        node.create_subscription(Odometry, "/odom", lambda m: got.setdefault("odom", []).append(m), 10)
+        node.create_subscription(Image, "/camera/image_raw", lambda m: got.setdefault("image", []).append(m),
+                                 qos_profile_sensor_data)
+        node.create_subscription(Image, "/camera/depth/image_raw", lambda m: got.setdefault("depth", []).append(m),
+                                 qos_profile_sensor_data)
+        drive = node.create_publisher(AckermannDriveStamped, "/drive", 10)
+        end = time.monotonic() + 4.0
+        while time.monotonic() < end:
+            msg = AckermannDriveStamped()
+            msg.drive.speed = 0.8
+            drive.publish(msg)
+            rclpy.spin_once(node, timeout_sec=0.025)
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+        if bridge is not None:
+            stop(bridge)
+        phone.kill()
+        phone.communicate()
+    odom = got.get("odom", [])
+    assert len(odom) > 50, got.keys()
+    assert odom[-1].pose.pose.position.x - odom[0].pose.pose.position.x > 0.5  # it drove ahead, as the phone saw
+    image, depth = got["image"][-1], got["depth"][-1]
+    assert (image.width, image.height, image.encoding) == (160, 120, "rgb8")
+    assert (depth.width, depth.height, depth.encoding) == (160, 120, "32FC1")
