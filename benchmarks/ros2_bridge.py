@@ -58,7 +58,6 @@ def measure(seconds: float = SECONDS, camera_hz: float = 0.0) -> dict:
 
     from roar import Vehicle
     from roar.calibration import Calibration
-    from roar.cli.ros2 import car_model
     from roar.protocol import decode
     from roar.ros2.bridge import Bridge
 
@@ -83,8 +82,7 @@ def measure(seconds: float = SECONDS, camera_hz: float = 0.0) -> dict:
                 sent.append((msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec, msg.drive.steering_angle))
                 super()._on_drive(msg)
 
-        bridge = Timed(car, node, car_model(car.transport.link.model(), _NoOptions()), camera_hz=camera_hz,
-                       log=lambda line: None)
+        bridge = Timed(car, node, car.transport.link.model(), camera_hz=camera_hz, log=lambda line: None)
         user = subprocess.Popen([sys.executable, "-c", NODE, str(seconds)], env=env, stdout=subprocess.PIPE, text=True)
         cpu0, wall0 = time.thread_time(), time.monotonic()
         try:
@@ -106,10 +104,6 @@ def measure(seconds: float = SECONDS, camera_hz: float = 0.0) -> dict:
             "odom_hz": float(odom_hz), "cpu_share": cpu / wall}
 
 
-class _NoOptions:
-    wheelbase = max_steer = top_speed = None
-
-
 def run() -> None:
     try:
         import rclpy  # noqa: F401
@@ -125,8 +119,8 @@ def run() -> None:
                  "  MISSED: the simulator's thread renders each frame (PyBullet is not shared between threads) and "
                  "reads no serial input until it is done" if camera_hz else
                  "  MISSED: the simulator's thread casts each scan's 1,080 rays and reads no serial input meanwhile")
-        print(f"    /drive -> serial input: {len(lat)} of {m['published']} messages, p50 {p50:.1f} ms, p99 {p99:.1f} ms "
-              f"(target <= {TARGET_P99_MS:g}){cause}")
+        print(f"    /drive -> serial input: {len(lat)} of {m['published']} messages, p50 {p50:.1f} ms, "
+              f"p99 {p99:.1f} ms (target <= {TARGET_P99_MS:g}){cause}")
         print(f"    /scan {m['scan_hz']:.1f} Hz (target >= {TARGET_SCAN_HZ:g}), /odom {m['odom_hz']:.1f} Hz "
               f"(target >= {TARGET_ODOM_HZ:g}) at the user's node" +
               ("" if m["scan_hz"] >= TARGET_SCAN_HZ and m["odom_hz"] >= TARGET_ODOM_HZ else "  MISSED"))

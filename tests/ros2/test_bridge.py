@@ -545,15 +545,19 @@ def test_our_particle_filter_runs_over_a_foreign_bag(tmp_path):
     assert odometry_error[-1] > 0.3  # the odometry alone drifted: the map did the work
 
 
-DRIVES_ON = textwrap.dedent("""
-    import time, rclpy
+# a user's node: /drive (or the topic given) at 40 Hz, speed [m/s] and steering [rad] as given, for
+# the seconds given (inf: until killed)
+DRIVES = textwrap.dedent("""
+    import sys, time, rclpy
     from ackermann_msgs.msg import AckermannDriveStamped
+    topic, speed, steering, seconds = sys.argv[1], *map(float, sys.argv[2:5])
     rclpy.init()
     node = rclpy.create_node("user")
-    pub = node.create_publisher(AckermannDriveStamped, "/drive", 10)
-    while True:
+    pub = node.create_publisher(AckermannDriveStamped, topic, 10)
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
         msg = AckermannDriveStamped()
-        msg.drive.speed, msg.drive.steering_angle = 1.0, 0.2
+        msg.drive.speed, msg.drive.steering_angle = speed, steering
         pub.publish(msg)
         time.sleep(1 / 40)
 """)
@@ -567,7 +571,7 @@ def test_a_killed_bridge_leaves_the_car_to_its_own_failsafe(pty_car):
     needs_types()
     env = ros_env()
     bridge = serve(f"serial://{pty_car.path}", env=env)
-    user = subprocess.Popen([sys.executable, "-c", DRIVES_ON], env=env)
+    user = subprocess.Popen([sys.executable, "-c", DRIVES, "/drive", "1.0", "0.2", "inf"], env=env)
     try:
         from conftest import wait_for
 
@@ -605,21 +609,6 @@ def test_the_launch_files_command_lines_are_ones_roar_ros2_takes():
         assert args.url == ("sim://?track=oval" if url == "sim://" else url)
 
 
-SPEED_NODE = textwrap.dedent("""
-    import sys, time, rclpy
-    from ackermann_msgs.msg import AckermannDriveStamped
-    rclpy.init()
-    node = rclpy.create_node("user")
-    pub = node.create_publisher(AckermannDriveStamped, sys.argv[1], 10)
-    end = time.monotonic() + 4.0
-    while time.monotonic() < end:
-        msg = AckermannDriveStamped()
-        msg.drive.speed = 1.0
-        pub.publish(msg)
-        time.sleep(1 / 40)
-""")
-
-
 @pytest.mark.realtime
 def test_the_iarrc_car_takes_drive_speeds_as_setpoints_on_a_remapped_topic(tmp_path):
     """The IARRC car holds a speed itself: /drive's speed becomes its setpoint (its own PID, on its
@@ -629,8 +618,8 @@ def test_the_iarrc_car_takes_drive_speeds_as_setpoints_on_a_remapped_topic(tmp_p
     bridge = serve(f"sim://?robot=iarrc&speedup=2&trace={trace}",  # its failsafe: 125 ms of ours
                    "--ros-args", "-r", "/drive:=/ego/drive", env=env)
     try:
-        node = subprocess.run([sys.executable, "-c", SPEED_NODE, "/ego/drive"], env=env, capture_output=True,
-                              text=True, timeout=30)
+        node = subprocess.run([sys.executable, "-c", DRIVES, "/ego/drive", "1.0", "0.0", "4"], env=env,
+                              capture_output=True, text=True, timeout=30)
     finally:
         out = stop(bridge)
     assert node.returncode == 0, node.stderr

@@ -108,8 +108,7 @@ def localize_main(argv: list[str]) -> int:
     args = localize_parser().parse_args(argv)
     try:
         from roar.ros2.bag import localize
-        from roar.tracks import get
-        from roar.tracks.occupancy_map import load_map, track_map
+        from roar.tracks.names import map_of
     except ImportError as e:
         raise UserError(f"roar ros2 --localize-bag needs {e.name}: pip install 'roar-platform[ros2]'") from None
     from roar.user_files import unwritable
@@ -119,8 +118,7 @@ def localize_main(argv: list[str]) -> int:
         out.parent.mkdir(exist_ok=True)  # out/ is ours to make; a folder the user names must exist
     if unwritable(out):
         raise UserError(f"--out {unwritable(out)}")
-    known = load_map(args.map) if str(args.map).lower().endswith((".yaml", ".yml")) else track_map(get(args.map))
-    track = localize(args.bag, known, args.scan, args.odom, args.start)
+    track = localize(args.bag, map_of(args.map), args.scan, args.odom, args.start)
     with open(out, "w") as f:
         f.write("t_s,odom_x_m,odom_y_m,odom_yaw_rad,x_m,y_m,yaw_rad,spread_m\n")
         for t, odom, pose, spread in track:

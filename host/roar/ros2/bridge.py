@@ -143,6 +143,11 @@ class Bridge:
         else:
             log("no tf2_msgs here: /tf is not offered; python -m roar.ros2.interfaces builds it")
         self.lidar_mount = self.link.lidar_mount() or (0.0, 0.0, 0.0)  # where base_link -> laser goes
+        self.known = None  # the map of `track` (roar.tracks.OccupancyMap): /map, and --localize's
+        if track:
+            from roar.tracks.names import map_of
+
+            self.known = map_of(track)
         self.localizer = None  # a MapLocalizer from the first scan with odometry, with --localize
         self._next_localize_s = -math.inf  # [s] on the scans' clock
         self._odom_pose = None  # the latest odometry pose (x, y, yaw), for the localizer's thread
@@ -155,17 +160,13 @@ class Bridge:
             if names.odom_frame == names.map_frame:
                 raise Ros2Error("--localize publishes map -> odom: not with --f1tenth, whose odometry is in the "
                                 "map frame")
-            if self.scan_pub is None or not track:
+            if self.scan_pub is None or self.known is None:
                 raise Ros2Error("--localize needs a lidar and a map (a sim:// track, or --map): "
                                 f"{'no lidar' if self.scan_pub is None else 'no map'} here")
-            from roar.tracks import get
-            from roar.tracks.occupancy_map import load_map, track_map
-
-            self._known = load_map(track) if str(track).lower().endswith((".yaml", ".yml")) else track_map(get(track))
             self.pose_pub = node.create_publisher(PoseWithCovarianceStamped, names.pose, sensors)
         self.timer = node.create_timer(PERIOD_S, self.tick)
         self.camera = Camera(self) if camera_hz > 0 and vehicle.camera(*CAMERA_SIZE) is not None else None
-        self._publish_static(track)
+        self._publish_static()
         # sensors that take the simulator's thread (a scan's rays, a render) or a link's round trip
         # are read on threads of their own: the executor's thread stays free for the commands
         self.pollers = [Poller("scan", PERIOD_S, lambda: self._publish_scan(self.stamp(self.vehicle.state())))
@@ -329,7 +330,7 @@ class Bridge:
         from roar.ros2.localizing import MapLocalizer
 
         if self.localizer is None:  # the simulator's odometry starts at the car's start on its track
-            self.localizer = MapLocalizer(self._known, odometry if self.simulated else None, self.lidar_mount)
+            self.localizer = MapLocalizer(self.known, odometry if self.simulated else None, self.lidar_mount)
         angles = scan.angle_min + scan.angle_increment * np.arange(len(scan.ranges))
         t = stamp.sec + stamp.nanosec * 1e-9
         (x, y, yaw), (ox, oy, oyaw) = self.localizer.step(odometry, angles, np.asarray(scan.ranges), t,
@@ -377,7 +378,7 @@ class Bridge:
         msg.header.stamp = stamp
         self.diagnostics_pub.publish(msg)
 
-    def _publish_static(self, track: str | None) -> None:
+    def _publish_static(self) -> None:
         from geometry_msgs.msg import TransformStamped
 
         stamp = self.stamp(self.vehicle.state())
@@ -401,8 +402,8 @@ class Bridge:
                 odom.transform.rotation.w = 1.0
                 transforms.append(odom)
             self.tf_static_pub.publish(TFMessage(transforms=transforms))
-        if track:
-            self.map_pub.publish(occupancy_grid(track, self.names.map_frame, stamp))
+        if self.known is not None:
+            self.map_pub.publish(occupancy_grid(self.known, self.names.map_frame, stamp))
 
     def close(self) -> None:
         for poller in self.pollers:
@@ -520,16 +521,12 @@ def diagonal(values) -> list[float]:
     return out
 
 
-def occupancy_grid(track: str, frame: str, stamp):
-    """The track's walls as a nav_msgs/OccupancyGrid (100 occupied, 0 free, -1 unknown; row 0 at
-    the origin, the bottom of roar's map image)."""
+def occupancy_grid(grid, frame: str, stamp):
+    """A map (roar.tracks.OccupancyMap) as a nav_msgs/OccupancyGrid (100 occupied, 0 free, -1
+    unknown; row 0 at the origin, the bottom of roar's map image)."""
     import numpy as np
     from nav_msgs.msg import OccupancyGrid
 
-    from roar.tracks import get
-    from roar.tracks.occupancy_map import track_map
-
-    grid = track_map(get(track))
     cells = np.full(grid.free.shape, -1, dtype=np.int8)
     cells[grid.free] = 0
     cells[grid.occupied] = 100

@@ -82,3 +82,13 @@ def get(name_or_path: str) -> Track:
     if Path(name).exists():
         raise TrackError(f"{printable(name)}: a track file ends in .json, .csv (centre line) or .yaml (map)")
     raise TrackError(f"unknown track {printable(name)!r}: use {FORMS}")
+
+
+def map_of(name: str | Path, resolution_m: float = 0.05):
+    """The map (roar.tracks.OccupancyMap) a name stands for: a map YAML as its own grid; anything
+    else get() takes (a track name, a .json or .csv) drawn by track_map."""
+    from roar.tracks.occupancy_map import load_map, track_map
+
+    if str(name).lower().endswith((".yaml", ".yml")):
+        return load_map(name)
+    return track_map(get(str(name)), resolution_m)
