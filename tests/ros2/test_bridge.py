@@ -676,3 +676,71 @@ def test_a_phone_on_the_car_gives_odom_from_its_own_pose_and_its_camera(monkeypa
     image, depth = got["image"][-1], got["depth"][-1]
     assert (image.width, image.height, image.encoding) == (160, 120, "rgb8")
     assert (depth.width, depth.height, depth.encoding) == (160, 120, "32FC1")
+
+
+def test_a_junior_over_http_streams_its_camera_and_turns_by_its_wheels(monkeypatch):
+    """http:// (the ROAR Junior, served by the simulator on loopback as the robot serves): /cmd_vel
+    turns it by its wheels' speeds, and /camera/image_raw carries its MJPEG stream's frames at the
+    rate asked (the stream gives more: the newest is published, none queued)."""
+    needs_types()
+    from geometry_msgs.msg import Twist
+    from rclpy.qos import qos_profile_sensor_data
+    from sensor_msgs.msg import Image
+
+    from roar_sim.links.junior_http import InBackground
+
+    env = ros_env()
+    for key in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE"):
+        monkeypatch.setenv(key, env[key])
+    images: list[tuple[float, Image]] = []
+    turned_rad, yaw = 0.0, 0.0  # [rad] unwrapped, counterclockwise positive
+    with InBackground() as junior:
+        bridge = serve(junior.urls.vehicle_url, "--camera", "2", env=env)
+        rclpy.init()
+        node = rclpy.create_node("user")
+        try:
+            node.create_subscription(Image, "/camera/image_raw", lambda m: images.append((time.monotonic(), m)),
+                                     qos_profile_sensor_data)
+            turn = node.create_publisher(Twist, "/cmd_vel", 10)
+            end = time.monotonic() + 5.0
+            while time.monotonic() < end:
+                msg = Twist()
+                msg.linear.x, msg.angular.z = 0.2, 1.5
+                turn.publish(msg)
+                rclpy.spin_once(node, timeout_sec=0.05)
+                now = junior.server.sim.state().yaw
+                turned_rad, yaw = turned_rad + math.remainder(now - yaw, math.tau), now
+        finally:
+            node.destroy_node()
+            rclpy.try_shutdown()
+            stop(bridge)
+    assert turned_rad > 1.0  # left, by its wheels (1.5 rad/s asked: the wheels slip on the spot)
+    assert len(images) >= 2, len(images)  # an 800 x 600 render takes the simulator 0.2-0.5 s
+    gaps = np.diff([t for t, _ in images])
+    assert gaps.min() > 0.3  # 2 Hz asked: never the stream's backlog in a burst
+    image = images[-1][1]
+    assert (image.width, image.height, image.encoding) == (800, 600, "rgb8")
+    assert len(image.data) == 800 * 600 * 3 and max(image.data[::997]) > 0
+
+
+def test_a_sensor_that_fails_is_said_once_and_tried_again(monkeypatch):
+    """A camera's stream that ends (a Junior rebooting) is one line, not a traceback per try nor a
+    dead thread: the sensor is read again once it answers."""
+    from roar.errors import CameraError
+    from roar.ros2 import bridge
+
+    monkeypatch.setattr(bridge, "RETRY_S", 0.01)
+    said, tries = [], []
+
+    def read():
+        tries.append(1)
+        if len(tries) <= 3:
+            raise CameraError("the camera's stream ended")
+
+    poller = bridge.Poller("camera", 0.0, read, said.append)
+    poller.start()
+    deadline = time.monotonic() + 5.0
+    while len(tries) < 6 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    poller.stop()
+    assert said == ["camera: the camera's stream ended (trying again every 0.01 s)", "camera: reads again"]

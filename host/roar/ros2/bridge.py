@@ -20,13 +20,15 @@ import time
 from dataclasses import dataclass, field
 
 from roar.localization.odometry import Odometry
-from roar.errors import RefusedCommand
+from roar.errors import CameraError, RefusedCommand, RoarError
 from roar.ros2.commands import Ask, Driver, ackermann, twist
 
 PERIOD_S = 0.02  # [s] the bridge's tick: odometry, clock, scan, the command timeout
 TIMEOUT_S = 0.25  # [s] no command for this long -> neutral (the firmware's own failsafe is 250 ms too)
 CAMERA_SIZE = (320, 240)  # [px] the simulator's frames (a real car's camera gives its own size)
 DIAGNOSTICS_PERIOD_S = 1.0  # [s]
+STOP_WAIT_S = 0.5  # [s] for a sensor's thread to finish its read at the end
+RETRY_S = 1.0  # [s] between tries of a sensor whose read failed (a camera's stream that ended)
 # [s] the particle filter weighs a scan this often (on the scans' clock): enough to follow a car, and
 # its CPU (and the GIL it holds) leaves the threads that feed the car's failsafe their time
 LOCALIZE_PERIOD_S = 0.1
@@ -169,10 +171,10 @@ class Bridge:
         self._publish_static()
         # sensors that take the simulator's thread (a scan's rays, a render) or a link's round trip
         # are read on threads of their own: the executor's thread stays free for the commands
-        self.pollers = [Poller("scan", PERIOD_S, lambda: self._publish_scan(self.stamp(self.vehicle.state())))
-                        ] if self.scan_pub is not None else []
+        self.pollers = [Poller("scan", PERIOD_S, lambda: self._publish_scan(self.stamp(self.vehicle.state())),
+                               log)] if self.scan_pub is not None else []
         if self.camera is not None:
-            self.pollers.append(Poller("camera", 1.0 / camera_hz, self.camera.step))
+            self.pollers.append(self.camera.poller(camera_hz, log))
         for poller in self.pollers:
             poller.start()
 
@@ -413,12 +415,14 @@ class Bridge:
 
 class Poller:
     """Calls `read` every period_s [s] on a thread of its own until stopped (a late call is not
-    made up for: the next comes a period after it)."""
+    made up for: the next comes a period after it). A read that fails (a link's or camera's
+    error) is said in one line, once until it changes or reads again, and tried again a period later."""
 
-    def __init__(self, name: str, period_s: float, read) -> None:
+    def __init__(self, name: str, period_s: float, read, log=print) -> None:
         import threading
 
-        self.period_s, self.read = period_s, read
+        self.name, self.period_s, self.read, self.log = name, period_s, read, log
+        self.failure: str | None = None  # the last read's error, None once one reads again
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name=f"roar-ros2-{name}", daemon=True)
 
@@ -426,21 +430,33 @@ class Poller:
         self._thread.start()
 
     def stop(self) -> None:
+        """Ends the thread after its read in hand (a scan, a render, a stream's next frame); one
+        that hangs on a dead link is left to end with the process, not waited for (Ctrl-C ends in 1 s)."""
         self._stop.set()
-        self._thread.join(timeout=2.0)
+        self._thread.join(timeout=STOP_WAIT_S)
 
     def _run(self) -> None:
         next_at = time.monotonic()
         while not self._stop.is_set():
-            self.read()
+            try:
+                self.read()
+                if self.failure is not None:
+                    self.log(f"{self.name}: reads again")
+                self.failure = None
+            except RoarError as e:
+                retry_s = max(self.period_s, RETRY_S)
+                if str(e) != self.failure:
+                    self.log(f"{self.name}: {e} (trying again every {retry_s:g} s)")
+                self.failure = str(e)
+                next_at = time.monotonic() + retry_s - self.period_s
             next_at = max(next_at + self.period_s, time.monotonic())
             self._stop.wait(next_at - time.monotonic())
 
 
 class Camera:
     """The car's camera on /camera/image_raw (rgb8), /camera/camera_info and, where it gives depth,
-    /camera/depth/image_raw (32FC1, metres), a frame each step() (a Poller's: a frame takes a
-    render in the simulator or an HTTP fetch from a Junior, longer than the bridge's 20 ms tick)."""
+    /camera/depth/image_raw (32FC1, metres), on a Poller's thread (a frame takes a render in the
+    simulator or a read of a Junior's stream, longer than the bridge's 20 ms tick)."""
 
     def __init__(self, bridge: Bridge) -> None:
         from sensor_msgs.msg import CameraInfo, Image
@@ -452,6 +468,30 @@ class Camera:
         self.info_pub = bridge.node.create_publisher(CameraInfo, names.camera_info, sensors)
         self.depth_pub = bridge.node.create_publisher(Image, names.depth, sensors)
         self.frames = 0
+
+    def poller(self, hz: float, log=print) -> Poller:
+        """A frame every 1/hz [s]: from the car's stream where it has one (a Junior's MJPEG: every
+        frame read as it comes, the newest published each period, never a backlog), else fetched."""
+        if self.bridge.vehicle.camera_stream() is None:
+            return Poller("camera", 1.0 / hz, self.step, log)
+        frames = {"stream": None, "due": 0.0}  # the open stream; [s] monotonic, when the next is published
+
+        def read() -> None:
+            if frames["stream"] is None:
+                frames["stream"] = iter(self.bridge.vehicle.camera_stream())
+            try:
+                rgb = next(frames["stream"])
+            except StopIteration:
+                frames["stream"] = None  # opened again on the next read
+                raise CameraError("the camera's stream ended") from None
+            except RoarError:
+                frames["stream"] = None
+                raise
+            if time.monotonic() >= frames["due"]:
+                frames["due"] = time.monotonic() + 1.0 / hz
+                self.publish(rgb, None, self.bridge.stamp(self.bridge.vehicle.state()))
+
+        return Poller("camera", 0.0, read, log)
 
     def step(self) -> None:
         frame = self.bridge.vehicle.camera(*CAMERA_SIZE)
