@@ -84,17 +84,27 @@ def deploy_micropython(board: str, port: str | None) -> str:
 
     if board not in board_files.BOARD_NAMES:
         raise DeployError(f"BOARD must be one of {', '.join(board_files.BOARD_NAMES)}, got {board!r}")
-    stage = STAGE / board
-    if stage.exists():
-        import shutil
+    import shutil
 
-        shutil.rmtree(stage)
+    # built beside the last build, then put in its place: two deploys at once (two boards, the
+    # suite's workers) never build into one folder while the other empties it
+    building = STAGE / f"{board}.{os.getpid()}"
+    shutil.rmtree(building, ignore_errors=True)
     try:
-        built = board_files.build(board, stage)
+        built = board_files.build(board, building)
     except subprocess.CalledProcessError as e:
+        shutil.rmtree(building, ignore_errors=True)
         raise DeployError(f"mpy-cross: {(e.stderr or '').strip().splitlines()[-1:] or e}") from None
     except FileNotFoundError as e:
+        shutil.rmtree(building, ignore_errors=True)
         raise DeployError(f"cannot build {board}: {e}") from None
+    stage = STAGE / board
+    shutil.rmtree(stage, ignore_errors=True)
+    try:
+        building.rename(stage)
+    except OSError:  # another deploy put its build there first: upload this one from where it is
+        stage = building
+    built = {target: stage / Path(path).relative_to(building) for target, path in built.items()}
     port = find_port(port)
     top = sorted(str(p) for t, p in built.items() if t.count("/") == 1)
     command = [tool("mpremote"), "connect", port, "cp", "-r", str(stage / "lib"), ":", "+", "cp", *top, ":",
