@@ -26,6 +26,7 @@ FRONT_WHEELS = (5, 7)
 LEFT_HINGE, RIGHT_HINGE = 4, 6
 LIDAR_LINK = 8  # hokuyo_joint
 CAMERA_LINK = 9  # zed_camera_joint
+FOOTPRINT_M = (-0.052, 0.4065, 0.147)  # [m] rear and front from the base along the car, half width (racecar.urdf's box)
 LANE_CAMERA = (320, 240)  # [px] the frames the camera drivers see (lanes, the drag race, the leader's marker)
 
 
@@ -178,7 +179,18 @@ class Racecar:
         return (math.cos(yaw) * dx + math.sin(yaw) * dy, -math.sin(yaw) * dx + math.cos(yaw) * dy,
                 math.remainder(pb.getEulerFromQuaternion(orn)[2] - yaw, math.tau))
 
-    def lidar(self, beams: int = lidar.BEAMS, fov_rad: float = lidar.FOV_RAD, range_m: float = lidar.RANGE_M) -> np.ndarray:
-        """A scan from the Hokuyo link: distances [m] from right to left; range_m where nothing is hit."""
+    def lidar(self, beams: int = lidar.BEAMS, fov_rad: float = lidar.FOV_RAD, range_m: float = lidar.RANGE_M,
+              boxes=()) -> np.ndarray:
+        """A scan from the Hokuyo link: distances [m] from right to left; range_m where nothing is
+        hit. boxes: other cars' footprints (footprint()) the beams meet."""
         pos, orn = pb.getLinkState(self.car, LIDAR_LINK, physicsClientId=self.client)[:2]
-        return lidar.scan(self.world, pos, pb.getEulerFromQuaternion(orn)[2], beams, fov_rad, range_m)
+        return lidar.scan(self.world, pos, pb.getEulerFromQuaternion(orn)[2], beams, fov_rad, range_m, boxes)
+
+    def footprint(self) -> tuple[float, float, float, float, float]:
+        """(centre x [m], centre y [m], yaw [rad], half length [m], half width [m]) of the car's body
+        as another car's lidar meets it (its bounding box, scaled with its profile)."""
+        (x, y, _), orn = pb.getBasePositionAndOrientation(self.car, physicsClientId=self.client)
+        yaw = pb.getEulerFromQuaternion(orn)[2]
+        rear, front, half_width = (v * self.profile.scale for v in FOOTPRINT_M)
+        middle = (rear + front) / 2
+        return (x + middle * math.cos(yaw), y + middle * math.sin(yaw), yaw, (front - rear) / 2, half_width)

@@ -25,14 +25,21 @@ class Fleet(Lockstep):
     default) and each next gap_m [m] behind the one before, along the centre line."""
 
     def __init__(self, track: Track, count: int = 2, gap_m: float = 1.5, gui: bool = False,
-                 start_m: float = 0.0) -> None:
+                 start_m: float = 0.0, poses=None, profiles=None) -> None:
+        """poses: each car's (x, y, yaw) instead (a race's grid); profiles: each car's profile
+        (roar_sim.plants.car_profile: a name, a .toml or None for the ROAR car)."""
+        if poses is not None:
+            count = len(poses)
         if not 1 <= count <= MAX_CARS:
             raise ValueError(f"a fleet is 1..{MAX_CARS} cars, got {count}")
-        if not 0.6 <= gap_m <= track.length_m / count:
+        if poses is None and not 0.6 <= gap_m <= track.length_m / count:
             raise ValueError(f"gap_m must be 0.6 m (a car's length) .. {track.length_m / count:.1f} m on this "
                              f"track, got {gap_m}")
         self.world = World(track, PHYSICS_US / 1e6, gui)
-        self.cars = [EscCar(track, pose=track.pose_at(start_m - i * gap_m), world=self.world) for i in range(count)]
+        poses = poses or [track.pose_at(start_m - i * gap_m) for i in range(count)]
+        profiles = profiles or [None] * count
+        self.cars = [EscCar(track, pose=pose, world=self.world, profile=profile)
+                     for pose, profile in zip(poses, profiles)]
         self.plant = self.cars[0].plant  # state() and the camera of the first car, as an EscCar's
         self.t_us = 0
 

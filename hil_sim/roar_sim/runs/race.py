@@ -23,6 +23,7 @@ laps than asked, with a one-line reason (time limit, wall contacts, distance cov
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from collections.abc import Sequence
 from contextlib import ExitStack
@@ -42,7 +43,8 @@ from roar_sim.runs.lane_course import LaneCourse
 from roar_sim.runs.localize import PARTICLES as LOCALIZE_PARTICLES
 from roar_sim.runs.localize import Localize
 from roar_sim.runs.progress import laps_bar
-from roar_sim.runs.race_result import RaceResult, Stop, plot, race_timeout_s, report  # noqa: F401 (importable here too)
+from roar_sim.runs.race_result import (TRACKING_MARGIN_M, RaceResult, Stop, optimal_line, plot,  # noqa: F401
+                                      race_timeout_s, report)  # (importable here too)
 from roar_sim.world import plotting
 from roar_sim.world import renderer as renderers
 from roar_sim.world.obstacles import MIN_GAP_M, box_course
@@ -194,21 +196,6 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
     return result
 
 
-TRACKING_MARGIN_M = 0.25  # [m] pure pursuit's widest miss of a line at speed (random tracks: 0.19-0.29 m)
-
-
-def optimal_line(track: Track, robot: str = "esc"):
-    """The minimum-curvature racing line a robot can follow round a track: its half width, half a
-    wall's thickness and TRACKING_MARGIN_M from every wall (solved once per track shape and robot
-    in a process: `--line optimal` follows the line the race's report measures against)."""
-    from roar.autopilot.racing_line import racing_line
-    from roar_sim.world.cache import per_shape
-    from roar_sim.world.scene import WALL_THICKNESS_M
-
-    clearance_m = robots.get(robot).half_width_m + WALL_THICKNESS_M / 2 + TRACKING_MARGIN_M
-    return per_shape(f"racing line for {robot}", track, lambda: racing_line(track, clearance_m))
-
-
 def parser() -> argparse.ArgumentParser:
     p = ArgumentParser(prog="roar race", description=__doc__)
     p.add_argument("--robot", choices=robots.names(), default="esc",
@@ -285,6 +272,20 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--global-start", action="store_true",
                    help="with --localize: the filter starts not knowing where the car is (particles over the whole "
                         "map) instead of at the start pose")
+    p.add_argument("--opponents", type=int, default=None, metavar="N",
+                   help="race N (1-5) other ESC cars from a staggered grid, the ego at the back: it senses them by "
+                        "its lidar alone, follows or passes them; prints positions, overtakes and each car-to-car "
+                        "contact with the car that caused it (docs/racing.md)")
+    p.add_argument("--opponent-pace", type=float, default=0.85, metavar="F",
+                   help="with --opponents: the fraction of their limits (grip and top speed) they race at, 0.3-1 "
+                        "(default 0.85)")
+    p.add_argument("--opponent-line", choices=["centre", "racing", "defensive"], default="racing",
+                   help="with --opponents: the line they follow: the centre line, the racing line (default), or a "
+                        "defensive line that covers the inside before each bend")
+    p.add_argument("--opponent-driver", metavar="MODULE:CLASS",
+                   help="with --opponents: drive them by your own class, called as CLASS(track=, line=, model=, "
+                        "period_s=, pace=) and stepped as a roar.autopilot Module (setup(), step(observation) -> "
+                        "Command)")
     p.add_argument("--plot", type=path_option, metavar="PNG", help="write the path and speed plot to this PNG")
     p.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     p.add_argument("--gui", action="store_true", help="open the PyBullet window (needs a display)")
@@ -348,6 +349,27 @@ def main(argv: list[str] | None = None) -> int:
         from roar_sim.plants import car_profile
 
         car_profile.load(args.car_profile)  # a bad profile fails here, in one line, before anything runs
+    opponent_options = {"--opponent-pace": args.opponent_pace != 0.85,
+                        "--opponent-line": args.opponent_line != "racing",
+                        "--opponent-driver": args.opponent_driver is not None}
+    if args.opponents is None and any(opponent_options.values()):
+        p.error(f"{next(k for k, v in opponent_options.items() if v)} sets up the opponents: it needs --opponents N")
+    if args.opponents is not None:
+        from roar_sim.runs.head_to_head import MAX_OPPONENTS
+
+        if not 1 <= args.opponents <= MAX_OPPONENTS:
+            p.error(f"--opponents must be 1..{MAX_OPPONENTS}")
+        if not (math.isfinite(args.opponent_pace) and 0.3 <= args.opponent_pace <= 1.0):
+            p.error("--opponent-pace must be 0.3..1 (a fraction of their limits)")
+        others = {"--robot": args.robot != "esc", "--driver lane": args.driver == "lane",
+                  "--line": args.line != "centre",
+                  "--waypoints": args.waypoints is not None, "--localize": args.localize, "--log": args.log is not None,
+                  "--foxglove": args.foxglove is not None, "--car-profile": args.car_profile is not None,
+                  "--steering pid": args.steering != "pursuit", "--k-dd": args.k_dd is not None,
+                  "--realtime": args.realtime, "--gui": args.gui}
+        given = [k for k, v in others.items() if v]
+        if given:
+            p.error(f"{given[0]} is not for races with --opponents yet (the ego is the ESC car racing its racing line)")
     track = get(args.track)
     waypoints = None
     if args.line == "optimal":
@@ -370,6 +392,8 @@ def main(argv: list[str] | None = None) -> int:
                          f"from the next), not {args.boxes}: try --track course")
     if args.follow:
         return _combined(args, track, boxes)
+    if args.opponents is not None:
+        return _head_to_head(args, track)
     if args.foxglove is not None:  # a race run faster than real time would be over before a viewer connects
         args.realtime = True
         print(f"serving the race live in real time: Foxglove, Open connection, ws://127.0.0.1:{args.foxglove}",
@@ -405,6 +429,50 @@ def _combined(args, track: Track, boxes) -> int:
               file=sys.stderr)
         return ExitStatus.SHORT
     return ExitStatus.OK
+
+
+def _head_to_head(args, track: Track) -> int:
+    """roar race --opponents N: the ego against N other cars."""
+    from roar_sim.runs import head_to_head as h2h
+
+    driver = None
+    if args.opponent_driver:
+        driver = load_driver(args.opponent_driver)
+    rivals = [h2h.Rival(args.opponent_pace, args.opponent_line, driver)] * args.opponents
+    result = h2h.head_to_head(track, rivals, args.laps, pace=args.margin, timeout_s=args.seconds, progress=True)
+    print(h2h.report(result))
+    if args.plot and result.times_s and not plotting.save(lambda: h2h.plot(result), args.plot):
+        return ExitStatus.ERROR
+    laps = len(result.cars[0].lap_times_s)
+    if laps < args.laps:
+        print(f"race incomplete: the ego drove {laps} of {args.laps} laps", file=sys.stderr)
+        return ExitStatus.SHORT
+    return ExitStatus.OK
+
+
+def load_driver(spec: str):
+    """A user's driver class from "module:Class" (importable from the current folder too);
+    UserError in one line where there is none."""
+    import importlib
+    import os
+
+    from roar.cli.sdk import UserError
+
+    module_name, _, class_name = spec.partition(":")
+    if not module_name or not class_name:
+        raise UserError(f"--opponent-driver {spec!r}: give MODULE:CLASS, e.g. my_driver:Cautious")
+    if os.getcwd() not in sys.path:
+        sys.path.insert(0, os.getcwd())
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as e:
+        raise UserError(f"--opponent-driver: cannot import {module_name!r}: {e}") from None
+    except Exception as e:  # its own code failed on import: say where, in one line
+        raise UserError(f"--opponent-driver: importing {module_name!r} failed: {type(e).__name__}: {e}") from None
+    driver = getattr(module, class_name, None)
+    if not callable(driver):
+        raise UserError(f"--opponent-driver: {module_name!r} has no class {class_name!r}")
+    return driver
 
 
 def _drag(p, args) -> int:

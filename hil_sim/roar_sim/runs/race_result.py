@@ -175,3 +175,18 @@ def plot(result: RaceResult):
                  f"{result.best_ratio:.2f} x); max cross-track {result.max_cross_track_m:.2f} m, "
                  f"wall contacts {result.wall_contacts}", fontsize=10)
     return fig
+
+
+TRACKING_MARGIN_M = 0.25  # [m] pure pursuit's widest miss of a line at speed (random tracks: 0.19-0.29 m)
+
+
+def optimal_line(track: Track, robot: str = "esc"):
+    """The minimum-curvature racing line a robot can follow round a track: its half width, half a
+    wall's thickness and TRACKING_MARGIN_M from every wall (solved once per track shape and robot
+    in a process: `--line optimal` follows the line the race's report measures against)."""
+    from roar.autopilot.racing_line import racing_line
+    from roar_sim.world.cache import per_shape
+    from roar_sim.world.scene import WALL_THICKNESS_M
+
+    clearance_m = robots.get(robot).half_width_m + WALL_THICKNESS_M / 2 + TRACKING_MARGIN_M
+    return per_shape(f"racing line for {robot}", track, lambda: racing_line(track, clearance_m))

@@ -15,17 +15,43 @@ BEAMS = 1080
 
 
 def scan(world, position, yaw: float, beams: int = BEAMS, fov_rad: float = FOV_RAD,
-         range_m: float = RANGE_M) -> np.ndarray:
+         range_m: float = RANGE_M, boxes=()) -> np.ndarray:
     """Distances [m] from right to left of a scan from `position` facing `yaw` [rad]. The beams
     start at the housing's edge: from the link's centre, inside its own collision box, Bullet now
-    and then reports a hit at distance 0 (the lidar seeing itself)."""
+    and then reports a hit at distance 0 (the lidar seeing itself). boxes: other cars' footprints
+    (box_ranges'), met by the beams at any height; the world's rays then go to its walls alone."""
     angles = yaw + np.linspace(-fov_rad / 2, fov_rad / 2, beams)
     directions = np.stack([np.cos(angles), np.sin(angles), np.zeros(beams)], axis=1)
     start = np.asarray(position) + MIN_RANGE_M * directions
     end = np.asarray(position) + range_m * directions
-    hits = world.ray_test(start.tolist(), end.tolist())
+    hits = world.ray_test(start.tolist(), end.tolist(), walls_only=bool(len(boxes)))
     reach = range_m - MIN_RANGE_M
-    return np.array([MIN_RANGE_M + h[2] * reach if h[0] >= 0 else range_m for h in hits])
+    ranges = np.array([MIN_RANGE_M + h[2] * reach if h[0] >= 0 else range_m for h in hits])
+    if len(boxes):
+        ranges = np.minimum(ranges, box_ranges(position[:2], angles, boxes))
+    return ranges
+
+
+def box_ranges(origin, angles: np.ndarray, boxes) -> np.ndarray:
+    """[m] along each beam from origin (x, y) at world angles [rad] to the first box it meets
+    (inf where none): boxes (centre x [m], centre y [m], yaw [rad], half length [m], half width [m])
+    (the slab method in each box's frame)."""
+    out = np.full(len(angles), np.inf)
+    dx, dy = np.cos(angles), np.sin(angles)
+    for cx, cy, yaw, hl, hw in boxes:
+        c, s = math.cos(yaw), math.sin(yaw)
+        ox, oy = origin[0] - cx, origin[1] - cy
+        px, py = c * ox + s * oy, -s * ox + c * oy  # the origin in the box's frame
+        ux, uy = c * dx + s * dy, -s * dx + c * dy  # the beams' directions there
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t1x, t2x = (-hl - px) / ux, (hl - px) / ux
+            t1y, t2y = (-hw - py) / uy, (hw - py) / uy
+        near = np.maximum(np.minimum(t1x, t2x), np.minimum(t1y, t2y))
+        far = np.minimum(np.maximum(t1x, t2x), np.maximum(t1y, t2y))
+        near = np.where(np.isnan(near), -np.inf, near)
+        hit = (near <= far) & (near > 0)
+        out = np.where(hit, np.minimum(out, near), out)
+    return out
 
 
 NOISE_M = 0.015  # [m] standard deviation of a reading's noise (a UST-10LX: +-40 mm accuracy)
@@ -39,10 +65,11 @@ class Lidar:
         self.plant, self.beams, self.noise_m = plant, beams, noise_m
         self.rng = np.random.default_rng(seed)
 
-    def scan(self, t_s: float):
+    def scan(self, t_s: float, others=()):
+        """others: the plants of other cars in its world (met by their footprints)."""
         from roar.localization.scan import LaserScan
 
-        ranges = self.plant.lidar(self.beams)
+        ranges = self.plant.lidar(self.beams, boxes=[o.footprint() for o in others])
         hit = ranges < RANGE_M
         ranges[hit] = np.clip(ranges[hit] + self.rng.normal(0.0, self.noise_m, int(hit.sum())), MIN_RANGE_M, RANGE_M)
         return LaserScan.fan(ranges, FOV_RAD, t_s, MIN_RANGE_M, RANGE_M)

@@ -62,8 +62,12 @@ class TrackedObject:
 
 class Tracker:
     def __init__(self, gate_m: float = GATE_M, confirm_hits: int = CONFIRM_HITS, max_misses: int = MAX_MISSES,
-                 max_misses_confirmed: int = MAX_MISSES_CONFIRMED) -> None:
+                 max_misses_confirmed: int = MAX_MISSES_CONFIRMED, accel_m_s2: float = ACCEL_M_S2,
+                 coast_s: float = COAST_S) -> None:
+        """accel_m_s2: [m/s^2] how hard the objects may change speed (cars racing: several m/s^2);
+        coast_s: [s] unseen longer than this, a track's velocity is forgotten."""
         self.gate_m, self.confirm_hits = gate_m, confirm_hits
+        self.accel_m_s2, self.coast_s = accel_m_s2, coast_s
         self.max_misses, self.max_misses_confirmed = max_misses, max_misses_confirmed
         self.tracks: list[TrackedObject] = []
         self._ids = itertools.count(1)
@@ -75,11 +79,11 @@ class Tracker:
         f = np.eye(4)
         f[0, 2] = f[1, 3] = dt
         g = np.array([[dt * dt / 2, 0], [0, dt * dt / 2], [dt, 0], [0, dt]])
-        if t_s - track.last_seen_s > COAST_S:
+        if t_s - track.last_seen_s > self.coast_s:
             track.state[2:] = 0.0
             f[0, 2] = f[1, 3] = 0.0
         track.state = f @ track.state
-        track.cov = f @ track.cov @ f.T + g @ g.T * ACCEL_M_S2 ** 2
+        track.cov = f @ track.cov @ f.T + g @ g.T * self.accel_m_s2 ** 2
         track.t_s = t_s
 
     def update(self, detections, t_s: float, in_view=None) -> list[TrackedObject]:
