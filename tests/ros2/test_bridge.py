@@ -702,8 +702,8 @@ def test_a_junior_over_http_streams_its_camera_and_turns_by_its_wheels(monkeypat
             node.create_subscription(Image, "/camera/image_raw", lambda m: images.append((time.monotonic(), m)),
                                      qos_profile_sensor_data)
             turn = node.create_publisher(Twist, "/cmd_vel", 10)
-            end = time.monotonic() + 5.0
-            while time.monotonic() < end:
+            start = time.monotonic()  # 5 s, and on until 3 frames came (a loaded machine renders 800 x 600 slowly)
+            while time.monotonic() - start < 5.0 or (len(images) < 3 and time.monotonic() - start < 30.0):
                 msg = Twist()
                 msg.linear.x, msg.angular.z = 0.2, 1.5
                 turn.publish(msg)
@@ -715,7 +715,7 @@ def test_a_junior_over_http_streams_its_camera_and_turns_by_its_wheels(monkeypat
             rclpy.try_shutdown()
             stop(bridge)
     assert turned_rad > 1.0  # left, by its wheels (1.5 rad/s asked: the wheels slip on the spot)
-    assert len(images) >= 2, len(images)  # an 800 x 600 render takes the simulator 0.2-0.5 s
+    assert len(images) >= 3, len(images)
     gaps = np.diff([t for t, _ in images])
     assert gaps.min() > 0.3  # 2 Hz asked: never the stream's backlog in a burst
     image = images[-1][1]
