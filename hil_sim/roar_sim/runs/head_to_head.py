@@ -66,7 +66,6 @@ class CarResult:
     lap_times_s: list[float] = field(default_factory=list)
     wall_contacts: int = 0  # control periods touching a wall
     path: list[tuple[float, float]] = field(default_factory=list)
-    finished_s: float | None = None
 
 
 @dataclass
@@ -124,10 +123,10 @@ def head_to_head(track: Track, rivals: list[Rival], laps: int = 2, pace: float =
     """The ego (car 0, at the back of the grid) races len(rivals) opponents for `laps` laps (the
     race ends when the ego has driven them, or at timeout_s)."""
     from roar.racing.lanes import Lanes
+    from roar.localization.odometry import compose
     from roar_sim.runs.race_result import TRACKING_MARGIN_M, optimal_line
-    from roar_sim.world.scene import WALL_THICKNESS_M
     from roar_sim.sensors.lidar import Lidar
-    from roar_sim.world.scene import world_map
+    from roar_sim.world.scene import WALL_THICKNESS_M, world_map
 
     if not 1 <= len(rivals) <= MAX_OPPONENTS:
         raise ValueError(f"opponents must be 1..{MAX_OPPONENTS}, got {len(rivals)}")
@@ -146,10 +145,10 @@ def head_to_head(track: Track, rivals: list[Rival], laps: int = 2, pace: float =
     with Fleet(track, poses=list(reversed(poses))) as fleet:  # the ego at the back of the grid
         cars = fleet.cars
         ego_car = cars[0]
-        lanes = Lanes(track, EscCar.half_width_m, ego_car.model.limits, WALL_THICKNESS_M / 2 + TRACKING_MARGIN_M)
+        clearance = WALL_THICKNESS_M / 2 + TRACKING_MARGIN_M  # as the racing line keeps from the walls
+        lanes = Lanes(track, EscCar.half_width_m, ego_car.model.limits, clearance)
         lines = {"centre": track.centerline, "racing": racing_points,
                  "defensive": lanes.line(lanes.defensive_offsets()).points}
-        clearance = WALL_THICKNESS_M / 2 + TRACKING_MARGIN_M  # as the racing line keeps from the walls
         ego = Racer(track, racing_points, ego_car.model, PERIOD_S, pace=pace, clearance_m=clearance)
         drivers = [ego]
         for car, rival in zip(cars[1:], rivals):
@@ -161,13 +160,13 @@ def head_to_head(track: Track, rivals: list[Rival], laps: int = 2, pace: float =
                 drivers.append(race_agent(line, paced(car.model, rival.pace), PERIOD_S, margin=1.0,
                                           follower=LoopWaypointFollower(line, skip_at_start=ahead_of(line, car))))
         lidar = Lidar(ego_car.plant, seed)
-        mount = None
         sensed = Opponents(track, CarDetector(world_map(track)))
         for car in cars:
             car.drive(0.0, 0.0)
         fleet.run(PERIOD_S)
         for d in drivers:
             d.setup()
+        mount = ego_car.plant.lidar_mount()  # (x ahead, y left, yaw) on the car
         hints: list[int | None] = [None] * n
         lap_start = [0.0] * n
         history: deque = deque(maxlen=round(SIDEWAYS_S / PERIOD_S) + 1)  # per period: [(s, d, speed)] per car
@@ -182,11 +181,7 @@ def head_to_head(track: Track, rivals: list[Rival], laps: int = 2, pace: float =
         while fleet.time_s < timeout_s and len(result.cars[0].lap_times_s) < laps:
             t = fleet.time_s
             observed = [car.observe() for car in cars]
-            if mount is None:
-                mount = ego_car.plant.lidar_mount()
-            o = observed[0]
-            c, s_ = math.cos(o.yaw), math.sin(o.yaw)
-            sensor = (o.x + c * mount[0] - s_ * mount[1], o.y + s_ * mount[0] + c * mount[1], o.yaw + mount[2])
+            sensor = compose((observed[0].x, observed[0].y, observed[0].yaw), mount)
             ego.sense(sensed.update(lidar.scan(t, [car.plant for car in cars[1:]]), sensor, t))
             for car, driver, obs in zip(cars, drivers, observed):
                 car.send(driver.step(obs))
@@ -204,8 +199,6 @@ def head_to_head(track: Track, rivals: list[Rival], laps: int = 2, pace: float =
                 if travelled[i] - offset[i] >= track.length_m * (len(r.lap_times_s) + 1):
                     r.lap_times_s.append(fleet.time_s - lap_start[i])
                     lap_start[i] = fleet.time_s
-                    if len(r.lap_times_s) == laps and r.finished_s is None:
-                        r.finished_s = fleet.time_s
                 now.append((s_now, d_now, st.speed))
             history.append(now)
             for a in range(n):

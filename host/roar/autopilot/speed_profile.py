@@ -81,9 +81,14 @@ class CarLimits:
 
 def curvature(points: np.ndarray) -> np.ndarray:
     """[1/m] unsigned curvature at each point of a closed polyline (circle through neighbours)."""
+    return np.abs(signed_curvature(points))
+
+
+def signed_curvature(points: np.ndarray) -> np.ndarray:
+    """[1/m] curvature at each point of a closed polyline, left (anticlockwise) bends positive."""
     a, b, c = np.roll(points, 1, axis=0), points, np.roll(points, -1, axis=0)
     ab, bc, ca = (np.linalg.norm(b - a, axis=1), np.linalg.norm(c - b, axis=1), np.linalg.norm(a - c, axis=1))
-    cross = np.abs((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0])
+    cross = (b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0]
     return 2 * cross / np.maximum(ab * bc * ca, 1e-12)
 
 

@@ -73,6 +73,12 @@ def relative(before: Pose, after: Pose) -> Pose:
     return c * dx + s * dy, -s * dx + c * dy, math.remainder(after[2] - before[2], math.tau)
 
 
+def compose(a: Pose, b: Pose) -> Pose:
+    """Pose b (in a's frame) seen from a's parent frame: relative()'s inverse."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], math.remainder(a[2] + b[2], math.tau)
+
+
 def checked_pose(name: str, pose) -> Pose:
     """A pose (x, y, yaw) of finite numbers, or ValueError naming it in one line."""
     try:

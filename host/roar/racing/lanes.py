@@ -12,11 +12,10 @@ speed profile (its bends, the car's limits).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
 
-from roar.autopilot.speed_profile import CarLimits, speed_profile
+from roar.autopilot.speed_profile import CarLimits, signed_curvature, speed_profile
 from roar.tracks.track import Track
 
 CLEARANCE_M = 0.3  # [m] from a car's side to a wall, on any line: pure pursuit cuts inside a bend by up to 0.25 m
@@ -70,19 +69,10 @@ class Lanes:
         s_wrap = np.concatenate([s - length, s, s + length])
         return np.interp(self.track.arc_start, s_wrap, np.tile(d, 3))
 
-    @cached_property
-    def signed_curvature(self) -> np.ndarray:
-        """[1/m] of the centre line at each point, left bends positive."""
-        p = self.track.centerline
-        a, b, c = np.roll(p, 1, axis=0), p, np.roll(p, -1, axis=0)
-        cross = (b - a)[:, 0] * (c - b)[:, 1] - (b - a)[:, 1] * (c - b)[:, 0]
-        norms = np.linalg.norm(b - a, axis=1) * np.linalg.norm(c - b, axis=1) * np.linalg.norm(c - a, axis=1)
-        return 2 * cross / np.maximum(norms, 1e-12)
-
     def defensive_offsets(self) -> np.ndarray:
         """A line that covers the inside of each bend from DEFEND_AHEAD_M before it (a car behind
         cannot dive down the inside), DEFEND_SHARE of the room there, the centre elsewhere."""
-        k = self.signed_curvature
+        k = signed_curvature(self.track.centerline)
         spacing = float(np.mean(self.track.segment_lengths))
         ahead = max(1, int(round(DEFEND_AHEAD_M / spacing)))
         side = np.zeros(self.n)

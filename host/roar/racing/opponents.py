@@ -45,7 +45,6 @@ class Opponents:
         self.tracker = Tracker(gate_m=GATE_M, confirm_hits=CONFIRM_HITS, max_misses=2,
                                max_misses_confirmed=MISSES_CONFIRMED, accel_m_s2=CAR_ACCEL_M_S2, coast_s=COAST_S)
         self._hints: dict[int, int] = {}  # track id -> its last centre-line segment
-        self.seen: list[Opponent] = []
 
     def update(self, scan, sensor_pose: tuple[float, float, float], t_s: float) -> list[Opponent]:
         """One scan (roar.localization.LaserScan) from sensor_pose (the lidar in the world): the cars now."""
@@ -60,5 +59,5 @@ class Opponents:
             along = math.atan2(b[1] - a[1], b[0] - a[0])
             speed = float(car.state[2] * math.cos(along) + car.state[3] * math.sin(along))
             seen.append(Opponent(car.id, car.x, car.y, s, d, speed, self.track.length_m))
-        self._hints, self.seen = hints, seen
+        self._hints = hints
         return seen

@@ -38,7 +38,6 @@ PASS_SIDE_M = 0.15  # [m] between the two cars' sides while passing
 FOLLOW_GAP_M = 0.5  # [m] bumper to bumper behind a car it cannot pass, at standstill
 TIME_GAP_S = 0.25  # [s] of the car's speed added to the gap
 K_GAP = 1.5  # [1/s] closing speed per m of gap beyond the wanted one
-PASS_FASTER_M_S = 0.25  # [m/s] the lane must be at least this much faster than the car ahead to pass
 HORIZON_S = 5.0  # [s] a pass must be done within this (a pass begun is given up only for a car in its lane,
 # or when it would take twice this)
 LOOK_AHEAD_S = 1.5  # [s] a car this far ahead (at the car's speed, at least LOOK_AHEAD_MIN_M) is raced
@@ -143,14 +142,9 @@ class Racer(Module[Observation, Command]):
         """[m] centre to centre along the track from the car to o (negative: o is behind)."""
         return float(self.track.arc_delta(s, o.s_m))
 
-    def _in_path(self, line: Line, o: Opponent, within_s: float = 0.0) -> bool:
-        """Whether o is, or within within_s [s] will be, on `line` (less than a car's width and
-        PASS_SIDE_M beside it)."""
-        for t in np.arange(0.0, within_s + 1e-9, CHECK_DT_S):
-            s_o, d_o = self._predict(o, float(t))
-            if abs(float(line.offsets[segment_at(self.track, s_o)]) - d_o) < CAR_WIDTH_M + PASS_SIDE_M:
-                return True
-        return False
+    def _in_path(self, line: Line, o: Opponent) -> bool:
+        """Whether o is on `line` (less than a car's width and PASS_SIDE_M beside it)."""
+        return abs(float(line.offsets[segment_at(self.track, o.s_m)]) - o.d_m) < CAR_WIDTH_M + PASS_SIDE_M
 
     def _meets(self, line: Line, s: float, speed: float, o: Opponent, within_s: float) -> bool:
         """Whether driving `line` from s at `speed` [m/s] comes side by side with o (predicted)

@@ -5,20 +5,13 @@ odometry continuous, the map pose jumping when a scan corrects it)."""
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
 from roar.localization import LaserScan, ParticleFilter
-from roar.localization.odometry import Pose, relative
+from roar.localization.odometry import Pose, compose, relative
 
 PARTICLES = 2500
-
-
-def compose(a: Pose, b: Pose) -> Pose:
-    """Pose b (in a's frame) seen from a's parent frame."""
-    c, s = math.cos(a[2]), math.sin(a[2])
-    return a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], math.remainder(a[2] + b[2], math.tau)
 
 
 class MapLocalizer:
