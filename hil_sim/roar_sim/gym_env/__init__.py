@@ -113,6 +113,68 @@ def _problems(render_modes, track, camera, max_seconds, contact_penalty, crash_e
     return problems
 
 
+def action_values(action) -> tuple[float, float]:
+    """(throttle, steering), each clipped to -1..1 (the action space's bounds); a ValueError in
+    one line for anything but two finite numbers."""
+    try:
+        values = np.asarray(action, dtype=np.float64).reshape(-1).tolist()
+    except (TypeError, ValueError):
+        values = []
+    if len(values) != 2 or not all(map(math.isfinite, values)):
+        raise ValueError(f"an action is (throttle, steering), two finite numbers (each clipped to -1..1); "
+                         f"got {shown(action)}")
+    throttle, steering = (min(1.0, max(-1.0, v)) for v in values)
+    return throttle, steering
+
+
+def state_bounds() -> np.ndarray:
+    """The state observation's upper bounds (its lower ones are their negatives)."""
+    far = MAX_DISTANCE_M + MAX_EXTENT_M  # [m] no track reaches further from the origin
+    return np.array([far, far, 1.0, 1.0, MAX_SPEED_M_S, MAX_YAW_RATE_RAD_S, far, math.pi], np.float32)
+
+
+def start_pose(pose: tuple[float, float, float], rng: np.random.Generator) -> tuple[float, float, float]:
+    """A start pose the seed moved: up to START_OFFSET_M across its heading and START_HEADING_RAD."""
+    x, y, yaw = pose
+    offset = float(rng.uniform(-START_OFFSET_M, START_OFFSET_M))
+    yaw += float(rng.uniform(-START_HEADING_RAD, START_HEADING_RAD))
+    return x - offset * math.sin(yaw), y + offset * math.cos(yaw), yaw
+
+
+class Place:
+    """A car's place on a track from one step to the next: its segment, how far along the centre
+    line and across it; its progress, the state observation, whether it left the track."""
+
+    def __init__(self, track: Track, state) -> None:
+        self.track = track
+        self._shortest_m = float(track.segment_lengths.min())  # [m] of a centre-line segment
+        self._high = state_bounds()
+        self.hint, self.s, self.cte = track.project((state.x, state.y), heading=state.yaw)
+
+    def advance(self, state) -> float:
+        """[m] of progress along the centre line since the last state."""
+        # centre-line segments searched each side of the last one: what the car can cross in a step
+        window = math.ceil((abs(state.speed) + SLIDE_M_S) * PERIOD_S / self._shortest_m) + 1
+        self.hint, s_now, self.cte = self.track.project((state.x, state.y), self.hint, window)
+        progress = self.track.arc_delta(self.s, s_now)
+        self.s = s_now
+        return progress
+
+    def off_track(self) -> bool:
+        left, right = self.track.half_widths_at(self.hint)
+        return self.cte > left or -self.cte > right
+
+    def observation(self, s) -> np.ndarray:
+        """[x, y, cos yaw, sin yaw, speed, yaw rate, cross-track, heading error], within bounds."""
+        pts = self.track.centerline
+        i = self.hint or 0
+        a, b = pts[i], pts[(i + 1) % len(pts)]
+        heading_error = (s.yaw - math.atan2(b[1] - a[1], b[0] - a[0]) + math.pi) % (2 * math.pi) - math.pi
+        state = np.array([s.x, s.y, math.cos(s.yaw), math.sin(s.yaw), s.speed, s.yaw_rate, self.cte, heading_error],
+                         np.float32)
+        return np.clip(state, -self._high, self._high)
+
+
 class RaceEnv(gym.Env):
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": round(1 / PERIOD_S)}
 
@@ -130,13 +192,11 @@ class RaceEnv(gym.Env):
         self.track = track if isinstance(track, Track) else get(track)
         self.kind.check_track(self.track)  # a bend the robot cannot turn: no lap to learn
         self.robot, self.lidar_beams = robot, lidar_beams
-        self._shortest_m = float(self.track.segment_lengths.min())  # [m] of a centre-line segment
         self.camera_size, self.max_seconds = camera, max_seconds
         self.contact_penalty, self.crash_ends, self.render_mode = contact_penalty, crash_ends, render_mode
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)  # throttle, steering (+ = right)
-        far = MAX_DISTANCE_M + MAX_EXTENT_M  # [m] no track reaches further from the origin
-        self._state_high = np.array([far, far, 1.0, 1.0, MAX_SPEED_M_S, MAX_YAW_RATE_RAD_S, far, math.pi], np.float32)
-        observation = {"state": spaces.Box(-self._state_high, self._state_high, (8,), np.float32)}
+        high = state_bounds()
+        observation = {"state": spaces.Box(-high, high, (8,), np.float32)}
         if lidar_beams:
             observation["lidar"] = spaces.Box(0.0, LIDAR_RANGE_M, (lidar_beams,), np.float32)
         self.ultrasonic_max_m = self.kind.ultrasonic_max_m
@@ -148,8 +208,7 @@ class RaceEnv(gym.Env):
             observation["depth"] = spaces.Box(0.0, FAR_M, (h, w), np.float32)
         self.observation_space = spaces.Dict(observation)
         self.sim: Robot | None = None  # the robot, from reset() until close()
-        self._hint: int | None = None
-        self._s = self._cte = 0.0  # [m] along the centre line, and across it
+        self._place: Place | None = None  # the car's, from reset()
         self._scan: np.ndarray | None = None  # the latest lidar scan
         self._steps = 0
 
@@ -158,41 +217,24 @@ class RaceEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         self.close()
-        x, y, yaw = self.track.start_pose
-        offset = float(self.np_random.uniform(-START_OFFSET_M, START_OFFSET_M))
-        yaw += float(self.np_random.uniform(-START_HEADING_RAD, START_HEADING_RAD))
-        pose = (x - offset * math.sin(yaw), y + offset * math.cos(yaw), yaw)
+        pose = start_pose(self.track.start_pose, self.np_random)
         self.sim = self.kind(self.track, pose, gui=self.render_mode == "human")
         self.sim.arm()  # the ESC car boots latched until it hears neutral
         state = self.sim.state()
-        self._hint, self._s, self._cte = self.track.project((state.x, state.y), heading=state.yaw)
+        self._place = Place(self.track, state)
         self._scan, self._steps = None, 0
         return self._observation(state), self._info()
 
     def step(self, action):
         if self.sim is None:
             raise RuntimeError("call reset() before step()")
-        try:
-            values = np.asarray(action, dtype=np.float64).reshape(-1).tolist()
-        except (TypeError, ValueError):
-            values = []
-        if len(values) != 2 or not all(map(math.isfinite, values)):
-            raise ValueError(f"an action is (throttle, steering), two finite numbers (each clipped to -1..1); "
-                             f"got {shown(action)}")
-        throttle, steering = (min(1.0, max(-1.0, v)) for v in values)  # the action space's bounds
-        self.sim.drive(throttle, steering)
+        self.sim.drive(*action_values(action))
         self.sim.run(PERIOD_S)
         state = self.sim.state()  # one reading for the reward and the observation
-        # centre-line segments searched each side of the last one: what the car can cross in a step
-        window = math.ceil((abs(state.speed) + SLIDE_M_S) * PERIOD_S / self._shortest_m) + 1
-        self._hint, s_now, self._cte = self.track.project((state.x, state.y), self._hint, window)
-        progress = self.track.arc_delta(self._s, s_now)
-        self._s, cte = s_now, self._cte
+        progress = self._place.advance(state)
         touching = self.sim.touching_wall()
         reward = progress - (self.contact_penalty if touching else 0.0)
-        left, right = self.track.half_widths_at(self._hint)
-        off_track = cte > left or -cte > right
-        terminated = off_track or (touching and self.crash_ends)
+        terminated = self._place.off_track() or (touching and self.crash_ends)
         truncated = self.sim.t_us / 1e6 >= self.max_seconds
         return self._observation(state), float(reward), bool(terminated), bool(truncated), self._info(touching)
 
@@ -214,12 +256,7 @@ class RaceEnv(gym.Env):
 
     def _observation(self, s) -> dict:
         plant = self.sim.plant
-        a, b = self._segment()
-        heading_error = (s.yaw - math.atan2(b[1] - a[1], b[0] - a[0]) + math.pi) % (2 * math.pi) - math.pi
-        state = np.array([s.x, s.y, math.cos(s.yaw), math.sin(s.yaw), s.speed, s.yaw_rate, self._cte, heading_error],
-                         np.float32)
-        state = np.clip(state, -self._state_high, self._state_high)
-        observation = {"state": state}
+        observation = {"state": self._place.observation(s)}
         if self.lidar_beams:
             if self._steps % LIDAR_EVERY == 0:
                 scan = plant.lidar(beams=self.lidar_beams, range_m=LIDAR_RANGE_M).astype(np.float32)
@@ -234,13 +271,8 @@ class RaceEnv(gym.Env):
             observation["depth"] = np.clip(depth, 0.0, FAR_M).astype(np.float32)
         return observation
 
-    def _segment(self) -> tuple[np.ndarray, np.ndarray]:
-        pts = self.track.centerline
-        i = self._hint or 0
-        return pts[i], pts[(i + 1) % len(pts)]
-
     def _info(self, touching: bool = False) -> dict:
-        return {"time_s": self.sim.t_us / 1e6, "progress_m": self._s, "wall_contact": touching, **self.sim.info()}
+        return {"time_s": self.sim.t_us / 1e6, "progress_m": self._place.s, "wall_contact": touching, **self.sim.info()}
 
 
 if "roar/Race-v0" not in gym.registry:  # make_vec(..., vectorization_mode="vector_entry_point"): every core
