@@ -82,6 +82,32 @@ class CountingDriver:
         return self.agent.step(observation)
 
 
+def test_a_race_on_the_record_holds_every_cars_channels_and_what_the_ego_sensed(tmp_path):
+    """--log with opponents: the ego's channels as a race alone records them, its scan and the
+    cars it tracked, each opponent's own channels, the standings; read back by the mcap library."""
+    pytest.importorskip("mcap", reason="pip install mcap (make setup installs it)")
+    from roar.replay import messages, read_log
+
+    path = tmp_path / "race.mcap"
+    result = head_to_head(get("oval"), [Rival(pace=0.8)], laps=1, timeout_s=3.0, log=path)
+    periods = len(result.times_s)
+    counts = {topic: c.count for topic, c in read_log(path).channels.items()}
+    for topic in ("/car/state", "/sim/firmware", "/lidar", "/racing/tracked", "/autopilot/state",
+                  "/race/car_1/pose", "/race/car_1/firmware", "/race/standings"):
+        assert counts.get(topic) == periods, (topic, counts)
+    assert counts["/control"] >= periods
+    truth, tracked = {}, {}
+    for topic, t, msg in messages(path, ["/race/car_1/pose", "/racing/tracked"]):
+        if topic == "/racing/tracked":
+            tracked[t] = [(p.position.x, p.position.y) for p in msg.poses]
+        else:
+            truth[t] = (msg.pose.position.x, msg.pose.position.y)
+    near = [t for t, seen in tracked.items() if any(math.dist(xy, truth[t]) < 0.35 for xy in seen)]
+    assert len(near) > periods / 2  # the car ahead, tracked where it truly was, most of the time
+    last = list(messages(path, ["/race/standings"]))[-1][2]
+    assert last["positions"] == result.positions[-1] and len(last["raced_m"]) == 2
+
+
 def test_a_users_driver_class_races_as_an_opponent():
     CountingDriver.steps = 0
     result = head_to_head(get("oval"), [Rival(pace=0.6, driver=CountingDriver)], laps=1, timeout_s=4.0)

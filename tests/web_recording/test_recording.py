@@ -356,6 +356,39 @@ def test_a_served_car_is_live_in_an_independent_foxglove_client(tmp_path):
     assert all(e["json"]["time_s"] > 0 for e in got["/car/state"]) and all(e["bytes"] > 0 for e in got["/car/pose"])
 
 
+def test_a_race_against_other_cars_is_live_in_foxglove_and_ends_at_ctrl_c():
+    """roar race --opponents 1 --foxglove PORT: the opponent's own channels and the cars the ego
+    tracks, served while it races in real time; Ctrl-C ends it within 2 s."""
+    import socket
+
+    port = free_port()
+    race = subprocess.Popen([sys.executable, "-m", "roar.cli", "race", "--opponents", "1", "--track", "oval",
+                             "--laps", "1", "--foxglove", str(port)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, cwd=ROOT)
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:  # the server starts once the racing line is computed
+            try:
+                socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
+                break
+            except OSError:
+                assert race.poll() is None, race.communicate()
+                time.sleep(0.2)
+        time.sleep(1.0)  # the race's first periods: every channel advertised
+        topics = ["/race/car_1/pose", "/race/car_1/firmware", "/racing/tracked", "/race/standings"]
+        advertised, got = foxglove_client(port, topics, 10)
+    finally:
+        race.send_signal(signal.SIGINT)
+        start = time.monotonic()
+        out, err = race.communicate(timeout=30)
+    assert time.monotonic() - start < 2.0 and "Traceback" not in err, err
+    assert f"ws://127.0.0.1:{port}" in out
+    assert advertised["/racing/tracked"]["schemaName"] == "foxglove.PosesInFrame"
+    assert all(len(got[t]) == 10 for t in topics)
+    assert got["/race/car_1/firmware"][-1]["json"]["source"] == "host"
+    assert len(got["/race/standings"][-1]["json"]["positions"]) == 2
+
+
 @pytest.mark.parametrize("metadata, track", [({"car": "sim://oval"}, "oval"), ({"car": "sim://?track=random:3"}, "random:3"),
                                              ({"car": "sim://", "track": "figure-eight"}, "figure-eight"),
                                              ({"car": "sim://"}, None), ({"car": "serial:///dev/ttyUSB0"}, None),

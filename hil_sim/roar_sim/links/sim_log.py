@@ -33,6 +33,8 @@ SCENE = "/perception/scene"
 LOCAL_GRID = "/localization/local_grid"
 GRID_EVERY_S = 0.5  # [s] between recorded trees and local grids
 DRIVER_STATE = "/autopilot/state"
+RACE = "/race"  # a race against other cars: /race/car_N/... each opponent, /race/standings, /race/contacts
+TRACKED = "/racing/tracked"  # the cars the ego's lidar tracks (x, y, heading of travel)
 PARTICLES_EVERY_S = 0.2  # [s] between recorded particle clouds (a cloud is ~40 bytes a particle)
 MAX_PARTICLES = 300  # recorded of a cloud, evenly picked
 
@@ -87,19 +89,30 @@ class SimLog:
         if self.drain_lines:
             robot.read()
         self.rec.state(robot.vehicle_state(), t)
-        firmware = {**robot.info(), "braking": robot.braking()}
-        outputs = getattr(robot, "outputs", None)
-        if outputs is not None:
-            firmware.update(throttle_us=outputs.throttle_us, steering_us=outputs.steering_us,
-                            source=outputs.source.name.lower(), brake_phase=outputs.brake_phase.name.lower(),
-                            latched=outputs.latched)
-        esc = getattr(robot, "esc", None)  # the simulated ESC behind the firmware's pulse
-        if esc is not None:
-            firmware["esc_mode"] = esc.mode.name.lower()
-        self.rec.fields(FIRMWARE, firmware, t, "roar_sim.Firmware")
-        world = robot.plant.world
-        self.rec.fields(CONTACTS, {"wall": robot.touching_wall(), "cone": robot.touching(world.cones),
-                                   "person": robot.touching(world.people)}, t, "roar_sim.Contacts")
+        self.rec.fields(FIRMWARE, firmware(robot), t, "roar_sim.Firmware")
+        self.rec.fields(CONTACTS, contacts(robot), t, "roar_sim.Contacts")
+
+    def other(self, name: str, robot) -> None:
+        """Another robot in the same world now (a race's opponent): its true pose, its state,
+        its firmware's outputs and its contacts on /race/NAME/..."""
+        t, s = self.t_ns(), robot.state()
+        self.rec.pose(f"{RACE}/{name}/pose", (s.x, s.y, s.yaw), t)
+        self.rec.fields(f"{RACE}/{name}/state", {"speed_m_s": s.speed, "yaw_rate_rad_s": s.yaw_rate}, t,
+                        "roar_sim.CarState")
+        self.rec.fields(f"{RACE}/{name}/firmware", firmware(robot), t, "roar_sim.Firmware")
+        self.rec.fields(f"{RACE}/{name}/contacts", contacts(robot), t, "roar_sim.Contacts")
+
+    def fields(self, topic: str, fields: dict, title: str) -> None:
+        """A record of named values now (JSON), under a schema title."""
+        self.rec.fields(topic, fields, self.t_ns(), title)
+
+    def poses(self, topic: str, poses) -> None:
+        """Poses (x, y, yaw) [m, m, rad] seen now: the cars a driver tracks, say."""
+        self.rec.poses(topic, np.asarray(poses, float).reshape(-1, 3), self.t_ns())
+
+    def scan(self, scan) -> None:
+        """A lidar scan (roar.localization.scan.LaserScan) the driver was given now."""
+        self.rec.scan(scan.ranges, float(scan.angles[0]), float(scan.angles[-1]), int(round(scan.time_s * 1e9)))
 
     def localization(self, car) -> None:
         """A LocalizedCar's period: the filter's pose (with the true pose beside it), its particles
@@ -113,7 +126,7 @@ class SimLog:
             self._set_up = True
         scan = car.scan if car.scanned else None
         if scan is not None:
-            self.rec.scan(scan.ranges, float(scan.angles[0]), float(scan.angles[-1]), int(round(scan.time_s * 1e9)))
+            self.scan(scan)
         step = {"odometry": list(car.odo), "pose": list(f.pose), "scan": None}
         if scan is not None:  # which /lidar message, and what its ranges mean
             step["scan"] = {"time_s": scan.time_s, "log_ns": int(round(scan.time_s * 1e9)),
@@ -182,3 +195,24 @@ class SimLog:
 
     def close(self) -> None:
         self.rec.close()
+
+
+def firmware(robot) -> dict:
+    """What a simulated robot's firmware outputs now: its info, the pulses and where the command
+    came from, the brake phase, latched, and the simulated ESC's mode (where there are such)."""
+    fields = {**robot.info(), "braking": robot.braking()}
+    outputs = getattr(robot, "outputs", None)
+    if outputs is not None:
+        fields.update(throttle_us=outputs.throttle_us, steering_us=outputs.steering_us,
+                      source=outputs.source.name.lower(), brake_phase=outputs.brake_phase.name.lower(),
+                      latched=outputs.latched)
+    esc = getattr(robot, "esc", None)  # the simulated ESC behind the firmware's pulse
+    if esc is not None:
+        fields["esc_mode"] = esc.mode.name.lower()
+    return fields
+
+
+def contacts(robot) -> dict:
+    """Whether the robot touches a wall, a cone, a person now."""
+    world = robot.plant.world
+    return {"wall": robot.touching_wall(), "cone": robot.touching(world.cones), "person": robot.touching(world.people)}

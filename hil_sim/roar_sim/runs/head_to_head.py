@@ -15,6 +15,7 @@ periods. An overtake is the ego going from behind a car to ahead of it in distan
 
 from __future__ import annotations
 
+import contextlib
 import math
 from collections import deque
 from dataclasses import dataclass, field, replace
@@ -119,9 +120,13 @@ def check_race_track(track: Track) -> None:
 
 
 def head_to_head(track: Track, rivals: list[Rival], laps: int = 2, pace: float = 0.9, timeout_s: float | None = None,
-                 progress: bool = False, seed: int = 0) -> HeadToHead:
+                 progress: bool = False, seed: int = 0, log=None, serve_port: int | None = None,
+                 realtime: bool = False) -> HeadToHead:
     """The ego (car 0, at the back of the grid) races len(rivals) opponents for `laps` laps (the
-    race ends when the ego has driven them, or at timeout_s)."""
+    race ends when the ego has driven them, or at timeout_s). log: an MCAP file of the race
+    (race_log: the ego's channels as a race alone records them, what it sensed and decided, and
+    every opponent's); serve_port: the same channels served live to Foxglove; realtime: kept to
+    the wall clock."""
     from roar.racing.lanes import Lanes
     from roar.localization.odometry import compose
     from roar_sim.runs.race_result import TRACKING_MARGIN_M, optimal_line
@@ -143,92 +148,148 @@ def head_to_head(track: Track, rivals: list[Rival], laps: int = 2, pace: float =
     result = HeadToHead(track, laps, [CarResult("ego")] + [CarResult(f"car {i}") for i in range(1, n)])
     timeout_s = timeout_s or laps * (3 * track.length_m / 2.0 + TIMEOUT_PER_LAP_S)
     with Fleet(track, poses=list(reversed(poses))) as fleet:  # the ego at the back of the grid
+        fleet.realtime = realtime
         cars = fleet.cars
         ego_car = cars[0]
-        clearance = WALL_THICKNESS_M / 2 + TRACKING_MARGIN_M  # as the racing line keeps from the walls
-        lanes = Lanes(track, EscCar.half_width_m, ego_car.model.limits, clearance)
-        lines = {"centre": track.centerline, "racing": racing_points,
-                 "defensive": lanes.line(lanes.defensive_offsets()).points}
-        ego = Racer(track, racing_points, ego_car.model, PERIOD_S, pace=pace, clearance_m=clearance)
-        drivers = [ego]
-        for car, rival in zip(cars[1:], rivals):
-            line = lines[rival.line]
-            if rival.driver is not None:
-                drivers.append(rival.driver(track=track, line=line, model=car.model, period_s=PERIOD_S,
-                                            pace=rival.pace))
-            else:
-                drivers.append(race_agent(line, paced(car.model, rival.pace), PERIOD_S, margin=1.0,
-                                          follower=LoopWaypointFollower(line, skip_at_start=ahead_of(line, car))))
-        lidar = Lidar(ego_car.plant, seed)
-        sensed = Opponents(track, CarDetector(world_map(track)))
-        for car in cars:
-            car.drive(0.0, 0.0)
-        fleet.run(PERIOD_S)
-        for d in drivers:
-            d.setup()
-        mount = ego_car.plant.lidar_mount()  # (x ahead, y left, yaw) on the car
-        hints: list[int | None] = [None] * n
-        lap_start = [0.0] * n
-        history: deque = deque(maxlen=round(SIDEWAYS_S / PERIOD_S) + 1)  # per period: [(s, d, speed)] per car
-        touching: set[tuple[int, int]] = set()
-        behind_of = None  # ego behind each car (by distance raced) last period
-        bar = laps_bar(laps, f"racing {track.name} against {n - 1} car(s)") if progress else None
-        # the ego starts behind everyone: distance raced counts from each car's own grid slot
-        start_s = [track.project(p[:2], None, heading=p[2])[1] for p in reversed(poses)]
-        offset = [track.arc_delta(start_s[0], s) for s in start_s]
-        travelled = [offset[i] for i in range(n)]
-        s_prev = list(start_s)
-        while fleet.time_s < timeout_s and len(result.cars[0].lap_times_s) < laps:
-            t = fleet.time_s
-            observed = [car.observe() for car in cars]
-            sensor = compose((observed[0].x, observed[0].y, observed[0].yaw), mount)
-            ego.sense(sensed.update(lidar.scan(t, [car.plant for car in cars[1:]]), sensor, t))
-            for car, driver, obs in zip(cars, drivers, observed):
-                car.send(driver.step(obs))
+        with contextlib.ExitStack() as stack:  # a recording finished whatever ends the race
+            recording = stack.enter_context(RaceLog(ego_car, log, serve_port, n)) \
+                if log is not None or serve_port is not None else None
+            clearance = WALL_THICKNESS_M / 2 + TRACKING_MARGIN_M  # as the racing line keeps from the walls
+            lanes = Lanes(track, EscCar.half_width_m, ego_car.model.limits, clearance)
+            lines = {"centre": track.centerline, "racing": racing_points,
+                     "defensive": lanes.line(lanes.defensive_offsets()).points}
+            ego = Racer(track, racing_points, ego_car.model, PERIOD_S, pace=pace, clearance_m=clearance)
+            drivers = [ego]
+            for car, rival in zip(cars[1:], rivals):
+                line = lines[rival.line]
+                if rival.driver is not None:
+                    drivers.append(rival.driver(track=track, line=line, model=car.model, period_s=PERIOD_S,
+                                                pace=rival.pace))
+                else:
+                    drivers.append(race_agent(line, paced(car.model, rival.pace), PERIOD_S, margin=1.0,
+                                              follower=LoopWaypointFollower(line, skip_at_start=ahead_of(line, car))))
+            lidar = Lidar(ego_car.plant, seed)
+            sensed = Opponents(track, CarDetector(world_map(track)))
+            for car in cars:
+                car.drive(0.0, 0.0)
             fleet.run(PERIOD_S)
-            now = []
-            for i, car in enumerate(cars):
-                st = car.state()
-                hints[i], s_now, d_now = track.project((st.x, st.y), hints[i], heading=st.yaw)
-                travelled[i] += track.arc_delta(s_prev[i], s_now)
-                s_prev[i] = s_now
-                r = result.cars[i]
-                r.travelled_m = travelled[i]
-                r.path.append((st.x, st.y))
-                r.wall_contacts += car.touching_wall()
-                if travelled[i] - offset[i] >= track.length_m * (len(r.lap_times_s) + 1):
-                    r.lap_times_s.append(fleet.time_s - lap_start[i])
-                    lap_start[i] = fleet.time_s
-                now.append((s_now, d_now, st.speed))
-            history.append(now)
-            for a in range(n):
-                for b in range(a + 1, n):
-                    pair = (a, b)
-                    if pb.getContactPoints(bodyA=cars[a].plant.car, bodyB=cars[b].plant.car,
-                                           physicsClientId=fleet.world.client):
-                        if pair not in touching:
-                            result.contacts.append(attribute(track, history, travelled, a, b, fleet.time_s))
-                        touching.add(pair)
-                    else:
-                        touching.discard(pair)
-            behind = [travelled[0] < travelled[j] for j in range(n)]
-            if behind_of is not None:
-                result.overtakes += sum(1 for j in range(1, n) if behind_of[j] and not behind[j])
-                result.overtakes -= sum(1 for j in range(1, n) if not behind_of[j] and behind[j])
-            behind_of = behind
-            order = result.order()
-            result.times_s.append(fleet.time_s)
-            result.positions.append([order.index(i) + 1 for i in range(n)])
-            result.modes.append(ego.mode)
-            ahead = [travelled[j] - travelled[0] for j in range(1, n) if travelled[j] > travelled[0]]
-            result.gaps_ahead_m.append(min(ahead) - 0.55 if ahead else math.inf)
+            for d in drivers:
+                d.setup()
+            mount = ego_car.plant.lidar_mount()  # (x ahead, y left, yaw) on the car
+            hints: list[int | None] = [None] * n
+            lap_start = [0.0] * n
+            history: deque = deque(maxlen=round(SIDEWAYS_S / PERIOD_S) + 1)  # per period: [(s, d, speed)] per car
+            touching: set[tuple[int, int]] = set()
+            behind_of = None  # ego behind each car (by distance raced) last period
+            bar = laps_bar(laps, f"racing {track.name} against {n - 1} car(s)") if progress else None
+            # the ego starts behind everyone: distance raced counts from each car's own grid slot
+            start_s = [track.project(p[:2], None, heading=p[2])[1] for p in reversed(poses)]
+            offset = [track.arc_delta(start_s[0], s) for s in start_s]
+            travelled = [offset[i] for i in range(n)]
+            s_prev = list(start_s)
+            while fleet.time_s < timeout_s and len(result.cars[0].lap_times_s) < laps:
+                t = fleet.time_s
+                observed = [car.observe() for car in cars]
+                sensor = compose((observed[0].x, observed[0].y, observed[0].yaw), mount)
+                scan = lidar.scan(t, [car.plant for car in cars[1:]])
+                seen = sensed.update(scan, sensor, t)
+                ego.sense(seen)
+                for car, driver, obs in zip(cars, drivers, observed):
+                    car.send(driver.step(obs))
+                fleet.run(PERIOD_S)
+                now = []
+                for i, car in enumerate(cars):
+                    st = car.state()
+                    hints[i], s_now, d_now = track.project((st.x, st.y), hints[i], heading=st.yaw)
+                    travelled[i] += track.arc_delta(s_prev[i], s_now)
+                    s_prev[i] = s_now
+                    r = result.cars[i]
+                    r.travelled_m = travelled[i]
+                    r.path.append((st.x, st.y))
+                    r.wall_contacts += car.touching_wall()
+                    if travelled[i] - offset[i] >= track.length_m * (len(r.lap_times_s) + 1):
+                        r.lap_times_s.append(fleet.time_s - lap_start[i])
+                        lap_start[i] = fleet.time_s
+                    now.append((s_now, d_now, st.speed))
+                history.append(now)
+                for a in range(n):
+                    for b in range(a + 1, n):
+                        pair = (a, b)
+                        if pb.getContactPoints(bodyA=cars[a].plant.car, bodyB=cars[b].plant.car,
+                                               physicsClientId=fleet.world.client):
+                            if pair not in touching:
+                                result.contacts.append(attribute(track, history, travelled, a, b, fleet.time_s))
+                            touching.add(pair)
+                        else:
+                            touching.discard(pair)
+                behind = [travelled[0] < travelled[j] for j in range(n)]
+                if behind_of is not None:
+                    result.overtakes += sum(1 for j in range(1, n) if behind_of[j] and not behind[j])
+                    result.overtakes -= sum(1 for j in range(1, n) if not behind_of[j] and behind[j])
+                behind_of = behind
+                order = result.order()
+                result.times_s.append(fleet.time_s)
+                result.positions.append([order.index(i) + 1 for i in range(n)])
+                result.modes.append(ego.mode)
+                ahead = [travelled[j] - travelled[0] for j in range(1, n) if travelled[j] > travelled[0]]
+                result.gaps_ahead_m.append(min(ahead) - 0.55 if ahead else math.inf)
+                if recording is not None:
+                    recording.period(result, scan, seen, cars, ego)
+                if bar:
+                    bar.update(max(0.0, min(laps, (travelled[0]) / track.length_m) - bar.n))
             if bar:
-                bar.update(max(0.0, min(laps, (travelled[0]) / track.length_m) - bar.n))
-        if bar:
-            bar.close()
+                bar.close()
     result.passes_started = ego.passes
     result.events = ego.events
     return result
+
+
+class RaceLog:
+    """A race on the record (roar_sim.links.sim_log): the ego's channels as a race alone records
+    them (every control message, line, state, firmware output and contact), the scan it was given
+    (/lidar), the cars it tracks (/racing/tracked) and its mode (/autopilot/state); each
+    opponent's pose, state, firmware and contacts (/race/car_N/...); the standings each period
+    (/race/standings), each car-to-car contact with who caused it (/race/contacts), and each of
+    the ego's decisions (/race/events)."""
+
+    def __init__(self, ego_car, path, serve_port: int | None, cars: int) -> None:
+        import sys
+
+        from roar_sim.links.sim_log import SimLog
+
+        self.log = SimLog(ego_car, path, {"command": " ".join(sys.argv), "driver": "racer", "cars": str(cars)},
+                          serve_port=serve_port)
+        self._contacts = self._events = 0
+
+    def period(self, result: HeadToHead, scan, seen, cars, ego) -> None:
+        from roar_sim.links.sim_log import DRIVER_STATE, RACE, TRACKED
+
+        log, track = self.log, result.track
+        log.step()
+        log.fields(DRIVER_STATE, {"state": ego.mode}, "roar.DriverState")
+        log.scan(scan)
+        log.poses(TRACKED, [(o.x, o.y, track.pose_at(o.s_m, o.d_m)[2] + (math.pi if o.speed_m_s < 0 else 0.0))
+                            for o in seen])
+        for i, car in enumerate(cars[1:], 1):
+            log.other(f"car_{i}", car)
+        log.fields(f"{RACE}/standings", {"positions": result.positions[-1],
+                                         "laps": [len(c.lap_times_s) for c in result.cars],
+                                         "raced_m": [round(c.travelled_m, 3) for c in result.cars]},
+                   "roar_sim.Standings")
+        for c in result.contacts[self._contacts:]:
+            log.fields(f"{RACE}/contacts", {"cars": [result.cars[i].name for i in c.cars],
+                                            "caused_by": None if c.caused_by is None else result.cars[c.caused_by].name,
+                                            "why": c.why}, "roar_sim.CarContact")
+        self._contacts = len(result.contacts)
+        for t_s, what in ego.events[self._events:]:
+            log.fields(f"{RACE}/events", {"time_s": t_s, "what": what}, "roar_sim.RaceEvent")
+        self._events = len(ego.events)
+
+    def __enter__(self) -> RaceLog:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.log.close()
 
 
 def paced(model: CarModel, pace: float) -> CarModel:

@@ -249,7 +249,9 @@ def parser() -> argparse.ArgumentParser:
                         "`roar vision DIR`")
     p.add_argument("--log", type=path_option, metavar="MCAP",
                    help="record the race into this MCAP file: every control message and line, the car's state, "
-                        "the firmware's outputs, contacts, and with --localize the filter's pose and particles "
+                        "the firmware's outputs, contacts, and with --localize the filter's pose and particles; "
+                        "with --opponents also its scan, the cars it tracked, every opponent's pose, firmware and "
+                        "contacts, the standings and who caused each contact "
                         "(open it in Foxglove, or `roar replay`)")
     add_foxglove_option(p, "the same channels", when="(the race then runs in real time, to be watched) ")
     p.add_argument("--car-profile", metavar="NAME|FILE",
@@ -363,10 +365,9 @@ def main(argv: list[str] | None = None) -> int:
             p.error("--opponent-pace must be 0.3..1 (a fraction of their limits)")
         others = {"--robot": args.robot != "esc", "--driver lane": args.driver == "lane",
                   "--line": args.line != "centre",
-                  "--waypoints": args.waypoints is not None, "--localize": args.localize, "--log": args.log is not None,
-                  "--foxglove": args.foxglove is not None, "--car-profile": args.car_profile is not None,
-                  "--steering pid": args.steering != "pursuit", "--k-dd": args.k_dd is not None,
-                  "--realtime": args.realtime, "--gui": args.gui}
+                  "--waypoints": args.waypoints is not None, "--localize": args.localize,
+                  "--car-profile": args.car_profile is not None,
+                  "--steering pid": args.steering != "pursuit", "--k-dd": args.k_dd is not None, "--gui": args.gui}
         given = [k for k, v in others.items() if v]
         if given:
             p.error(f"{given[0]} is not for races with --opponents yet (the ego is the ESC car racing its racing line)")
@@ -392,12 +393,12 @@ def main(argv: list[str] | None = None) -> int:
                          f"from the next), not {args.boxes}: try --track course")
     if args.follow:
         return _combined(args, track, boxes)
-    if args.opponents is not None:
-        return _head_to_head(args, track)
     if args.foxglove is not None:  # a race run faster than real time would be over before a viewer connects
         args.realtime = True
         print(f"serving the race live in real time: Foxglove, Open connection, ws://127.0.0.1:{args.foxglove}",
               flush=True)
+    if args.opponents is not None:
+        return _head_to_head(args, track)
     result = race(track, args.laps, waypoints, args.margin, args.robot, args.realtime, args.gui, progress=True,
                   timeout_s=args.seconds, lateral="lane" if args.driver == "lane" else args.steering,
                   start_lights=args.start_lights, boxes=boxes, avoid=args.avoid, frames=args.frames, k_dd_s=args.k_dd,
@@ -439,7 +440,8 @@ def _head_to_head(args, track: Track) -> int:
     if args.opponent_driver:
         driver = load_driver(args.opponent_driver)
     rivals = [h2h.Rival(args.opponent_pace, args.opponent_line, driver)] * args.opponents
-    result = h2h.head_to_head(track, rivals, args.laps, pace=args.margin, timeout_s=args.seconds, progress=True)
+    result = h2h.head_to_head(track, rivals, args.laps, pace=args.margin, timeout_s=args.seconds, progress=True,
+                              log=args.log, serve_port=args.foxglove, realtime=args.realtime)
     print(h2h.report(result))
     if args.plot and result.times_s and not plotting.save(lambda: h2h.plot(result), args.plot):
         return ExitStatus.ERROR
