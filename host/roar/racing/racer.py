@@ -18,6 +18,7 @@ does, no car ahead in its path is closed on faster than it can stop for.
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -53,6 +54,7 @@ SAFETY_S = 1.0  # [s] a car predicted on its line this soon, ahead or beside, is
 YIELD_M_S = 0.5  # [m/s] slower than the car beside while dropping back behind it
 SWERVE_S_PER_M = 1.5  # [s] a pass's cost per m the car must move across to reach its lane (speed lost swerving)
 REPASS_S = 1.0  # [s] after a pass is given up, before another is tried (no swerving from side to side)
+SEARCH_EVERY_S = 0.1  # [s] after a search for a pass found no safe lane, before the next search
 
 
 @dataclass(frozen=True)
@@ -91,6 +93,9 @@ class Racer(Module[Observation, Command]):
         self._hint: int | None = None
         self._why_not = ""
         self._no_pass_until = 0.0  # [s] no new pass before this (one given up: back behind first)
+        self._arc = track.arc_start.tolist()  # [m] where each centre-line segment starts (bisected in the checks)
+        self._times = np.arange(0.0, 2 * HORIZON_S + 2 * CHECK_DT_S, CHECK_DT_S)  # [s] the checks' steps
+        self._forecasts: dict[int, tuple[list[float], list[float]]] | None = None  # this period's, by car id
 
     def setup(self) -> None:
         self.speed.reset()
@@ -100,6 +105,7 @@ class Racer(Module[Observation, Command]):
     def sense(self, opponents: list[Opponent]) -> None:
         """The cars it senses now (roar.racing.opponents.Opponents.update's)."""
         self.opponents = list(opponents)
+        self._forecasts = None
 
     # --- each control period --------------------------------------------------------------------
 
@@ -115,8 +121,8 @@ class Racer(Module[Observation, Command]):
             self._keep_passing(s, v)
         if self.passing is None:
             blocking = next((o for o in near if self._gap(s, o) > 0 and self._in_path(self.racing, o)), None)
-            if blocking is not None and obs.t_s >= self._no_pass_until:
-                self._start_pass(s, v, blocking)
+            if blocking is not None and obs.t_s >= self._no_pass_until and not self._start_pass(s, v, blocking):
+                self._no_pass_until = obs.t_s + SEARCH_EVERY_S
             self.mode = "race" if blocking is None else ("pass" if self.passing else "follow")
         line = self.lanes[self.passing.lane] if self.passing else self.racing
         goal = goal_on_path(line.points, seg + 1, self.pursuit.lookahead_m(v))
@@ -151,11 +157,11 @@ class Racer(Module[Observation, Command]):
         within within_s [s]: less than a car's length and a margin apart along the track and a car's
         width and PASS_SIDE_M across it."""
         s_ego = s
-        for t in np.arange(0.0, within_s + 1e-9, CHECK_DT_S):
-            s_o, d_o = self._predict(o, float(t))
-            seg = segment_at(self.track, s_ego)
-            if abs(self.track.arc_delta(s_ego, s_o)) < CAR_LENGTH_M + LENGTH_MARGIN_M and \
-                    abs(float(line.offsets[seg]) - d_o) < CAR_WIDTH_M + PASS_SIDE_M:
+        so, do = self._forecast()[o.id]
+        for k in range(int(within_s / CHECK_DT_S + 1e-9) + 1):
+            seg = self._segment(s_ego)
+            if abs(self.track.arc_delta(s_ego, so[k])) < CAR_LENGTH_M + LENGTH_MARGIN_M and \
+                    abs(float(line.offsets[seg]) - do[k]) < CAR_WIDTH_M + PASS_SIDE_M:
                 return True
             s_ego += speed * CHECK_DT_S / float(line.stretch[seg])
         return False
@@ -197,6 +203,24 @@ class Racer(Module[Observation, Command]):
         self.mode = "pass"
         return True
 
+    def _segment(self, s_m: float) -> int:
+        """segment_at(self.track, s_m), by bisecting a list (the checks ask it thousands of times a period)."""
+        return bisect_right(self._arc, s_m % self.track.length_m) - 1
+
+    def _forecast(self) -> dict[int, tuple[list[float], list[float]]]:
+        """Each car sensed now, by id: its (s [m], d [m]) at every check step (self._times), as
+        _predict gives them; worked out once a period, for every step at once."""
+        if self._forecasts is None:
+            track, times = self.track, self._times
+            self._forecasts = {}
+            for o in self.opponents:
+                s_then = (o.s_m + max(0.0, o.speed_m_s) * times) % o.length_m
+                segs = np.searchsorted(track.arc_start, s_then % track.length_m, side="right") - 1
+                now = float(self.racing.offsets[segment_at(track, o.s_m)])
+                d_then = self.racing.offsets[segs] + (o.d_m - now) * np.exp(-times / RELAX_S)
+                self._forecasts[o.id] = (s_then.tolist(), d_then.tolist())
+        return self._forecasts
+
     def _predict(self, o: Opponent, dt_s: float) -> tuple[float, float]:
         """(s [m], d [m]) of o in dt_s [s]: on at its speed along the track, its offset from the
         racing line fading with RELAX_S (a car racing heads back to the line)."""
@@ -212,22 +236,26 @@ class Racer(Module[Observation, Command]):
         track); None where it does not (the reason in _why_not). The lane's progress along the track
         is its speed over its stretch: outside a bend it goes further for the same progress."""
         n = len(lane.speeds)
-        s_ego, t = s, 0.0
+        s_ego, t, k = s, 0.0, 0
         speed = max(v, 0.5)
+        forecasts = [(o.id, *self._forecast()[o.id]) for o in self.opponents]
+        near_m, beside_m = CAR_LENGTH_M + LENGTH_MARGIN_M, CAR_WIDTH_M + PASS_SIDE_M
+        length, half = self.track.length_m, self.track.length_m / 2
         while t < horizon_s:
-            seg = segment_at(self.track, s_ego)
+            seg = self._segment(s_ego)
             speed = min(float(lane.speeds[seg]), speed + self.space.limits.max_accel_m_s2 * CHECK_DT_S)
-            for o in self.opponents if t < conflicts_s else ():
-                s_o, d_o = self._predict(o, t)
-                if abs(self.track.arc_delta(s_ego, s_o)) < CAR_LENGTH_M + LENGTH_MARGIN_M and \
-                        abs(float(lane.offsets[seg % n]) - d_o) < CAR_WIDTH_M + PASS_SIDE_M:
-                    self._why_not = f"car #{o.id} in the lane in {t:.1f} s"
-                    return None
+            if t < conflicts_s:
+                offset = float(lane.offsets[seg % n])
+                for id_, so, do in forecasts:
+                    if abs((so[k] - s_ego + half) % length - half) < near_m and abs(offset - do[k]) < beside_m:
+                        self._why_not = f"car #{id_} in the lane in {t:.1f} s"
+                        return None
             s_target = target.predict(t)[0]
             if self.track.arc_delta(s_target, s_ego) >= DONE_AHEAD_M:
                 return t
             s_ego += speed * CHECK_DT_S / float(lane.stretch[seg % n])
             t += CHECK_DT_S
+            k += 1
         self._why_not = f"not past within {horizon_s:g} s"
         return None
 
