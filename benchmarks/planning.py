@@ -10,9 +10,11 @@
 - the challenge on 10 tunnel worlds with the whole stack, beside a pose-oracle run of the same
   stack: targets finish 10/10, 0 cones touched, median time <= 1.2 x the oracle's; and the camera's
   cones and markers: precision and recall >= 0.95 each, for the objects that came within 4 m in
-  view.
+  view;
+- the challenge's concurrent round, two teams on each of the 10 worlds (the second car 2 s behind):
+  target both finish on 8 of 10, 0 car-to-car contacts.
 
-    python -m benchmarks.planning planners|challenge"""
+    python -m benchmarks.planning planners|challenge|teams"""
 
 from __future__ import annotations
 
@@ -24,10 +26,12 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 TITLE = ("planning: arc RRT and Dubins RRT* against OMPL on 50 tunnel start/goal pairs; the challenge on 10 "
-         "tunnels (finish 10/10, 0 cones, <= 1.2 x the oracle's time; detection precision and recall >= 0.95)")
+         "tunnels (finish 10/10, 0 cones, <= 1.2 x the oracle's time; detection precision and recall >= 0.95); "
+         "two teams at once (both finish on 8/10, 0 contacts)")
 PAIRS_PER_WORLD, WORLDS = 5, 10
 BUDGETS_S = (0.2, 1.0)
 GOAL_M = 0.3
+TEAMS_TARGET = 8  # of the 10 worlds where both teams finish, run concurrently
 LENGTH_RATIO_TARGET = 1.1
 CHALLENGE_SEEDS = range(1, 11)
 TIME_RATIO_TARGET = 1.2
@@ -216,14 +220,43 @@ def challenge_runs() -> None:
               f"{DETECTION_TARGET:g} each)  {'ok' if min(p, r) >= DETECTION_TARGET else 'MISSED'}")
 
 
+def _teams(name: str):
+    from roar.tracks import get
+    from roar_sim.runs.challenge import challenge_teams
+
+    began = time.perf_counter()
+    r = challenge_teams(get(name), 2)
+    return name, r, time.perf_counter() - began
+
+
+def teams_runs() -> None:
+    both, contacts = 0, 0
+    with ProcessPoolExecutor(max_workers=2) as pool:
+        for name, r, wall in pool.map(_teams, [f"tunnel:{s}" for s in CHALLENGE_SEEDS]):
+            finished = len(r.teams) == 2 and all(t.finished for t in r.teams)
+            both += finished
+            contacts += len(r.contacts)
+            cars = "; ".join(f"car {i + 1} {'finished' if t.finished else 'DID NOT FINISH'} {t.time_s:6.2f} s, "
+                             f"cones {len(t.cones_touched)}" for i, t in enumerate(r.teams))
+            print(f"  {name:<10} two teams: {cars}; car-to-car contacts {len(r.contacts)} (wall {wall:.0f} s)",
+                  flush=True)
+            if not finished or r.contacts:
+                print("\n".join("      " + line for line in r.report(2).splitlines()), flush=True)
+    print(f"  both teams finished on {both}/{len(CHALLENGE_SEEDS)} (target >= {TEAMS_TARGET})  "
+          f"{'ok' if both >= TEAMS_TARGET else 'MISSED'}; car-to-car contacts {contacts} (target 0)  "
+          f"{'ok' if contacts == 0 else 'MISSED'}")
+
+
 def run(_args=None) -> None:
     print("  planners:", flush=True)
     planners()
     print("  challenge:", flush=True)
     challenge_runs()
+    print("  two teams at once:", flush=True)
+    teams_runs()
 
 
 if __name__ == "__main__":
-    parts = {"planners": planners, "challenge": challenge_runs}
+    parts = {"planners": planners, "challenge": challenge_runs, "teams": teams_runs}
     for part in sys.argv[1:] or list(parts):
         parts[part]()

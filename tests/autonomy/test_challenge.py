@@ -123,6 +123,25 @@ def test_a_short_challenge_run_touches_no_cone_and_counts_each_object_once():
                                          - 2.0 * len(result.markers_taken))
 
 
+def test_two_teams_run_the_course_concurrently_each_seeing_the_other_as_an_obstacle():
+    """The challenge's concurrent round on tunnel:3 to 12 m: the second car starts 2 s after the
+    first, from the same start, on its own stack (to it the first car is an unmapped obstacle that
+    moves); both finish touching no cone, no wall and not each other, and a marker both drove over
+    counts for both. (`make bench` runs the whole course on tunnel:1..10.)"""
+    from roar_sim.runs.challenge import challenge_teams
+
+    result = challenge_teams(get("tunnel:3"), 2, goal_m=12.0, seed=2)
+    report = result.report(2)
+    assert len(result.teams) == 2 and all(team.finished for team in result.teams), report
+    assert result.starts_s[1] - result.starts_s[0] >= 2.0 and not result.contacts, report
+    first, second = result.teams
+    for team in (first, second):
+        assert not team.cones_touched and team.wall_contacts == 0, report
+    assert first.markers_taken & second.markers_taken, report  # shared: each car scores the ones it took
+    assert second.localization.rms_position_m() < 0.1, report  # its own filter, the first car in its scans
+    assert math.dist(second.true_path[0], first.true_path[0]) < 0.1  # the same start; its time from its own
+
+
 def test_the_plan_example_finds_a_drivable_path():
 
     example = ROOT / "examples" / "plan.py"
@@ -154,6 +173,7 @@ def test_roar_challenge_prints_the_score_and_plots_the_run(tmp_path):
     (["tunnel:3", "--to", "900"], "--to must be 2.."),
     (["tunnel:3", "--seed", "-1"], "must be a whole number 0..10^18"),
     (["tunnel:3", "--plot", "out.txt"], ".png"),
+    (["tunnel:3", "--teams", "5"], "--teams: must be a whole number 1..4"),
 ])
 def test_bad_input_ends_in_one_line(args, says):
     result = roar(*args, timeout=60)

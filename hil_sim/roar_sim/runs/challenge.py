@@ -46,6 +46,10 @@ SEEN_WITHIN_M = 4.0  # [m] detection is scored on the objects that came this nea
 # between, in as many of the frames the detector received as the tracker needs to confirm an object
 PLAN_LATENCY_S = 0.15  # [s] from a plan's start to its path reaching the follower
 MAX_SECONDS = 150.0  # [s] of simulated time before the run is given up
+TEAM_GAP_S = 2.0  # [s] between one team's start and the next one's, run concurrently
+MAX_TEAMS = 4
+START_CLEAR_M = 1.0  # [m] a car's reference point this far from the start at least before the next car starts there
+PARKED_M = 3.0  # [m] a car waiting for its start stands this far beyond the course's bounds (and from the next)
 
 
 @dataclass(frozen=True)
@@ -147,6 +151,28 @@ class ChallengeResult:
         ax.plot(*c.goal[:2], marker="*", markersize=14, color="gold", markeredgecolor="black", label="goal")
 
 
+@dataclass
+class TeamsResult:
+    """The challenge run concurrently: each team's own result (its times from its own start),
+    when each started, and the car-to-car contacts (time [s], car a, car b: 0 the first)."""
+    track: str
+    teams: list[ChallengeResult] = field(default_factory=list)
+    starts_s: list[float] = field(default_factory=list)  # [s] each car's start, in the world's time
+    contacts: list[tuple[float, int, int]] = field(default_factory=list)
+
+    def report(self, teams: int) -> str:
+        lines = []
+        for i in range(teams):
+            if i >= len(self.teams):
+                lines.append(f"car {i + 1}: never started (the start was not clear of the cars before it)")
+                continue
+            lines.append(f"car {i + 1}, started at {self.starts_s[i]:.2f} s: " + self.teams[i].report())
+        lines += [f"car-to-car contact at {t:.2f} s between car {a + 1} and car {b + 1}" for t, a, b in self.contacts]
+        if not self.contacts:
+            lines.append("no car-to-car contact")
+        return "\n".join(lines)
+
+
 def route_to_goal(track: Track, goal_m: float | None = None) -> np.ndarray:
     """The centre line from the start to the course's goal (or goal_m along it)."""
     course = track.course
@@ -176,81 +202,202 @@ def challenge(track: Track, oracle: bool = False, seed: int = 1, scoring: Scorin
     serve_port: the same served live (Foxglove WebSocket on 127.0.0.1)."""
     from roar_sim import robots
 
-    course = track.course
-    if course is None:
-        raise TrackError(f"{track.name}: the challenge needs a tunnel world (tunnel:SEED): this track has no course")
-    route = route_to_goal(track, goal_m)
-    goal_xy = tuple(route[-1])
-    result = ChallengeResult(track.name, oracle, scoring, course=course)
-    known = world_map(track)
-    local = LocalGrid(10.0, known.resolution_m, known)
-    cam_model = SIMULATED_CAR_CAMERA.model(*CAMERA_SIZE)
+    route = _route(track, goal_m)
     with robots.get(robot)(track) as bot:
         bot.arm()
-        car = LocalizedCar(bot, known, seed, 10 if oracle else particles, start="true", local_grid=local,
-                           oracle=oracle)
-        result.localization = car.log
-        model = bot.model
-        driver = CourseDriver(known, route, cam_model, local, wheelbase_m=model.wheelbase_m,
-                              max_steer_rad=model.max_steer_rad, max_speed_m_s=model.limits.max_speed_m_s,
-                              bonus_s=scoring.marker_bonus_s, seed=seed, plan_latency_s=PLAN_LATENCY_S)
-        result.events = driver.events  # the driver's and the referee's, in time order
-        camera = ShakyCamera(bot.plant, *CAMERA_SIZE, seed + 2)
-        referee = _Referee(track, bot, cam_model, result)
-        sim_log = None
-        if log is not None or serve_port is not None:
-            import sys
-
-            from roar_sim.links.sim_log import SimLog
-
-            sim_log = SimLog(bot, log, {"command": " ".join(sys.argv), "driver": "challenge"}, serve_port)
-        frames: deque = deque()  # (arrives at [s], captured at [s], rgb, depth)
-        true_history = PoseHistory()
-        next_frame, next_report = 0.0, 1.0
-        while True:
-            obs = car.observe()
-            t = obs.t_s
-            truth = bot.state()
-            true_history.add(t, (truth.x, truth.y, truth.yaw))
-            referee.watch(t, truth, driver)
-            if math.hypot(truth.x - goal_xy[0], truth.y - goal_xy[1]) <= FINISH_M:
-                result.finished, result.time_s = True, t
-                break
-            if t >= max_seconds:
-                result.time_s = t
-                break
-            # the camera: a frame now, delivered latency_s later with its capture time
-            if t + 1e-9 >= next_frame:
-                rgb, depth = camera()
-                frames.append((t + latency_s, t, rgb, depth))
-                if sim_log is not None:
-                    sim_log.image(rgb)
-                next_frame += 1.0 / fps
-            arrived = []
-            while frames and frames[0][0] <= t + 1e-9:
-                _, taken, rgb, depth = frames.popleft()
-                referee.frame_received(true_history.at(taken) or (truth.x, truth.y, truth.yaw))
-                arrived.append((rgb, depth, taken))
-            command = driver.step(t, (obs.x, obs.y, obs.yaw), obs.speed, arrived)
-            car.explore, car.towards = driver.exploring, driver.towards
-            car.send(command)
+        team = _Team(track, bot, route, oracle, seed, scoring, latency_s, fps, max_seconds, particles)
+        sim_log = _sim_log(bot, log, serve_port, "challenge")
+        next_report = 1.0
+        try:
+            while not team.period(sim_log):
+                bot.wait(CONTROL_PERIOD_S)
+                if progress is not None and bot.time_s >= next_report:
+                    progress(bot.time_s, team.driver.mission.progress_m, team.driver.mission.length_m)
+                    next_report += 1.0
+            bot.send(Command(0.0, 0.0))
+        finally:
             if sim_log is not None:
-                sim_log.step()
-                if not oracle:
-                    sim_log.localization(car)
-                sim_log.planning(driver, local)
-            car.wait(CONTROL_PERIOD_S)
-            if progress is not None and t >= next_report:
-                progress(t, driver.mission.progress_m, driver.mission.length_m)
-                next_report += 1.0
-        car.send(Command(0.0, 0.0))
+                sim_log.close()
+        return team.finish()
+
+
+def challenge_teams(track: Track, teams: int = 2, behind_s: float = TEAM_GAP_S, oracle: bool = False, seed: int = 1,
+                    scoring: Scoring = Scoring(), latency_s: float = CAMERA_LATENCY_S, fps: float = CAMERA_FPS,
+                    goal_m: float | None = None, max_seconds: float = MAX_SECONDS, particles: int = PARTICLES,
+                    progress=None, log=None, serve_port: int | None = None) -> TeamsResult:
+    """The challenge run concurrently (the MIT challenge's second round): `teams` ESC cars in one
+    world, from the same start, each behind_s [s] after the one before (and once the start is clear
+    of it), each with its own localization, detection and planning: to each the others are unmapped
+    things that move, seen by its lidar and camera as any obstacle. Cones and markers are shared (a
+    marker counts for each car that drives over it); every car is scored on its own, from its own
+    start. Until its start a car waits, at neutral, off the course; at its end (the finish, or out of
+    time) it is lifted off the course, as a team takes its car away. log/serve_port: car 1's channels
+    as challenge() records them, the others' on /race/car_N/...; progress(t_s, along_m, route_m):
+    the last car's."""
+    from roar_sim.runs.fleet import Fleet
+    from roar_sim.runs.localize import kidnap
+
+    if not 1 <= teams <= MAX_TEAMS:
+        raise ValueError(f"teams must be 1..{MAX_TEAMS}, got {teams}")
+    route = _route(track, goal_m)
+    start = track.start_pose
+    minx, miny, maxx, maxy = track.region.bounds
+    parked = [(maxx + PARKED_M * (i + 1), maxy + PARKED_M, 0.0) for i in range(teams - 1)]  # off the course
+    lifted = [(maxx + PARKED_M * (i + 1), miny - PARKED_M, 0.0) for i in range(teams)]  # where each goes at its end
+    result = TeamsResult(track.name)
+    with Fleet(track, poses=[start, *parked]) as fleet:
+        cars = fleet.cars
+        for car in cars:
+            car.drive(0.0, 0.0)  # each boots latched until it hears neutral
+        fleet.run(CONTROL_PERIOD_S)
+        sim_log = _sim_log(cars[0], log, serve_port, "challenge --teams")
+        running: list[_Team] = []
+        touching: set[tuple[int, int]] = set()
+        next_report = 1.0
+        try:
+            while True:
+                t = fleet.time_s
+                if len(running) < teams and t >= len(running) * behind_s and _clear(cars[:len(running)], start):
+                    car = cars[len(running)]
+                    if running:  # to the start, at rest, as if it had just been put there
+                        kidnap(car, start)
+                        fleet.run(CONTROL_PERIOD_S)
+                    running.append(_Team(track, car, route, oracle, seed + 100 * len(running), scoring, latency_s,
+                                         fps, max_seconds, particles, started_s=fleet.time_s))
+                    result.starts_s.append(fleet.time_s)
+                done = [team.period(sim_log if i == 0 else None) for i, team in enumerate(running)]
+                if sim_log is not None:
+                    for i, car in enumerate(cars[1:len(running)], 1):
+                        sim_log.other(f"car_{i + 1}", car)
+                if all(done) and (len(running) == teams or t >= max_seconds):
+                    break  # every car finished or out of time (a car whose start never cleared: not started)
+                for i, team in enumerate(running):
+                    if done[i] and not team.lifted:  # finished or out of time: lifted off the course, as a
+                        team.bot.send(Command(0.0, 0.0))  # team takes its car away (a car at the goal would
+                        kidnap(team.bot, lifted[i])  # stand where the next one must finish)
+                        team.lifted = True
+                fleet.run(CONTROL_PERIOD_S)
+                for a in range(len(running)):
+                    for b in range(a + 1, len(running)):
+                        if fleet.touching(a, b):
+                            if (a, b) not in touching:
+                                result.contacts.append((fleet.time_s, a, b))
+                            touching.add((a, b))
+                        else:
+                            touching.discard((a, b))
+                if progress is not None and fleet.time_s >= next_report:
+                    last = running[-1].driver.mission
+                    progress(fleet.time_s, last.progress_m, last.length_m)
+                    next_report += 1.0
+        finally:
+            if sim_log is not None:
+                sim_log.close()
+        result.teams = [team.finish() for team in running]
+    return result
+
+
+def _route(track: Track, goal_m: float | None) -> np.ndarray:
+    if track.course is None:
+        raise TrackError(f"{track.name}: the challenge needs a tunnel world (tunnel:SEED): this track has no course")
+    return route_to_goal(track, goal_m)
+
+
+def _sim_log(bot, log, serve_port: int | None, driver: str):
+    if log is None and serve_port is None:
+        return None
+    import sys
+
+    from roar_sim.links.sim_log import SimLog
+
+    return SimLog(bot, log, {"command": " ".join(sys.argv), "driver": driver}, serve_port)
+
+
+def _clear(cars, start) -> bool:
+    """No car within START_CLEAR_M of the start."""
+    for car in cars:
+        s = car.state()
+        if math.hypot(s.x - start[0], s.y - start[1]) < START_CLEAR_M:
+            return False
+    return True
+
+
+class _Team:
+    """One car running the challenge: its localization, camera, driver and referee, stepped one
+    control period at a time by whoever moves the world (challenge() alone, challenge_teams() in
+    a fleet). Times are its own, from started_s."""
+
+    def __init__(self, track: Track, bot, route, oracle: bool, seed: int, scoring: Scoring, latency_s: float,
+                 fps: float, max_seconds: float, particles: int, started_s: float = 0.0) -> None:
+        course = track.course
+        self.bot, self.oracle, self.latency_s, self.fps = bot, oracle, latency_s, fps
+        self.max_seconds, self.started_s = max_seconds, started_s
+        self.goal_xy = tuple(route[-1])
+        self.result = result = ChallengeResult(track.name, oracle, scoring, course=course)
+        known = world_map(track)
+        self.local = LocalGrid(10.0, known.resolution_m, known)
+        cam_model = SIMULATED_CAR_CAMERA.model(*CAMERA_SIZE)
+        self.car = LocalizedCar(bot, known, seed, 10 if oracle else particles, start="true", local_grid=self.local,
+                                oracle=oracle)
+        result.localization = self.car.log
+        model = bot.model
+        self.driver = CourseDriver(known, route, cam_model, self.local, wheelbase_m=model.wheelbase_m,
+                                   max_steer_rad=model.max_steer_rad, max_speed_m_s=model.limits.max_speed_m_s,
+                                   bonus_s=scoring.marker_bonus_s, seed=seed, plan_latency_s=PLAN_LATENCY_S)
+        result.events = self.driver.events  # the driver's and the referee's, in time order
+        self.camera = ShakyCamera(bot.plant, *CAMERA_SIZE, seed + 2)
+        self.referee = _Referee(track, bot, cam_model, result)
+        self.frames: deque = deque()  # (arrives at [s], captured at [s], rgb, depth)
+        self.true_history = PoseHistory()
+        self.next_frame = started_s  # [s] the next frame's capture
+        self.done = False
+        self.lifted = False  # taken off the course at its end (challenge_teams)
+
+    def period(self, sim_log=None) -> bool:
+        """Sense, decide and send this control period's command; True once finished or out of
+        time (nothing more is sent)."""
+        if self.done:
+            return True
+        car, result, driver = self.car, self.result, self.driver
+        obs = car.observe()
+        t = obs.t_s
+        truth = self.bot.state()
+        self.true_history.add(t, (truth.x, truth.y, truth.yaw))
+        self.referee.watch(t, truth, driver)
+        if math.hypot(truth.x - self.goal_xy[0], truth.y - self.goal_xy[1]) <= FINISH_M:
+            result.finished, result.time_s, self.done = True, t - self.started_s, True
+            return True
+        if t - self.started_s >= self.max_seconds:
+            result.time_s, self.done = t - self.started_s, True
+            return True
+        # the camera: a frame now, delivered latency_s later with its capture time
+        if t + 1e-9 >= self.next_frame:
+            rgb, depth = self.camera()
+            self.frames.append((t + self.latency_s, t, rgb, depth))
+            if sim_log is not None:
+                sim_log.image(rgb)
+            self.next_frame += 1.0 / self.fps
+        arrived = []
+        while self.frames and self.frames[0][0] <= t + 1e-9:
+            _, taken, rgb, depth = self.frames.popleft()
+            self.referee.frame_received(self.true_history.at(taken) or (truth.x, truth.y, truth.yaw))
+            arrived.append((rgb, depth, taken))
+        command = driver.step(t, (obs.x, obs.y, obs.yaw), obs.speed, arrived)
+        car.explore, car.towards = driver.exploring, driver.towards
+        car.send(command)
         if sim_log is not None:
-            sim_log.close()
+            sim_log.step()
+            if not self.oracle:
+                sim_log.localization(car)
+            sim_log.planning(driver, self.local)
+        return False
+
+    def finish(self) -> ChallengeResult:
+        result, driver = self.result, self.driver
         result.detections = {kind: driver.objects(kind) for kind in ("cone", "marker")}
         result.tree = driver.planner.tree.poses() if driver.planner.tree is not None else None
         for name in ("plans", "failed_plans", "lost_s", "back_ups", "late_brakes", "guard_stops", "paths"):
             setattr(result, name, getattr(driver, name))
-    return result
+        return result
 
 
 class _Referee:
@@ -325,7 +472,8 @@ detections, the planner's paths and last tree, and the driven path.
 
 
 def parser():
-    from roar.cli.sdk import ArgumentParser, add_foxglove_option, number_option, path_option, seed_option
+    from roar.cli.sdk import (ArgumentParser, add_foxglove_option, int_option, number_option, path_option,
+                              seed_option)
     from roar_sim import robots
 
     seconds = number_option(0, 3600, "s")
@@ -348,6 +496,10 @@ def parser():
     p.add_argument("--seed", type=seed_option, default=1, help="the sensors' noise and the planner's samples (default 1)")
     p.add_argument("--robot", choices=[n for n in robots.names() if n == "esc"], default="esc",
                    help="the car (the ESC car: the planner's arcs are a steered car's)")
+    p.add_argument("--teams", type=int_option(1, MAX_TEAMS), default=1, metavar="N",
+                   help=f"run N cars concurrently (1-{MAX_TEAMS}), as the challenge's second round: from the same "
+                        f"start, each {TEAM_GAP_S:g} s after the one before, each with its own localization, "
+                        f"detection and planning; the others are moving obstacles to it; each scored on its own")
     p.add_argument("--plot", type=path_option, metavar="PNG", help="draw the run into this PNG")
     p.add_argument("--log", type=path_option, metavar="MCAP",
                    help="record the run into this MCAP file: the firmware's side, the filter, the camera's frames, the "
@@ -380,14 +532,22 @@ def main(argv: list[str] | None = None) -> int:
         bar.n = min(1.0, along_m / max(route_m, 1e-9))
         bar.refresh()
 
+    options = dict(oracle=args.oracle, seed=args.seed, scoring=Scoring(args.cone_penalty, args.marker_bonus),
+                   latency_s=args.latency, fps=args.fps, goal_m=args.to, max_seconds=args.seconds, progress=progress,
+                   log=args.log, serve_port=args.foxglove)
     try:
-        result = challenge(track, oracle=args.oracle, seed=args.seed,
-                           scoring=Scoring(args.cone_penalty, args.marker_bonus), latency_s=args.latency,
-                           fps=args.fps, goal_m=args.to, max_seconds=args.seconds, robot=args.robot,
-                           progress=progress, log=args.log, serve_port=args.foxglove)
+        if args.teams > 1:
+            teams = challenge_teams(track, args.teams, **options)
+        else:
+            result = challenge(track, robot=args.robot, **options)
     finally:
         bar.close()
-    print(result.report())
+    if args.teams > 1:
+        print(teams.report(args.teams))
+        results = teams.teams
+    else:
+        print(result.report())
+        results = [result]
     if args.plot:
         def draw():
             fig, ax = plotting.subplots(figsize=(9, 7))
@@ -395,17 +555,21 @@ def main(argv: list[str] | None = None) -> int:
             for ring in track.region.interiors:
                 ax.fill(*np.asarray(ring.xy), color="white", zorder=0)
             plotting.draw_track(ax, track)
-            result.draw(ax)
+            results[0].draw(ax)
+            for i, other in enumerate(results[1:], 2):
+                path = np.array(other.true_path)
+                ax.plot(path[:, 0], path[:, 1], color=f"C{i}", lw=1.0, label=f"car {i} driven")
             ax.set_aspect("equal")
             ax.set_xlabel("x [m]")
             ax.set_ylabel("y [m]")
-            ax.set_title(f"{track.name}: score {result.score:.2f} s")
+            ax.set_title(f"{track.name}: score " + ", ".join(f"{r.score:.2f} s" for r in results))
             ax.legend(fontsize=7, loc="best")
             return fig
 
         if not plotting.save(draw, args.plot):  # (it says where the plot went)
             return ExitStatus.ERROR
-    return ExitStatus.OK if result.finished else ExitStatus.SHORT
+    finished = len(results) == args.teams and all(r.finished for r in results)
+    return ExitStatus.OK if finished else ExitStatus.SHORT
 
 
 if __name__ == "__main__":

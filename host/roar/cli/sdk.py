@@ -101,6 +101,16 @@ def number_option(low: float, high: float, unit: str = "", low_open: bool = Fals
     return parse
 
 
+def int_option(low: int, high: int) -> Callable[[str], int]:
+    """An argparse type: a whole number in low..high, else the option's one-line error."""
+    def parse(text: str) -> int:
+        digits = text.strip()
+        if not digits.lstrip("-").isdigit() or not low <= int(digits) <= high:
+            raise argparse.ArgumentTypeError(f"must be a whole number {low}..{high}, got {text!r}")
+        return int(digits)
+    return parse
+
+
 def port_option(text: str) -> int:
     """An argparse type: a TCP port, a whole number 1..65535."""
     if not text.strip().isdigit() or not 1 <= int(text) <= 65535:
