@@ -46,9 +46,19 @@ def test_the_built_types_are_the_upstream_types():
         assert interfaces.current(package)
 
 
+UP_S = 60.0  # [s] a bridge that has not said it is up by then has hung: killed, and the test fails
+
+
 def serve(url: str, *options: str, env: dict[str, str]) -> subprocess.Popen:
+    import selectors
+
     bridge = subprocess.Popen([*ROAR, "ros2", url, *options], env=env, stdout=subprocess.PIPE,
                               stderr=subprocess.STDOUT, text=True)
+    with selectors.DefaultSelector() as waiting:  # a hung start fails the test, never the whole suite
+        waiting.register(bridge.stdout, selectors.EVENT_READ)
+        if not waiting.select(UP_S):
+            bridge.kill()
+            pytest.fail(f"roar ros2 {url} said nothing in {UP_S:g} s: " + bridge.communicate()[0][-2000:])
     line = bridge.stdout.readline()
     assert "is node /roar" in line, line + bridge.stdout.read()
     return bridge
@@ -58,7 +68,11 @@ def stop(bridge: subprocess.Popen) -> str:
     """Ctrl-C: it ends within a second, leaving the car at neutral, and says what it did."""
     bridge.send_signal(signal.SIGINT)
     start = time.monotonic()
-    out, _ = bridge.communicate(timeout=10)
+    try:
+        out, _ = bridge.communicate(timeout=10)
+    except subprocess.TimeoutExpired:  # killed, not left running through the rest of the suite
+        bridge.kill()
+        pytest.fail("roar ros2 did not end within 10 s of Ctrl-C: " + bridge.communicate()[0][-2000:])
     assert time.monotonic() - start < 1.0, out
     assert bridge.returncode == 130, out
     assert "the car was left at neutral" in out, out
