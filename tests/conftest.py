@@ -38,8 +38,9 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if item.get_closest_marker("realtime") is not None:
             item.add_marker(pytest.mark.xdist_group(REALTIME_GROUP))
-            if grouping:
-                _join_group(item, REALTIME_GROUP)
+        group = item.get_closest_marker("xdist_group")  # the realtime one, or a module's (one set-up, one worker)
+        if grouping and group is not None:
+            _join_group(item, group.args[0] if group.args else group.kwargs["name"])
 
 
 BACKGROUND_NICE = 10  # the CPU-bound tests' priority under xdist: a realtime test's threads go first

@@ -14,6 +14,8 @@ import pytest
 from conftest import ROOT
 
 HEAVY = ["pybullet", "matplotlib", "bleak", "bumble", "cffi"]
+# one worker for the module (--dist loadgroup): its fixtures build a venv and a wheel once, not on every worker
+pytestmark = pytest.mark.xdist_group("install")
 
 
 @pytest.fixture(scope="module")
