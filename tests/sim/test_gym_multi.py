@@ -142,3 +142,12 @@ def test_bad_keywords_are_one_value_error(keywords, words):
     with pytest.raises(ValueError) as e:
         parallel_env(**{"track": TRACK, **keywords})
     assert words in str(e.value) and "\n" not in str(e.value)
+
+
+def test_the_rgb_array_render_shows_the_race_from_behind_the_first_car():
+    env = parallel_env(track=TRACK, cars=2, render_mode="rgb_array")
+    assert env.render() is None  # nothing to show before reset()
+    env.reset(seed=0)
+    frame = env.render()
+    env.close()
+    assert frame.shape == (240, 320, 3) and frame.dtype == np.uint8 and frame.std() > 5.0

@@ -71,16 +71,29 @@ MAX_LIDAR_BEAMS = 1080  # beams of the largest scan
 SLIDE_M_S = 3.0  # [m/s] allowed sideways besides the speed along the heading, for the projection's search
 
 
-def _problems(render_modes, track, camera, max_seconds, contact_penalty, crash_ends, lidar_beams, render_mode,
-              robot, kind) -> list[str]:
-    """What is wrong with RaceEnv's keywords, one phrase each."""
-    problems = []
-
+def number_check(problems: list[str]):
+    """check(name, value, low, high, unit="", low_open=False): a number out of its range adds its
+    phrase (roar.checks.number's) to `problems`."""
     def check(name, value, low, high, unit="", low_open=False):
         try:
             number(name, value, low, high, unit, low_open)
         except ValueError as e:
             problems.append(str(e))
+    return check
+
+
+def chase_view(world, s, behind_m: float = 1.2, up_m: float = 0.8, fov_deg: float = 60.0, far_m: float = 10.0):
+    """RGB (VIEW_SIZE) from a camera behind_m [m] behind a car in state s and up_m above the floor."""
+    position = [s.x - behind_m * math.cos(s.yaw), s.y - behind_m * math.sin(s.yaw), up_m]
+    rgb, _ = world.render(position, s.yaw, math.atan2(up_m, behind_m + 1.0), *VIEW_SIZE, fov_deg, far_m=far_m)
+    return rgb
+
+
+def _problems(render_modes, track, camera, max_seconds, contact_penalty, crash_ends, lidar_beams, render_mode,
+              robot, kind) -> list[str]:
+    """What is wrong with RaceEnv's keywords, one phrase each."""
+    problems = []
+    check = number_check(problems)
 
     if not isinstance(robot, str):
         problems.append(f"robot must be a robot's name ({', '.join(robots.names())}), got {shown(robot)}")
@@ -241,11 +254,7 @@ class RaceEnv(gym.Env):
     def render(self):
         if self.render_mode != "rgb_array" or self.sim is None:
             return None
-        s = self.sim.state()
-        behind, up = 1.2, 0.8  # [m] the chase camera
-        position = [s.x - behind * math.cos(s.yaw), s.y - behind * math.sin(s.yaw), up]
-        rgb, _ = self.sim.plant.world.render(position, s.yaw, math.atan2(up, behind + 1.0), *VIEW_SIZE, 60.0)
-        return rgb
+        return chase_view(self.sim.plant.world, self.sim.state())
 
     def close(self) -> None:
         if self.sim is not None:

@@ -41,13 +41,13 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
-from roar.checks import number, shown
+from roar.checks import shown
 from roar.tracks import Track, get
 from roar.tracks.names import FORMS
 from roar_sim.core.lockstep import CONTROL_PERIOD_S as PERIOD_S
 from roar_sim.gym_env import (LIDAR_BEAMS, LIDAR_EVERY, LIDAR_RANGE_M, MAX_CONTACT_PENALTY, MAX_LIDAR_BEAMS,
-                              MAX_SECONDS_S, START_HEADING_RAD, START_OFFSET_M, VIEW_SIZE, Place, action_values,
-                              state_bounds)
+                              MAX_SECONDS_S, START_HEADING_RAD, START_OFFSET_M, Place, action_values, chase_view,
+                              number_check, state_bounds)
 from roar_sim.robots.esc import EscCar
 from roar_sim.runs.fleet import MAX_CARS, Fleet
 from roar_sim.runs.head_to_head import check_race_track, grid
@@ -56,12 +56,7 @@ from roar_sim.runs.head_to_head import check_race_track, grid
 def _problems(track, cars, max_seconds, contact_penalty, car_contact_penalty, crash_ends, lidar_beams,
               render_mode, render_modes) -> list[str]:
     problems = []
-
-    def check(name, value, low, high, unit="", low_open=False):
-        try:
-            number(name, value, low, high, unit, low_open)
-        except ValueError as e:
-            problems.append(str(e))
+    check = number_check(problems)
 
     if not isinstance(track, (str, Track)):
         problems.append(f"track must be a Track or a track's name ({FORMS}), got {shown(track)}")
@@ -198,11 +193,7 @@ class RaceParallelEnv(ParallelEnv):
         """A chase view behind car_0 (rgb_array)."""
         if self.render_mode != "rgb_array" or self.fleet is None:
             return None
-        s = self.fleet.cars[0].state()
-        behind, up = 2.0, 1.5  # [m] the camera
-        position = [s.x - behind * math.cos(s.yaw), s.y - behind * math.sin(s.yaw), up]
-        rgb, _ = self.fleet.world.render(position, s.yaw, math.atan2(up, behind + 2.0), *VIEW_SIZE, 70.0, far_m=30.0)
-        return rgb
+        return chase_view(self.fleet.world, self.fleet.cars[0].state(), 2.0, 1.5, 70.0, far_m=30.0)
 
     def state(self) -> np.ndarray:
         """Every car's state observation, car_0 first, in one array."""
