@@ -37,6 +37,8 @@ pf.start_at(start)  # or pf.start_global() when you do not know (it then needs t
 odometry, travelled, last = Odometry(start), 0.0, None
 with Vehicle(url) as car:
     car.wait_armed(timeout_s=5)
+    s = car.state()  # one scan standing still first: the filter's kernels compile now (seconds, once), not on the move
+    pf.correct(LaserScan.fan(car.lidar(), LIDAR_FOV_RAD, s.time_s))
     car.drive(throttle=0.15)
     end = time.monotonic() + 4.0
     printed = 0.0

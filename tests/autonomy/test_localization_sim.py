@@ -189,7 +189,7 @@ def test_the_localize_example_knows_where_the_car_is_as_it_would_on_a_car():
                             timeout=120, cwd=ROOT)
     assert result.returncode == 0, result.stderr[-2000:]
     poses = [line for line in result.stdout.splitlines() if line.startswith("t ")]
-    assert len(poses) >= 2  # twice a second of the car's time for 4 s of the wall clock (2 seen on a busy, slow day)
+    assert len(poses) >= 3  # twice a second of the car's time for 4 s of the wall clock (fewer when the machine is busy)
     ys = [float(line.split("y")[1].split("m")[0]) for line in poses]
     assert ys[-1] - ys[0] > 0.5  # it followed the car as it crept along the corridor
     error = float(result.stdout.split("the filter's error: ")[1].split(" m")[0])

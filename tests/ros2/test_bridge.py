@@ -141,8 +141,8 @@ def test_a_wall_follower_laps_the_oval_by_its_scan_alone_and_the_bridge_localize
         (m.header.stamp.sec + m.header.stamp.nanosec * 1e-9, m.pose.pose.position.x, m.pose.pose.position.y,
          m.header.frame_id)), 10)
     try:
-        node = subprocess.Popen([sys.executable, str(ROOT / "examples/ros2/wall_follow.py"), "--for", "10",
-                                 "--speed", "1.5"],
+        node = subprocess.Popen([sys.executable, str(ROOT / "examples/ros2/wall_follow.py"), "--for", "18",
+                                 "--speed", "1.0"],
                                 env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         while node.poll() is None:
             rclpy.spin_once(probe, timeout_sec=0.02)

@@ -12,6 +12,9 @@ from roar.localization import LaserScan, ParticleFilter
 from roar.localization.odometry import Pose, compose, relative
 
 PARTICLES = 2500
+WARM_PARTICLES = 10  # a throwaway filter's, to compile the kernels before the node is up
+WARM_BEAMS = 1080  # its scan's (a Hokuyo's)
+WARM_FOV_RAD = 4.71238898038469  # [rad] 270 deg
 
 
 class MapLocalizer:
@@ -20,6 +23,11 @@ class MapLocalizer:
     lidar_mount: where the lidar sits on the car (x ahead, y left, yaw)."""
 
     def __init__(self, known, start: Pose | None, lidar_mount: Pose = (0.0, 0.0, 0.0), seed: int = 0) -> None:
+        # the filter's kernels compile on their first scan (seconds, once a process): on a throwaway
+        # filter now, before the node is up, not while the car drives and its scans queue
+        warm = ParticleFilter(known, WARM_PARTICLES, sensor=lidar_mount, seed=seed)
+        warm.start_global()
+        warm.correct(LaserScan.fan(np.full(WARM_BEAMS, 1.0), WARM_FOV_RAD, 0.0))
         self.filter = ParticleFilter(known, PARTICLES, sensor=lidar_mount, seed=seed)
         if start is None:
             self.filter.start_global()
