@@ -18,8 +18,13 @@ TRACK = "random:3,width=2.2"
 def test_pettingzoos_api_test_passes():
     from pettingzoo.test import parallel_api_test
 
+    import warnings
+
     env = parallel_env(track=TRACK, cars=3, max_seconds=1.0)
-    parallel_api_test(env, num_cycles=60)
+    with warnings.catch_warnings():  # its findings short of an assertion are warnings: each one fails here
+        warnings.filterwarnings("error", module="pettingzoo")
+        parallel_api_test(env, num_cycles=60)  # raises AssertionError on an API breach
+    assert env.agents == []  # every car truncated at max_seconds (50 steps) within the 60 cycles
     env.close()
 
 

@@ -109,7 +109,6 @@ class RaceParallelEnv(ParallelEnv):
         self.fleet: Fleet | None = None
         self._places: list[Place] = []
         self._scans: list[np.ndarray | None] = []
-        self._start_s: list[float] = []
         self._raced: list[float] = []
         self._steps = 0
         self.np_random, _ = seeding.np_random(None)
@@ -170,8 +169,8 @@ class RaceParallelEnv(ParallelEnv):
             cars[i].drive(*commands.get(agent, (0.0, 0.0)))  # a car out of the race stands at neutral
         self.fleet.run(PERIOD_S)
         states = [car.state() for car in cars]
-        n = len(cars)
-        touching = [[j for j in range(n) if j != i and self.fleet.touching(min(i, j), max(i, j))] for i in range(n)]
+        pairs = self.fleet.touching_pairs()
+        touching = [sorted(b if a == i else a for a, b in pairs if i in (a, b)) for i in range(len(cars))]
         observations = self._observations(states)
         time_up = self.fleet.time_s >= self.max_seconds
         rewards, terminations, truncations, infos = {}, {}, {}, {}

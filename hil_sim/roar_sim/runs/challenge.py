@@ -277,14 +277,9 @@ def challenge_teams(track: Track, teams: int = 2, behind_s: float = TEAM_GAP_S, 
                         kidnap(team.bot, lifted[i])  # stand where the next one must finish)
                         team.lifted = True
                 fleet.run(CONTROL_PERIOD_S)
-                for a in range(len(running)):
-                    for b in range(a + 1, len(running)):
-                        if fleet.touching(a, b):
-                            if (a, b) not in touching:
-                                result.contacts.append((fleet.time_s, a, b))
-                            touching.add((a, b))
-                        else:
-                            touching.discard((a, b))
+                now = fleet.touching_pairs(len(running))
+                result.contacts += [(fleet.time_s, a, b) for a, b in sorted(now - touching)]  # each as it starts
+                touching = now
                 if progress is not None and fleet.time_s >= next_report:
                     last = running[-1].driver.mission
                     progress(fleet.time_s, last.progress_m, last.length_m)

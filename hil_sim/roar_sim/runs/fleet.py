@@ -61,5 +61,10 @@ class Fleet(Lockstep):
         return bool(pb.getContactPoints(bodyA=self.cars[a].plant.car, bodyB=self.cars[b].plant.car,
                                         physicsClientId=self.world.client))
 
+    def touching_pairs(self, count: int | None = None) -> set[tuple[int, int]]:
+        """Every pair (a, b), a < b, of the first `count` cars (all by default) in contact now."""
+        n = len(self.cars) if count is None else count
+        return {(a, b) for a in range(n) for b in range(a + 1, n) if self.touching(a, b)}
+
     def close(self) -> None:
         self.world.close()

@@ -33,7 +33,6 @@ from roar_sim.core.lockstep import CONTROL_PERIOD_S as PERIOD_S
 from roar_sim.robots.esc import EscCar
 from roar_sim.runs.fleet import Fleet
 from roar_sim.runs.progress import laps_bar
-from roar_sim.world.bullet import pb
 
 MAX_OPPONENTS = 5
 LINES = ("centre", "racing", "defensive")
@@ -212,16 +211,10 @@ def head_to_head(track: Track, rivals: list[Rival], laps: int = 2, pace: float =
                         lap_start[i] = fleet.time_s
                     now.append((s_now, d_now, st.speed))
                 history.append(now)
-                for a in range(n):
-                    for b in range(a + 1, n):
-                        pair = (a, b)
-                        if pb.getContactPoints(bodyA=cars[a].plant.car, bodyB=cars[b].plant.car,
-                                               physicsClientId=fleet.world.client):
-                            if pair not in touching:
-                                result.contacts.append(attribute(track, history, travelled, a, b, fleet.time_s))
-                            touching.add(pair)
-                        else:
-                            touching.discard(pair)
+                now_touching = fleet.touching_pairs()
+                for a, b in sorted(now_touching - touching):  # each contact as it starts
+                    result.contacts.append(attribute(track, history, travelled, a, b, fleet.time_s))
+                touching = now_touching
                 behind = [travelled[0] < travelled[j] for j in range(n)]
                 if behind_of is not None:
                     result.overtakes += sum(1 for j in range(1, n) if behind_of[j] and not behind[j])
