@@ -560,7 +560,8 @@ def test_our_particle_filter_runs_over_a_foreign_bag(tmp_path):
 
 
 # a user's node: /drive (or the topic given) at 40 Hz, speed [m/s] and steering [rad] as given, for
-# the seconds given (inf: until killed)
+# the seconds given (inf: until killed), counted from when the bridge subscribes (discovery takes
+# seconds on a busy machine; it exits 3 if the bridge has not subscribed within 30 s)
 DRIVES = textwrap.dedent("""
     import sys, time, rclpy
     from ackermann_msgs.msg import AckermannDriveStamped
@@ -568,6 +569,11 @@ DRIVES = textwrap.dedent("""
     rclpy.init()
     node = rclpy.create_node("user")
     pub = node.create_publisher(AckermannDriveStamped, topic, 10)
+    found = time.monotonic() + 30
+    while pub.get_subscription_count() == 0:
+        if time.monotonic() > found:
+            sys.exit(f"nobody subscribed to {topic} within 30 s")
+        time.sleep(0.05)
     end = time.monotonic() + seconds
     while time.monotonic() < end:
         msg = AckermannDriveStamped()
@@ -633,7 +639,7 @@ def test_the_iarrc_car_takes_drive_speeds_as_setpoints_on_a_remapped_topic(tmp_p
                    "--ros-args", "-r", "/drive:=/ego/drive", env=env)
     try:
         node = subprocess.run([sys.executable, "-c", DRIVES, "/ego/drive", "1.0", "0.0", "4"], env=env,
-                              capture_output=True, text=True, timeout=30)
+                              capture_output=True, text=True, timeout=60)
     finally:
         out = stop(bridge)
     assert node.returncode == 0, node.stderr

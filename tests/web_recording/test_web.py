@@ -35,6 +35,9 @@ CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networki
 # [s] beyond the dead man, for the car's thread and a busy machine: the suite runs a CPU-bound test beside
 # this one on two cores, and the server, the simulator, Chromium and the sender then took up to 71 ms
 SLACK_S = 0.1
+# [s] for Chromium itself to tear a closed tab down and cut its socket on a busy machine (up to 0.42 s
+# seen beside a CPU-bound test): not our code's latency, which counts from the socket's end
+BROWSER_CLOSE_S = 1.0
 
 
 # --- the rules, on their own ------------------------------------------------------------------------
@@ -392,6 +395,7 @@ class WireLog:
     def __init__(self, car) -> None:
         self.writes: list[tuple[float, tuple[int, int]]] = []
         self.received: list[float] = []
+        self.left: list[float] = []  # when the server saw a page's socket end
         link = car.transport
         inner = link.write
 
@@ -413,6 +417,13 @@ class WireLog:
             return handle(client_id, text, now_s)
 
         server.controls.handle = handled
+        leave = server.controls.leave
+
+        def left(client_id):
+            self.left.append(time.monotonic())
+            return leave(client_id)
+
+        server.controls.leave = left
 
     def quiet_to_neutral(self, after: float) -> float:
         """[s] from the pages' last message to the car's neutral, the first after `after`: the
@@ -546,7 +557,10 @@ def test_closing_the_tab_brings_neutral_within_250_ms(page_on, sim_web):
     closed = time.monotonic()
     page.close()
     assert wait_for(lambda: log.first(closed, NEUTRAL), 2.0)
-    assert log.first(closed, NEUTRAL) - closed <= DEAD_MAN_S
+    neutral = log.first(closed, NEUTRAL)
+    assert neutral - closed <= DEAD_MAN_S + BROWSER_CLOSE_S
+    cut = min(t for t in log.left if t >= closed)  # the server saw the socket end
+    assert neutral - cut <= DEAD_MAN_S, f"{neutral - cut:.3f} s from the socket's end to neutral"
 
 
 def test_a_hidden_page_brings_neutral(page_on, sim_web):

@@ -6,7 +6,9 @@ A car is named by a URL:
 from __future__ import annotations
 
 import logging
+import signal
 import sys
+import threading
 from importlib.metadata import EntryPoint, PackageNotFoundError, entry_points, version
 
 from roar.cli.sdk import ArgumentParser, Command, UserError, run_command
@@ -103,9 +105,15 @@ def _version() -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from_command_line = argv is None
     argv = sys.argv[1:] if argv is None else list(argv)
     command = next((a for a in argv if not a.startswith("-")), None)
-    return run_command(f"roar {command}" if command else "roar", _main, argv)
+    status = run_command(f"roar {command}" if command else "roar", _main, argv)
+    if from_command_line and threading.current_thread() is threading.main_thread():
+        # it has ended: a Ctrl-C while the interpreter shuts down (its threads, its atexit) must
+        # not turn the status it reports (130 for the Ctrl-C that ended it) into a death by SIGINT
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    return status
 
 
 def _main(argv: list[str]) -> int:
