@@ -126,8 +126,8 @@ def test_a_short_challenge_run_touches_no_cone_and_counts_each_object_once():
 def test_two_teams_run_the_course_concurrently_each_seeing_the_other_as_an_obstacle():
     """The challenge's concurrent round on tunnel:3 to 12 m: the second car starts 2 s after the
     first, from the same start, on its own stack (to it the first car is an unmapped obstacle that
-    moves); both finish touching no cone, no wall and not each other, and a marker both drove over
-    counts for both. (`make bench` runs the whole course on tunnel:1..10.)"""
+    moves, and its red parts no cone); both finish touching no cone, no wall and not each other, and a
+    marker both drove over counts for both. (`make bench` runs the whole course on tunnel:1..10.)"""
     from roar_sim.runs.challenge import challenge_teams
 
     result = challenge_teams(get("tunnel:3"), 2, goal_m=12.0, seed=2)
@@ -139,6 +139,7 @@ def test_two_teams_run_the_course_concurrently_each_seeing_the_other_as_an_obsta
         assert not team.cones_touched and team.wall_contacts == 0, report
     assert first.markers_taken & second.markers_taken, report  # shared: each car scores the ones it took
     assert second.localization.rms_position_m() < 0.1, report  # its own filter, the first car in its scans
+    assert second.precision_recall()["cone"] == (1.0, 1.0), report  # the first car's red rims are no cone
     assert math.dist(second.true_path[0], first.true_path[0]) < 0.1  # the same start; its time from its own
 
 

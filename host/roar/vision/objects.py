@@ -8,7 +8,8 @@ is grey (the floor and walls are), then all so that grey sits mid-range. So a di
 or cold light (the simulator's Light; a real room's lamps) leaves the hues in range: orange
 OpenCV hue 0-22 (of 180), green 38-90. Each region of enough pixels (after an opening takes out specks) is one object; its
 pixels' depths put it in the car's frame (the pinhole camera of roar.vision.geometry), the pose
-then in the world. A cone is placed at its centre (its seen surface pushed back by its radius).
+then in the world. A cone is placed at its centre (its seen surface pushed back by its radius); an
+orange region that does not stand on the floor and up from it is not a cone (another car's red parts).
 
     detector = ObjectDetector(SIMULATED_CAR_CAMERA.model(320, 240))
     for d in detector.detect(rgb, depth, pose_at_capture, t_capture):
@@ -35,6 +36,11 @@ MAX_GAIN = 8.0  # the most balancing brightens a channel (a darker frame stays d
 MERGE_M = 0.6  # [m] regions of one colour placed nearer than this are one object (a marker, 0.5 m long, seen in
 # pieces: dim, or half hidden); two cones or two markers stand at least 1.2 m apart (roar.tracks.tunnel)
 MAX_RANGE_M = 4.5  # [m] farther objects are too few pixels to place well
+# A cone stands on the floor and stands up: an orange region (not cut by the frame's top or bottom) whose lowest
+# point is higher, or which spans less height, is something else -- another car's red parts: the simulated car's
+# camera box (0.125-0.155 m up), its wheels' rims (up to 0.1 m, a few centimetres tall)
+CONE_BASE_WITHIN_M = 0.08  # [m] of the floor
+CONE_SEEN_M = 0.12  # [m] of its CONE_HEIGHT_M (0.3 m) seen at least
 
 
 @dataclass(frozen=True)
@@ -93,7 +99,11 @@ class ObjectDetector:
                 ok = np.isfinite(z) & (z > 0)
                 if not ok.any():
                     continue
-                ahead, left, _ = c.unproject(self._u[sel][ok], self._v[sel][ok], z[ok])
+                ahead, left, up = c.unproject(self._u[sel][ok], self._v[sel][ok], z[ok])
+                cut = stats[k, 1] == 0 or stats[k, 1] + stats[k, 3] >= c.height  # the frame cuts it
+                if kind == "cone" and not cut and (float(np.min(up)) > CONE_BASE_WITHIN_M
+                                                   or float(np.ptp(up)) < CONE_SEEN_M):
+                    continue
                 fx, fy = float(np.median(ahead)), float(np.median(left))
                 rng = math.hypot(fx - c.x_m, fy - c.y_m)
                 if rng > self.max_range_m:
