@@ -46,6 +46,8 @@ from roar.tracks.occupancy_map import OccupancyMap
 MAX_PARTICLES = 1_000_000
 MAX_BEAMS = 2_000
 GLOBAL_FACTOR = 20  # a global start draws this many times the particles, down to the usual count once localized
+SEARCH_PERIOD_S = 0.1  # [s] a search with those many particles weighs a scan at most this often: each costs 0.1 s
+# (20,000 particles x 60 beams) on a 2-core car computer, more than a 25 Hz lidar's 40 ms, so it would fall behind
 CONVERGED_M = 0.3  # [m] the particles' spread (position's standard deviation) below which the filter has converged
 MIN_MOVE_M, MIN_TURN_RAD = 0.01, math.radians(0.5)  # once localized, a scan corrects only after the car moved
 # this much (AMCL's rule: the same scan from the same place, weighed again and again, would make it overconfident)
@@ -183,6 +185,7 @@ class ParticleFilter:
         self._history: list[tuple] = []  # (odometry pose, angles, ranges, at_max) of scans kept while searching
         self._history_m = 0.0  # [m] driven since the last one kept
         self._scan: LaserScan | None = None  # the last one weighed (a challenge places its rivals by all its beams)
+        self._weighed_s: float | None = None  # [s] that scan's time
         self.restarts = 0  # global restarts after the filter was lost
         self.calibrate = calibrate
         self.odometry_scale = 1.0  # the odometry's distances times this are the car's, as learnt (calibrate=True)
@@ -285,7 +288,10 @@ class ParticleFilter:
         if not len(self.poses):
             raise LocalizationError("the filter has no particles: call start_at(pose) or start_global() first")
         if self.localized and self._moved_m < MIN_MOVE_M and self._turned_rad < MIN_TURN_RAD:
-            return False  # (a filter still searching weighs every scan)
+            return False  # (a filter still searching weighs every scan, up to SEARCH_PERIOD_S with many particles)
+        if len(self.poses) > self.count and not self.localized and self._weighed_s is not None \
+                and 0.0 <= scan.time_s - self._weighed_s < SEARCH_PERIOD_S:
+            return False
         subset = scan.every(self.beams)
         usable = subset.usable()
         self.skipped_beams += int(np.count_nonzero(~usable))
@@ -298,7 +304,7 @@ class ParticleFilter:
             self._place_by_scan = False
             self.poses = self._fresh_from_scan(len(self.poses), *self._every_beam(scan))
             self.weights = np.full(len(self.poses), 1.0 / len(self.poses))
-        self._scan = scan
+        self._scan, self._weighed_s = scan, scan.time_s
         measured = np.minimum(np.round(ranges / self.grid.resolution_m), self.max_cells).astype(np.int64)
         measured[subset.ranges[usable] >= min(scan.range_max_m, self.max_range_m)] = self.max_cells
         sensors = _compose(self.poses, self.sensor[0], self.sensor[1], 0.0)
