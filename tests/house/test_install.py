@@ -8,6 +8,7 @@ import os
 import subprocess
 import sys
 import zipfile
+from pathlib import Path
 
 import pytest
 
@@ -19,13 +20,30 @@ pytestmark = pytest.mark.xdist_group("install")
 
 
 @pytest.fixture(scope="module")
-def base_venv(tmp_path_factory):
-    venv = tmp_path_factory.mktemp("base") / "venv"
-    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
-    proc = subprocess.run([str(venv / "bin" / "pip"), "install", "-q", "--disable-pip-version-check", str(ROOT)],
+def wheel(tmp_path_factory) -> Path:
+    """The wheel built from the checkout, once for every environment here (with this environment's
+    setuptools: what pip would fetch into an isolated build is the same)."""
+    where = tmp_path_factory.mktemp("dist")
+    proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--no-build-isolation",
+                           "--disable-pip-version-check", "-w", str(where), str(ROOT)],
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-2000:]
-    return venv / "bin"
+    return next(where.glob("roar_platform-*.whl"))
+
+
+def venv_with(folder: Path, requirement: str) -> Path:
+    """A fresh virtual environment in folder with requirement installed (by this environment's pip,
+    so none is copied into each): its bin folder."""
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(folder)], check=True)
+    proc = subprocess.run([sys.executable, "-m", "pip", "--python", str(folder / "bin" / "python"), "install", "-q",
+                           "--disable-pip-version-check", requirement], capture_output=True, text=True, timeout=1200)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    return folder / "bin"
+
+
+@pytest.fixture(scope="module")
+def base_venv(tmp_path_factory, wheel):
+    return venv_with(tmp_path_factory.mktemp("base") / "venv", str(wheel))
 
 
 def run(bin_dir, *args, **kw):
@@ -60,12 +78,8 @@ def test_the_simulator_and_bluetooth_say_what_to_install(base_venv, argv, extra)
 # --- ROS 2: the wheels, and the two message types built on first use ----------------------------------
 
 @pytest.mark.skipif(sys.version_info[:2] != (3, 11), reason="the ROS 2 wheels are built for Python 3.11")
-def test_the_ros2_extra_installs_and_builds_its_types_on_first_use(tmp_path):
-    venv = tmp_path / "venv"
-    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
-    proc = subprocess.run([str(venv / "bin" / "pip"), "install", "-q", "--disable-pip-version-check",
-                           f"{ROOT}[ros2]"], capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr[-2000:]
+def test_the_ros2_extra_installs_and_builds_its_types_on_first_use(tmp_path, wheel):
+    venv = venv_with(tmp_path / "venv", f"{wheel}[ros2]").parent
     env = {k: v for k, v in os.environ.items() if k not in ("LD_LIBRARY_PATH", "_ROS_WHEELS_BOOTSTRAP_COMPLETE",
                                                             "AMENT_PREFIX_PATH", "PYTHONPATH")}
     first = run(venv / "bin", "roar", "ros2", "loop://", "--for", "0.3", "--domain", "231", env=env)
@@ -79,20 +93,13 @@ def test_the_ros2_extra_installs_and_builds_its_types_on_first_use(tmp_path):
 # --- the wheel, with the simulator, outside any checkout ---------------------------------------------
 
 @pytest.fixture(scope="module")
-def sim_wheel(tmp_path_factory):
-    """A wheel built from the checkout, installed with [sim] into a fresh virtual environment in a
-    folder of its own: (the wheel, the venv's bin folder, a working folder away from the checkout)."""
+def sim_wheel(tmp_path_factory, wheel):
+    """The wheel installed with [sim] into a fresh virtual environment in a folder of its own: (the
+    wheel, the venv's bin folder, a working folder away from the checkout)."""
     where = tmp_path_factory.mktemp("wheel")
-    proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--disable-pip-version-check",
-                           "-w", str(where / "dist"), str(ROOT)], capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    wheel = next((where / "dist").glob("roar_platform-*.whl"))
-    subprocess.run([sys.executable, "-m", "venv", str(where / "venv")], check=True)
-    proc = subprocess.run([str(where / "venv" / "bin" / "pip"), "install", "-q", "--disable-pip-version-check",
-                           f"{wheel}[sim]"], capture_output=True, text=True, timeout=1200)
-    assert proc.returncode == 0, proc.stderr[-2000:]
+    bin_dir = venv_with(where / "venv", f"{wheel}[sim]")
     (where / "work").mkdir()
-    return wheel, where / "venv" / "bin", where / "work"
+    return wheel, bin_dir, where / "work"
 
 
 def away_from_the_checkout(work, **env):
