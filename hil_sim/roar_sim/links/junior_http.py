@@ -275,7 +275,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.foxglove is not None:
         from roar_sim.links.sim_log import SimLog
 
-        log = lambda robot: SimLog(robot, None, {"command": " ".join(sys.argv)}, args.foxglove,  # noqa: E731
+        log = lambda robot: SimLog(robot, None, None, args.foxglove,  # noqa: E731
                                    drain_lines=False)
         print(f"its channels live: Foxglove, Open connection, ws://127.0.0.1:{args.foxglove}", flush=True)
     try:

@@ -286,7 +286,7 @@ def main(argv: list[str] | None = None) -> int:
         from roar_sim.links.sim_log import SimLog
 
         try:
-            phone.log = SimLog(sim, None, {"command": " ".join(sys.argv)}, args.foxglove, drain_lines=False)
+            phone.log = SimLog(sim, None, None, args.foxglove, drain_lines=False)
         except BaseException:
             sim.close()
             raise

@@ -133,7 +133,7 @@ def main(argv: list[str] | None = None) -> int:
         from roar_sim.links.sim_log import SimLog
 
         try:
-            log = SimLog(sim, None, {"command": " ".join(sys.argv)}, args.foxglove, drain_lines=False)
+            log = SimLog(sim, None, None, args.foxglove, drain_lines=False)
         except BaseException:
             sim.close()
             raise

@@ -4,7 +4,7 @@ simulator knows, each control period: the firmware's outputs (pulses, where the 
 from, the brake phase, latched), contacts with walls, cones and people, and -- where those pieces
 run -- the particle filter's pose and particles. Times are the simulator's.
 
-    log = SimLog(robot, "run.mcap", {"command": "roar race ..."})
+    log = SimLog(robot, "run.mcap", {"driver": "racer"})  # beside the car, track and command line
     ... each control period: log.step()   (and log.localization(filter) where one runs)
     log.close()
 """
@@ -12,6 +12,7 @@ run -- the particle filter's pose and particles. Times are the simulator's.
 from __future__ import annotations
 
 import json
+import sys
 
 import numpy as np
 
@@ -48,7 +49,8 @@ class SimLog:
         self.robot, self.drain_lines = robot, drain_lines
         track = getattr(robot, "track", None)
         info = {"car": f"sim://?robot={type(robot).__module__.rsplit('.', 1)[-1]}",
-                "track": getattr(track, "name", "") if track is not None else "open floor"}
+                "track": getattr(track, "name", "") if track is not None else "open floor",
+                "command": " ".join(sys.argv)}
         info.update(metadata or {})
         self.rec = Recorder(path, info, simulated=True, serve_port=serve_port)
         write, read = robot.write, robot.read

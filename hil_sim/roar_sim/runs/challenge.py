@@ -300,11 +300,9 @@ def _route(track: Track, goal_m: float | None) -> np.ndarray:
 def _sim_log(bot, log, serve_port: int | None, driver: str):
     if log is None and serve_port is None:
         return None
-    import sys
-
     from roar_sim.links.sim_log import SimLog
 
-    return SimLog(bot, log, {"command": " ".join(sys.argv), "driver": driver}, serve_port)
+    return SimLog(bot, log, {"driver": driver}, serve_port)
 
 
 def _clear(cars, start) -> bool:

@@ -97,11 +97,9 @@ def combined_race(track: Track, laps: int = 1, boxes: Sequence[tuple[float, floa
         hint: dict[str, int | None] = {"lead": None, "follow": None, "heard": None}
         sim_log = None
         if log is not None:
-            import sys
-
             from roar_sim.links.sim_log import SimLog
 
-            sim_log = SimLog(follow, log, {"command": " ".join(sys.argv), "driver": "combined"})
+            sim_log = SimLog(follow, log, {"driver": "combined"})
 
         def camera():
             frame = follow.plant.camera(*LANE_CAMERA)

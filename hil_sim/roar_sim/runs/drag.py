@@ -98,11 +98,9 @@ def drag_race(track: Track, top_speed_m_s: float = 4.0, blank_s: tuple[float, fl
         laser = Tfmini(car.plant, seed)
         sim_log = None
         if log is not None:
-            import sys
-
             from roar_sim.links.sim_log import SimLog
 
-            sim_log = SimLog(car, log, {"command": " ".join(sys.argv), "driver": "drag"})
+            sim_log = SimLog(car, log, {"driver": "drag"})
 
         bumped = [False]
 

@@ -246,12 +246,9 @@ class RaceLog:
     the ego's decisions (/race/events)."""
 
     def __init__(self, ego_car, path, serve_port: int | None, cars: int) -> None:
-        import sys
-
         from roar_sim.links.sim_log import SimLog
 
-        self.log = SimLog(ego_car, path, {"command": " ".join(sys.argv), "driver": "racer", "cars": str(cars)},
-                          serve_port=serve_port)
+        self.log = SimLog(ego_car, path, {"driver": "racer", "cars": str(cars)}, serve_port=serve_port)
         self._contacts = self._events = 0
 
     def period(self, result: HeadToHead, scan, seen, cars, ego) -> None:

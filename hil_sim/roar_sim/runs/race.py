@@ -123,7 +123,7 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
         if log is not None or serve_port is not None:
             from roar_sim.links.sim_log import SimLog
 
-            sim_log = SimLog(car, log, {"command": " ".join(sys.argv), "driver": lateral}, serve_port)
+            sim_log = SimLog(car, log, {"driver": lateral}, serve_port)
             stack.callback(sim_log.close)  # finished however the race ends
         course = (LaneCourse(car, start_lights, boxes, avoid, frames, shaky_camera, green_span_s)
                   if lateral == "lane" else None)
