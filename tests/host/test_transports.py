@@ -30,6 +30,9 @@ def test_urls_parse(url, expected):
     ("sim://?speedup=50", "speedup must be"),
     ("sim://?plot=out.jpg", "plot: must name a .png"),
     ("sim://?trace=", "trace= is empty: give a file name"),
+    ("sim://?profile=", "profile= is empty"),
+    ("sim://?profile=warp", "no car profile 'warp': use f1tenth, roar or a .toml file"),
+    ("sim://?robot=iarrc&profile=f1tenth", "profile= holds the ESC car's numbers: not for robot=iarrc"),
     ("ble://?timeout=-1", "timeout must be"),
 ])
 def test_bad_urls_give_one_line_errors(url, words):
@@ -48,6 +51,22 @@ def test_sim_with_an_unknown_track_says_so():
     t = open_url("sim://monza")
     with pytest.raises(TransportError, match="unknown track 'monza'"):
         t.open()
+
+
+def test_sim_takes_a_car_profile_so_one_url_drives_a_fitted_car():
+    """sim://?profile= loads the ESC car with a profile's numbers, and the car's model (what an
+    autopilot plans with) has that car's limits: the F1TENTH-like car is the faster."""
+    pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
+    models = {}
+    for name in ("roar", "f1tenth"):
+        t = open_url(f"sim://oval?profile={name}")
+        t.open()
+        try:
+            assert t.sim.profile.name == name
+            models[name] = t.model()
+        finally:
+            t.close()
+    assert models["f1tenth"].limits.max_speed_m_s > 2 * models["roar"].limits.max_speed_m_s
 
 
 class Recorder(Transport):

@@ -83,6 +83,9 @@ def test_actions_drive_the_car_through_the_firmware_and_progress_is_the_reward()
     ({"lidar_beams": 7.5}, "lidar_beams must be a whole number 0..1080, got 7.5"),
     ({"render_mode": "window"}, "render_mode must be one of ['rgb_array', 'human'] or None, got 'window'"),
     ({"robot": 3}, "robot must be a robot's name (esc, iarrc, junior), got 3"),
+    ({"profile": "warp"}, "no car profile 'warp': use f1tenth, roar or a .toml file"),
+    ({"profile": 3}, "profile must be a car profile's name or a .toml file, got 3"),
+    ({"profile": "f1tenth", "robot": "junior"}, "profile holds the ESC car's numbers: not for robot='junior'"),
     ({"max_seconds": 0, "camera": (0, 0), "track": 42}, "track must be; camera width; camera height; max_seconds"),
 ])
 def test_every_keyword_is_checked_before_the_world_is_built(keywords, words):
@@ -95,6 +98,27 @@ def test_every_keyword_is_checked_before_the_world_is_built(keywords, words):
     assert "\n" not in message and message.startswith("RaceEnv: ")
     for part in words.split("; "):
         assert part in message, message
+
+
+def test_a_car_profile_is_the_car_the_environment_steps():
+    """Race-v0(profile=...) steps the ESC car with that profile's numbers: full throttle for 2 s,
+    the F1TENTH-like car goes faster than the ROAR car."""
+    from roar_sim.gym_env import RaceEnv
+
+    speeds = {}
+    for profile in ("roar", "f1tenth"):
+        env = RaceEnv("oval", profile=profile, lidar_beams=0)
+        try:
+            env.reset(seed=1)
+            assert env.sim.profile.name == profile
+            for _ in range(100):  # 2 s
+                _, _, terminated, _, info = env.step(np.array([1.0, 0.0], np.float32))
+                if terminated:
+                    break
+            speeds[profile] = env.sim.state().speed
+        finally:
+            env.close()
+    assert speeds["f1tenth"] > 1.3 * speeds["roar"], speeds
 
 
 def test_human_rendering_without_a_display_says_how_to_check_headless(monkeypatch):

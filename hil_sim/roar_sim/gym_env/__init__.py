@@ -188,22 +188,43 @@ class Place:
         return np.clip(state, -self._high, self._high)
 
 
+def _profile(profile, robot, problems: list[str]):
+    """The CarProfile that profile names (None: the default car); what is wrong goes to problems."""
+    if profile is None:
+        return None
+    if not isinstance(profile, str) or not profile.strip():
+        problems.append(f"profile must be a car profile's name or a .toml file, got {shown(profile)}")
+    elif robot != "esc":
+        problems.append(f"profile holds the ESC car's numbers: not for robot={shown(robot)}")
+    else:
+        from roar_sim import ProfileError
+        from roar_sim.plants import car_profile
+
+        try:
+            return car_profile.load(profile)
+        except ProfileError as e:
+            problems.append(str(e))
+    return None
+
+
 class RaceEnv(gym.Env):
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": round(1 / PERIOD_S)}
 
     def __init__(self, track: str | Track = "oval", camera: tuple[int, int] | None = None, max_seconds: float = 60.0,
                  contact_penalty: float = 1.0, crash_ends: bool = True, lidar_beams: int | None = None,
-                 render_mode: str | None = None, robot: str = "esc") -> None:
+                 render_mode: str | None = None, robot: str = "esc", profile: str | None = None) -> None:
         """Every keyword is checked before anything is built; what is wrong, all of it, in one
-        ValueError."""
+        ValueError. profile: the ESC car's own numbers (roar_sim.plants.car_profile: a name or a
+        .toml file, as `roar race --car-profile` and sim://?profile=); None: the ROAR car."""
         self.kind = robots.get(robot) if isinstance(robot, str) else None
         problems = _problems(self.metadata["render_modes"], track, camera, max_seconds, contact_penalty, crash_ends,
                              lidar_beams, render_mode, robot, self.kind)
+        self.profile = _profile(profile, robot, problems)
         if problems:
             raise ValueError("RaceEnv: " + "; ".join(problems))
         lidar_beams = (LIDAR_BEAMS if self.kind.has_lidar else 0) if lidar_beams is None else lidar_beams
         self.track = track if isinstance(track, Track) else get(track)
-        self.kind.check_track(self.track)  # a bend the robot cannot turn: no lap to learn
+        self.kind.check_track(self.track, self.profile)  # a bend the robot cannot turn: no lap to learn
         self.robot, self.lidar_beams = robot, lidar_beams
         self.camera_size, self.max_seconds = camera, max_seconds
         self.contact_penalty, self.crash_ends, self.render_mode = contact_penalty, crash_ends, render_mode
@@ -231,7 +252,8 @@ class RaceEnv(gym.Env):
         super().reset(seed=seed)
         self.close()
         pose = start_pose(self.track.start_pose, self.np_random)
-        self.sim = self.kind(self.track, pose, gui=self.render_mode == "human")
+        own = {} if self.profile is None else {"profile": self.profile}
+        self.sim = self.kind(self.track, pose, gui=self.render_mode == "human", **own)
         self.sim.arm()  # the ESC car boots latched until it hears neutral
         state = self.sim.state()
         self._place = Place(self.track, state)

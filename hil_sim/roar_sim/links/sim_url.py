@@ -14,7 +14,8 @@ setpoint arrives; the ROAR Junior takes each control message as the http:// tran
 (one GET, smooth mixing) and reports its ultrasonic range. speedup=2 (simulated seconds per wall
 second, up to 4), gui=1 (PyBullet window), trace=drive.csv (t, x, y, yaw, speed every 20 ms),
 plot=drive.png (the driven path), eeprom=FILE (the board's memory, its signing key, kept in FILE
-between runs: roar_sim.links.board_memory).
+between runs: roar_sim.links.board_memory), profile=NAME|FILE.toml (the ESC car's own numbers:
+roar_sim.plants.car_profile, as `roar race --car-profile`; its limits are measured on first use).
 """
 
 from __future__ import annotations
@@ -48,8 +49,9 @@ class SimTransport(Transport):
 
     def __init__(self, track: str = "", speedup: float = 1.0, gui: bool = False,
                  trace: Path | None = None, plot: Path | None = None, robot: str = "esc",
-                 eeprom: Path | None = None) -> None:
+                 eeprom: Path | None = None, profile: str | None = None) -> None:
         from roar_sim import robots
+        from roar_sim.plants import car_profile
 
         self.track_name, self.speedup, self.gui = track, speedup, gui
         self.trace_path, self.plot_path = trace, plot
@@ -58,6 +60,9 @@ class SimTransport(Transport):
             raise TransportError(f"eeprom= keeps a board's key between runs: the {self.kind.title} has none here")
         self.eeprom = eeprom  # the board's EEPROM (signing key, session) kept in this file between runs
         self.robot = robot
+        if profile is not None and robot != "esc":
+            raise TransportError(f"profile= holds the ESC car's numbers: not for robot={robot}")
+        self.profile = None if profile is None else car_profile.load(profile)  # ProfileError: one line
         self.replies = self.kind.replies  # the ESC and IARRC cars answer with lines, the Junior not
         self.sim = None  # the roar_sim.robots.Robot once open
         self.trace: list[tuple[float, float, float, float, float]] = []  # (t, x, y, yaw, speed)
@@ -94,8 +99,11 @@ class SimTransport(Transport):
         eeprom = pop_option(options, "eeprom", Path, None)
         if eeprom is not None and not str(eeprom).strip():
             raise TransportError("eeprom= is empty: give a file name")
+        profile = pop_option(options, "profile", str, None)
+        if profile is not None and not profile.strip():
+            raise TransportError("profile= is empty: name a profile (roar, f1tenth) or a .toml file")
         try:
-            return cls(track, speedup, pop_option(options, "gui", bool, False), trace, plot, robot, eeprom)
+            return cls(track, speedup, pop_option(options, "gui", bool, False), trace, plot, robot, eeprom, profile)
         except ImportError as e:
             raise TransportError(missing_simulator(e)) from None
         except RoarError as e:
@@ -113,6 +121,8 @@ class SimTransport(Transport):
         try:
             track = get(self.track_name) if self.track_name else None
             extra = {} if self.eeprom is None else {"nvm": stored}
+            if self.profile is not None:
+                extra["profile"] = self.profile
             self.sim = self.kind(track, realtime=True, speedup=self.speedup, gui=self.gui, **extra)
         except RoarError as e:
             raise TransportError(str(e)) from None
@@ -178,7 +188,8 @@ class SimTransport(Transport):
         return self._ask(lambda sim: sim.plant.camera(width, height))
 
     def model(self):
-        return self.kind.model
+        """The car's model: an open car's own (another profile, other limits), else its kind's."""
+        return self.sim.model if self.sim is not None else self.kind.model
 
     def lidar_mount(self):
         if self.sim is None or not self.sim.has_lidar:
