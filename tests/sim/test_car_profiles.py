@@ -133,3 +133,59 @@ def test_a_profile_whose_car_cannot_be_measured_is_refused_in_one_line(tmp_path,
     with pytest.raises(ProfileError, match=r"rocket: its limits cannot be measured.*36.6 m/s") as e:
         esc.profile_limits(car_profile.load(str(profile)))
     assert "\n" not in str(e.value)
+
+
+# --- a real car's differences: trim, dead band, servo lag, latency ----------------------------------
+
+REAL_CAR_KEYS = "steering_trim_deg = 3.0\nservo_lag_s = 0.05\nesc_deadband_us = 60\nlatency_s = 0.04\n"
+
+
+def test_a_real_cars_differences_load_and_older_profiles_keep_their_fingerprint(tmp_path):
+    roar = car_profile.load()
+    path = tmp_path / "mycar.toml"
+    path.write_text((car_profile.FOLDER / "roar.toml").read_text() + REAL_CAR_KEYS)
+    mine = car_profile.load(str(path))
+    assert (mine.steering_trim_deg, mine.servo_lag_s, mine.esc_deadband_us, mine.latency_s) == (3.0, 0.05, 60, 0.04)
+    assert mine.fingerprint != roar.fingerprint  # its own limits
+    assert roar.esc_deadband_us == esc.HobbyEsc.deadband_us and roar.latency_s == 0.0  # left out: a perfect car
+    assert roar.fingerprint == "4489c4d35ed0ca90"  # as before these keys existed: its measured limits still hold
+    path.write_text((car_profile.FOLDER / "roar.toml").read_text() + "latency_s = 2\n")
+    with pytest.raises(ProfileError, match=r"mycar.toml: latency_s must be a finite number 0..0.5 s, got 2$"):
+        car_profile.load(str(path))
+
+
+def drive(profile, throttle_us: int, steering_us: int, seconds: float, step_s: float = 0.02) -> list:
+    """The car's (time, state, ESC mode, steering angle) every step_s while the pulses are held,
+    after it was armed at neutral."""
+    with esc.EscCar(profile=profile) as car:
+        car.arm()
+        t0, out = car.time_s, []
+        while car.time_s - t0 < seconds - 1e-9:
+            car.write(encode(throttle_us, steering_us))
+            car.run(step_s)
+            out.append((car.time_s - t0, car.state(), car.esc_mode, car.servo.angle_rad))
+        return out
+
+
+def test_trim_dead_band_servo_lag_and_latency_act_as_on_a_real_car(monkeypatch):
+    """Each difference a profile states is what the simulated car then does: a trimmed car turns
+    with its steering at neutral, a wider dead band leaves a small throttle at neutral, a servo lag
+    slows the steering's step, a latency delays the ESC's answer by as much."""
+    from dataclasses import replace
+
+    monkeypatch.setattr(esc, "profile_limits", lambda profile: esc.LIMITS)  # these act on pulses, not limits
+    perfect = car_profile.load()
+    yaw = {trim: drive(replace(perfect, steering_trim_deg=trim), 1650, 1500, 2.0)[-1][1].yaw for trim in (0.0, 3.0)}
+    assert abs(yaw[0.0]) < 0.02 and yaw[3.0] > 0.1, yaw  # straight; left with +3 deg (0.2 rad over its 1.3 m)
+    assert drive(perfect, 1550, 1500, 1.0)[-1][1].speed > 0.1  # 50 us off neutral: beyond 25 us, it drives
+    wide = drive(replace(perfect, esc_deadband_us=60.0), 1550, 1500, 1.0)
+    assert wide[-1][1].speed < 0.01 and wide[-1][2] == esc.EscMode.NEUTRAL
+    quick = drive(perfect, 1500, 2000, 0.06, 0.002)[-1][3]
+    slow = drive(replace(perfect, servo_lag_s=0.08), 1500, 2000, 0.06, 0.002)[-1][3]
+    assert quick < -0.3 and slow > 0.7 * quick, (quick, slow)  # right (negative): a lagging servo is behind
+
+    def answered(profile) -> float:
+        return next(t for t, _, mode, _ in drive(profile, 2000, 1500, 0.2, 0.002) if mode == esc.EscMode.FORWARD)
+
+    delay = answered(replace(perfect, latency_s=0.06)) - answered(perfect)
+    assert 0.06 - 0.003 <= delay <= 0.06 + 0.003, delay

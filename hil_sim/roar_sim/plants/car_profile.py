@@ -16,6 +16,7 @@ from pathlib import Path
 
 from roar.checks import number, printable
 from roar_sim import ProfileError
+from roar_sim.plants.esc_servo import HobbyEsc
 from roar.user_files import read_parsed
 
 FOLDER = Path(__file__).with_name("car_profiles")
@@ -26,6 +27,14 @@ RANGES = {  # (low, high, unit) of every number a profile holds
     "wheelbase_m": (0.15, 0.6, "m"), "mass_kg": (0.5, 20.0, "kg"), "motor_speed_rad_s": (50.0, 6000.0, "rad/s"),
     "gear_ratio": (1.0, 50.0, ""), "motor_torque_nm": (0.01, 5.0, "N m"), "tyre_friction": (0.1, 2.0, ""),
     "max_steer_rad": (0.1, 0.7, "rad"), "steer_rate_rad_s": (0.5, 30.0, "rad/s"),
+}
+# A real car's differences from a perfect one: keys a profile may leave out (low, high, unit); each absent
+# key is CarProfile's default, a perfect car's, and stays out of the fingerprint (older profiles keep theirs)
+OPTIONAL_RANGES = {
+    "steering_trim_deg": (-10.0, 10.0, "deg"),  # the wheels' angle at a neutral pulse, left positive
+    "servo_lag_s": (0.0, 0.5, "s"),  # the servo's first-order lag behind its slew
+    "esc_deadband_us": (0.0, 200.0, "us"),  # pulses this near neutral are neutral
+    "latency_s": (0.0, 0.5, "s"),  # from the board's output pulse to the ESC and servo acting on it
 }
 
 
@@ -50,6 +59,10 @@ class CarProfile:
     tyre_friction: float
     max_steer_rad: float  # [rad]
     steer_rate_rad_s: float  # [rad/s]
+    steering_trim_deg: float = 0.0  # [deg] (OPTIONAL_RANGES: what each means)
+    servo_lag_s: float = 0.0  # [s]
+    esc_deadband_us: float = float(HobbyEsc.deadband_us)  # [us] the emulated ESC's own
+    latency_s: float = 0.0  # [s]
 
     @property
     def scale(self) -> float:
@@ -64,7 +77,8 @@ class CarProfile:
     @property
     def fingerprint(self) -> str:
         """Short hex of every number: measured limits are kept under it."""
-        numbers = ",".join(f"{getattr(self, f.name)!r}" for f in fields(self) if f.name not in ("name", "title"))
+        numbers = ",".join(f"{getattr(self, f.name)!r}" for f in fields(self) if f.name not in ("name", "title")
+                           and not (f.name in OPTIONAL_RANGES and getattr(self, f.name) == f.default))
         return hashlib.sha256(numbers.encode()).hexdigest()[:16]
 
 
@@ -79,7 +93,7 @@ def load(name_or_path: str = DEFAULT) -> CarProfile:
         raise ProfileError(f"no car profile {printable(name_or_path)!r}: use {', '.join(names())} or a .toml file")
     data = read_parsed(path, tomllib.loads, ProfileError, "TOML")
     keys = {f.name for f in fields(CarProfile)} - {"name"}
-    missing, unknown = keys - set(data), set(data) - keys
+    missing, unknown = keys - set(data) - set(OPTIONAL_RANGES), set(data) - keys
     if missing or unknown:
         raise ProfileError(f"{path}: " + "; ".join(
             ([f"missing {', '.join(sorted(missing))}"] if missing else []) +
@@ -88,6 +102,8 @@ def load(name_or_path: str = DEFAULT) -> CarProfile:
         raise ProfileError(f"{path}: title must be a string")
     try:
         values = {key: number(key, data[key], low, high, unit) for key, (low, high, unit) in RANGES.items()}
+        values.update({key: number(key, data[key], low, high, unit)
+                       for key, (low, high, unit) in OPTIONAL_RANGES.items() if key in data})
     except ValueError as e:
         raise ProfileError(f"{path}: {e}") from None
     return CarProfile(path.stem, printable(data["title"], 60), **values)

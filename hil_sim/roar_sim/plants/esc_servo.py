@@ -70,19 +70,28 @@ class SteeringServo:
     """Pulse -> steering angle. Above-neutral pulses steer right (negative angle, yaw clockwise).
 
     `trim_us` is the servo horn's mechanical offset, `max_angle_rad` the end-points, and
-    `rate_rad_s` the slew limit (a standard servo does 60 degrees in 0.1 s)."""
+    `rate_rad_s` the slew limit (a standard servo does 60 degrees in 0.1 s). A real car's linkage
+    adds `trim_rad` (its wheels' angle at a neutral pulse: a car that does not drive straight,
+    within the end-points) and `lag_s` (a first-order lag behind the slew: a soft servo or a
+    sloppy linkage)."""
 
     trim_us: int = 0  # [us]
     max_angle_rad: float = 0.4  # [rad] at 1000/2000 us
     rate_rad_s: float = math.radians(60) / 0.1  # [rad/s]
+    trim_rad: float = 0.0  # [rad] left positive
+    lag_s: float = 0.0  # [s] time constant
     angle_rad: float = 0.0  # [rad] current, left positive
     target_rad: float = 0.0  # [rad]
 
     def pulse(self, width_us: int) -> None:
         frac = (width_us - N - self.trim_us) / HALF_RANGE_US
-        self.target_rad = -max(-1.0, min(1.0, frac)) * self.max_angle_rad
+        target = -max(-1.0, min(1.0, frac)) * self.max_angle_rad + self.trim_rad
+        self.target_rad = max(-self.max_angle_rad, min(self.max_angle_rad, target))
 
     def advance(self, dt_s: float) -> float:
         step = self.rate_rad_s * dt_s
-        self.angle_rad += max(-step, min(step, self.target_rad - self.angle_rad))
+        error = self.target_rad - self.angle_rad
+        if self.lag_s > 0.0:
+            error *= -math.expm1(-dt_s / self.lag_s)  # the lag's share of the way this step
+        self.angle_rad += max(-step, min(step, error))
         return self.angle_rad

@@ -17,6 +17,7 @@ Commands reach it as they reach a real one, as control messages on its serial po
 
 from __future__ import annotations
 
+import collections
 import math
 import statistics
 
@@ -89,8 +90,12 @@ class EscCar(Robot):
         self.firmware_config = firmware or CarConfig()
         self.board = CarBoard(self.firmware_config, loop_us=LOOP_US, frame_us=FRAME_US, nvm=nvm)
         self.profile = profile = car_profile.load(profile) if isinstance(profile, str) else profile or car_profile.load()
-        self.esc = esc or HobbyEsc()
-        self.servo = servo or SteeringServo(max_angle_rad=profile.max_steer_rad, rate_rad_s=profile.steer_rate_rad_s)
+        self.esc = esc or HobbyEsc(deadband_us=profile.esc_deadband_us)
+        self.servo = servo or SteeringServo(max_angle_rad=profile.max_steer_rad, rate_rad_s=profile.steer_rate_rad_s,
+                                            trim_rad=math.radians(profile.steering_trim_deg),
+                                            lag_s=profile.servo_lag_s)
+        self._latency_us = round(profile.latency_s * 1e6)  # [us] from a frame's pulses to the ESC and servo
+        self._pulses: collections.deque[tuple[int, int, int]] = collections.deque()  # (due [us], throttle, steering)
         self.plant = Racecar(track, dt_s=PHYSICS_US / 1e6, gui=gui, world=world, pose=pose, profile=profile)
         if profile.fingerprint not in _MEASURING:  # (while they are measured, it has none yet)
             self.limits = profile_limits(profile)
@@ -171,7 +176,9 @@ class EscCar(Robot):
         self.t_us += loops * LOOP_US
         if self.board.frames != self._frames:  # an output frame started: the ESC and servo take it
             self._frames = self.board.frames
-            throttle_us, steering_us = self.board.wire
+            self._pulses.append((self.t_us + self._latency_us, *self.board.wire))
+        while self._pulses and self._pulses[0][0] <= self.t_us:  # (after the profile's latency)
+            _, throttle_us, steering_us = self._pulses.popleft()
             self._esc_out = self.esc.pulse(throttle_us)
             self.servo.pulse(steering_us)
         self._replies.add(self.board.serial_out())
