@@ -189,3 +189,38 @@ def test_trim_dead_band_servo_lag_and_latency_act_as_on_a_real_car(monkeypatch):
 
     delay = answered(replace(perfect, latency_s=0.06)) - answered(perfect)
     assert 0.06 - 0.003 <= delay <= 0.06 + 0.003, delay
+
+
+def speed_change(profile, drive: float, brake: float, seconds: float) -> tuple[float, float]:
+    """The plant alone: full drive for 1.5 s, then (drive, brake) for seconds: (its speed [m/s]
+    then, its speed at the end)."""
+    from roar_sim.plants.racecar import Racecar
+
+    car = Racecar(None, dt_s=0.002, profile=profile)
+    try:
+        for _ in range(750):
+            car.apply(1.0, 0.0, 0.0)
+            car.step()
+        before = car.state().speed
+        for _ in range(round(seconds / 0.002)):
+            car.apply(drive, brake, 0.0)
+            car.step()
+        return before, car.state().speed
+    finally:
+        car.close()
+
+
+def test_brakes_and_rolling_drag_are_the_profiles():
+    """0.3 s of full brake from 2.8 m/s: the ROAR car's brakes lock its rear wheels (its tyres'
+    grip, not its 2 N m, sets how fast it slows: 0.92 m/s), a car with brakes of 0.1 N m a wheel
+    loses less (0.61); a second of coasting: one with 0.3 N m of drag loses more than 1.5 times
+    what the ROAR car does (2.5 against 1.36 m/s)."""
+    from dataclasses import replace
+
+    perfect = car_profile.load()
+    strong = speed_change(perfect, 0.0, 1.0, 0.3)
+    weak = speed_change(replace(perfect, brake_torque_nm=0.1), 0.0, 1.0, 0.3)
+    assert weak[0] - weak[1] < 0.75 * (strong[0] - strong[1]), (strong, weak)
+    coast = speed_change(perfect, 0.0, 0.0, 1.0)
+    draggy = speed_change(replace(perfect, rolling_drag_nm=0.3), 0.0, 0.0, 1.0)
+    assert draggy[0] - draggy[1] > 1.5 * (coast[0] - coast[1]), (coast, draggy)

@@ -35,6 +35,8 @@ OPTIONAL_RANGES = {
     "servo_lag_s": (0.0, 0.5, "s"),  # the servo's first-order lag behind its slew
     "esc_deadband_us": (0.0, 200.0, "us"),  # pulses this near neutral are neutral
     "latency_s": (0.0, 0.5, "s"),  # from the board's output pulse to the ESC and servo acting on it
+    "brake_torque_nm": (0.1, 20.0, "N m"),  # per rear wheel at full brake
+    "rolling_drag_nm": (0.0, 1.0, "N m"),  # per rear wheel: what slows a coasting car
 }
 
 
@@ -63,6 +65,8 @@ class CarProfile:
     servo_lag_s: float = 0.0  # [s]
     esc_deadband_us: float = float(HobbyEsc.deadband_us)  # [us] the emulated ESC's own
     latency_s: float = 0.0  # [s]
+    brake_torque_nm: float = 2.0  # [N m] the ROAR car's
+    rolling_drag_nm: float = 0.02  # [N m] the ROAR car's
 
     @property
     def scale(self) -> float:

@@ -30,8 +30,6 @@ FOOTPRINT_M = (-0.052, 0.4065, 0.147)  # [m] rear and front from the base along 
 LANE_CAMERA = (320, 240)  # [px] the frames the camera drivers see (lanes, the drag race, the leader's marker)
 
 
-BRAKE_MAX_TORQUE_NM = 2.0  # [N m] per rear wheel at full brake
-ROLLING_DRAG_NM = 0.02  # [N m] coasting resistance per wheel
 HINGE_TORQUE_NM = 10.0  # [N m] the most the steering servo turns each front hinge with
 ENCODER_COUNTS_PER_REV = 1024  # [counts]
 JOINT_SPEED_CAP_RAD_S = 100.0  # [rad/s] PyBullet's cap on every joint's speed unless told otherwise
@@ -110,20 +108,21 @@ class Racecar:
 
     def apply(self, drive: float, brake: float, steer_rad: float) -> None:
         """drive -1..1 of the motor limit, brake 0..1, steer_rad the virtual centre angle."""
+        brake_nm, drag_nm = self.profile.brake_torque_nm, self.profile.rolling_drag_nm
         spins = ([state[1] for state in pb.getJointStates(self.car, REAR_WHEELS, physicsClientId=self.client)]
                  if brake <= 0 and drive != 0 else [0.0] * len(REAR_WHEELS))
         for w, spin in zip(REAR_WHEELS, spins):
             if brake > 0:
-                self._motor(w, pb.VELOCITY_CONTROL, 0.0, BRAKE_MAX_TORQUE_NM * brake)
+                self._motor(w, pb.VELOCITY_CONTROL, 0.0, brake_nm * brake)
             elif drive != 0:
                 # The motor drives the wheel towards its speed for this throttle but never holds it
                 # back: a wheel already turning faster in that direction coasts (no drag brake).
                 target = drive * self.motor.max_speed_rad_s
                 coasting = spin * target > 0 and abs(spin) > abs(target)
-                torque = ROLLING_DRAG_NM if coasting else self.motor.max_torque_nm * abs(drive) + ROLLING_DRAG_NM
+                torque = drag_nm if coasting else self.motor.max_torque_nm * abs(drive) + drag_nm
                 self._motor(w, pb.VELOCITY_CONTROL, target, torque)
             else:
-                self._motor(w, pb.VELOCITY_CONTROL, 0.0, ROLLING_DRAG_NM)
+                self._motor(w, pb.VELOCITY_CONTROL, 0.0, drag_nm)
         left, right = ackermann_angles(steer_rad, self.profile.scale)
         for hinge, angle in ((LEFT_HINGE, left), (RIGHT_HINGE, right)):
             self._motor(hinge, pb.POSITION_CONTROL, angle, HINGE_TORQUE_NM)
