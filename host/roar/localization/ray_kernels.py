@@ -12,6 +12,7 @@ import numpy as np
 
 EDGE_HALVINGS = 4  # a ray's last step halved this many times to the wall's edge: within 1/16 of a step (<= 0.5 cell)
 
+
 @nb.njit(cache=True, nogil=True, fastmath=True, inline="always")
 def ray(dist, x0, y0, c, s, max_cells):
     """[cells] from (x0, y0) (cell spans: int() is the index) along (c, s) to the first
@@ -39,6 +40,7 @@ def ray(dist, x0, y0, c, s, max_cells):
         t += max(d - 1.0, 0.5)
     return max_cells
 
+
 @nb.njit(cache=True, nogil=True, fastmath=True)
 def march(dist, xs, ys, headings, angles, max_cells, out):
     """Rays from (xs, ys) [cells] at headings + angles; out[p, b] the range [cells]."""
@@ -48,6 +50,7 @@ def march(dist, xs, ys, headings, angles, max_cells, out):
         for b in range(angles.shape[0]):
             out[p, b] = ray(dist, xs[p] + 0.5, ys[p] + 0.5, ch * ca[b] - sh * sa[b], sh * ca[b] + ch * sa[b],
                             max_cells)
+
 
 @nb.njit(cache=True, nogil=True, fastmath=True)
 def march_log_weights(dist, xs, ys, headings, angles, max_cells, measured, log_table, out):
@@ -62,6 +65,7 @@ def march_log_weights(dist, xs, ys, headings, angles, max_cells, measured, log_t
             t = ray(dist, xs[p] + 0.5, ys[p] + 0.5, ch * ca[b] - sh * sa[b], sh * ca[b] + ch * sa[b], max_cells)
             total += log_table[measured[b], int(t + 0.5)]
         out[p] = total
+
 
 @nb.njit(cache=True, nogil=True)
 def bresenham(occupied, xs, ys, headings, angles, max_cells, out):
