@@ -470,6 +470,32 @@ def test_a_vehicle_reconnects_when_the_junior_comes_back():
         car.close()
 
 
+def test_stop_ends_a_connection_whose_handler_lost_its_cancel(monkeypatch):
+    """Python 3.11's wait_for can swallow a cancel that meets a completing read, and a client
+    sending at 50 Hz keeps such a handler serving: stop() must still end it, and soon."""
+    from roar_sim.links import junior_http
+
+    real = junior_http.JuniorServer._control
+
+    async def deaf_once(self, reader, writer):  # the lost cancel, made certain
+        import asyncio
+        try:
+            await real(self, reader, writer)
+        except asyncio.CancelledError:
+            await real(self, reader, writer)
+    monkeypatch.setattr(junior_http.JuniorServer, "_control", deaf_once)
+    junior = junior_http.InBackground(render_workers=0).__enter__()
+    car = Vehicle(junior.urls.control_url, rate_hz=50)
+    try:
+        car.drive(throttle=0.5, steering=0.0)
+        assert wait_for(lambda: junior.server._tasks, timeout_s=3)
+        started = time.monotonic()
+        junior.__exit__(None, None, None)
+        assert time.monotonic() - started < 3 * junior_http.STOP_WAIT_S
+    finally:
+        car.close()
+
+
 def test_roar_sim_junior_serves_both_ports_and_prints_them():
     import re
     import signal

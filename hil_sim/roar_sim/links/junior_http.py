@@ -38,6 +38,7 @@ CHUNK_S = 0.002  # [s] simulated time per step of the real-time loop
 IDLE_CLOSE_S = spec.JUNIOR_IDLE_CLOSE_US / 1e6  # [s] a connection quiet this long is closed
 MAX_CONNECTIONS_PER_CLIENT = 16  # connections one client address holds at once, per port
 CAMERA_TIMEOUT_S = 5.0  # [s] a frame not rendered by then gets 503
+STOP_WAIT_S = 1.0  # [s] stop() cancels and aborts again any connection still open after this
 SIZES = {"low": (spec.JUNIOR_CAMERA_LOW_WIDTH, spec.JUNIOR_CAMERA_LOW_HEIGHT),
          "high": (spec.JUNIOR_CAMERA_HIGH_WIDTH, spec.JUNIOR_CAMERA_HIGH_HEIGHT)}
 ROUTES = {spec.JUNIOR_ROUTE_CAMERA_LOW: ("low", "JPEG"), spec.JUNIOR_ROUTE_CAMERA_HIGH: ("high", "JPEG"),
@@ -76,7 +77,7 @@ class JuniorServer:
         self._running = threading.Event()
         self._thread: threading.Thread | None = None
         self._servers: list[asyncio.AbstractServer] = []
-        self._tasks: set[asyncio.Task] = set()
+        self._tasks: dict[asyncio.Task, asyncio.StreamWriter] = {}  # open connections
         self._held: dict[tuple[str, int], int] = {}  # (client address, our port) -> connections open
 
     # --- the simulation ------------------------------------------------------------------------
@@ -129,8 +130,8 @@ class JuniorServer:
                 writer.write(_response("503 Service Unavailable", "text/plain", CAMERA_OFF))
             elif path in ROUTES:
                 size, fmt = ROUTES[path]
-                seq, image = await asyncio.wait_for(self.camera.frame(SIZES[size], fmt, self._served.get(path, 0)),
-                                                    CAMERA_TIMEOUT_S)
+                async with asyncio.timeout(CAMERA_TIMEOUT_S):
+                    seq, image = await self.camera.frame(SIZES[size], fmt, self._served.get(path, 0))
                 self._served[path] = max(seq, self._served.get(path, 0))
                 writer.write(_response("200 OK", CONTENT_TYPES[fmt], image))
             elif path == spec.JUNIOR_ROUTE_CAMERA_REDIRECT:
@@ -140,7 +141,7 @@ class JuniorServer:
             else:
                 writer.write(_response("404 Not Found", "text/plain", b"no such route\n"))
             await writer.drain()
-        except asyncio.TimeoutError:
+        except TimeoutError:
             writer.write(_response("503 Service Unavailable", "text/plain", b"camera timed out\n"))
         except CameraOff as e:
             writer.write(_response("503 Service Unavailable", "text/plain", f"{e}\n".encode()))
@@ -155,8 +156,9 @@ class JuniorServer:
         seq = 0
         while self._running.is_set():
             try:
-                seq, image = await asyncio.wait_for(self.camera.frame(SIZES["high"], "JPEG", seq), CAMERA_TIMEOUT_S)
-            except asyncio.TimeoutError:  # a slow frame (a busy machine) does not end a stream: wait on
+                async with asyncio.timeout(CAMERA_TIMEOUT_S):
+                    seq, image = await self.camera.frame(SIZES["high"], "JPEG", seq)
+            except TimeoutError:  # a slow frame (a busy machine) does not end a stream: wait on
                 continue
             writer.write(f"--{MJPEG_BOUNDARY}\r\nContent-Type: image/jpeg\r\nContent-Length: {len(image)}\r\n\r\n"
                          .encode() + image + b"\r\n")
@@ -185,28 +187,33 @@ class JuniorServer:
                 return
             self._held[key] = self._held.get(key, 0) + 1
             task = asyncio.current_task()
-            self._tasks.add(task)
+            self._tasks[task] = writer
             try:
                 await handler(reader, writer)
             except asyncio.CancelledError:
                 pass  # stop() ended the connection (the handler has closed it)
             finally:
-                self._tasks.discard(task)
+                self._tasks.pop(task, None)
                 self._held[key] -= 1
                 if not self._held[key]:
                     del self._held[key]
         return run
 
     async def stop(self) -> None:
+        """Ends every connection and the simulation. A connection's task is cancelled and its
+        socket aborted too: a cancel alone can be lost when it meets a read that completes at the
+        same moment (a client sending at 50 Hz), and the handler would then serve on."""
+        self._running.clear()
         for server in self._servers:
             server.close()
-        for task in list(self._tasks):
-            task.cancel()
-        await asyncio.gather(*self._tasks, return_exceptions=True)
+        while self._tasks:
+            for task, writer in list(self._tasks.items()):
+                writer.transport.abort()
+                task.cancel()
+            await asyncio.wait(list(self._tasks), timeout=STOP_WAIT_S)
         await self.camera.stop()
         for server in self._servers:
             await server.wait_closed()
-        self._running.clear()
         if self._thread is not None:
             self._thread.join()
         self.camera.close()
@@ -218,8 +225,9 @@ class JuniorServer:
 async def _read(reader: asyncio.StreamReader) -> bytes:
     """What the client sent next; b"" when it closed or stayed quiet for IDLE_CLOSE_S."""
     try:
-        return await asyncio.wait_for(reader.read(4096), IDLE_CLOSE_S)
-    except asyncio.TimeoutError:
+        async with asyncio.timeout(IDLE_CLOSE_S):  # unlike 3.11's wait_for, never swallows a cancel
+            return await reader.read(4096)
+    except TimeoutError:
         return b""
 
 
