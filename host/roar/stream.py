@@ -281,8 +281,9 @@ class StreamReceiver:
     async def next_frame(self, timeout_s: float) -> Frame | None:
         timeout_s = timeout("timeout_s", timeout_s)
         try:
-            return await asyncio.wait_for(self._queue.get(), timeout_s)
-        except asyncio.TimeoutError:
+            async with asyncio.timeout(timeout_s):  # unlike 3.11's wait_for, never swallows a cancel
+                return await self._queue.get()
+        except TimeoutError:
             return None
 
     def _ask(self) -> None:
