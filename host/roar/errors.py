@@ -22,6 +22,7 @@ roar.tracks.track.TrackError, ...); the simulator's own (roar_sim) derive from R
     ├── RecordError               a recording that cannot be made
     ├── ReplayError               a recording that cannot be read
     ├── WebError                  a web server that cannot start
+    ├── FitError                  a test drive or its record a car cannot be fitted from
     └── UserError                 a command's input (the roar command and its plug-ins)
         ├── StreamError           roar stream's URL or options
         └── FramesError           roar vision's folder or options
@@ -114,6 +115,10 @@ class RecordError(RoarError):
 
 class ReplayError(RoarError):
     """A recording that cannot be read (one line)."""
+
+
+class FitError(RoarError):
+    """A test drive, its area or pose source, or a record a fit cannot use (one line)."""
 
 
 class Ros2Error(RoarError):

@@ -56,7 +56,8 @@ BASE = {
     "limits": ["esc"],
     "track": ["oval"],
     "world": ["tunnel:1"],
-    "challenge": ["tunnel:3", "--to", "2", "--oracle"],  # 2 m: 4 s a run (3 m took 14, backing up)
+    "challenge": ["tunnel:3", "--to", "2", "--oracle"],
+    "fit": ["{recording}", "--out", "{tmp}/car.toml"],  # (not a test drive: one line, after the options)  # 2 m: 4 s a run (3 m took 14, backing up)
 }
 
 # (command, option, value) that is valid: what it does. Everything else must be refused in one line.

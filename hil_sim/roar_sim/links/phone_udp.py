@@ -50,6 +50,9 @@ class StreamConfig:
     ports: dict | None = None  # {"rgb": 8001, "depth": 8002, "state": 8003, "control": 8004}; None: the spec's
     push_to: str | None = None  # push mode: the receiver's host; None: pull mode (answer acks)
     depth: bool = True
+    camera: bool = True  # False: the state stream alone (no frames rendered)
+    pose_noise_m: float = 0.0  # [m] the state's position noise (and [rad] its heading's): the phone's tracking
+    seed: int = 0  # of that noise
 
 
 def jpeg(rgb: np.ndarray, quality: int) -> bytes:
@@ -118,6 +121,7 @@ class Phone:
         self.bad_control = 0
         self.sent = 0
         self.log = None  # a roar_sim.links.sim_log.SimLog: the run recorded or served live
+        self._noise = np.random.default_rng(self.config.seed)
 
     async def start(self) -> Phone:
         loop = asyncio.get_running_loop()
@@ -166,13 +170,17 @@ class Phone:
         """Render one frame, cut its payloads into datagrams, push them when pushing."""
         start = time.perf_counter()
         s = self.sim.state()
-        rgb, depth = self.sim.plant.camera(self.config.width, self.config.height)
-        if self.log is not None:
-            self.log.image(rgb)
-        state = {"x": s.x, "y": s.y, "yaw": math.degrees(s.yaw), "vx": s.speed * math.cos(s.yaw),
+        dx, dy, dyaw = self._noise.normal(0.0, self.config.pose_noise_m, 3) if self.config.pose_noise_m else (0, 0, 0)
+        state = {"x": s.x + dx, "y": s.y + dy, "yaw": math.degrees(s.yaw + dyaw), "vx": s.speed * math.cos(s.yaw),
                  "vy": s.speed * math.sin(s.yaw), "gz": s.yaw_rate, "hall_effect_sensor_velocity": s.speed,
                  "recv_time": self.sim.time_s}
-        frame = payloads(rgb, depth if self.config.depth else None, state, self.config.jpeg_quality)
+        if self.config.camera:
+            rgb, depth = self.sim.plant.camera(self.config.width, self.config.height)
+            if self.log is not None:
+                self.log.image(rgb)
+            frame = payloads(rgb, depth if self.config.depth else None, state, self.config.jpeg_quality)
+        else:
+            frame = {"state": wire.state_line(state)}
         self._frame_id = (self._frame_id + 1) % wire.MODULUS
         self._latest = {kind: wire.chunks(p, self._frame_id) for kind, p in frame.items()}
         self.frames_rendered += 1
@@ -196,9 +204,10 @@ class Phone:
             return
         self.sim.write(encode(*control_to_pulses(*self._control)))
 
-    async def serve(self, seconds: float = 0.0) -> None:
+    async def serve(self, seconds: float = 0.0, step=None) -> None:
         """Run the simulated car in real time, render at rate_hz and forward control at 100 Hz,
-        for `seconds` (0: until cancelled)."""
+        for `seconds` (0: until cancelled). step(seconds): what runs the car a loop turn (default
+        its run() and read(); a roar_sim.links.pty.PtyCar's pump() when a pty carries its control)."""
         next_frame = next_forward = next_log = self.sim.time_s
         wall0, sim0 = time.monotonic(), self.sim.time_s
         while seconds <= 0 or self.sim.time_s - sim0 < seconds:
@@ -208,8 +217,11 @@ class Phone:
             if self.sim.time_s >= next_frame:
                 self.render()
                 next_frame += 1.0 / self.config.rate_hz
-            self.sim.run(SIM_STEP_S)
-            self.sim.read()
+            if step is None:
+                self.sim.run(SIM_STEP_S)
+                self.sim.read()
+            else:
+                step(SIM_STEP_S)
             if self.log is not None and self.sim.time_s + 1e-9 >= next_log:
                 self.log.step()
                 next_log += CONTROL_PERIOD_S

@@ -10,6 +10,7 @@ profile by driving it (roar_sim.robots.esc.EscCar.measure_limits), never typed b
 from __future__ import annotations
 
 import hashlib
+import json
 import tomllib
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -84,6 +85,24 @@ class CarProfile:
         numbers = ",".join(f"{getattr(self, f.name)!r}" for f in fields(self) if f.name not in ("name", "title")
                            and not (f.name in OPTIONAL_RANGES and getattr(self, f.name) == f.default))
         return hashlib.sha256(numbers.encode()).hexdigest()[:16]
+
+
+def save(profile: CarProfile, path: str | Path, header: str = "") -> None:
+    """Write `profile` as a TOML file load() reads back, each number with its unit; header: comment
+    lines put first. ProfileError (one line) when it cannot be written."""
+    from roar.user_files import unwritable
+
+    units = {k: unit for k, (_, _, unit) in (RANGES | OPTIONAL_RANGES).items()}
+    lines = [f"# {line}" for line in header.splitlines()] + [f"title = {json.dumps(profile.title)}"]  # a JSON string is a TOML one
+    for f in fields(profile):
+        if f.name in units:
+            value = getattr(profile, f.name)
+            unit = f"  # [{units[f.name]}]" if units[f.name] else ""
+            lines.append(f"{f.name} = {float(value)!r}{unit}")
+    problem = unwritable(path)
+    if problem:
+        raise ProfileError(problem)
+    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
 def names() -> list[str]:

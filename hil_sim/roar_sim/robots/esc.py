@@ -56,14 +56,36 @@ MODEL = CarModel(wheelbase_m=car_profile.load().wheelbase_m, max_steer_rad=car_p
 N = spec.CONTROL_NEUTRAL_US
 
 
+class _ProfileLimits:
+    """EscCar.limits: the default profile's on the class; on a car, its own profile's, measured
+    (or read from the user's cache) when first asked for, so a car driven without an autopilot
+    (a fit's test drive) never waits for them."""
+
+    def __get__(self, car, cls):
+        if car is None:
+            return LIMITS
+        car.limits = profile_limits(car.profile)  # kept on the car from now on
+        return car.limits
+
+
+class _ProfileModel:
+    """EscCar.model: the default profile's on the class; on a car, its own profile's."""
+
+    def __get__(self, car, cls):
+        if car is None:
+            return MODEL
+        car.model = CarModel(car.profile.wheelbase_m, car.profile.max_steer_rad, car.limits)
+        return car.model
+
+
 class EscCar(Robot):
     """write() control bytes, run() time, read() the car's reply lines."""
 
     name = "esc"
     title = "ESC car"
     half_width_m = 0.15  # [m] half its width as the walls feel it (wheels and steering), measured
-    limits = LIMITS
-    model = MODEL  # the default profile's; an instance with another profile has its own
+    limits = _ProfileLimits()  # the default profile's; an instance's own profile's, measured when first asked for
+    model = _ProfileModel()
     links = ("serial", "stream")
     laterals = ("pursuit", "pid")
     lane_driving = True
@@ -97,9 +119,6 @@ class EscCar(Robot):
         self._latency_us = round(profile.latency_s * 1e6)  # [us] from a frame's pulses to the ESC and servo
         self._pulses: collections.deque[tuple[int, int, int]] = collections.deque()  # (due [us], throttle, steering)
         self.plant = Racecar(track, dt_s=PHYSICS_US / 1e6, gui=gui, world=world, pose=pose, profile=profile)
-        if profile.fingerprint not in _MEASURING:  # (while they are measured, it has none yet)
-            self.limits = profile_limits(profile)
-            self.model = CarModel(profile.wheelbase_m, profile.max_steer_rad, self.limits)
         self.calibration = Calibration()
         self._frames = self.board.frames
         self._replies = ReplyLines()
@@ -239,7 +258,6 @@ def profile_limits(profile: CarProfile) -> CarLimits:
         limits = CarLimits(**json.loads(kept.read_text()))
     except (OSError, ValueError, TypeError):
         print(f"measuring the {profile.title}'s limits (once; kept in {kept.parent})...", file=sys.stderr)
-        _MEASURING.add(profile.fingerprint)
         try:
             limits = EscCar.measure_limits(profile)
         except (StopIteration, ZeroDivisionError, ValueError, statistics.StatisticsError):
@@ -248,8 +266,6 @@ def profile_limits(profile: CarProfile) -> CarLimits:
             raise ProfileError(f"{profile.title}: its limits cannot be measured: driving it at full throttle, braking "
                                f"and on circles gave no steady run (its wheels' top speed is {top:.1f} m/s; a 1/10 car "
                                f"reaches 2-10 m/s)") from None
-        finally:
-            _MEASURING.discard(profile.fingerprint)
         try:
             kept.parent.mkdir(parents=True, exist_ok=True)
             kept.write_text(json.dumps(vars(limits)))
@@ -260,6 +276,5 @@ def profile_limits(profile: CarProfile) -> CarLimits:
 
 
 _MEASURED: dict[str, CarLimits] = {}
-_MEASURING: set[str] = set()
 
 ROBOT = EscCar

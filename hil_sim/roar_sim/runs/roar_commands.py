@@ -22,6 +22,8 @@ step_response = Command("the simulated IARRC car's speed PID answering a step, p
 sweep = Command("race a grid of autopilot parameters x tracks on every core; CSV table and plot (`roar sweep --help`)",
                 "roar_sim.runs.sweep")
 platoon = Command("two simulated cars platooning over UDP multicast (`roar platoon --help`)", "roar_sim.runs.platoon")
+fit = Command("fit the simulated car to your car from a test drive: a car profile and its trim (`roar fit --help`)",
+              "roar_sim.runs.fit")
 limits = Command("measure a simulated robot's physical limits against its table (`roar limits --help`)",
                  "roar_sim.runs.limits")
 challenge = Command("the MIT challenge in a tunnel world: the whole autonomy stack, scored (`roar challenge --help`)",

@@ -58,7 +58,7 @@ BUILT_IN = {
 # value = "module:Command object"; roar.cli.sdk); the ones this project's extras provide are
 # named here, so a base install can say what to install.
 PLUGIN_GROUP = "roar.commands"
-EXTRA_COMMANDS = {"challenge": "sim", "limits": "sim", "platoon": "sim", "race": "sim", "sim": "sim",
+EXTRA_COMMANDS = {"challenge": "sim", "fit": "sim", "limits": "sim", "platoon": "sim", "race": "sim", "sim": "sim",
                   "step-response": "sim", "sweep": "sweep", "track": "sim", "world": "sim"}
 
 
