@@ -14,9 +14,10 @@ CIRCUIT_S = 22.0  # [s] simulated on circuit:29: 40 m and more at the lane drive
 CIRCUIT_M = 40.0  # [m] the rest of the main straight, its 1.4 m bend and the fast bends after it
 
 
-@pytest.mark.parametrize("name", ["random:31",  # not the benchmark's seeds (it laps random:1..20 and 5 wide ones)
-                                  "random:32,width=2.2,radius=1"])  # wide, tight bends: lines cross the view in bends
+@pytest.mark.parametrize("name", ["random:32,width=2.2,radius=1"])  # wide, tight bends: lines cross the view in bends
 def test_the_camera_alone_laps_a_random_track(name):
+    """One seed the benchmark does not lap (it laps random:1..20 and 5 wide ones; the 1.2 m tracks'
+    camera laps here are the oval's and the figure eight's, tests/autonomy/test_lanes.py)."""
     track = get(name)
     by_camera = race(track, laps=1, lateral="lane")
     by_pose = race(track, laps=1)
