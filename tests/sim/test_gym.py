@@ -86,6 +86,13 @@ def test_actions_drive_the_car_through_the_firmware_and_progress_is_the_reward()
     ({"profile": "warp"}, "no car profile 'warp': use f1tenth, roar or a .toml file"),
     ({"profile": 3}, "profile must be a car profile's name or a .toml file, got 3"),
     ({"profile": "f1tenth", "robot": "junior"}, "profile holds the ESC car's numbers: not for robot='junior'"),
+    ({"randomize": {"grip": (0.4, 0.5)}}, "randomize: no profile key 'grip' (keys: brake_torque_nm,"),
+    ({"randomize": {"tyre_friction": (0.4, float("nan"))}}, "randomize['tyre_friction'] must be a finite number"),
+    ({"randomize": {"latency_s": (0.0, 9.0)}}, "randomize['latency_s'] must be a finite number 0..0.5 s, got 9"),
+    ({"randomize": {"latency_s": (0.05, 0.01)}}, "randomize['latency_s']: low 0.05 is above high 0.01"),
+    ({"randomize": {"latency_s": 0.05}}, "randomize['latency_s'] must be (low, high), got 0.05"),
+    ({"randomize": [("latency_s", 0.05)]}, "randomize must be a dict of car profile keys to (low, high)"),
+    ({"randomize": {"latency_s": (0, 0.1)}, "robot": "iarrc"}, "randomize draws the ESC car's profile numbers"),
     ({"max_seconds": 0, "camera": (0, 0), "track": 42}, "track must be; camera width; camera height; max_seconds"),
 ])
 def test_every_keyword_is_checked_before_the_world_is_built(keywords, words):
@@ -119,6 +126,28 @@ def test_a_car_profile_is_the_car_the_environment_steps():
         finally:
             env.close()
     assert speeds["f1tenth"] > 1.3 * speeds["roar"], speeds
+
+
+def test_randomize_draws_each_episodes_car_from_its_seed():
+    """Domain randomisation: each episode's car has the keys drawn within their spans; the same seed
+    draws the same car (and the same run), another seed another car; the draws are in info."""
+    from roar_sim.gym_env import RaceEnv
+
+    spans = {"tyre_friction": (0.35, 0.55), "latency_s": (0.0, 0.06), "steering_trim_deg": (-4.0, 4.0)}
+    env = RaceEnv("oval", lidar_beams=0, randomize=spans)
+    try:
+        runs = []
+        for seed in (3, 3, 4):
+            _, info = env.reset(seed=seed)
+            drawn = info["profile"]
+            assert set(drawn) == set(spans) and all(a <= drawn[k] <= b for k, (a, b) in spans.items())
+            assert all(getattr(env.sim.profile, k) == v for k, v in drawn.items())
+            for _ in range(25):
+                observation, *_ = env.step(np.array([0.5, 0.0], np.float32))
+            runs.append((drawn, observation["state"].tobytes()))
+        assert runs[0] == runs[1] and runs[2][0] != runs[0][0] and runs[2][1] != runs[0][1]
+    finally:
+        env.close()
 
 
 def test_human_rendering_without_a_display_says_how_to_check_headless(monkeypatch):

@@ -207,24 +207,61 @@ def _profile(profile, robot, problems: list[str]):
     return None
 
 
+def _randomize(randomize, robot, problems: list[str]) -> dict[str, tuple[float, float]]:
+    """{profile key: (low, high)} checked: keys a car profile has, bounds within its ranges; what is
+    wrong goes to problems."""
+    if randomize is None:
+        return {}
+    if not isinstance(randomize, dict) or not randomize:
+        problems.append(f"randomize must be a dict of car profile keys to (low, high), got {shown(randomize)}")
+        return {}
+    if robot != "esc":
+        problems.append(f"randomize draws the ESC car's profile numbers: not for robot={shown(robot)}")
+        return {}
+    from roar_sim.plants.car_profile import OPTIONAL_RANGES, RANGES
+
+    ranges, checked = RANGES | OPTIONAL_RANGES, {}
+    for key, span in randomize.items():
+        if key not in ranges:
+            problems.append(f"randomize: no profile key {shown(key)} (keys: {', '.join(sorted(ranges))})")
+            continue
+        low, high, unit = ranges[key]
+        try:
+            a, b = (number(f"randomize[{key!r}]", v, low, high, unit) for v in span)
+        except (TypeError, ValueError) as e:
+            problems.append(str(e) if isinstance(e, ValueError) and "randomize" in str(e)
+                            else f"randomize[{key!r}] must be (low, high), got {shown(span)}")
+            continue
+        if a > b:
+            problems.append(f"randomize[{key!r}]: low {a:g} is above high {b:g}")
+            continue
+        checked[key] = (a, b)
+    return checked
+
+
 class RaceEnv(gym.Env):
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": round(1 / PERIOD_S)}
 
     def __init__(self, track: str | Track = "oval", camera: tuple[int, int] | None = None, max_seconds: float = 60.0,
                  contact_penalty: float = 1.0, crash_ends: bool = True, lidar_beams: int | None = None,
-                 render_mode: str | None = None, robot: str = "esc", profile: str | None = None) -> None:
+                 render_mode: str | None = None, robot: str = "esc", profile: str | None = None,
+                 randomize: dict[str, tuple[float, float]] | None = None) -> None:
         """Every keyword is checked before anything is built; what is wrong, all of it, in one
         ValueError. profile: the ESC car's own numbers (roar_sim.plants.car_profile: a name or a
-        .toml file, as `roar race --car-profile` and sim://?profile=); None: the ROAR car."""
+        .toml file, as `roar race --car-profile` and sim://?profile=); None: the ROAR car.
+        randomize: domain randomisation, {profile key: (low, high)}: each episode's car has each
+        key drawn uniformly within its span from the episode's seed (info["profile"] says what was
+        drawn), e.g. {"tyre_friction": (0.35, 0.55), "latency_s": (0.0, 0.06)}."""
         self.kind = robots.get(robot) if isinstance(robot, str) else None
         problems = _problems(self.metadata["render_modes"], track, camera, max_seconds, contact_penalty, crash_ends,
                              lidar_beams, render_mode, robot, self.kind)
         self.profile = _profile(profile, robot, problems)
+        self.randomize = _randomize(randomize, robot, problems)
         if problems:
             raise ValueError("RaceEnv: " + "; ".join(problems))
         lidar_beams = (LIDAR_BEAMS if self.kind.has_lidar else 0) if lidar_beams is None else lidar_beams
         self.track = track if isinstance(track, Track) else get(track)
-        self.kind.check_track(self.track, self.profile)  # a bend the robot cannot turn: no lap to learn
+        self.kind.check_track(self.track, self._least_turning())  # a bend the robot cannot turn: no lap to learn
         self.robot, self.lidar_beams = robot, lidar_beams
         self.camera_size, self.max_seconds = camera, max_seconds
         self.contact_penalty, self.crash_ends, self.render_mode = contact_penalty, crash_ends, render_mode
@@ -252,7 +289,8 @@ class RaceEnv(gym.Env):
         super().reset(seed=seed)
         self.close()
         pose = start_pose(self.track.start_pose, self.np_random)
-        own = {} if self.profile is None else {"profile": self.profile}
+        profile = self._drawn()
+        own = {} if profile is None else {"profile": profile}
         self.sim = self.kind(self.track, pose, gui=self.render_mode == "human", **own)
         self.sim.arm()  # the ESC car boots latched until it hears neutral
         state = self.sim.state()
@@ -285,6 +323,31 @@ class RaceEnv(gym.Env):
 
     # --- helpers -----------------------------------------------------------------------------
 
+    def _base(self):
+        from roar_sim.plants import car_profile
+
+        return self.profile or car_profile.load()
+
+    def _drawn(self):
+        """This episode's profile: the base with each randomized key drawn (None: the default car)."""
+        if not self.randomize:
+            return self.profile
+        import dataclasses
+
+        draws = {k: float(self.np_random.uniform(a, b)) for k, (a, b) in sorted(self.randomize.items())}
+        return dataclasses.replace(self._base(), **draws)
+
+    def _least_turning(self):
+        """The profile the track's bends are checked against: the one that turns least of those drawn."""
+        if not self.randomize:
+            return self.profile
+        import dataclasses
+
+        worst = {k: v for k, v in (("max_steer_rad", self.randomize.get("max_steer_rad", (None,))[0]),
+                                   ("wheelbase_m", self.randomize.get("wheelbase_m", (None, None))[1]))
+                 if v is not None}
+        return dataclasses.replace(self._base(), **worst)
+
     def _observation(self, s) -> dict:
         plant = self.sim.plant
         observation = {"state": self._place.observation(s)}
@@ -303,7 +366,9 @@ class RaceEnv(gym.Env):
         return observation
 
     def _info(self, touching: bool = False) -> dict:
-        return {"time_s": self.sim.t_us / 1e6, "progress_m": self._place.s, "wall_contact": touching, **self.sim.info()}
+        drawn = {k: getattr(self.sim.profile, k) for k in self.randomize}
+        return {"time_s": self.sim.t_us / 1e6, "progress_m": self._place.s, "wall_contact": touching, **self.sim.info(),
+                **({"profile": drawn} if drawn else {})}
 
 
 if "roar/Race-v0" not in gym.registry:  # make_vec(..., vectorization_mode="vector_entry_point"): every core
