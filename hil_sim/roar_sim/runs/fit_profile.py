@@ -44,7 +44,7 @@ DAMPING = 0.8  # of each round's step: a noisy slope overshoots less
 MODEL_KEYS = ("trim_deg", "gain_rad", "steer_delay_s", "lag_s", "delay_s", "deadband_us", "top_m_s", "drive_m_s2",
               "coast_m_s2", "lateral_m_s2")  # the model numbers matched
 ROUNDS = 3  # simulated test drives after the base profile's
-JACOBIAN_VERSION = 5  # of the test drive and the model: slopes kept in the user's cache by another are measured again
+JACOBIAN_VERSION = 6  # of the test drive and the model: slopes kept in the user's cache by another are measured again
 
 
 @dataclass

@@ -84,7 +84,7 @@ MANOEUVRES = (
     Manoeuvre("coast", 2.0, "neutral while moving: what slows a coasting car"),
     Manoeuvre("steps", 9.0, "steering steps on top of the path's, at a steady throttle: the servo"),
     Manoeuvre("sweep", 6.0, "steering swept faster and faster: the servo (held out of the fit, predicted)"),
-    Manoeuvre("grip", 8.0, "throttle rising until the tyres let go on the circles"),
+    Manoeuvre("grip", 8.0, "throttle rising round one circle until the tyres let go"),
     Manoeuvre("stop", 2.0, "reverse pulses until the car stops, then neutral"),
 )
 HELD_OUT = "sweep"
@@ -174,10 +174,10 @@ class TestDrive:
         c, s = math.cos(oyaw), math.sin(oyaw)
         return c * dx + s * dy, -s * dx + c * dy, math.remainder(pose[2] - oyaw, math.tau)
 
-    def _path_steering(self, x: float, y: float, yaw: float) -> float:
+    def _path_steering(self, x: float, y: float, yaw: float, switch: bool = True) -> float:
         """Pure pursuit on the figure eight: the steering fraction (-1..1, +1 right) for this
         lap's circle; once a lap has swept all the way round, back where the circles cross, the
-        next lap takes the other circle."""
+        next lap takes the other circle (unless not `switch`: round the same one again)."""
         side = self._lap_side  # +1: the left circle, anticlockwise; -1: the right one, clockwise
         cy = side * self.radius
         angle = math.atan2(y - cy, x)  # where the car is, seen from the circle's centre
@@ -185,8 +185,11 @@ class TestDrive:
             self._swept += side * math.remainder(angle - self._last_angle, math.tau)
         self._last_angle = angle
         if self._swept >= math.tau:  # round once: the other circle, from where the car is
-            self._lap_side, self._swept, self._last_angle = -side, 0.0, None
-            return self._path_steering(x, y, yaw)
+            if not switch:
+                self._swept -= math.tau
+            else:
+                self._lap_side, self._swept, self._last_angle = -side, 0.0, None
+                return self._path_steering(x, y, yaw)
         ahead = angle + side * LOOKAHEAD_M / self.radius  # the lookahead point, along the circle
         dx, dy = self.radius * math.cos(ahead) - x, cy + self.radius * math.sin(ahead) - y
         along = math.cos(yaw) * dx + math.sin(yaw) * dy
@@ -199,7 +202,8 @@ class TestDrive:
         return abs(math.hypot(x, y - self._lap_side * self.radius) - self.radius)
 
     def _command(self, name: str, elapsed: float, x: float, y: float, yaw: float, speed: float) -> Command | None:
-        path = self._path_steering(x, y, yaw)
+        # the grip is measured on one circle: a lap's S-bend where the circles cross would shake it
+        path = self._path_steering(x, y, yaw, switch=name != "grip")
         throttle = 0.0
         steer = path
         if name == "settle":

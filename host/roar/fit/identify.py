@@ -19,6 +19,8 @@ from roar.fit.model import (N, NAMES, PARAMS, STEP_S, WINDOW_EVERY_S, WINDOW_S, 
 
 Z95 = 1.96  # a 95 % interval's half width in standard deviations
 MOVING_M_S = 0.05  # [m/s] slower than this the yaw rate says nothing of the steering
+GRIP_MANOEUVRE = "grip"  # the manoeuvre the grip is measured in
+GRIP_SHARE = 95  # [%] the percentile of the sideways acceleration there taken for the grip
 DELAY_SCAN_S = np.arange(0.0, 0.2001, 0.004)  # [s] the delays scanned for the deepest minimum
 
 
@@ -133,24 +135,35 @@ def fit(record: FitLog, wheelbase_m: float, held_out: str = "", start: Car | Non
     out = np.array([held_out and 0 <= k < len(names) and names[k] == held_out for k in phase], dtype=bool)
     throttle_only = np.array([not names or (0 <= k < len(names) and names[k] in speed_phases) for k in phase])
     problem = _Problem(record, wheelbase_m, ~out, throttle_only)
+    grip, grip_sigma = _grip(problem, record, names)
+    free = np.array([n != "lateral_m_s2" for n in NAMES])  # the grip is measured, not fitted
     low = np.array([p.low for p in PARAMS])
     high = np.array([p.high for p in PARAMS])
-    x = np.clip((start or Car.start()).vector(), low, high)
+    whole = np.clip((start or Car.start()).vector(), low, high)
+    whole[~free] = np.clip(grip, low[~free], high[~free])
     scale = (0.1, 0.1)  # [m/s], [rad/s]: first pass; then each channel's own error
     evaluations = 0
 
+    def of(part: np.ndarray) -> np.ndarray:
+        x = whole.copy()
+        x[free] = part
+        return x
+
+    def residuals(part: np.ndarray, units: tuple[float, float]) -> np.ndarray:
+        return problem.residuals(of(part), units)
+
     def solve(x0: np.ndarray):
         nonlocal evaluations
-        r = least_squares(problem.residuals, x0, bounds=(low, high), x_scale=high - low, args=(scale,),
+        r = least_squares(residuals, x0, bounds=(low[free], high[free]), x_scale=(high - low)[free], args=(scale,),
                           method="trf", max_nfev=100, ftol=1e-6, xtol=1e-6)
         evaluations += r.nfev
         return r
 
-    best = solve(x)
+    best = solve(whole[free])
     for _ in range(2):
         # each delay's error has a minimum per frame and per pose: the deepest over a scan of
         # DELAY_SCAN_S, the rest held, then everything again from there
-        x = best.x.copy()
+        x = of(best.x)
         for name in ("delay_s", "steer_delay_s"):
             k = NAMES.index(name)
             costs = []
@@ -159,17 +172,35 @@ def fit(record: FitLog, wheelbase_m: float, held_out: str = "", start: Car | Non
                 costs.append(float(np.sum(problem.residuals(x, scale) ** 2)))
             x[k] = DELAY_SCAN_S[int(np.argmin(costs))]
         evaluations += 2 * len(DELAY_SCAN_S)
-        again = solve(x)
+        again = solve(x[free])
         best = again if again.cost <= best.cost else best
-        v, rate = problem.predict(Car(*best.x))  # then each channel weighed by its own error
+        v, rate = problem.predict(Car(*of(best.x)))  # then each channel weighed by its own error
         scale = (max(float(np.sqrt(np.mean((v - problem.speed[problem.pose]) ** 2))), 1e-3),
                  max(float(np.sqrt(np.mean((rate - problem.rate)[problem.moving] ** 2))), 1e-3))
         best = solve(best.x)  # (its cost in these units, for the next comparison and the intervals)
-    x = best.x
+    x = of(best.x)
     car = Car(*x)
-    sigma = _sigma(best, len(best.fun), np.median(np.diff(record.pose_t)))
+    sigma = np.zeros(len(NAMES))
+    sigma[free] = _sigma(best, len(best.fun), np.median(np.diff(record.pose_t)))
+    sigma[~free] = grip_sigma
     held = _Problem(record, wheelbase_m, out, np.ones(len(out), dtype=bool)).prediction(car) if out.any() else None
     return FitResult(car, dict(zip(NAMES, sigma)), problem.prediction(car), held, held_out, evaluations)
+
+
+def _grip(problem: _Problem, record: FitLog, names: list[str]) -> tuple[float, float]:
+    """([m/s^2] the tyres' grip, its standard deviation): the GRIP_SHARE percentile of the
+    sideways acceleration (speed x yaw rate) measured while the car was driven forward in the grip
+    manoeuvre (anywhere, in a record without one). Measured, not fitted: a yaw rate's brief
+    overshoot in a steering step would pull a fitted limit up."""
+    inside = problem.moving.copy()
+    if GRIP_MANOEUVRE in names:
+        inside &= record.phase_at(problem.t) == names.index(GRIP_MANOEUVRE)
+    lateral = np.abs(problem.speed * problem.rate)[inside]
+    if len(lateral) < 5:
+        return PARAMS[NAMES.index("lateral_m_s2")].start, float("inf")
+    grip = float(np.percentile(lateral, GRIP_SHARE))
+    top = lateral[lateral >= np.percentile(lateral, 2 * GRIP_SHARE - 100)]
+    return grip, float(np.std(top) / np.sqrt(len(top)))
 
 
 def _sigma(result, n: int, pose_dt_s: float) -> np.ndarray:
