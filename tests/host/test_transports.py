@@ -173,3 +173,16 @@ def test_a_link_declares_what_the_layers_ask_and_the_layers_pass_it_through():
     assert layer.session == 0x1234 and layer.counter == 7
     layer.write(b"(1500,1500)")
     assert "ctr=" in query.sent[-1] and "mac=" in query.sent[-1]  # the link signed its own form
+
+
+def test_a_phone_on_other_ports_is_reached_at_them():
+    """udp://HOST?ports=R,D,S,C: the streams asked for and the control sent at those ports; a
+    ports option that is not four ports is one line."""
+    from roar.transports import TransportError, open_url
+
+    link = open_url("udp://127.0.0.1?ports=9101,9102,9103,9104")
+    assert link.ports == {"rgb": 9101, "depth": 9102, "state": 9103, "control": 9104}
+    assert open_url("udp://127.0.0.1").ports == {"rgb": 8001, "depth": 8002, "state": 8003, "control": 8004}
+    for bad in ("9101,9102,9103", "a,b,c,d", "0,1,2,3", "9101,9102,9103,70000"):
+        with pytest.raises(TransportError, match="takes four ports 1..65535"):
+            open_url(f"udp://127.0.0.1?ports={bad}")

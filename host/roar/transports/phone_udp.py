@@ -6,6 +6,8 @@ which it forwards to the car over BLE; the phone's camera, depth and state strea
     udp://127.0.0.1             the simulated car's phone
     ?push=1                     listen on 8001-8003 for frames the phone pushes, instead of asking
                                 for each with "ack"
+    ?ports=9001,9002,9003,9004  a phone on other ports: camera, depth, state, control (as
+                                `roar sim --stream --ports` serves them)
 
 car.camera() is the newest (RGB, metric depth) pair, car.state() position, heading, speed and
 yaw rate from the state stream. The phone has no replies: no READY or ARMED events.
@@ -35,8 +37,11 @@ class UdpPhoneTransport(Transport):
     signs_itself = True  # the car takes datagrams: signed through signer.sign_datagram
     min_period_s = 0.01  # [s] the phone forwards at 100 Hz
 
-    def __init__(self, host: str, push: bool = False) -> None:
+    def __init__(self, host: str, push: bool = False, ports: dict[str, int] | None = None) -> None:
+        from roar.stream import KINDS
+
         self.host, self.push = host, push
+        self.ports = ports or {**KINDS, "control": spec.UDP_PORT_CONTROL}  # kind -> the phone's port
         self.receivers: dict = {}
         self._latest: dict = {}
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -50,15 +55,15 @@ class UdpPhoneTransport(Transport):
         host = target.strip("/")
         if not host or ":" in host:
             raise TransportError(f"udp:// needs the phone's HOST only (its ports are ROAR's 8001-8004), got {target!r}")
-        return cls(host, pop_option(options, "push", bool, False))
+        return cls(host, pop_option(options, "push", bool, False), _ports(pop_option(options, "ports", str, None)))
 
     def open(self) -> None:
-        from roar.stream import KINDS, StreamReceiver, UnknownHost, peer
+        from roar.stream import StreamReceiver, UnknownHost, peer
 
         try:
             address, listen = peer(self.host)
             self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-            self._sock.connect((address, spec.UDP_PORT_CONTROL))
+            self._sock.connect((address, self.ports["control"]))
             self._sock.setblocking(False)  # (sends never wait; refusal() reads what the phone answered)
         except (OSError, UnknownHost) as e:
             raise TransportError(f"udp://{self.host}: {e.strerror if isinstance(e, OSError) else e}") from None
@@ -67,7 +72,9 @@ class UdpPhoneTransport(Transport):
         async def run() -> None:
             self._stop = asyncio.Event()
             try:
-                for kind, port in KINDS.items():
+                for kind, port in self.ports.items():
+                    if kind == "control":
+                        continue
                     rx = StreamReceiver(kind, host=listen, port=port if self.push else 0,
                                         sender=None if self.push else (address, port), ack=not self.push)
                     self.receivers[kind] = await rx.start()
@@ -150,3 +157,13 @@ class UdpPhoneTransport(Transport):
         if self._sock is not None:
             self._sock.close()
             self._sock = None
+
+
+def _ports(text: str | None) -> dict[str, int] | None:
+    """?ports=RGB,DEPTH,STATE,CONTROL -> {kind: port}; TransportError (one line) for anything else."""
+    if text is None:
+        return None
+    parts = text.split(",")
+    if len(parts) != 4 or not all(p.strip().isdigit() and 1 <= int(p) <= 65535 for p in parts):
+        raise TransportError(f"udp://...?ports= takes four ports 1..65535 (camera, depth, state, control), got {text!r}")
+    return dict(zip(("rgb", "depth", "state", "control"), (int(p) for p in parts)))
