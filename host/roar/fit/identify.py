@@ -21,7 +21,7 @@ Z95 = 1.96  # a 95 % interval's half width in standard deviations
 MOVING_M_S = 0.05  # [m/s] slower than this the yaw rate says nothing of the steering
 GRIP_MANOEUVRE = "grip"  # the manoeuvre the grip is measured in
 GRIP_SHARE = 95  # [%] the percentile of the sideways acceleration there taken for the grip
-DELAY_SCAN_S = np.arange(0.0, 0.2001, 0.004)  # [s] the delays scanned for the deepest minimum
+DELAY_SCAN_S = np.arange(0.0, 0.2001, 0.008)  # [s] the delays scanned for the deepest minimum
 
 
 @dataclass

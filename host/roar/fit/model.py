@@ -30,7 +30,7 @@ from roar.protocol import spec
 
 N = spec.CONTROL_NEUTRAL_US  # [us]
 HALF_RANGE_US = (spec.CONTROL_MAX_US - spec.CONTROL_MIN_US) / 2  # [us]
-STEP_S = 0.005  # [s] the model's time step
+STEP_S = 0.01  # [s] the model's time step
 WINDOW_S = 1.0  # [s] each speed prediction's span
 WINDOW_EVERY_S = 0.5  # [s] between window starts
 # [s] a reverse pulse after forward drives only after the board's sequence: neutral, tap, neutral,
