@@ -74,5 +74,5 @@ def run() -> None:
     print(f"  {missed} numbers or laps missed their targets" if missed else "  every target met")
     if missed:
         print("  causes: the servo's lag shows mostly as a delay beside the car's own yaw lag, so lag and latency "
-              "trade; the grip is what the car shows on a 1.25 m circle, where its rising speed ends the manoeuvre; "
+              "trade; the grip is what the car shows on a 1.2 m circle, where its rising speed ends the manoeuvre; "
               "the motor's torque shows only where it, not the tyres' traction, limits the car (low throttle)")
