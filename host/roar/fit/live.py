@@ -114,13 +114,13 @@ def drive_car(car, poses: Poses, area: Area, wheelbase_m: float, recorder=None, 
                 time.sleep(min(wait, 0.002))
         else:
             plan.stopped = plan.stopped or "stopped by a key"
-    finally:
+    finally:  # however it ended (Ctrl-C too): neutral, and the poses on the record
         car.send_pulses(spec.CONTROL_NEUTRAL_US, spec.CONTROL_NEUTRAL_US)
-    offset = poses.offset()
-    rows = [(t + offset, x, y, yaw) for _, t, x, y, yaw in poses.samples if t + offset >= start]
-    if recorder is not None:
-        for t, x, y, yaw in rows:
-            recorder.fields(POSE_TOPIC, {"x": x, "y": y, "yaw": yaw, "source": poses.name}, int(t * 1e9),
-                            "roar.fit.Pose")
+        offset = poses.offset()  # (known only now: the smallest delay over the whole drive)
+        rows = [(t + offset, x, y, yaw) for _, t, x, y, yaw in poses.samples if t + offset >= start]
+        if recorder is not None:
+            for t, x, y, yaw in rows:
+                recorder.fields(POSE_TOPIC, {"x": x, "y": y, "yaw": yaw, "source": poses.name}, int(t * 1e9),
+                                "roar.fit.Pose")
     return FitLog.from_arrays(pulses, rows, phases, poses.name), plan.stopped
 
