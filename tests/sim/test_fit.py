@@ -161,3 +161,30 @@ def test_roar_fit_recovers_a_hidden_car_over_a_pty_with_the_phones_pose(tmp_path
         assert read_back[name] == pytest.approx(value, rel=0.02, abs=1e-3), name
     refit = car_profile.load(str(tmp_path / "again.toml"))
     assert refit.steering_trim_deg == pytest.approx(found.steering_trim_deg, abs=0.6)
+
+
+@pytest.mark.realtime
+def test_ctrl_c_stops_the_drive_at_neutral_and_keeps_its_record(tmp_path):
+    """Ctrl-C in the middle of the test drive on sim://: status 130, nothing fitted, and the record
+    holds the pulses and poses driven so far."""
+    import signal
+    import time
+
+    record = tmp_path / "run.mcap"
+    proc = subprocess.Popen([sys.executable, "-m", "roar.cli", "fit", "sim://", "--out", str(tmp_path / "car.toml"),
+                             "--record", str(record)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        lines = []
+        while not any("deadband" in line for line in lines):
+            lines.append(proc.stdout.readline())
+            assert lines[-1], "".join(lines) + proc.stderr.read()
+        time.sleep(1.5)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=20)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130 and "Traceback" not in err, err
+    assert not (tmp_path / "car.toml").exists()
+    kept = FitLog.from_mcap(record)
+    assert len(kept.pulse_t) > 50 and len(kept.pose_t) > 50 and [n for _, n in kept.phases][:2] == ["settle", "deadband"]
