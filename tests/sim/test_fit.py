@@ -187,4 +187,5 @@ def test_ctrl_c_stops_the_drive_at_neutral_and_keeps_its_record(tmp_path):
     assert proc.returncode == 130 and "Traceback" not in err, err
     assert not (tmp_path / "car.toml").exists()
     kept = FitLog.from_mcap(record)
-    assert len(kept.pulse_t) > 50 and len(kept.pose_t) > 50 and [n for _, n in kept.phases][:2] == ["settle", "deadband"]
+    assert len(kept.pulse_t) > 50 and len(kept.pose_t) > 50
+    assert [name for _, name in kept.phases][:2] == ["settle", "deadband"]
