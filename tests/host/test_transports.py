@@ -31,8 +31,8 @@ def test_urls_parse(url, expected):
     ("sim://?plot=out.jpg", "plot: must name a .png"),
     ("sim://?trace=", "trace= is empty: give a file name"),
     ("sim://?profile=", "profile= is empty"),
-    ("sim://?profile=warp", "no car profile 'warp': use f1tenth, roar or a .toml file"),
-    ("sim://?robot=iarrc&profile=f1tenth", "profile= holds the ESC car's numbers: not for robot=iarrc"),
+    ("sim://?profile=warp", "no car profile 'warp': use f1tenth, iarrc, roar or a .toml file"),
+    ("sim://?robot=junior&profile=f1tenth", "profile= describes a racecar (esc, iarrc): the ROAR Junior has no car profile"),
     ("ble://?timeout=-1", "timeout must be"),
 ])
 def test_bad_urls_give_one_line_errors(url, words):

@@ -11,6 +11,7 @@ pytest.importorskip("pybullet", reason="pip install pybullet (make setup install
 from roar.protocol import encode  # noqa: E402
 from roar_sim.plants import car_profile  # noqa: E402
 from roar_sim.plants.car_profile import ProfileError  # noqa: E402
+from roar_sim import robots  # noqa: E402
 from roar_sim.robots import esc  # noqa: E402
 
 
@@ -35,7 +36,7 @@ def test_the_shipped_profiles_and_the_default():
 
 def test_the_f1tenth_car_is_much_faster_and_its_limits_are_measured_once(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
-    monkeypatch.setattr(esc, "_MEASURED", {})
+    monkeypatch.setattr(robots, "_MEASURED", {})
     with esc.EscCar(profile="f1tenth") as car:
         limits = car.limits
     assert "measuring the F1TENTH-like" in capsys.readouterr().err
@@ -43,7 +44,7 @@ def test_the_f1tenth_car_is_much_faster_and_its_limits_are_measured_once(tmp_pat
     kept = list((tmp_path / "roar" / "limits").glob("esc-*.json"))
     assert len(kept) == 1 and json.loads(kept[0].read_text())["max_speed_m_s"] == limits.max_speed_m_s
     assert limits.max_speed_m_s > 7.0 and limits.max_lateral_m_s2 > 2 * esc.LIMITS.max_lateral_m_s2
-    monkeypatch.setattr(esc, "_MEASURED", {})
+    monkeypatch.setattr(robots, "_MEASURED", {})
     with esc.EscCar(profile="f1tenth") as car:  # read back from the cache, not measured again
         assert car.limits == limits
     assert "measuring" not in capsys.readouterr().err
@@ -131,7 +132,7 @@ def test_a_profile_whose_car_cannot_be_measured_is_refused_in_one_line(tmp_path,
                        'gear_ratio = 5.5039\nmotor_torque_nm = 3.0045\ntyre_friction = 1.4843\nmax_steer_rad = 0.2127\n'
                        'steer_rate_rad_s = 2.1268\n')
     with pytest.raises(ProfileError, match=r"rocket: its limits cannot be measured.*36.6 m/s") as e:
-        esc.profile_limits(car_profile.load(str(profile)))
+        robots.profile_limits(esc.EscCar, car_profile.load(str(profile)), esc.LIMITS)
     assert "\n" not in str(e.value)
 
 
@@ -173,7 +174,6 @@ def test_trim_dead_band_servo_lag_and_latency_act_as_on_a_real_car(monkeypatch):
     slows the steering's step, a latency delays the ESC's answer by as much."""
     from dataclasses import replace
 
-    monkeypatch.setattr(esc, "profile_limits", lambda profile: esc.LIMITS)  # these act on pulses, not limits
     perfect = car_profile.load()
     yaw = {trim: drive(replace(perfect, steering_trim_deg=trim), 1650, 1500, 2.0)[-1][1].yaw for trim in (0.0, 3.0)}
     assert abs(yaw[0.0]) < 0.02 and yaw[3.0] > 0.1, yaw  # straight; left with +3 deg (0.2 rad over its 1.3 m)
@@ -224,3 +224,27 @@ def test_brakes_and_rolling_drag_are_the_profiles():
     coast = speed_change(perfect, 0.0, 0.0, 1.0)
     draggy = speed_change(replace(perfect, rolling_drag_nm=0.3), 0.0, 0.0, 1.0)
     assert draggy[0] - draggy[1] > 1.5 * (coast[0] - coast[1]), (coast, draggy)
+
+
+def test_the_iarrc_car_takes_a_profile_too():
+    """The IARRC car is the same racecar: its default profile (iarrc) is its old motor and tyres
+    exactly, and another profile's trim and latency act on it as on the ESC car (its speed PID then
+    holds the setpoint through them)."""
+    from dataclasses import replace
+
+    from roar.protocol import encode_setpoint
+    from roar_sim.robots.iarrc import LIMITS, IarrcCar
+
+    own = car_profile.load("iarrc")
+    assert own.motor.max_speed_rad_s == 100.0 and own.motor.max_torque_nm == 0.8 and own.tyre_friction == 1.0
+    yaws = {}
+    for trim in (0.0, 3.0):
+        with IarrcCar(profile=replace(own, steering_trim_deg=trim, latency_s=0.03)) as car:
+            for _ in range(100):  # 2 s at 1 m/s, steering at neutral
+                car.host(encode_setpoint(1000, 1500))
+                car.run(0.02)
+            yaws[trim] = car.state().yaw
+            assert car.state().speed > 0.8
+    assert abs(yaws[0.0]) < 0.03 and yaws[3.0] > 0.1, yaws
+    with IarrcCar() as car:
+        assert car.profile == own and car.limits == LIMITS

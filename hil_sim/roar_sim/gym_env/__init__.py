@@ -188,14 +188,15 @@ class Place:
         return np.clip(state, -self._high, self._high)
 
 
-def _profile(profile, robot, problems: list[str]):
-    """The CarProfile that profile names (None: the default car); what is wrong goes to problems."""
+def _profile(profile, kind, problems: list[str]):
+    """The CarProfile that profile names (None: the robot's own); what is wrong goes to problems."""
     if profile is None:
         return None
+    refusal = robots.profile_refusal(kind, "profile")
     if not isinstance(profile, str) or not profile.strip():
         problems.append(f"profile must be a car profile's name or a .toml file, got {shown(profile)}")
-    elif robot != "esc":
-        problems.append(f"profile holds the ESC car's numbers: not for robot={shown(robot)}")
+    elif refusal:
+        problems.append(refusal)
     else:
         from roar_sim import ProfileError
         from roar_sim.plants import car_profile
@@ -207,7 +208,7 @@ def _profile(profile, robot, problems: list[str]):
     return None
 
 
-def _randomize(randomize, robot, problems: list[str]) -> dict[str, tuple[float, float]]:
+def _randomize(randomize, kind, problems: list[str]) -> dict[str, tuple[float, float]]:
     """{profile key: (low, high)} checked: keys a car profile has, bounds within its ranges; what is
     wrong goes to problems."""
     if randomize is None:
@@ -215,8 +216,9 @@ def _randomize(randomize, robot, problems: list[str]) -> dict[str, tuple[float, 
     if not isinstance(randomize, dict) or not randomize:
         problems.append(f"randomize must be a dict of car profile keys to (low, high), got {shown(randomize)}")
         return {}
-    if robot != "esc":
-        problems.append(f"randomize draws the ESC car's profile numbers: not for robot={shown(robot)}")
+    refusal = robots.profile_refusal(kind, "randomize")
+    if refusal:
+        problems.append(refusal)
         return {}
     from roar_sim.plants.car_profile import OPTIONAL_RANGES, RANGES
 
@@ -247,16 +249,17 @@ class RaceEnv(gym.Env):
                  render_mode: str | None = None, robot: str = "esc", profile: str | None = None,
                  randomize: dict[str, tuple[float, float]] | None = None) -> None:
         """Every keyword is checked before anything is built; what is wrong, all of it, in one
-        ValueError. profile: the ESC car's own numbers (roar_sim.plants.car_profile: a name or a
-        .toml file, as `roar race --car-profile` and sim://?profile=); None: the ROAR car.
+        ValueError. profile: the car's own numbers, for a robot that is a racecar (the ESC and
+        IARRC cars; roar_sim.plants.car_profile: a name or a .toml file, as `roar race
+        --car-profile` and sim://?profile=); None: the robot's own.
         randomize: domain randomisation, {profile key: (low, high)}: each episode's car has each
         key drawn uniformly within its span from the episode's seed (info["profile"] says what was
         drawn), e.g. {"tyre_friction": (0.35, 0.55), "latency_s": (0.0, 0.06)}."""
         self.kind = robots.get(robot) if isinstance(robot, str) else None
         problems = _problems(self.metadata["render_modes"], track, camera, max_seconds, contact_penalty, crash_ends,
                              lidar_beams, render_mode, robot, self.kind)
-        self.profile = _profile(profile, robot, problems)
-        self.randomize = _randomize(randomize, robot, problems)
+        self.profile = _profile(profile, self.kind, problems)
+        self.randomize = _randomize(randomize, self.kind, problems)
         if problems:
             raise ValueError("RaceEnv: " + "; ".join(problems))
         lidar_beams = (LIDAR_BEAMS if self.kind.has_lidar else 0) if lidar_beams is None else lidar_beams
@@ -324,9 +327,7 @@ class RaceEnv(gym.Env):
     # --- helpers -----------------------------------------------------------------------------
 
     def _base(self):
-        from roar_sim.plants import car_profile
-
-        return self.profile or car_profile.load()
+        return self.profile or self.kind.profile_of()
 
     def _drawn(self):
         """This episode's profile: the base with each randomized key drawn (None: the default car)."""

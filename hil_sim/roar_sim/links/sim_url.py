@@ -14,8 +14,8 @@ setpoint arrives; the ROAR Junior takes each control message as the http:// tran
 (one GET, smooth mixing) and reports its ultrasonic range. speedup=2 (simulated seconds per wall
 second, up to 4), gui=1 (PyBullet window), trace=drive.csv (t, x, y, yaw, speed every 20 ms),
 plot=drive.png (the driven path), eeprom=FILE (the board's memory, its signing key, kept in FILE
-between runs: roar_sim.links.board_memory), profile=NAME|FILE.toml (the ESC car's own numbers:
-roar_sim.plants.car_profile, as `roar race --car-profile`; its limits are measured on first use).
+between runs: roar_sim.links.board_memory), profile=NAME|FILE.toml (a racecar's own numbers, the ESC or
+IARRC car's: roar_sim.plants.car_profile, as `roar race --car-profile`; its limits are measured on first use).
 """
 
 from __future__ import annotations
@@ -60,8 +60,9 @@ class SimTransport(Transport):
             raise TransportError(f"eeprom= keeps a board's key between runs: the {self.kind.title} has none here")
         self.eeprom = eeprom  # the board's EEPROM (signing key, session) kept in this file between runs
         self.robot = robot
-        if profile is not None and robot != "esc":
-            raise TransportError(f"profile= holds the ESC car's numbers: not for robot={robot}")
+        refusal = profile is not None and robots.profile_refusal(self.kind, "profile=")
+        if refusal:
+            raise TransportError(refusal)
         self.profile = None if profile is None else car_profile.load(profile)  # ProfileError: one line
         self.replies = self.kind.replies  # the ESC and IARRC cars answer with lines, the Junior not
         self.sim = None  # the roar_sim.robots.Robot once open
@@ -101,7 +102,7 @@ class SimTransport(Transport):
             raise TransportError("eeprom= is empty: give a file name")
         profile = pop_option(options, "profile", str, None)
         if profile is not None and not profile.strip():
-            raise TransportError("profile= is empty: name a profile (roar, f1tenth) or a .toml file")
+            raise TransportError("profile= is empty: name a profile (roar, iarrc, f1tenth) or a .toml file")
         try:
             return cls(track, speedup, pop_option(options, "gui", bool, False), trace, plot, robot, eeprom, profile)
         except ImportError as e:

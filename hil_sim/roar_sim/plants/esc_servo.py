@@ -5,6 +5,7 @@ Both read one pulse per output frame (50 Hz), as the real parts do.
 
 from __future__ import annotations
 
+import collections
 import math
 from dataclasses import dataclass
 from enum import Enum
@@ -95,3 +96,29 @@ class SteeringServo:
             error *= -math.expm1(-dt_s / self.lag_s)  # the lag's share of the way this step
         self.angle_rad += max(-step, min(step, error))
         return self.angle_rad
+
+
+def actuators(profile) -> tuple[HobbyEsc, SteeringServo]:
+    """The ESC and the steering servo a car profile (roar_sim.plants.car_profile) describes."""
+    return (HobbyEsc(deadband_us=profile.esc_deadband_us),
+            SteeringServo(max_angle_rad=profile.max_steer_rad, rate_rad_s=profile.steer_rate_rad_s,
+                          trim_rad=math.radians(profile.steering_trim_deg), lag_s=profile.servo_lag_s))
+
+
+class PulseDelay:
+    """A car's latency from the board's output pulses to its ESC and servo acting on them (a car
+    profile's latency_s): pulses put in at a frame's start come out that much later."""
+
+    def __init__(self, latency_s: float) -> None:
+        self.latency_us = round(latency_s * 1e6)  # [us]
+        self._queue: collections.deque[tuple[int, int, int]] = collections.deque()  # (due [us], throttle, steering)
+
+    def put(self, t_us: int, throttle_us: int, steering_us: int) -> None:
+        self._queue.append((t_us + self.latency_us, throttle_us, steering_us))
+
+    def due(self, t_us: int) -> list[tuple[int, int]]:
+        """(throttle, steering) [us] of every frame whose pulses act by t_us, oldest first."""
+        out = []
+        while self._queue and self._queue[0][0] <= t_us:
+            out.append(self._queue.popleft()[1:])
+        return out

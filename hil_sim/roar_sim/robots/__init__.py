@@ -88,11 +88,33 @@ class Robot(Lockstep):
     ultrasonic_max_m: ClassVar[float | None] = None  # [m] its ultrasonic ranger's reach, if it has one
     track: Track | None
     model: ClassVar  # what its driver plans with: a CarModel or DiffDriveModel (its turning radius among it)
+    # the shipped car profile (roar_sim.plants.car_profiles) that is its default, for a robot whose
+    # plant is the racecar: it then takes any profile (profile=, sim://?profile=, --car-profile)
+    default_profile: ClassVar[str | None] = None
+    limits_version: ClassVar[int] = 1  # of how its limits are measured: a profile's kept by another are measured again
+
+    @classmethod
+    def takes_profile(cls) -> bool:
+        return cls.default_profile is not None
+
+    @classmethod
+    def profile_of(cls, profile=None):
+        """The CarProfile that `profile` names (a CarProfile, a name or a .toml; None: the robot's
+        default); ProfileError (one line) for a bad one."""
+        from roar_sim.plants import car_profile
+
+        if isinstance(profile, car_profile.CarProfile):
+            return profile
+        return car_profile.load(profile or cls.default_profile)
 
     @classmethod
     def min_turn_radius_m(cls, profile=None) -> float:
-        """[m] the tightest circle the robot can drive (with a car profile, for the ESC car)."""
-        return cls.model.min_turn_radius_m
+        """[m] the tightest circle the robot can drive (of the car a profile describes, for a
+        robot that takes one)."""
+        if not cls.takes_profile():
+            return cls.model.min_turn_radius_m
+        car = cls.profile_of(profile)
+        return car.wheelbase_m / math.tan(car.max_steer_rad)
 
     @classmethod
     def check_track(cls, track: Track, profile=None) -> None:
@@ -252,3 +274,84 @@ def grip_on_circles(make: Callable[[], Robot], steerings, speeds, drive_circle) 
             if not slid and accel_lateral > peak[1]:
                 peak = last
     return peak[1], fade(peak, ends)
+
+
+def profile_refusal(kind: type[Robot] | None, option: str) -> str | None:
+    """Why `option` (a car profile) is not for robot `kind`, in words; None when it is."""
+    if kind is None or kind.takes_profile():
+        return None
+    takers = [n for n in names() if get(n).takes_profile()]
+    return f"{option} describes a racecar ({', '.join(takers)}): the {kind.title} has no car profile"
+
+
+class ProfileLimits:
+    """A profile-taking robot's `limits`: its table (`table`, measured from its default profile)
+    on the class; on a robot, its own profile's, measured (or read from the user's cache) when
+    first asked for, so a robot driven without an autopilot (a fit's test drive) never waits."""
+
+    def __init__(self, table: CarLimits) -> None:
+        self.table = table
+
+    def __get__(self, robot, cls):
+        if robot is None:
+            return self.table
+        robot.limits = profile_limits(cls, robot.profile, self.table)  # kept on the robot from now on
+        return robot.limits
+
+
+class ProfileModel:
+    """A profile-taking robot's `model`: the default's on the class; on a robot, its own profile's."""
+
+    def __init__(self, model) -> None:
+        self.model = model
+
+    def __get__(self, robot, cls):
+        if robot is None:
+            return self.model
+        from roar.autopilot import CarModel
+
+        robot.model = CarModel(robot.profile.wheelbase_m, robot.profile.max_steer_rad, robot.limits)
+        return robot.model
+
+
+def profile_limits(kind: type[Robot], profile, table: CarLimits) -> CarLimits:
+    """A profile's limits on robot `kind`: its table for its default profile, else measured once
+    (a few seconds: kind.measure_limits(profile)) and kept in the user's cache under the profile's
+    fingerprint."""
+    import json
+    import sys
+
+    from roar_sim import ProfileError
+    from roar_sim.toolchains.native import user_cache
+
+    if profile == kind.profile_of():
+        return table
+    key = (kind.name, profile.fingerprint)
+    if key in _MEASURED:
+        return _MEASURED[key]
+    kept = user_cache("limits") / f"{kind.name}-{profile.fingerprint}-v{kind.limits_version}.json"
+    try:
+        limits = CarLimits(**json.loads(kept.read_text()))
+    except (OSError, ValueError, TypeError):
+        print(f"measuring the {profile.title}'s limits as the {kind.title} (once; kept in {kept.parent})...",
+              file=sys.stderr)
+        try:
+            limits = kind.measure_limits(profile)
+        except (StopIteration, ZeroDivisionError, ValueError, statistics.StatisticsError):
+            # a run that never reached 90 % of its speed, never stopped, or never turned a circle
+            from roar_sim.plants.racecar import WHEEL_RADIUS_M
+
+            top = profile.motor.max_speed_rad_s * WHEEL_RADIUS_M * profile.scale
+            raise ProfileError(f"{profile.title}: its limits cannot be measured: driving it at full throttle, braking "
+                               f"and on circles gave no steady run (its wheels' top speed is {top:.1f} m/s; a 1/10 car "
+                               f"reaches 2-10 m/s)") from None
+        try:
+            kept.parent.mkdir(parents=True, exist_ok=True)
+            kept.write_text(json.dumps(vars(limits)))
+        except OSError:
+            pass  # measured again next time
+    _MEASURED[key] = limits
+    return limits
+
+
+_MEASURED: dict[tuple[str, str], CarLimits] = {}

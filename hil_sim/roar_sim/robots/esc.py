@@ -17,9 +17,7 @@ Commands reach it as they reach a real one, as control messages on its serial po
 
 from __future__ import annotations
 
-import collections
 import math
-import statistics
 
 from roar.autopilot import Agent, CarLimits, CarModel, race_agent
 from roar.autopilot.limits import straight_line
@@ -29,12 +27,11 @@ from roar.protocol import encode, spec
 from roar.telemetry import VehicleState
 from roar_sim.core.lockstep import CONTROL_PERIOD_S, LOOP_US, PHYSICS_US, loops_until
 from roar_sim.core.car import CarBoard, CarConfig, CarOutputs
-from roar_sim.plants.esc_servo import EscMode, HobbyEsc, SteeringServo
+from roar_sim.plants.esc_servo import EscMode, HobbyEsc, PulseDelay, SteeringServo, actuators
 from roar_sim.plants import car_profile
 from roar_sim.plants.car_profile import CarProfile
-from roar_sim import ProfileError
-from roar_sim.plants.racecar import WHEEL_RADIUS_M, CarState, Racecar
-from roar_sim.robots import Pose, ReplyLines, Robot, grip_on_circles
+from roar_sim.plants.racecar import CarState, Racecar
+from roar_sim.robots import Pose, ProfileLimits, ProfileModel, ReplyLines, Robot, grip_on_circles
 from roar_sim.world.scene import World
 from roar.tracks.track import Track
 from roar.vision.geometry import SIMULATED_CAR_CAMERA
@@ -56,48 +53,22 @@ MODEL = CarModel(wheelbase_m=car_profile.load().wheelbase_m, max_steer_rad=car_p
 N = spec.CONTROL_NEUTRAL_US
 
 
-class _ProfileLimits:
-    """EscCar.limits: the default profile's on the class; on a car, its own profile's, measured
-    (or read from the user's cache) when first asked for, so a car driven without an autopilot
-    (a fit's test drive) never waits for them."""
-
-    def __get__(self, car, cls):
-        if car is None:
-            return LIMITS
-        car.limits = profile_limits(car.profile)  # kept on the car from now on
-        return car.limits
-
-
-class _ProfileModel:
-    """EscCar.model: the default profile's on the class; on a car, its own profile's."""
-
-    def __get__(self, car, cls):
-        if car is None:
-            return MODEL
-        car.model = CarModel(car.profile.wheelbase_m, car.profile.max_steer_rad, car.limits)
-        return car.model
-
-
 class EscCar(Robot):
     """write() control bytes, run() time, read() the car's reply lines."""
 
     name = "esc"
     title = "ESC car"
     half_width_m = 0.15  # [m] half its width as the walls feel it (wheels and steering), measured
-    limits = _ProfileLimits()  # the default profile's; an instance's own profile's, measured when first asked for
-    model = _ProfileModel()
+    limits = ProfileLimits(LIMITS)  # the default profile's; a car's own profile's, measured when first asked for
+    model = ProfileModel(MODEL)
+    default_profile = car_profile.DEFAULT
+    limits_version = LIMITS_VERSION
     links = ("serial", "stream")
     laterals = ("pursuit", "pid")
     lane_driving = True
     replies = True
     has_lidar = True
     camera = SIMULATED_CAR_CAMERA
-
-    @classmethod
-    def min_turn_radius_m(cls, profile=None) -> float:
-        """[m] at full steering, of the car the profile describes (default: the ROAR car)."""
-        car = profile if isinstance(profile, car_profile.CarProfile) else car_profile.load(*(profile,) if profile else ())
-        return car.wheelbase_m / math.tan(car.max_steer_rad)
 
     def __init__(self, track: Track | None = None, pose: Pose | None = None, realtime: bool = False,
                  speedup: float = 1.0, gui: bool = False, firmware: CarConfig | None = None,
@@ -111,13 +82,10 @@ class EscCar(Robot):
         super().__init__(track, realtime, speedup)
         self.firmware_config = firmware or CarConfig()
         self.board = CarBoard(self.firmware_config, loop_us=LOOP_US, frame_us=FRAME_US, nvm=nvm)
-        self.profile = profile = car_profile.load(profile) if isinstance(profile, str) else profile or car_profile.load()
-        self.esc = esc or HobbyEsc(deadband_us=profile.esc_deadband_us)
-        self.servo = servo or SteeringServo(max_angle_rad=profile.max_steer_rad, rate_rad_s=profile.steer_rate_rad_s,
-                                            trim_rad=math.radians(profile.steering_trim_deg),
-                                            lag_s=profile.servo_lag_s)
-        self._latency_us = round(profile.latency_s * 1e6)  # [us] from a frame's pulses to the ESC and servo
-        self._pulses: collections.deque[tuple[int, int, int]] = collections.deque()  # (due [us], throttle, steering)
+        self.profile = profile = self.profile_of(profile)
+        own_esc, own_servo = actuators(profile)
+        self.esc, self.servo = esc or own_esc, servo or own_servo
+        self._delay = PulseDelay(profile.latency_s)  # from a frame's pulses to the ESC and servo
         self.plant = Racecar(track, dt_s=PHYSICS_US / 1e6, gui=gui, world=world, pose=pose, profile=profile)
         self.calibration = Calibration()
         self._frames = self.board.frames
@@ -195,9 +163,8 @@ class EscCar(Robot):
         self.t_us += loops * LOOP_US
         if self.board.frames != self._frames:  # an output frame started: the ESC and servo take it
             self._frames = self.board.frames
-            self._pulses.append((self.t_us + self._latency_us, *self.board.wire))
-        while self._pulses and self._pulses[0][0] <= self.t_us:  # (after the profile's latency)
-            _, throttle_us, steering_us = self._pulses.popleft()
+            self._delay.put(self.t_us, *self.board.wire)
+        for throttle_us, steering_us in self._delay.due(self.t_us):  # (after the profile's latency)
             self._esc_out = self.esc.pulse(throttle_us)
             self.servo.pulse(steering_us)
         self._replies.add(self.board.serial_out())
@@ -240,41 +207,5 @@ class EscCar(Robot):
                                         drive_circle)
         return CarLimits(round(top, 2), round(accel, 2), round(brake, 2), round(lateral, 2), reverse, fade)
 
-
-def profile_limits(profile: CarProfile) -> CarLimits:
-    """A profile's limits: the default's table, or measured once (a few seconds) and kept in the
-    user's cache under the profile's fingerprint."""
-    import json
-    import sys
-
-    from roar_sim.toolchains.native import user_cache
-
-    if profile == car_profile.load():
-        return LIMITS
-    if profile.fingerprint in _MEASURED:
-        return _MEASURED[profile.fingerprint]
-    kept = user_cache("limits") / f"esc-{profile.fingerprint}-v{LIMITS_VERSION}.json"
-    try:
-        limits = CarLimits(**json.loads(kept.read_text()))
-    except (OSError, ValueError, TypeError):
-        print(f"measuring the {profile.title}'s limits (once; kept in {kept.parent})...", file=sys.stderr)
-        try:
-            limits = EscCar.measure_limits(profile)
-        except (StopIteration, ZeroDivisionError, ValueError, statistics.StatisticsError):
-            # a run that never reached 90 % of its speed, never stopped, or never turned a circle
-            top = profile.motor.max_speed_rad_s * WHEEL_RADIUS_M * profile.scale
-            raise ProfileError(f"{profile.title}: its limits cannot be measured: driving it at full throttle, braking "
-                               f"and on circles gave no steady run (its wheels' top speed is {top:.1f} m/s; a 1/10 car "
-                               f"reaches 2-10 m/s)") from None
-        try:
-            kept.parent.mkdir(parents=True, exist_ok=True)
-            kept.write_text(json.dumps(vars(limits)))
-        except OSError:
-            pass  # measured again next time
-    _MEASURED[profile.fingerprint] = limits
-    return limits
-
-
-_MEASURED: dict[str, CarLimits] = {}
 
 ROBOT = EscCar

@@ -28,10 +28,10 @@ from roar_sim.core.lockstep import CONTROL_PERIOD_S, PHYSICS_US
 from roar_sim.core.rtos import Scheduler
 from roar_sim.core.iarrc import IarrcBoard, iarrc_tasks
 from roar_sim.core.library import IarrcTask
-from roar_sim.plants.esc_servo import EscMode, HobbyEsc, SteeringServo
-from roar_sim.plants.car_profile import URDF_WHEELBASE_M, Motor
+from roar_sim.plants.esc_servo import EscMode, HobbyEsc, PulseDelay, SteeringServo, actuators
+from roar_sim.plants.car_profile import URDF_WHEELBASE_M, CarProfile
 from roar_sim.plants.racecar import CarState, Racecar
-from roar_sim.robots import Pose, ReplyLines, Robot, grip_on_circles
+from roar_sim.robots import Pose, ProfileLimits, ProfileModel, ReplyLines, Robot, grip_on_circles
 from roar.tracks.track import Track
 from roar.vision.geometry import SIMULATED_CAR_CAMERA
 from roar_wire import sbus
@@ -42,7 +42,6 @@ SBUS_BYTE_US = 120  # [us] one byte at 100 kbaud, 8E2 (12 bits)
 ENCODER_COUNTS_PER_REV = 10_240  # [counts] the seed's magnetic encoder, per wheel turn
 ROLLING_RADIUS_M = 0.0505  # [m] measured: distance over wheel angle at 1-2 m/s (the tyre contact, not the 0.05 m mesh)
 COUNTS_PER_M = round(ENCODER_COUNTS_PER_REV / (2 * math.pi * ROLLING_RADIUS_M))  # [counts/m] calibrated, as on a car
-IARRC_MOTOR = Motor(max_speed_rad_s=100.0, max_torque_nm=0.8, tyre_friction=1.0)  # 5 m/s top speed, rubber tyres
 GYRO_COUNTS_PER_DEG_S = 16.4  # MPU6000 at +-2000 deg/s
 BATTERY_UV_PER_COUNT = 8862  # [uV per ADC count] the core's default divider
 OPERATOR_LOCK_S = 0.1  # [s] the receiver locks with the mode switch at off before the operator acts
@@ -84,8 +83,9 @@ class IarrcCar(Robot):
     name = "iarrc"
     title = "IARRC car"
     half_width_m = 0.15  # [m] half its width as the walls feel it (the same racecar as the ESC car's)
-    limits = LIMITS
-    model = MODEL
+    limits = ProfileLimits(LIMITS)  # its default profile's; a car's own profile's, measured when first asked for
+    model = ProfileModel(MODEL)
+    default_profile = "iarrc"  # roar_sim/plants/car_profiles/iarrc.toml: a 5 m/s motor, rubber tyres
     links = ("serial",)
     laterals = ("pursuit", "pid")
     replies = True
@@ -93,22 +93,28 @@ class IarrcCar(Robot):
     camera = SIMULATED_CAR_CAMERA
 
     def __init__(self, track: Track | None = None, pose: Pose | None = None, realtime: bool = False,
-                 speedup: float = 1.0, gui: bool = False, motor: Motor = IARRC_MOTOR, esc: HobbyEsc | None = None,
+                 speedup: float = 1.0, gui: bool = False, esc: HobbyEsc | None = None,
                  servo: SteeringServo | None = None, battery_v: float = 12.0, task_cost=None,
-                 clock_offset_us: int = 0, operator: bool = True, nvm: bytes | None = None) -> None:
-        """nvm: the board's flash as a previous run left it (`.nvm`: its signing key and session);
+                 clock_offset_us: int = 0, operator: bool = True, nvm: bytes | None = None,
+                 profile: CarProfile | str | None = None) -> None:
+        """profile: the car's own numbers (roar_sim.plants.car_profile: a name, a file or a
+        CarProfile; default `iarrc`): its size, mass, motor, tyres, servo, ESC and latency;
+        nvm: the board's flash as a previous run left it (`.nvm`: its signing key and session);
         battery_v: [V] its 3S pack; task_cost: (task, job number) -> [us] (default: the declared
         costs); clock_offset_us: [us] the board's counter at simulated time 0 (to test its 2^32
         wrap); operator: the person at the transmitter, who, after the receiver has locked with
         the mode switch at off, flips it to autonomous as soon as the host sends its first
         setpoint (False: the switches are the caller's, in `transmitter`)."""
         super().__init__(track, realtime, speedup)
-        self.plant = Racecar(track, dt_s=PHYSICS_US / 1e6, gui=gui, motor=motor, pose=pose)
+        self.profile = profile = self.profile_of(profile)
+        self.plant = Racecar(track, dt_s=PHYSICS_US / 1e6, gui=gui, pose=pose, profile=profile)
         self.board = IarrcBoard(counts_per_m=COUNTS_PER_M, nvm=nvm)
         self.tasks = iarrc_tasks()
         self.scheduler = Scheduler(self.tasks, self._body, cost=task_cost, overran=self.board.overran,
                                    keep_starts=False)
-        self.esc, self.servo = esc or HobbyEsc(), servo or SteeringServo()
+        own_esc, own_servo = actuators(profile)
+        self.esc, self.servo = esc or own_esc, servo or own_servo
+        self._delay = PulseDelay(profile.latency_s)  # from a frame's pulses to the ESC and servo
         self._esc_out = self.esc.pulse(spec.CONTROL_NEUTRAL_US)
         self.transmitter = Transmitter()
         self.battery_v, self.clock_offset_us, self.operator = battery_v, clock_offset_us, operator
@@ -211,8 +217,9 @@ class IarrcCar(Robot):
             self._next_sbus_us += SBUS_PERIOD_US
         self.scheduler.run_until(step_end)
         self.t_us = step_end
-        if t % FRAME_US == 0:  # an output frame starts: the ESC and the servo take the pulses
-            throttle_us, steering_us = self.board.pulses
+        if t % FRAME_US == 0:  # an output frame starts: the ESC and the servo take its pulses (after the latency)
+            self._delay.put(t, *self.board.pulses)
+        for throttle_us, steering_us in self._delay.due(t):
             self._esc_out = self.esc.pulse(throttle_us)
             self.servo.pulse(steering_us)
         if t % PHYSICS_US == 0:
@@ -223,7 +230,7 @@ class IarrcCar(Robot):
     # --- its limits --------------------------------------------------------------------------
 
     @classmethod
-    def measure_limits(cls) -> CarLimits:
+    def measure_limits(cls, profile: CarProfile | None = None) -> CarLimits:
         """Top speed and acceleration at the fastest setpoint, braking when the setpoint drops to
         zero (its PID brakes through the brake sequence), and the steady lateral acceleration on
         circles at fixed steering, faster and faster until the tyres slide."""
@@ -231,7 +238,7 @@ class IarrcCar(Robot):
             return car.log_driving(lambda: car.host(encode_setpoint(speed_mm_s, steering_us)), seconds)
 
         n, fastest = spec.CONTROL_NEUTRAL_US, spec.SETPOINT_MAX_SPEED_MM_S
-        with cls() as car:
+        with cls(profile=profile) as car:
             hold(car, 0, n, 0.3)
             run = hold(car, fastest, n, 4.0)
             top, accel, brake = straight_line(run, hold(car, 0, n, 3.0))
@@ -239,7 +246,8 @@ class IarrcCar(Robot):
             hold(car, 0, n, 0.3)
             return hold(car, speed_mm_s, steering_us, 5.0)[-100:]  # the last 2 s
 
-        lateral, fade = grip_on_circles(cls, (1650, 1700, 1750, 1800), range(1000, fastest + 1, 500), drive_circle)
+        lateral, fade = grip_on_circles(lambda: cls(profile=profile), (1650, 1700, 1750, 1800),
+                                        range(1000, fastest + 1, 500), drive_circle)
         return CarLimits(round(top, 2), round(accel, 2), round(brake, 2), round(lateral, 2), lateral_fade=fade)
 
 

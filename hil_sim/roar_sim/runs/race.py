@@ -86,8 +86,9 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
     from it, and the car waits for them), avoid (a TFmini on its nose, keeping to a lane and
     changing lanes for what is ahead), frames (a folder the driver's frames are written to).
     boxes: (distance along the centre line, offset to its left) [m] of each box. k_dd_s: pure
-    pursuit's look-ahead per m/s [s] (None: the robot's default). profile: the ESC car's profile
-    (roar_sim.plants.car_profile: a name or a .toml; None: the ROAR car). renderer: what draws the
+    pursuit's look-ahead per m/s [s] (None: the robot's default). profile: the car's profile,
+    for the racecar robots (ESC and IARRC; roar_sim.plants.car_profile: a name or a .toml; None:
+    the robot's own). renderer: what draws the
     camera's frames ("egl", "tiny"; None: roar_sim.world.renderer.wanted()). shaky_camera: a seed:
     the lane driver's camera mount shakes and its sensor adds noise (roar_sim.sensors.camera_noise).
     green_span_s: [s] the span the start lights' green moment is drawn from. localize: the driver
@@ -114,8 +115,9 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
         check_line(track, line)
     bar = None
     with ExitStack() as stack:
-        if profile is not None and robot != "esc":
-            raise ValueError("car profiles are the ESC car's: --car-profile needs --robot esc")
+        refusal = profile is not None and robots.profile_refusal(kind, "a car profile")
+        if refusal:
+            raise ValueError(refusal)
         stack.enter_context(renderers.chosen(renderer))
         car = stack.enter_context(kind(track, realtime=realtime, gui=gui, **({"profile": profile} if profile else {})))
         world = car.plant.world
@@ -255,8 +257,9 @@ def parser() -> argparse.ArgumentParser:
                         "(open it in Foxglove, or `roar replay`)")
     add_foxglove_option(p, "the same channels", when="(the race then runs in real time, to be watched) ")
     p.add_argument("--car-profile", metavar="NAME|FILE",
-                   help="the ESC car's own numbers: roar (default), f1tenth (about 8 m/s), or a profile .toml "
-                        "(roar_sim/plants/car_profiles/); its limits are measured on first use")
+                   help="the car's own numbers (the ESC and IARRC cars): roar (the ESC car's), iarrc (the IARRC "
+                        "car's), f1tenth (about 8 m/s), or a profile .toml (roar_sim/plants/car_profiles/, roar fit); "
+                        "its limits are measured on first use")
     p.add_argument("--shaky-camera", type=seed_option, metavar="SEED",
                    help="with --driver lane: the camera's mount shakes (0.5 degrees a frame) and its sensor adds "
                         "noise, drawn from SEED, as on a real car")
@@ -345,8 +348,9 @@ def main(argv: list[str] | None = None) -> int:
     problem = args.frames is not None and unusable_folder(args.frames)
     if problem:
         p.error(f"--frames {problem}")
-    if args.car_profile is not None and args.robot != "esc":
-        p.error("--car-profile is the ESC car's (--robot esc)")
+    refusal = args.car_profile is not None and robots.profile_refusal(robots.get(args.robot), "--car-profile")
+    if refusal:
+        p.error(refusal)
     if args.car_profile is not None:
         from roar_sim.plants import car_profile
 
