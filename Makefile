@@ -30,11 +30,12 @@ run: setup-run
 trace: setup-run
 	@$(PY) -m roar_sim.runs.scripted_drive --plot out/scripted_drive.png
 
-# The suite on every core (TEST_WORKERS=N to choose; 0: in this process alone), realtime tests one
-# at a time on one worker (tests/README.md); the 20 slowest listed at the end. pytest exits 5 when
-# it collects no tests; that is a failure of the suite, not a pass.
+# The suite on every core and one worker more (TEST_WORKERS=N to choose; 0: in this process alone):
+# realtime tests run one at a time on one worker (tests/README.md), which mostly waits on the wall
+# clock, so the others fill every core; the 20 slowest listed at the end. pytest exits 5 when it
+# collects no tests; that is a failure of the suite, not a pass.
 test: setup
-	@$(PY) -m pytest -q -n $(or $(TEST_WORKERS),auto) --dist loadgroup --durations=20; rc=$$?; \
+	@$(PY) -m pytest -q -n $(or $(TEST_WORKERS),$(shell echo $$(( $$(nproc) + 1 )))) --dist loadgroup --durations=20; rc=$$?; \
 	if [ $$rc -eq 5 ]; then echo "no tests collected"; exit 1; fi; exit $$rc
 
 bench: setup
