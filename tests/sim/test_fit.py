@@ -109,6 +109,8 @@ def test_roar_fit_without_a_pose_source_or_with_a_bad_area_is_one_line(tmp_path)
     assert status == 1 and len(err) == 1 and "too small" in err[0]
     status, err = roar_fit("sim://?speedup=2", "--out", str(tmp_path / "car.toml"))
     assert status == 1 and len(err) == 1 and "real time" in err[0]
+    status, err = roar_fit("sim://?robot=iarrc", "--out", str(tmp_path / "car.toml"))
+    assert status == 1 and len(err) == 1 and "drives by speed setpoints" in err[0]
     assert not (tmp_path / "car.toml").exists()
 
 

@@ -27,6 +27,7 @@ from pathlib import Path
 from roar.cli.sdk import ArgumentParser, ExitStatus, UserError, int_option, path_option, run_command
 from roar.fit.drive import HELD_OUT, MANOEUVRES, Area
 from roar.fit.log import FitError, FitLog
+from roar.protocol import spec
 from roar.user_files import unwritable
 from roar_sim.runs.fit_profile import ROUNDS
 
@@ -116,6 +117,9 @@ def _drive(args, area: Area, radius: float, wheelbase_m: float, record_path: Pat
             raise FitError(f"{args.source} reports no pose, and a fit measures the car by its pose: put the phone "
                            f"on the car and add --pose udp://PHONE (ROAR's app), or drive through it: roar fit "
                            f"udp://PHONE") from e
+        if car.protocol_version == spec.META_SPEED_VERSION:
+            raise FitError(f"{args.source} drives by speed setpoints (it says READY {spec.META_SPEED_VERSION}): the "
+                           f"test drive sends an ESC car's pulses; a speed-controlled car is not fitted yet")
         if scheme not in ("sim", "loop") and not args.yes:
             if not sys.stdin.isatty():
                 raise UserError(f"{args.source} is a real car that will drive a figure eight: run in a terminal to "
