@@ -14,7 +14,7 @@ from roar.fit.identify import fit
 from roar.tracks import get
 from roar_sim.plants import car_profile
 from roar_sim.runs.fit_drive import drive
-from roar_sim.runs.fit_profile import matched_profile
+from roar_sim.runs.fit_profile import MATCHED, matched_profile
 from roar_sim.runs.race import race
 
 TITLE = "roar fit finds five hidden cars (targets: 5 %, trim 0.3 deg, latency 5 ms, dead band 5 us; laps 2 %)"
@@ -50,8 +50,7 @@ def run() -> None:
         print(f"  hidden car {seed}{' (drive ended early: ' + stopped + ')' if stopped else ''}: "
               f"{len(rounds) - 1} rounds; held-out sweep predicted within {result.held_out.rms()[0]:.3f} m/s, "
               f"{result.held_out.rms()[1]:.3f} rad/s RMS")
-        for key in ("steering_trim_deg", "max_steer_rad", "servo_lag_s", "latency_s", "esc_deadband_us",
-                    "motor_speed_rad_s", "motor_torque_nm", "rolling_drag_nm", "tyre_friction"):
+        for key in MATCHED:  # every number the fit finds
             want, got = getattr(truth, key), getattr(found, key)
             error = got - want
             if key in ABSOLUTE:

@@ -39,6 +39,7 @@ bit for bit; the seed draws the start: up to 0.1 m across the centre line and 0.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 
@@ -227,12 +228,14 @@ def _randomize(randomize, kind, problems: list[str]) -> dict[str, tuple[float, f
         if key not in ranges:
             problems.append(f"randomize: no profile key {shown(key)} (keys: {', '.join(sorted(ranges))})")
             continue
+        if not isinstance(span, (tuple, list)) or len(span) != 2:
+            problems.append(f"randomize[{key!r}] must be (low, high), got {shown(span)}")
+            continue
         low, high, unit = ranges[key]
         try:
             a, b = (number(f"randomize[{key!r}]", v, low, high, unit) for v in span)
-        except (TypeError, ValueError) as e:
-            problems.append(str(e) if isinstance(e, ValueError) and "randomize" in str(e)
-                            else f"randomize[{key!r}] must be (low, high), got {shown(span)}")
+        except ValueError as e:
+            problems.append(str(e))
             continue
         if a > b:
             problems.append(f"randomize[{key!r}]: low {a:g} is above high {b:g}")
@@ -333,20 +336,19 @@ class RaceEnv(gym.Env):
         """This episode's profile: the base with each randomized key drawn (None: the default car)."""
         if not self.randomize:
             return self.profile
-        import dataclasses
-
         draws = {k: float(self.np_random.uniform(a, b)) for k, (a, b) in sorted(self.randomize.items())}
         return dataclasses.replace(self._base(), **draws)
 
     def _least_turning(self):
-        """The profile the track's bends are checked against: the one that turns least of those drawn."""
+        """The profile the track's bends are checked against: the one that turns least of those drawn
+        (the least steering, the longest wheelbase)."""
         if not self.randomize:
             return self.profile
-        import dataclasses
-
-        worst = {k: v for k, v in (("max_steer_rad", self.randomize.get("max_steer_rad", (None,))[0]),
-                                   ("wheelbase_m", self.randomize.get("wheelbase_m", (None, None))[1]))
-                 if v is not None}
+        worst = {}
+        if "max_steer_rad" in self.randomize:
+            worst["max_steer_rad"] = self.randomize["max_steer_rad"][0]
+        if "wheelbase_m" in self.randomize:
+            worst["wheelbase_m"] = self.randomize["wheelbase_m"][1]
         return dataclasses.replace(self._base(), **worst)
 
     def _observation(self, s) -> dict:

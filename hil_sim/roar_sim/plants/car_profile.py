@@ -93,7 +93,8 @@ def save(profile: CarProfile, path: str | Path, header: str = "") -> None:
     from roar.user_files import unwritable
 
     units = {k: unit for k, (_, _, unit) in (RANGES | OPTIONAL_RANGES).items()}
-    lines = [f"# {line}" for line in header.splitlines()] + [f"title = {json.dumps(profile.title)}"]  # a JSON string is a TOML one
+    title = json.dumps(profile.title)  # a JSON string is a TOML one
+    lines = [f"# {line}" for line in header.splitlines()] + [f"title = {title}"]
     for f in fields(profile):
         if f.name in units:
             value = getattr(profile, f.name)

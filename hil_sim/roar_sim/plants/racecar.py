@@ -13,7 +13,7 @@ import numpy as np
 
 from roar.vision.geometry import SIMULATED_CAR_CAMERA as CAMERA
 from roar_sim.plants import car_profile
-from roar_sim.plants.car_profile import URDF_MASS_KG, URDF_WHEELBASE_M, CarProfile, Motor
+from roar_sim.plants.car_profile import URDF_MASS_KG, URDF_WHEELBASE_M, CarProfile
 from roar_sim.sensors import lidar
 from roar_sim.world.bullet import pb
 from roar_sim.world.scene import World
@@ -61,14 +61,14 @@ class Racecar:
     """The racecar in a World (DIRECT, or GUI when gui=True) with an optional track; or, given
     `world`, one more car in that world (which then steps it: see step() and tick()), at `pose`.
     profile: the car's own numbers (roar_sim.plants.car_profile; default the ROAR car's): its size,
-    mass, motor and tyres; motor, if given, replaces the profile's."""
+    mass, motor and tyres."""
 
     def __init__(self, track: Track | None, dt_s: float = 0.005, gui: bool = False,
-                 motor: Motor | None = None, world: World | None = None,
+                 world: World | None = None,
                  pose: tuple[float, float, float] | None = None, profile: CarProfile | None = None) -> None:
         self.dt_s = dt_s
         self.profile = profile = profile or car_profile.load()
-        self.motor = motor = motor or profile.motor
+        self.motor = motor = profile.motor
         self._owns_world = world is None
         self.world = World(track, dt_s, gui) if world is None else world
         self.client = c = self.world.client

@@ -19,6 +19,7 @@ stops the car at neutral; so does leaving the area, or the poses stopping.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import datetime
 import sys
 import threading
@@ -152,7 +153,7 @@ def _fit(args, record: FitLog, stopped: str, base, area: Area, plot_path: Path) 
     from roar.fit.identify import fit
     from roar.fit.report import plot
     from roar_sim.plants import car_profile
-    from roar_sim.runs.fit_profile import matched_profile, rounded
+    from roar_sim.runs.fit_profile import MATCHED, matched_profile, rounded
 
     names = [n for _, n in record.phases]
     result = fit(record, base.wheelbase_m, held_out=HELD_OUT if HELD_OUT in names else "")
@@ -166,14 +167,10 @@ def _fit(args, record: FitLog, stopped: str, base, area: Area, plot_path: Path) 
                                  progress=lambda text: print(f"  {text}", flush=True))
     profile = rounded(profile)
     stamp = datetime.date.today().isoformat()
-    profile = type(profile)(**{**vars(profile), "name": args.out.stem,
-                               "title": f"fitted on {stamp} from {args.source}"[:60]})
+    profile = dataclasses.replace(profile, name=args.out.stem, title=f"fitted on {stamp} from {args.source}"[:60])
     car_profile.save(profile, args.out, f"roar fit {args.source} (base: {args.base}), {stamp}\n"
                      f"load it: roar race --car-profile {args.out}, or sim://?profile={args.out}")
-    print(f"wrote {args.out}: " + ", ".join(f"{k} {getattr(profile, k):g}" for k in
-                                            ("steering_trim_deg", "max_steer_rad", "servo_lag_s", "latency_s",
-                                             "esc_deadband_us", "motor_speed_rad_s", "motor_torque_nm",
-                                             "rolling_drag_nm", "tyre_friction")), flush=True)
+    print(f"wrote {args.out}: " + ", ".join(f"{k} {getattr(profile, k):g}" for k in MATCHED), flush=True)
     plot(record, result, plot_path, title=f"roar fit {args.source}")
     print(f"report: {plot_path}")
     if not args.no_trim:

@@ -6,7 +6,7 @@ moves the model's, starting from one number moving one). The model is simple (a 
 car has a servo and tyres, a ramp where it has a frame); this loop makes its simplicity cost
 nothing: what is matched is the simulator's behaviour, not the model's idea of it.
 
-    profile, steps = matched_profile(result.car, base, area, pose_hz=50)
+    profile, rounds = matched_profile(result.car, result.sigma, base, area, pose_hz=50)
 """
 
 from __future__ import annotations

@@ -19,10 +19,8 @@ import math
 from dataclasses import dataclass
 
 from roar.errors import FitError
-from roar.protocol import spec
+from roar.fit.model import HALF_RANGE_US, N
 
-N = spec.CONTROL_NEUTRAL_US  # [us]
-HALF_RANGE_US = (spec.CONTROL_MAX_US - spec.CONTROL_MIN_US) // 2  # [us]
 MARGIN_M = 0.6  # [m] kept free between the figure eight and the area's edge (the car's half length and some)
 MIN_RADIUS_M = 1.0  # [m] a smaller figure eight is tighter than most 1/10 cars turn
 LOOKAHEAD_M = 0.7  # [m] pure pursuit's
@@ -88,6 +86,7 @@ MANOEUVRES = (
     Manoeuvre("stop", 2.0, "reverse pulses until the car stops, then neutral"),
 )
 HELD_OUT = "sweep"
+GRIP = "grip"  # the manoeuvre the tyres' grip is measured in (roar.fit.identify)
 # the manoeuvres whose speeds the fit explains: the throttle's, with the steering steady (a car
 # slows as it turns, which the speed model leaves out; in the others that would bend its delay)
 SPEED_MANOEUVRES = ("settle", "deadband", "speeds", "brake", "launch", "blips", "coast", "stop")
@@ -203,7 +202,7 @@ class TestDrive:
 
     def _command(self, name: str, elapsed: float, x: float, y: float, yaw: float, speed: float) -> Command | None:
         # the grip is measured on one circle: a lap's S-bend where the circles cross would shake it
-        path = self._path_steering(x, y, yaw, switch=name != "grip")
+        path = self._path_steering(x, y, yaw, switch=name != GRIP)
         throttle = 0.0
         steer = path
         if name == "settle":
@@ -214,7 +213,7 @@ class TestDrive:
                 if elapsed - self._moved_at > 1.0:
                     return None
             level = N + DEADBAND_STEP_US * (1 + int(elapsed / DEADBAND_STEP_S))
-            return Command(min(level, N + HALF_RANGE_US // 2), _us(steer), name)
+            return Command(min(level, _us(0.5)), _us(steer), name)
         if name == "speeds":
             throttle = SPEED_LEVELS[min(int(elapsed / (MANOEUVRES[2].seconds / len(SPEED_LEVELS))),
                                         len(SPEED_LEVELS) - 1)]
@@ -238,7 +237,7 @@ class TestDrive:
         elif name == "sweep":
             throttle = STEADY  # a chirp: 0.5 Hz rising by 0.5 Hz a second
             steer = path + STEP_SHARE * math.sin(2 * math.pi * (0.5 * elapsed + 0.25 * elapsed * elapsed))
-        elif name == "grip":
+        elif name == GRIP:
             if self._off_path_m(x, y) > SLID_M:
                 return None  # the tyres let go: what they hold is on the record
             throttle = min(1.0, 0.3 + 0.1 * elapsed)

@@ -8,18 +8,17 @@ model's prediction of a manoeuvre held out of the fit.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from roar.fit.drive import SPEED_MANOEUVRES
+from roar.fit.drive import GRIP, SPEED_MANOEUVRES
 from roar.fit.log import SMOOTH_S, FitError, FitLog
 from roar.fit.model import (N, NAMES, PARAMS, STEP_S, WINDOW_EVERY_S, WINDOW_S, Car, Inputs, speeds, steering_angle,
                             yaw_rate)
 
 Z95 = 1.96  # a 95 % interval's half width in standard deviations
 MOVING_M_S = 0.05  # [m/s] slower than this the yaw rate says nothing of the steering
-GRIP_MANOEUVRE = "grip"  # the manoeuvre the grip is measured in
 GRIP_SHARE = 95  # [%] the percentile of the sideways acceleration there taken for the grip
 DELAY_SCAN_S = np.arange(0.0, 0.2001, 0.008)  # [s] the delays scanned for the deepest minimum
 
@@ -48,7 +47,6 @@ class FitResult:
     held_out: Prediction | None  # over the held-out manoeuvre's poses
     held_out_name: str = ""
     evaluations: int = 0
-    notes: list[str] = field(default_factory=list)
 
     def interval(self, name: str) -> tuple[float, float]:
         value, half = getattr(self.car, name), Z95 * self.sigma[name]
@@ -193,8 +191,8 @@ def _grip(problem: _Problem, record: FitLog, names: list[str]) -> tuple[float, f
     manoeuvre (anywhere, in a record without one). Measured, not fitted: a yaw rate's brief
     overshoot in a steering step would pull a fitted limit up."""
     inside = problem.moving.copy()
-    if GRIP_MANOEUVRE in names:
-        inside &= record.phase_at(problem.t) == names.index(GRIP_MANOEUVRE)
+    if GRIP in names:
+        inside &= record.phase_at(problem.t) == names.index(GRIP)
     lateral = np.abs(problem.speed * problem.rate)[inside]
     if len(lateral) < 5:
         return PARAMS[NAMES.index("lateral_m_s2")].start, float("inf")

@@ -33,6 +33,7 @@ class Poses:
     def __init__(self, read_state: Callable, name: str, close: Callable[[], None] | None = None) -> None:
         self._read_state, self.name, self._close = read_state, name, close
         self.samples: list[tuple[float, float, float, float, float]] = []  # (received, source t, x, y, yaw)
+        self._offset = float("inf")  # [s] the smallest delay seen so far
 
     @classmethod
     def open(cls, url: str) -> Poses:
@@ -54,7 +55,9 @@ class Poses:
             return False
         if self.samples and state.time_s <= self.samples[-1][1]:
             return False
-        self.samples.append((time.monotonic(), state.time_s, state.x_m, state.y_m, state.yaw_rad))
+        received = time.monotonic()
+        self.samples.append((received, state.time_s, state.x_m, state.y_m, state.yaw_rad))
+        self._offset = min(self._offset, received - state.time_s)
         return True
 
     def wait_first(self, timeout_s: float = FIRST_POSE_S) -> None:
@@ -69,7 +72,7 @@ class Poses:
 
     def offset(self) -> float:
         """[s] add to a source time for this computer's clock: the smallest delay seen."""
-        return min(received - t for received, t, *_ in self.samples)
+        return self._offset
 
     def close(self) -> None:
         if self._close is not None:
