@@ -63,6 +63,17 @@ def test_the_model_sees_what_differs_between_two_cars(drives):
         assert low < result.car.trim_deg < high and high - low < 1.0
 
 
+def test_the_trim_found_is_the_same_drive_after_drive(drives):
+    """The trim is what makes the car drive straight: three drives of one car, each with its own
+    pose noise, find it within 0.1 deg of each other (the grip manoeuvre, round one circle at the
+    limit, once pulled it 0.3 deg apart)."""
+    trims = [fit(drives["hidden"][0], BASE.wheelbase_m).car.trim_deg]
+    for seed in (2, 3):
+        record, _ = drive(HIDDEN, AREA, noise_m=0.003, seed=seed)
+        trims.append(fit(record, BASE.wheelbase_m).car.trim_deg)
+    assert max(trims) - min(trims) < 0.1, trims
+
+
 def test_a_record_a_fit_cannot_use_is_one_line(drives, tmp_path):
     record = drives["base"][0]
     short = FitLog(record.pulse_t[:200], record.throttle_us[:200], record.steering_us[:200], record.pose_t[:400],

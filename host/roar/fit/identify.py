@@ -75,6 +75,12 @@ class _Problem:
         # wheels (reverse pulses) turns a car by itself
         driven = np.interp(self.t, record.pulse_t, record.throttle_us) >= N
         self.moving = (self.speed > MOVING_M_S) & driven
+        # ... and within the tyres' grip: the grip manoeuvre goes round one circle at the limit, so
+        # its yaw rates, clipped one way only, would pull the trim by as much as the grip measured
+        # there varies from drive to drive (0.2 deg between two drives of one car; 0.02 without it)
+        names = [n for _, n in record.phases]
+        at_limit = record.phase_at(self.t) == names.index(GRIP) if GRIP in names else np.zeros(len(self.t), bool)
+        self.steered = self.moving & ~at_limit
         steps = int(round(WINDOW_S / STEP_S))
         starts = np.arange(0, len(self.inputs.t) - steps, int(round(WINDOW_EVERY_S / STEP_S)))
         # each window starts at a pose (its measured speed), and is compared at the poses within it
@@ -107,7 +113,7 @@ class _Problem:
     def residuals(self, vector: np.ndarray, scale: tuple[float, float]) -> np.ndarray:
         v, rate = self.predict(Car(*vector))
         return np.concatenate([(v - self.speed[self.pose]) / scale[0],
-                               np.where(self.moving, rate - self.rate, 0.0) / scale[1]])
+                               np.where(self.steered, rate - self.rate, 0.0) / scale[1]])
 
     def prediction(self, car: Car) -> Prediction:
         v, rate = self.predict(car)
@@ -174,7 +180,7 @@ def fit(record: FitLog, wheelbase_m: float, held_out: str = "", start: Car | Non
         best = again if again.cost <= best.cost else best
         v, rate = problem.predict(Car(*of(best.x)))  # then each channel weighed by its own error
         scale = (max(float(np.sqrt(np.mean((v - problem.speed[problem.pose]) ** 2))), 1e-3),
-                 max(float(np.sqrt(np.mean((rate - problem.rate)[problem.moving] ** 2))), 1e-3))
+                 max(float(np.sqrt(np.mean((rate - problem.rate)[problem.steered] ** 2))), 1e-3))
         best = solve(best.x)  # (its cost in these units, for the next comparison and the intervals)
     x = of(best.x)
     car = Car(*x)
@@ -189,7 +195,9 @@ def _grip(problem: _Problem, record: FitLog, names: list[str]) -> tuple[float, f
     """([m/s^2] the tyres' grip, its standard deviation): the GRIP_SHARE percentile of the
     sideways acceleration (speed x yaw rate) measured while the car was driven forward in the grip
     manoeuvre (anywhere, in a record without one). Measured, not fitted: a yaw rate's brief
-    overshoot in a steering step would pull a fitted limit up."""
+    overshoot in a steering step would pull a fitted limit up. Its deviation is the spread of the
+    samples about it, not that over their number: they are neighbours along one slide, and the
+    level a car slides at differs between two drives of one car by as much (0.13-0.25 m/s^2)."""
     inside = problem.moving.copy()
     if GRIP in names:
         inside &= record.phase_at(problem.t) == names.index(GRIP)
@@ -198,7 +206,7 @@ def _grip(problem: _Problem, record: FitLog, names: list[str]) -> tuple[float, f
         return PARAMS[NAMES.index("lateral_m_s2")].start, float("inf")
     grip = float(np.percentile(lateral, GRIP_SHARE))
     top = lateral[lateral >= np.percentile(lateral, 2 * GRIP_SHARE - 100)]
-    return grip, float(np.std(top) / np.sqrt(len(top)))
+    return grip, float(np.std(top))
 
 
 def _sigma(result, n: int, pose_dt_s: float) -> np.ndarray:

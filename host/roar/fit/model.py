@@ -2,7 +2,8 @@
 the car was sent:
 
     pulses --(delays)-> servo: target = trim + gain * (1500 - pulse) / 500, lagged (first order)
-                                 yaw rate = speed * tan(angle) / wheelbase, at most lateral / speed
+                                 yaw rate = speed tan(angle) / (wheelbase + understeer speed^2),
+                                   at most lateral / speed
                         ESC:   a dead band about 1500 us; above it forward, a fraction of full:
                                  the wheels' speed top * fraction, reached at drive * fraction +
                                  coast m/s^2 (at most traction); below it, once the board's
@@ -54,6 +55,7 @@ class Param:
 PARAMS = (
     Param("trim_deg", "deg", -10.0, 10.0, 0.0, "the wheels' angle at a 1500 us pulse, left positive"),
     Param("gain_rad", "rad", 0.1, 0.7, 0.35, "the wheels' angle at full steering (500 us off neutral)"),
+    Param("understeer_s2_m", "s^2/m", 0.0, 0.1, 0.01, "more wheel angle per m/s^2 sideways than the geometry's"),
     Param("lag_s", "s", 0.0, 0.3, 0.03, "the steering's first-order lag: the servo's and the tyres' together"),
     Param("steer_delay_s", "s", 0.0, 0.3, 0.04, "from a message sent to the steering acting on it"),
     Param("delay_s", "s", 0.0, 0.3, 0.04, "from a message sent to the ESC acting on it"),
@@ -74,6 +76,7 @@ class Car:
 
     trim_deg: float
     gain_rad: float
+    understeer_s2_m: float
     lag_s: float
     steer_delay_s: float
     delay_s: float
@@ -121,7 +124,10 @@ def steering_angle(car: Car, steering_us: np.ndarray) -> np.ndarray:
 
 def yaw_rate(car: Car, angle: np.ndarray, speed: np.ndarray, wheelbase_m: float) -> np.ndarray:
     """[rad/s] the yaw rate of a car at `speed` with its wheels at `angle`, within its grip."""
-    rate = speed * np.tan(angle) / wheelbase_m
+    # a car understeers: a turn at sideways acceleration a takes the geometry's angle plus
+    # understeer x a, so at speed v the yaw rate is v tan(angle) / (wheelbase + understeer v^2).
+    # Left and right turns at different speeds would otherwise be read as a trim
+    rate = speed * np.tan(angle) / (wheelbase_m + car.understeer_s2_m * speed**2)
     most = car.lateral_m_s2 / np.maximum(np.abs(speed), 0.05)
     return np.clip(rate, -most, most)
 
