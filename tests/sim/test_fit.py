@@ -74,6 +74,16 @@ def test_the_trim_found_is_the_same_drive_after_drive(drives):
     assert max(trims) - min(trims) < 0.1, trims
 
 
+def test_the_poses_noise_is_read_from_the_record(drives):
+    """The simulated drive is matched with the user's pose noise, read from the record: 3 mm of
+    noise reads as 3 mm (turns and the car's motion add nothing), and the same drive without
+    noise reads under a tenth of it."""
+    record = drives["hidden"][0]
+    assert record.pose_noise_m() == pytest.approx(0.003, rel=0.15)
+    clean, _ = drive(HIDDEN, AREA, noise_m=0.0, seed=1)
+    assert clean.pose_noise_m() < 0.0003
+
+
 def test_a_record_a_fit_cannot_use_is_one_line(drives, tmp_path):
     record = drives["base"][0]
     short = FitLog(record.pulse_t[:200], record.throttle_us[:200], record.steering_us[:200], record.pose_t[:400],

@@ -162,9 +162,11 @@ def _fit(args, record: FitLog, stopped: str, base, area: Area, plot_path: Path) 
         v, w = result.held_out.rms()
         print(f"predicted on the held-out {HELD_OUT}: speed within {v:.3f} m/s RMS, yaw rate within {w:.3f} rad/s RMS")
     pose_hz = (len(record.pose_t) - 1) / (record.pose_t[-1] - record.pose_t[0])
-    print("matching the simulated car to it (the same test drive, simulated):", flush=True)
+    noise_m = record.pose_noise_m()
+    print(f"matching the simulated car to it (the same test drive, simulated, poses {pose_hz:.0f} Hz with "
+          f"{noise_m * 1000:.1f} mm of noise as measured):", flush=True)
     profile, _ = matched_profile(result.car, result.sigma, base, area, pose_hz, rounds=args.rounds,
-                                 progress=lambda text: print(f"  {text}", flush=True))
+                                 progress=lambda text: print(f"  {text}", flush=True), noise_m=noise_m)
     profile = rounded(profile)
     stamp = datetime.date.today().isoformat()
     profile = dataclasses.replace(profile, name=args.out.stem, title=f"fitted on {stamp} from {args.source}"[:60])

@@ -1,8 +1,8 @@
 """From a fitted model (roar.fit.identify) to a car profile the simulator drives like the car:
 the simulated car is driven through the same test drive (roar_sim.runs.fit_drive) with a
 candidate profile, its record fitted by the same model, and the profile corrected until the
-simulator's numbers are the car's (Broyden's method: a secant update of how each profile number
-moves the model's, starting from one number moving one). The model is simple (a lag where the
+simulator's numbers are the car's (Gauss-Newton steps, damped, through how each profile number
+moves the model's, measured once at the base). The model is simple (a lag where the
 car has a servo and tyres, a ramp where it has a frame); this loop makes its simplicity cost
 nothing: what is matched is the simulator's behaviour, not the model's idea of it.
 
@@ -18,7 +18,7 @@ import numpy as np
 
 from roar.fit.drive import Area
 from roar.fit.identify import fit
-from roar.fit.model import Car
+from roar.fit.model import STEP_S, Car
 from roar_sim.plants.car_profile import OPTIONAL_RANGES, RANGES, CarProfile
 from roar_sim.runs.fit_drive import drive
 
@@ -41,10 +41,11 @@ MATCHED = {
 # between two drives, and that slope used instead
 SLOPE_TRUST = (0.33, 3.0)
 DAMPING = 0.8  # of each round's step: a noisy slope overshoots less
+REACH = 2.0  # a round moves each number by at most this many of the steps its slope was measured over
 MODEL_KEYS = ("trim_deg", "gain_rad", "steer_delay_s", "lag_s", "delay_s", "deadband_us", "top_m_s", "drive_m_s2",
               "coast_m_s2", "lateral_m_s2")  # the model numbers matched
 ROUNDS = 3  # simulated test drives after the base profile's
-JACOBIAN_VERSION = 6  # of the test drive and the model: slopes kept in the user's cache by another are measured again
+JACOBIAN_VERSION = 7  # of the test drive and the model: slopes kept in the user's cache by another are measured again
 
 
 @dataclass
@@ -54,21 +55,26 @@ class Round:
 
 
 def matched_profile(target: Car, sigma: dict[str, float], base: CarProfile, area: Area, pose_hz: float,
-                    rounds: int = ROUNDS, progress=None) -> tuple[CarProfile, list[Round]]:
+                    rounds: int = ROUNDS, progress=None, noise_m: float = 0.0) -> tuple[CarProfile, list[Round]]:
     """The profile (from `base`: its size, mass and gearing kept) whose simulated test drive fits
-    to `target` (the user's car's model numbers, ± 1.96 sigma), and each round on the way. How
+    to `target` (the user's car's model numbers, ± 1.96 sigma), and each round on the way. Each
+    round's drive has the user's poses' noise (`noise_m` [m], FitLog.pose_noise_m): noise lifts the
+    grip measured (3 mm: +3 %), and a simulator matched without it would be grippier. How
     each profile number moves the model's (the Jacobian) is measured once per base profile, test
     drive and pose rate, by driving the base with each number stepped, and kept in the user's cache."""
     keys, model_keys = list(MATCHED), list(MODEL_KEYS)
     want = np.array([getattr(target, m) for m in model_keys])
-    half = np.array([max(1.96 * sigma[m], 1e-6) for m in model_keys])
+    # a time the model tells no finer than its step: its cost is jagged at that scale (the pulses
+    # move every message), so a delay's interval from the slope at its minimum can be a tenth of
+    # that, and a simulated drive's delay 50 of them off while every other number matched
+    half = np.array([max(1.96 * sigma[m], STEP_S if m.endswith("_s") else 1e-6) for m in model_keys])
     p = np.array([getattr(base, k) for k in keys], dtype=float)
     jacobian, got = _jacobian(base, area, pose_hz, keys, model_keys, progress)
     history: list[Round] = []
     for n in range(rounds + 1):
         profile = _profile(base, keys, p)
         if n:
-            record, _ = drive(profile, area, pose_hz=pose_hz)
+            record, _ = drive(profile, area, pose_hz=pose_hz, noise_m=noise_m, seed=n)
             got = np.array([getattr(fit(record, profile.wheelbase_m, start=target).car, m) for m in model_keys])
         gap = (got - want) / half
         history.append(Round(profile, dict(zip(model_keys, gap.tolist()))))
@@ -77,9 +83,15 @@ def matched_profile(target: Car, sigma: dict[str, float], base: CarProfile, area
         if np.all(np.abs(gap) <= 1.0):  # within the user's own intervals: as close as a fit can tell
             break
         # the step that closes the gaps best, each weighed by how closely the user's car tells it
-        p = _clip(keys, p + DAMPING * np.linalg.lstsq(jacobian / half[:, None], (want - got) / half, rcond=None)[0])
+        step = DAMPING * np.linalg.lstsq(jacobian / half[:, None], (want - got) / half, rcond=None)[0]
+        p = _clip(keys, _within_reach(keys, p, p + step))
     best = min(history, key=lambda r: float(np.max(np.abs(list(r.gap.values())))))
-    return best.profile, history
+    # the trim moves the model's trim alone, and nothing else moves that (a car's trim is in its
+    # servo's horn; its motor, tyres and lag turn it alike both ways): it is taken from the round
+    # that matched it best, as the round best overall may be one where the trim had not yet settled
+    # while the speeds' coupled numbers had (0.46 deg off in one drive of five)
+    closest = {"steering_trim_deg": min(history, key=lambda r: abs(r.gap["trim_deg"])).profile.steering_trim_deg}
+    return dataclasses.replace(best.profile, **closest), history
 
 
 def _jacobian(base: CarProfile, area: Area, pose_hz: float, keys: list[str], model_keys: list[str],
@@ -131,6 +143,21 @@ def _jacobian(base: CarProfile, area: Area, pose_hz: float, keys: list[str], mod
     except OSError:
         pass  # measured again next time
     return jacobian, at_base
+
+
+def _within_reach(keys: list[str], before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """`after`, each number moved from `before` by at most REACH of the steps its slopes were
+    measured over (a ratio's power): the slopes hold near the base, and a number the test drive
+    hardly shows (the motor's torque where the tyres limit) would otherwise leap on a noisy gap."""
+    out = after.copy()
+    for j, key in enumerate(keys):
+        step = MATCHED[key][1]
+        if isinstance(step, str):
+            most = float(step[1:]) ** REACH
+            out[j] = min(max(after[j], before[j] / most), before[j] * most) if before[j] > 0 else after[j]
+        else:
+            out[j] = min(max(after[j], before[j] - REACH * step), before[j] + REACH * step)
+    return out
 
 
 def _clip(keys: list[str], p: np.ndarray) -> np.ndarray:

@@ -110,6 +110,15 @@ class FitLog:
         speed = vx * np.cos(heading) + vy * np.sin(heading)
         return np.interp(self.pose_t, t, speed), np.interp(self.pose_t, t, wz)
 
+    def pose_noise_m(self) -> float:
+        """[m] the poses' noise, one standard deviation: from the third differences of x and y,
+        where a car's own motion is far below a pose source's noise (a noise of s gives third
+        differences of s * sqrt(20)), taken robustly (a median) so a jump or a turn adds nothing."""
+        if len(self.pose_t) < 10:
+            return 0.0
+        third = np.concatenate([np.diff(self.x, 3), np.diff(self.y, 3)])
+        return float(1.4826 * np.median(np.abs(third - np.median(third))) / np.sqrt(20))
+
     def phase_at(self, t: np.ndarray) -> np.ndarray:
         """The index into self.phases of the manoeuvre under way at each time (-1 before the first)."""
         starts = np.array([s for s, _ in self.phases]) if self.phases else np.zeros(0)
