@@ -248,3 +248,22 @@ def test_the_iarrc_car_takes_a_profile_too():
     assert abs(yaws[0.0]) < 0.03 and yaws[3.0] > 0.1, yaws
     with IarrcCar() as car:
         assert car.profile == own and car.limits == LIMITS
+
+
+def test_a_car_can_be_driven_planned_by_another_cars_profile():
+    """plan_profile: the f1tenth car's autopilot planning by the ROAR car's profile (today's
+    constants on a car they do not describe) drives it round, scored against its own limits, and
+    planned far slower than its own profile would; a robot without profiles refuses in one line."""
+    from roar.tracks import get
+    from roar_sim.runs.race import race
+
+    with esc.EscCar(profile="f1tenth") as car:
+        assert car.limits.max_speed_m_s > esc.LIMITS.max_speed_m_s
+        car.plan_by("roar")
+        assert car.limits == esc.LIMITS and car.model.wheelbase_m == 0.325 and car.profile.name == "f1tenth"
+    result = race(get("oval"), 1, profile="f1tenth", plan_profile="roar")
+    assert result.lap_times_s and result.wall_contacts == 0
+    assert result.limit_speeds.max() > esc.LIMITS.max_speed_m_s  # scored against the f1tenth car's limits
+    assert result.best_ratio > 1.5  # planned by a car half as fast
+    with pytest.raises(ValueError, match="has no car profile"):
+        race(get("oval"), 1, robot="junior", plan_profile="roar")

@@ -107,6 +107,16 @@ class Robot(Lockstep):
             return profile
         return car_profile.load(profile or cls.default_profile)
 
+    def plan_by(self, profile) -> None:
+        """Its autopilot plans by `profile` (a CarProfile, a name or a .toml): that car's limits,
+        wheelbase and steering, while the car driven stays this one. A fitted profile driving the
+        car it was fitted to, or today's constants driving a car they do not describe."""
+        from roar.autopilot import CarModel
+
+        plan = self.profile_of(profile)
+        self.limits = profile_limits(type(self), plan, type(self).limits)
+        self.model = CarModel(plan.wheelbase_m, plan.max_steer_rad, self.limits)
+
     @classmethod
     def min_turn_radius_m(cls, profile=None) -> float:
         """[m] the tightest circle the robot can drive (of the car a profile describes, for a

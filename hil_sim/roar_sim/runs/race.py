@@ -79,7 +79,7 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
          avoid: bool = False, frames: Path | None = None, k_dd_s: float | None = None,
          profile: str | None = None, renderer: str | None = None, shaky_camera: int | None = None,
          green_span_s: tuple[float, float] = GREEN_AFTER_S, localize: Localize | None = None,
-         log: Path | None = None, serve_port: int | None = None) -> RaceResult:
+         log: Path | None = None, serve_port: int | None = None, plan_profile=None) -> RaceResult:
     """Race `robot` (a name of roar_sim.robots) round `track`, its commands as a host sends them.
     lateral: its steering ("pursuit", "pid" where it has it), or "lane": the ESC car driving by
     its camera alone, and with it start_lights (a seed: start lights turn green at a moment drawn
@@ -96,7 +96,9 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
     track's map) instead of the simulator's; the simulator's pose then only scores. log: an MCAP
     file the run is recorded into (roar_sim.links.sim_log: what the host sent and heard, the
     firmware's outputs, contacts, and the particle filter's pose and particles where it drives);
-    serve_port: the same channels served live (Foxglove WebSocket on 127.0.0.1)."""
+    serve_port: the same channels served live (Foxglove WebSocket on 127.0.0.1). plan_profile:
+    the profile the autopilot plans its speeds and steering by (None: the car's own), e.g. a
+    fitted one driving the car it was fitted to; the physical limits scored against stay the car's."""
     kind = robots.get(robot)
     if lateral == "lane" and not kind.lane_driving:
         raise ValueError(f"the {kind.title} does not drive by its camera: lane driving is the ESC car's")
@@ -115,7 +117,7 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
         check_line(track, line)
     bar = None
     with ExitStack() as stack:
-        refusal = profile is not None and robots.profile_refusal(kind, "a car profile")
+        refusal = (profile is not None or plan_profile is not None) and robots.profile_refusal(kind, "a car profile")
         if refusal:
             raise ValueError(refusal)
         stack.enter_context(renderers.chosen(renderer))
@@ -170,6 +172,8 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
                     sim_log.localization(localized)
 
         bar = laps_bar(laps, f"racing {track.name}") if progress else None  # once the simulator is up
+        if plan_profile is not None:
+            car.plan_by(plan_profile)
         car.arm()
         agent = course.agent(margin) if course else car.agent(line, margin, lateral, k_dd_s)
         localized = localize.car(car) if localize is not None else None
