@@ -32,7 +32,7 @@ def test_urls_parse(url, expected):
     ("sim://?trace=", "trace= is empty: give a file name"),
     ("sim://?profile=", "profile= is empty"),
     ("sim://?profile=warp", "no car profile 'warp': use f1tenth, iarrc, roar or a .toml file"),
-    ("sim://?robot=junior&profile=f1tenth", "profile= describes a racecar (esc, iarrc): the ROAR Junior has no car profile"),
+    ("sim://?robot=junior&profile=f1tenth", "no ROAR Junior profile 'f1tenth': use junior or a .toml file"),
     ("ble://?timeout=-1", "timeout must be"),
 ])
 def test_bad_urls_give_one_line_errors(url, words):

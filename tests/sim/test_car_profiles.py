@@ -2,6 +2,7 @@
 limits the measured table), `f1tenth` a faster car whose limits are measured from the profile on
 first use and kept in the user's cache; bad profiles are refused in one line."""
 
+import dataclasses
 import json
 
 import pytest
@@ -265,5 +266,45 @@ def test_a_car_can_be_driven_planned_by_another_cars_profile():
     assert result.lap_times_s and result.wall_contacts == 0
     assert result.limit_speeds.max() > esc.LIMITS.max_speed_m_s  # scored against the f1tenth car's limits
     assert result.best_ratio > 1.5  # planned by a car half as fast
-    with pytest.raises(ValueError, match="has no car profile"):
+    with pytest.raises(ProfileError, match="no ROAR Junior profile 'roar': use junior"):
         race(get("oval"), 1, robot="junior", plan_profile="roar")
+
+
+def test_the_junior_takes_a_profile_of_its_motors(tmp_path):
+    """A Junior whose left motor is weaker veers left on an even duty, one whose dead band is wide
+    does not move where the stock kit does, and its limits are measured from its profile: its
+    profile reaches the plant wherever a robot is driven (Race-v0, sim://, roar race)."""
+    from roar.autopilot import DiffDriveModel
+    from roar.junior import query_for
+    from roar_sim.plants import junior_profile
+    from roar_sim.robots.junior import Junior
+
+    stock = junior_profile.load()
+    weak_left = dataclasses.replace(stock, name="weak", left_strength=0.7)
+    stiff = dataclasses.replace(stock, name="stiff", left_deadband_permille=400.0, right_deadband_permille=400.0)
+
+    def drive(profile, duty: float) -> tuple[float, float]:
+        """([rad/s] its wheels' mean speed, [rad] its heading) after 2 s at an even duty."""
+        with Junior(profile=profile) as bot:
+            for _ in range(40):
+                bot.get(query_for(duty, duty))
+                bot.run(0.05)
+            s = bot.state()
+            return (s.left_wheel_rad_s + s.right_wheel_rad_s) / 2, s.yaw
+
+    assert abs(drive(stock, 1.0)[1]) < 0.05
+    assert drive(weak_left, 1.0)[1] > 0.3  # the right wheel outruns the left: it turns left
+    assert drive(stock, 0.3)[0] > 3.0 and abs(drive(stiff, 0.3)[0]) < 0.1 < drive(stiff, 0.5)[0]
+    limits = robots.profile_limits(Junior, weak_left, Junior.limits)
+    assert limits.max_speed_m_s < Junior.limits.max_speed_m_s
+    with Junior(profile=weak_left) as bot:
+        assert bot.profile == weak_left and bot.limits == limits and isinstance(bot.model, DiffDriveModel)
+        assert bot.model.limits == limits
+    path = tmp_path / "mine.toml"
+    path.write_text('title = "mine"\nleft_strength = 0.8\nright_strength = 1.1\nleft_deadband_permille = 150\n'
+                    'right_deadband_permille = 120\n')
+    assert Junior.profile_of(str(path)).right_strength == 1.1
+    path.write_text('title = "mine"\nleft_strength = 3\nright_strength = 1\nleft_deadband_permille = 1\n'
+                    'right_deadband_permille = 1\n')
+    with pytest.raises(ProfileError, match="left_strength must be a finite number 0.5..1.5"):
+        Junior.profile_of(str(path))

@@ -190,40 +190,32 @@ class Place:
 
 
 def _profile(profile, kind, problems: list[str]):
-    """The CarProfile that profile names (None: the robot's own); what is wrong goes to problems."""
+    """The robot's profile that profile names (None: the robot's own); what is wrong goes to problems."""
     if profile is None:
         return None
-    refusal = robots.profile_refusal(kind, "profile")
     if not isinstance(profile, str) or not profile.strip():
-        problems.append(f"profile must be a car profile's name or a .toml file, got {shown(profile)}")
-    elif refusal:
-        problems.append(refusal)
-    else:
+        problems.append(f"profile must be a robot profile's name or a .toml file, got {shown(profile)}")
+    elif kind is not None:
         from roar_sim import ProfileError
-        from roar_sim.plants import car_profile
 
         try:
-            return car_profile.load(profile)
+            return kind.profile_of(profile)
         except ProfileError as e:
             problems.append(str(e))
     return None
 
 
 def _randomize(randomize, kind, problems: list[str]) -> dict[str, tuple[float, float]]:
-    """{profile key: (low, high)} checked: keys a car profile has, bounds within its ranges; what is
-    wrong goes to problems."""
+    """{profile key: (low, high)} checked: keys the robot's profiles have, bounds within their
+    ranges; what is wrong goes to problems."""
     if randomize is None:
         return {}
     if not isinstance(randomize, dict) or not randomize:
-        problems.append(f"randomize must be a dict of car profile keys to (low, high), got {shown(randomize)}")
+        problems.append(f"randomize must be a dict of profile keys to (low, high), got {shown(randomize)}")
         return {}
-    refusal = robots.profile_refusal(kind, "randomize")
-    if refusal:
-        problems.append(refusal)
+    if kind is None:
         return {}
-    from roar_sim.plants.car_profile import OPTIONAL_RANGES, RANGES
-
-    ranges, checked = RANGES | OPTIONAL_RANGES, {}
+    ranges, checked = kind.profile_ranges(), {}
     for key, span in randomize.items():
         if key not in ranges:
             problems.append(f"randomize: no profile key {shown(key)} (keys: {', '.join(sorted(ranges))})")
@@ -252,9 +244,9 @@ class RaceEnv(gym.Env):
                  render_mode: str | None = None, robot: str = "esc", profile: str | None = None,
                  randomize: dict[str, tuple[float, float]] | None = None) -> None:
         """Every keyword is checked before anything is built; what is wrong, all of it, in one
-        ValueError. profile: the car's own numbers, for a robot that is a racecar (the ESC and
-        IARRC cars; roar_sim.plants.car_profile: a name or a .toml file, as `roar race
-        --car-profile` and sim://?profile=); None: the robot's own.
+        ValueError. profile: the robot's own numbers (a racecar's, the ESC and IARRC cars':
+        roar_sim.plants.car_profile; the Junior's motors: roar_sim.plants.junior_profile), a name
+        or a .toml file, as `roar race --car-profile` and sim://?profile=; None: the robot's default.
         randomize: domain randomisation, {profile key: (low, high)}: each episode's car has each
         key drawn uniformly within its span from the episode's seed (info["profile"] says what was
         drawn), e.g. {"tyre_friction": (0.35, 0.55), "latency_s": (0.0, 0.06)}."""

@@ -14,8 +14,9 @@ setpoint arrives; the ROAR Junior takes each control message as the http:// tran
 (one GET, smooth mixing) and reports its ultrasonic range. speedup=2 (simulated seconds per wall
 second, up to 4), gui=1 (PyBullet window), trace=drive.csv (t, x, y, yaw, speed every 20 ms),
 plot=drive.png (the driven path), eeprom=FILE (the board's memory, its signing key, kept in FILE
-between runs: roar_sim.links.board_memory), profile=NAME|FILE.toml (a racecar's own numbers, the ESC or
-IARRC car's: roar_sim.plants.car_profile, as `roar race --car-profile`; its limits are measured on first use).
+between runs: roar_sim.links.board_memory), profile=NAME|FILE.toml (the robot's own numbers: a racecar's,
+the ESC or IARRC car's, roar_sim.plants.car_profile; the Junior's motors, roar_sim.plants.junior_profile;
+as `roar race --car-profile`; its limits are measured on first use).
 """
 
 from __future__ import annotations
@@ -51,7 +52,6 @@ class SimTransport(Transport):
                  trace: Path | None = None, plot: Path | None = None, robot: str = "esc",
                  eeprom: Path | None = None, profile: str | None = None) -> None:
         from roar_sim import robots
-        from roar_sim.plants import car_profile
 
         self.track_name, self.speedup, self.gui = track, speedup, gui
         self.trace_path, self.plot_path = trace, plot
@@ -60,10 +60,7 @@ class SimTransport(Transport):
             raise TransportError(f"eeprom= keeps a board's key between runs: the {self.kind.title} has none here")
         self.eeprom = eeprom  # the board's EEPROM (signing key, session) kept in this file between runs
         self.robot = robot
-        refusal = profile is not None and robots.profile_refusal(self.kind, "profile=")
-        if refusal:
-            raise TransportError(refusal)
-        self.profile = None if profile is None else car_profile.load(profile)  # ProfileError: one line
+        self.profile = None if profile is None else self.kind.profile_of(profile)  # ProfileError: one line
         self.replies = self.kind.replies  # the ESC and IARRC cars answer with lines, the Junior not
         self.sim = None  # the roar_sim.robots.Robot once open
         self.trace: list[tuple[float, float, float, float, float]] = []  # (t, x, y, yaw, speed)

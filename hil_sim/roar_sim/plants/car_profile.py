@@ -82,9 +82,15 @@ class CarProfile:
     @property
     def fingerprint(self) -> str:
         """Short hex of every number: measured limits are kept under it."""
-        numbers = ",".join(f"{getattr(self, f.name)!r}" for f in fields(self) if f.name not in ("name", "title")
-                           and not (f.name in OPTIONAL_RANGES and getattr(self, f.name) == f.default))
-        return hashlib.sha256(numbers.encode()).hexdigest()[:16]
+        return fingerprint(self, OPTIONAL_RANGES)
+
+
+def fingerprint(profile, optional: dict) -> str:
+    """Short hex of a profile's numbers (those of `optional` only where they differ from their
+    defaults: older profiles keep theirs): every robot's measured limits are kept under it."""
+    numbers = ",".join(f"{getattr(profile, f.name)!r}" for f in fields(profile) if f.name not in ("name", "title")
+                       and not (f.name in optional and getattr(profile, f.name) == f.default))
+    return hashlib.sha256(numbers.encode()).hexdigest()[:16]
 
 
 def save(profile: CarProfile, path: str | Path, header: str = "") -> None:
@@ -112,12 +118,20 @@ def names() -> list[str]:
 
 def load(name_or_path: str = DEFAULT) -> CarProfile:
     """A shipped profile by name, or a .toml file; ProfileError (one line) for anything else."""
-    path = Path(name_or_path) if name_or_path.endswith(".toml") else FOLDER / f"{name_or_path}.toml"
+    return read(name_or_path, FOLDER, CarProfile, RANGES, OPTIONAL_RANGES, "car profile")
+
+
+def read(name_or_path: str, folder: Path, kind: type, ranges: dict, optional: dict, what: str):
+    """A profile of dataclass `kind` (name, title, then its numbers): a shipped one by name (in
+    `folder`) or a .toml file, each number checked against `ranges` (`optional`: keys it may leave
+    out); ProfileError (one line naming the file) for anything else. Every robot's profiles load so."""
+    path = Path(name_or_path) if name_or_path.endswith(".toml") else folder / f"{name_or_path}.toml"
     if not path.exists():
-        raise ProfileError(f"no car profile {printable(name_or_path)!r}: use {', '.join(names())} or a .toml file")
+        shipped = sorted(p.stem for p in folder.glob("*.toml"))
+        raise ProfileError(f"no {what} {printable(name_or_path)!r}: use {', '.join(shipped)} or a .toml file")
     data = read_parsed(path, tomllib.loads, ProfileError, "TOML")
-    keys = {f.name for f in fields(CarProfile)} - {"name"}
-    missing, unknown = keys - set(data) - set(OPTIONAL_RANGES), set(data) - keys
+    keys = {f.name for f in fields(kind)} - {"name"}
+    missing, unknown = keys - set(data) - set(optional), set(data) - keys
     if missing or unknown:
         raise ProfileError(f"{path}: " + "; ".join(
             ([f"missing {', '.join(sorted(missing))}"] if missing else []) +
@@ -125,9 +139,9 @@ def load(name_or_path: str = DEFAULT) -> CarProfile:
     if not isinstance(data["title"], str):
         raise ProfileError(f"{path}: title must be a string")
     try:
-        values = {key: number(key, data[key], low, high, unit) for key, (low, high, unit) in RANGES.items()}
+        values = {key: number(key, data[key], low, high, unit) for key, (low, high, unit) in ranges.items()}
         values.update({key: number(key, data[key], low, high, unit)
-                       for key, (low, high, unit) in OPTIONAL_RANGES.items() if key in data})
+                       for key, (low, high, unit) in optional.items() if key in data})
     except ValueError as e:
         raise ProfileError(f"{path}: {e}") from None
-    return CarProfile(path.stem, printable(data["title"], 60), **values)
+    return kind(path.stem, printable(data["title"], 60), **values)

@@ -12,7 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from roar_sim.core.junior import SidePins
-from roar_sim.plants.l298n_motors import GEARBOX_FRICTION_NM, motor_torque
+from roar_sim.plants import junior_profile
+from roar_sim.plants.l298n_motors import motor_torque
 from roar_sim.sensors import ultrasonic
 from roar_sim.world.bullet import pb
 from roar_sim.world.scene import World
@@ -49,11 +50,14 @@ class JuniorState:
 
 
 class JuniorPlant:
-    """The Junior in a World with an optional track."""
+    """The Junior in a World with an optional track; profile: its motors (a JuniorProfile; None:
+    a stock kit's)."""
 
     def __init__(self, track: Track | None, dt_s: float = 0.005, gui: bool = False,
-                 pose: tuple[float, float, float] | None = None) -> None:
+                 pose: tuple[float, float, float] | None = None,
+                 profile: junior_profile.JuniorProfile | None = None) -> None:
         self.dt_s = dt_s
+        self.sides = (profile or junior_profile.load()).sides()  # (strength, gearbox friction [N m]) left, right
         self.world = World(track, dt_s, gui)
         self.client = self.world.client
         x, y, yaw = pose or self.world.start_pose()
@@ -93,7 +97,7 @@ class JuniorPlant:
                           physicsClientId=c)  # the skid ball slides
         for w in (LEFT, RIGHT):
             pb.changeDynamics(body, w, lateralFriction=1.0, physicsClientId=c)
-            pb.setJointMotorControl2(body, w, pb.VELOCITY_CONTROL, targetVelocity=0, force=GEARBOX_FRICTION_NM,
+            pb.setJointMotorControl2(body, w, pb.VELOCITY_CONTROL, targetVelocity=0, force=self.sides[w][1],
                                      physicsClientId=c)
         return body
 
@@ -101,14 +105,19 @@ class JuniorPlant:
         """The L298N inputs for the next physics step."""
         c = self.client
         for joint, pins in ((LEFT, left), (RIGHT, right)):
+            strength, friction = self.sides[joint]
             omega = pb.getJointState(self.robot, joint, physicsClientId=c)[1]
-            torque = motor_torque(pins, omega)
+            torque = motor_torque(pins, omega, strength)
             moving = abs(omega) > 1e-3
-            net = torque - (math.copysign(GEARBOX_FRICTION_NM, omega) if moving else 0.0)
-            if not moving and abs(torque) <= GEARBOX_FRICTION_NM:  # not enough to break away: held
+            if abs(torque) <= friction:
+                # the motor cannot turn it against its gearbox: it slows to a stop (the friction less
+                # what the motor adds along its motion) and stays there, rather than overshooting
+                # zero each step and creeping on (a wide dead band's wheel did, 0.4 rad/s)
+                along = torque * math.copysign(1.0, omega) if moving else 0.0
                 pb.setJointMotorControl2(self.robot, joint, pb.VELOCITY_CONTROL, targetVelocity=0,
-                                         force=GEARBOX_FRICTION_NM, physicsClientId=c)
+                                         force=friction - along, physicsClientId=c)
             else:
+                net = torque - (math.copysign(friction, omega) if moving else 0.0)
                 pb.setJointMotorControl2(self.robot, joint, pb.VELOCITY_CONTROL,
                                          targetVelocity=math.copysign(SPIN_LIMIT_RAD_S, net), force=abs(net),
                                          physicsClientId=c)

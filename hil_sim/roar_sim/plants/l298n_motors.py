@@ -9,7 +9,8 @@ supply:
 
 and the wheel gets torque kt i, less the gearbox's friction. The constants give a TT motor's
 torque-speed line (no-load 19.6 rad/s and stall 0.073 N m at the 5.6 V the L298N leaves of a 7.4 V
-pack, less the gearbox's friction).
+pack, less the gearbox's friction). One motor differs from the next: `strength` scales its line
+(no-load speed and stall torque alike; a robot's profile holds each side's, roar_sim.plants.junior_profile).
 """
 
 from __future__ import annotations
@@ -23,16 +24,17 @@ DRIVE_V = SUPPLY_V - BRIDGE_DROP_V  # [V] across the motor at full duty
 MOTOR_KE = 0.286  # [V s/rad] at the wheel (after the 1:48 gearbox): 6 V -> 21 rad/s no-load
 MOTOR_KT = MOTOR_KE  # [N m/A]
 MOTOR_R_OHM = 22.0  # [ohm] equivalent, gearbox losses included: 6 V stalls at 0.078 N m
-GEARBOX_FRICTION_NM = 0.01  # [N m] at the wheel: an unpowered TT motor stops its wheel in a few tenths
+STALL_NM = MOTOR_KT * DRIVE_V / MOTOR_R_OHM  # [N m] at the wheel, full duty, standing
 FULL_SCALE = spec.L298N_DUTY_FULL_SCALE  # [permille] duty meaning 100 %
 
 
-def motor_torque(pins: SidePins, omega: float) -> float:
-    """[N m] on the wheel from one L298N side and its motor, at wheel speed omega [rad/s]."""
+def motor_torque(pins: SidePins, omega: float, strength: float = 1.0) -> float:
+    """[N m] on the wheel from one L298N side and its motor, at wheel speed omega [rad/s];
+    strength: the motor's torque-speed line against a stock TT motor's."""
     duty = pins.duty / FULL_SCALE
     if duty <= 0:
         return 0.0  # EN low: coast
     if pins.in1 == pins.in2:
         return -MOTOR_KT * duty * MOTOR_KE * omega / MOTOR_R_OHM  # terminals tied: brake
-    volts = duty * (DRIVE_V if pins.in1 else -DRIVE_V)
+    volts = strength * duty * (DRIVE_V if pins.in1 else -DRIVE_V)
     return MOTOR_KT * (volts - MOTOR_KE * omega) / MOTOR_R_OHM

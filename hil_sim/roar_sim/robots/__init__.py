@@ -88,41 +88,45 @@ class Robot(Lockstep):
     ultrasonic_max_m: ClassVar[float | None] = None  # [m] its ultrasonic ranger's reach, if it has one
     track: Track | None
     model: ClassVar  # what its driver plans with: a CarModel or DiffDriveModel (its turning radius among it)
-    # the shipped car profile (roar_sim.plants.car_profiles) that is its default, for a robot whose
-    # plant is the racecar: it then takes any profile (profile=, sim://?profile=, --car-profile)
-    default_profile: ClassVar[str | None] = None
+    # its own numbers: the module its profiles load from (roar_sim.plants.car_profile for a robot
+    # whose plant is the racecar, roar_sim.plants.junior_profile for the Junior), and the shipped
+    # profile that is its default; any other it takes as profile=, sim://?profile=, --car-profile
+    profiles: ClassVar = None
+    default_profile: ClassVar[str]
     limits_version: ClassVar[int] = 1  # of how its limits are measured: a profile's kept by another are measured again
 
     @classmethod
-    def takes_profile(cls) -> bool:
-        return cls.default_profile is not None
+    def profile_of(cls, profile=None):
+        """Its profile that `profile` names (a profile, a name or a .toml; None: its default);
+        ProfileError (one line) for a bad one."""
+        if profile is None or isinstance(profile, str):
+            return cls.profiles.load(profile or cls.default_profile)
+        return profile
 
     @classmethod
-    def profile_of(cls, profile=None):
-        """The CarProfile that `profile` names (a CarProfile, a name or a .toml; None: the robot's
-        default); ProfileError (one line) for a bad one."""
-        from roar_sim.plants import car_profile
+    def profile_ranges(cls) -> dict[str, tuple[float, float, str]]:
+        """{key: (low, high, unit)} of every number its profiles hold (Race-v0's randomize= draws them)."""
+        return cls.profiles.RANGES | cls.profiles.OPTIONAL_RANGES
 
-        if isinstance(profile, car_profile.CarProfile):
-            return profile
-        return car_profile.load(profile or cls.default_profile)
-
-    def plan_by(self, profile) -> None:
-        """Its autopilot plans by `profile` (a CarProfile, a name or a .toml): that car's limits,
-        wheelbase and steering, while the car driven stays this one. A fitted profile driving the
-        car it was fitted to, or today's constants driving a car they do not describe."""
+    @classmethod
+    def model_for(cls, profile, limits: CarLimits):
+        """What its driver plans with, for a car `profile` describes with `limits`: a racecar's
+        wheelbase and steering (a robot of another build overrides this)."""
         from roar.autopilot import CarModel
 
+        return CarModel(profile.wheelbase_m, profile.max_steer_rad, limits)
+
+    def plan_by(self, profile) -> None:
+        """Its autopilot plans by `profile` (a profile, a name or a .toml): that car's limits and
+        build, while the car driven stays this one. A fitted profile driving the car it was fitted
+        to, or today's constants driving a car they do not describe."""
         plan = self.profile_of(profile)
         self.limits = profile_limits(type(self), plan, type(self).limits)
-        self.model = CarModel(plan.wheelbase_m, plan.max_steer_rad, self.limits)
+        self.model = self.model_for(plan, self.limits)
 
     @classmethod
     def min_turn_radius_m(cls, profile=None) -> float:
-        """[m] the tightest circle the robot can drive (of the car a profile describes, for a
-        robot that takes one)."""
-        if not cls.takes_profile():
-            return cls.model.min_turn_radius_m
+        """[m] the tightest circle the robot can drive (of the car a profile describes)."""
         car = cls.profile_of(profile)
         return car.wheelbase_m / math.tan(car.max_steer_rad)
 
@@ -244,9 +248,18 @@ class Robot(Lockstep):
     # --- its limits --------------------------------------------------------------------------
 
     @classmethod
-    def measure_limits(cls) -> CarLimits:
-        """Drive fresh robots on an open floor and read their limits from the logs."""
+    def measure_limits(cls, profile=None) -> CarLimits:
+        """Drive fresh robots (of `profile`: None, its default) on an open floor and read their
+        limits from the logs."""
         raise NotImplementedError
+
+    @classmethod
+    def unmeasurable_hint(cls, profile) -> str:
+        """What to say of a profile whose limits could not be measured: why it may not drive."""
+        from roar_sim.plants.racecar import WHEEL_RADIUS_M
+
+        top = profile.motor.max_speed_rad_s * WHEEL_RADIUS_M * profile.scale
+        return f" (its wheels' top speed is {top:.1f} m/s; a 1/10 car reaches 2-10 m/s)"
 
     def log_driving(self, send: Callable[[], None], seconds: float) -> list[tuple[float, object]]:
         """send() and run one control period, for `seconds`: [(time [s], state)] after each."""
@@ -286,16 +299,8 @@ def grip_on_circles(make: Callable[[], Robot], steerings, speeds, drive_circle) 
     return peak[1], fade(peak, ends)
 
 
-def profile_refusal(kind: type[Robot] | None, option: str) -> str | None:
-    """Why `option` (a car profile) is not for robot `kind`, in words; None when it is."""
-    if kind is None or kind.takes_profile():
-        return None
-    takers = [n for n in names() if get(n).takes_profile()]
-    return f"{option} describes a racecar ({', '.join(takers)}): the {kind.title} has no car profile"
-
-
 class ProfileLimits:
-    """A profile-taking robot's `limits`: its table (`table`, measured from its default profile)
+    """A robot's `limits`: its table (`table`, measured from its default profile)
     on the class; on a robot, its own profile's, measured (or read from the user's cache) when
     first asked for, so a robot driven without an autopilot (a fit's test drive) never waits."""
 
@@ -310,7 +315,7 @@ class ProfileLimits:
 
 
 class ProfileModel:
-    """A profile-taking robot's `model`: the default's on the class; on a robot, its own profile's."""
+    """A robot's `model`: the default's on the class; on a robot, its own profile's."""
 
     def __init__(self, model) -> None:
         self.model = model
@@ -318,9 +323,7 @@ class ProfileModel:
     def __get__(self, robot, cls):
         if robot is None:
             return self.model
-        from roar.autopilot import CarModel
-
-        robot.model = CarModel(robot.profile.wheelbase_m, robot.profile.max_steer_rad, robot.limits)
+        robot.model = cls.model_for(robot.profile, robot.limits)
         return robot.model
 
 
@@ -349,12 +352,8 @@ def profile_limits(kind: type[Robot], profile, table: CarLimits) -> CarLimits:
             limits = kind.measure_limits(profile)
         except (StopIteration, ZeroDivisionError, ValueError, statistics.StatisticsError):
             # a run that never reached 90 % of its speed, never stopped, or never turned a circle
-            from roar_sim.plants.racecar import WHEEL_RADIUS_M
-
-            top = profile.motor.max_speed_rad_s * WHEEL_RADIUS_M * profile.scale
             raise ProfileError(f"{profile.title}: its limits cannot be measured: driving it at full throttle, braking "
-                               f"and on circles gave no steady run (its wheels' top speed is {top:.1f} m/s; a 1/10 car "
-                               f"reaches 2-10 m/s)") from None
+                               f"and on circles gave no steady run{kind.unmeasurable_hint(profile)}") from None
         try:
             kept.parent.mkdir(parents=True, exist_ok=True)
             kept.write_text(json.dumps(vars(limits)))

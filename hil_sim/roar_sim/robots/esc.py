@@ -61,6 +61,7 @@ class EscCar(Robot):
     half_width_m = 0.15  # [m] half its width as the walls feel it (wheels and steering), measured
     limits = ProfileLimits(LIMITS)  # the default profile's; a car's own profile's, measured when first asked for
     model = ProfileModel(MODEL)
+    profiles = car_profile
     default_profile = car_profile.DEFAULT
     limits_version = LIMITS_VERSION
     links = ("serial", "stream")

@@ -29,6 +29,7 @@ from roar_sim.core.rtos import Scheduler
 from roar_sim.core.iarrc import IarrcBoard, iarrc_tasks
 from roar_sim.core.library import IarrcTask
 from roar_sim.plants.esc_servo import EscMode, HobbyEsc, PulseDelay, SteeringServo, actuators
+from roar_sim.plants import car_profile
 from roar_sim.plants.car_profile import URDF_WHEELBASE_M, CarProfile
 from roar_sim.plants.racecar import CarState, Racecar
 from roar_sim.robots import Pose, ProfileLimits, ProfileModel, ReplyLines, Robot, grip_on_circles
@@ -85,6 +86,7 @@ class IarrcCar(Robot):
     half_width_m = 0.15  # [m] half its width as the walls feel it (the same racecar as the ESC car's)
     limits = ProfileLimits(LIMITS)  # its default profile's; a car's own profile's, measured when first asked for
     model = ProfileModel(MODEL)
+    profiles = car_profile
     default_profile = "iarrc"  # roar_sim/plants/car_profiles/iarrc.toml: a 5 m/s motor, rubber tyres
     links = ("serial",)
     laterals = ("pursuit", "pid")

@@ -18,6 +18,7 @@ junior --http` serves each on its own): board access is serialised by one lock.
 from __future__ import annotations
 
 import math
+import statistics
 import threading
 import time
 
@@ -30,14 +31,18 @@ from roar.transports.base import unit_command
 from roar_sim.core.lockstep import LOOP_US, PHYSICS_US, loops_until
 from roar_sim.core.junior import HttpRequestReader, JuniorBoard, SidePins
 from roar_sim.core.library import HttpRead
+from roar_sim.plants import junior_profile
 from roar_sim.plants.junior import WHEEL_TRACK_M, JuniorPlant, JuniorState
-from roar_sim.robots import Pose, Robot
+from roar_sim.plants.junior_profile import JuniorProfile
+from roar_sim.robots import Pose, ProfileLimits, ProfileModel, Robot
 from roar_sim.sensors.ultrasonic import MAX_RANGE_M
 from roar.tracks.track import Track
 from roar.vision.geometry import CameraPreset
 from roar_sim.plants import junior as junior_plant
 
 PING_US = 60_000  # [us] between ultrasonic readings (the firmware's ping period)
+# The default profile's (junior) limits as measured from it; `roar limits junior` and the suite
+# measure them again. Any other profile's are measured on first use and kept in the user's cache.
 LIMITS = CarLimits(max_speed_m_s=0.55, max_accel_m_s2=3.11, max_brake_m_s2=1.36, max_lateral_m_s2=0.89)
 MODEL = DiffDriveModel(track_width_m=WHEEL_TRACK_M, limits=LIMITS)
 MIXING = "smooth"  # the autopilot's diff-drive controller sends what smooth mixing turns into its wheel speeds
@@ -86,18 +91,23 @@ class Junior(Robot):
     half_width_m = 0.09  # [m] half its width: the wheels' outer faces
     camera = CameraPreset(fov_deg=junior_plant.CAMERA_FOV_DEG, x_m=junior_plant.CAMERA_POS_M[0],
                           z_m=junior_plant.CAMERA_POS_M[2], pitch_rad=junior_plant.CAMERA_PITCH_RAD)
-    limits = LIMITS
-    model = MODEL
+    limits = ProfileLimits(LIMITS)  # the default profile's; a robot's own profile's, measured when first asked for
+    model = ProfileModel(MODEL)
+    profiles = junior_profile
+    default_profile = junior_profile.DEFAULT
     links = ("http",)
     ultrasonic_max_m = MAX_RANGE_M
 
     def __init__(self, track: Track | None = None, pose: Pose | None = None, realtime: bool = False,
-                 speedup: float = 1.0, gui: bool = False, mixing: str = MIXING, nvm: bytes | None = None) -> None:
+                 speedup: float = 1.0, gui: bool = False, mixing: str = MIXING, nvm: bytes | None = None,
+                 profile: JuniorProfile | str | None = None) -> None:
         """mixing: how drive() turns throttle and steering into wheel duties (roar.junior.MIXES);
-        nvm: the board's flash as a previous run left it (`.nvm`: its signing key and session)."""
+        nvm: the board's flash as a previous run left it (`.nvm`: its signing key and session);
+        profile: its motors (roar_sim.plants.junior_profile: a name, a file or a JuniorProfile)."""
         super().__init__(track, realtime, speedup)
+        self.profile = self.profile_of(profile)
         self.board = JuniorBoard(loop_us=LOOP_US, nvm=nvm)
-        self.plant = JuniorPlant(track, PHYSICS_US / 1e6, gui, pose)
+        self.plant = JuniorPlant(track, PHYSICS_US / 1e6, gui, pose, self.profile)
         self.mix = MIXES[mixing]
         # When a list: (simulated t [us], wall clock [s], left, right) each time the firmware's
         # outputs change, as seen after each run of loop iterations (at most one physics period)
@@ -165,7 +175,7 @@ class Junior(Robot):
     def agent(self, line, margin: float = 0.9, lateral: str = "pursuit", k_dd_s: float | None = None) -> Agent:
         if lateral not in self.laterals:
             raise ValueError("the Junior steers by pure pursuit only (its wheels set the curvature)")
-        return diff_drive_agent(line, MODEL, margin, **({} if k_dd_s is None else {"k_dd_s": k_dd_s}))
+        return diff_drive_agent(line, self.model, margin, **({} if k_dd_s is None else {"k_dd_s": k_dd_s}))
 
     # --- time --------------------------------------------------------------------------------
 
@@ -192,7 +202,20 @@ class Junior(Robot):
     # --- its limits --------------------------------------------------------------------------
 
     @classmethod
-    def measure_limits(cls) -> CarLimits:
+    def model_for(cls, profile: JuniorProfile, limits: CarLimits) -> DiffDriveModel:
+        return DiffDriveModel(track_width_m=WHEEL_TRACK_M, limits=limits)
+
+    @classmethod
+    def min_turn_radius_m(cls, profile=None) -> float:
+        return MODEL.min_turn_radius_m  # it turns on the spot, whatever its motors
+
+    @classmethod
+    def unmeasurable_hint(cls, profile: JuniorProfile) -> str:
+        return (f" (a side whose dead band is near full duty barely turns: left "
+                f"{profile.left_deadband_permille:g}, right {profile.right_deadband_permille:g} permille)")
+
+    @classmethod
+    def measure_limits(cls, profile: JuniorProfile | None = None) -> CarLimits:
         """Top speed and acceleration at full duty, how fast it slows when the duty drops to 0 (it
         coasts: the L298N's EN low, the gearbox's friction), and the steady lateral acceleration on
         a circle: it reaches its tightest circle (one wheel near stop) before its wheels slide, so
@@ -200,16 +223,22 @@ class Junior(Robot):
         def hold(junior: Junior, left: float, right: float, seconds: float) -> list:
             return junior.log_driving(lambda: junior.get(query_for(left, right)), seconds)
 
-        with cls() as junior:
+        with cls(profile=profile) as junior:
             hold(junior, 0, 0, 0.2)
             run = hold(junior, 1, 1, 2.0)
             top, accel, brake = straight_line(run, hold(junior, 0, 0, 1.5))
         lateral = 0.0
         for inner in (0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2):  # tighter and tighter circles at full outer duty
-            with cls() as junior:
+            with cls(profile=profile) as junior:
                 hold(junior, 0, 0, 0.2)
-                radius, accel_lateral = circle(hold(junior, 1.0, inner, 3.0)[-50:])  # the last second
-            expected = (WHEEL_TRACK_M / 2) * (1 + inner) / (1 - inner)  # no slip: the wheels' speed ratio
+                steady = hold(junior, 1.0, inner, 3.0)[-50:]  # the last second
+            radius, accel_lateral = circle(steady)
+            # no slip: the radius the wheels' own speeds ask for (a side's motor may be the weaker)
+            outer, inner_rad_s = (statistics.median(getattr(s, side) for _, s in steady)
+                                  for side in ("left_wheel_rad_s", "right_wheel_rad_s"))
+            if outer <= inner_rad_s:
+                continue  # its weaker outer motor turns it the other way: a tighter circle will not
+            expected = (WHEEL_TRACK_M / 2) * (outer + inner_rad_s) / (outer - inner_rad_s)
             if radius > HOLDS_LINE * expected:
                 break  # wider than the wheels ask for: they slide
             lateral = max(lateral, accel_lateral)

@@ -86,9 +86,9 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
     from it, and the car waits for them), avoid (a TFmini on its nose, keeping to a lane and
     changing lanes for what is ahead), frames (a folder the driver's frames are written to).
     boxes: (distance along the centre line, offset to its left) [m] of each box. k_dd_s: pure
-    pursuit's look-ahead per m/s [s] (None: the robot's default). profile: the car's profile,
-    for the racecar robots (ESC and IARRC; roar_sim.plants.car_profile: a name or a .toml; None:
-    the robot's own). renderer: what draws the
+    pursuit's look-ahead per m/s [s] (None: the robot's default). profile: the robot's profile
+    (a racecar's: roar_sim.plants.car_profile; the Junior's: roar_sim.plants.junior_profile; a
+    name or a .toml; None: the robot's default). renderer: what draws the
     camera's frames ("egl", "tiny"; None: roar_sim.world.renderer.wanted()). shaky_camera: a seed:
     the lane driver's camera mount shakes and its sensor adds noise (roar_sim.sensors.camera_noise).
     green_span_s: [s] the span the start lights' green moment is drawn from. localize: the driver
@@ -117,9 +117,6 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
         check_line(track, line)
     bar = None
     with ExitStack() as stack:
-        refusal = (profile is not None or plan_profile is not None) and robots.profile_refusal(kind, "a car profile")
-        if refusal:
-            raise ValueError(refusal)
         stack.enter_context(renderers.chosen(renderer))
         car = stack.enter_context(kind(track, realtime=realtime, gui=gui, **({"profile": profile} if profile else {})))
         world = car.plant.world
@@ -261,9 +258,10 @@ def parser() -> argparse.ArgumentParser:
                         "(open it in Foxglove, or `roar replay`)")
     add_foxglove_option(p, "the same channels", when="(the race then runs in real time, to be watched) ")
     p.add_argument("--car-profile", metavar="NAME|FILE",
-                   help="the car's own numbers (the ESC and IARRC cars): roar (the ESC car's), iarrc (the IARRC "
-                        "car's), f1tenth (about 8 m/s), or a profile .toml (roar_sim/plants/car_profiles/, roar fit); "
-                        "its limits are measured on first use")
+                   help="the robot's own numbers: for the ESC and IARRC cars roar (the ESC car's), iarrc (the "
+                        "IARRC car's), f1tenth (about 8 m/s) or a .toml (roar_sim/plants/car_profiles/, roar fit); "
+                        "for the Junior junior or a .toml of its motors' strength and dead band "
+                        "(roar_sim/plants/junior_profiles/); its limits are measured on first use")
     p.add_argument("--shaky-camera", type=seed_option, metavar="SEED",
                    help="with --driver lane: the camera's mount shakes (0.5 degrees a frame) and its sensor adds "
                         "noise, drawn from SEED, as on a real car")
@@ -352,13 +350,8 @@ def main(argv: list[str] | None = None) -> int:
     problem = args.frames is not None and unusable_folder(args.frames)
     if problem:
         p.error(f"--frames {problem}")
-    refusal = args.car_profile is not None and robots.profile_refusal(robots.get(args.robot), "--car-profile")
-    if refusal:
-        p.error(refusal)
-    if args.car_profile is not None:
-        from roar_sim.plants import car_profile
-
-        car_profile.load(args.car_profile)  # a bad profile fails here, in one line, before anything runs
+    if args.car_profile is not None:  # a bad profile fails here, in one line, before anything runs
+        robots.get(args.robot).profile_of(args.car_profile)
     opponent_options = {"--opponent-pace": args.opponent_pace != 0.85,
                         "--opponent-line": args.opponent_line != "racing",
                         "--opponent-driver": args.opponent_driver is not None}
