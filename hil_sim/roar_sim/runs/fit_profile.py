@@ -42,6 +42,11 @@ MATCHED = {
 SLOPE_TRUST = (0.33, 3.0)
 DAMPING = 0.8  # of each round's step: a noisy slope overshoots less
 REACH = 2.0  # a round moves each number by at most this many of the steps its slope was measured over
+# each number away from the base's weighs as a gap of this many of the user's intervals per step its
+# slope was measured over: a number the drive shows (a step moves a model number by several
+# intervals) hardly feels it, one it does not show (the motor's torque where the tyres limit the
+# car) stays near the base's rather than wandering wherever noise pushes it
+PRIOR = 0.3
 MODEL_KEYS = ("trim_deg", "gain_rad", "steer_delay_s", "lag_s", "delay_s", "deadband_us", "top_m_s", "drive_m_s2",
               "coast_m_s2", "lateral_m_s2")  # the model numbers matched
 ROUNDS = 3  # simulated test drives after the base profile's
@@ -68,7 +73,7 @@ def matched_profile(target: Car, sigma: dict[str, float], base: CarProfile, area
     # move every message), so a delay's interval from the slope at its minimum can be a tenth of
     # that, and a simulated drive's delay 50 of them off while every other number matched
     half = np.array([max(1.96 * sigma[m], STEP_S if m.endswith("_s") else 1e-6) for m in model_keys])
-    p = np.array([getattr(base, k) for k in keys], dtype=float)
+    p = origin = np.array([getattr(base, k) for k in keys], dtype=float)
     jacobian, got = _jacobian(base, area, pose_hz, keys, model_keys, progress)
     history: list[Round] = []
     for n in range(rounds + 1):
@@ -83,7 +88,10 @@ def matched_profile(target: Car, sigma: dict[str, float], base: CarProfile, area
         if np.all(np.abs(gap) <= 1.0):  # within the user's own intervals: as close as a fit can tell
             break
         # the step that closes the gaps best, each weighed by how closely the user's car tells it
-        step = DAMPING * np.linalg.lstsq(jacobian / half[:, None], (want - got) / half, rcond=None)[0]
+        scale = _steps(base, keys)
+        system = np.vstack([jacobian / half[:, None], np.diag(PRIOR / scale)])
+        gaps = np.concatenate([(want - got) / half, PRIOR * (origin - p) / scale])
+        step = DAMPING * np.linalg.lstsq(system, gaps, rcond=None)[0]
         p = _clip(keys, _within_reach(keys, p, p + step))
     best = min(history, key=lambda r: float(np.max(np.abs(list(r.gap.values())))))
     # the trim moves the model's trim alone, and nothing else moves that (a car's trim is in its
@@ -143,6 +151,12 @@ def _jacobian(base: CarProfile, area: Area, pose_hz: float, keys: list[str], mod
     except OSError:
         pass  # measured again next time
     return jacobian, at_base
+
+
+def _steps(base: CarProfile, keys: list[str]) -> np.ndarray:
+    """Each number's step its slopes were measured over, as a difference at the base."""
+    steps = [MATCHED[k][1] for k in keys]
+    return np.array([getattr(base, k) * (float(s[1:]) - 1) if isinstance(s, str) else s for k, s in zip(keys, steps)])
 
 
 def _within_reach(keys: list[str], before: np.ndarray, after: np.ndarray) -> np.ndarray:
