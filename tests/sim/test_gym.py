@@ -150,6 +150,24 @@ def test_randomize_draws_each_episodes_car_from_its_seed():
         env.close()
 
 
+def test_the_junior_randomizes_its_motors():
+    """The Junior's profile keys are drawn too: its left motor weaker than its right, it veers left
+    on an even throttle, episode after episode."""
+    from roar_sim.gym_env import RaceEnv
+
+    env = RaceEnv("oval", robot="junior", lidar_beams=0, randomize={"left_strength": (0.6, 0.7)})
+    try:
+        for seed in (1, 2):
+            _, info = env.reset(seed=seed)
+            assert 0.6 <= info["profile"]["left_strength"] == env.sim.profile.left_strength <= 0.7
+            start = env.sim.state().yaw
+            for _ in range(50):
+                env.step(np.array([1.0, 0.0], np.float32))
+            assert 0.2 < env.sim.state().yaw - start < 3.0  # turned left
+    finally:
+        env.close()
+
+
 def test_human_rendering_without_a_display_says_how_to_check_headless(monkeypatch):
     monkeypatch.delenv("DISPLAY", raising=False)
     with pytest.raises(ValueError, match=r"needs a display .*check_env\(env, skip_render_check=True\)"):
