@@ -100,7 +100,7 @@ class Robot(Lockstep):
         """Its profile that `profile` names (a profile, a name or a .toml; None: its default);
         ProfileError (one line) for a bad one."""
         if profile is None or isinstance(profile, str):
-            return cls.profiles.load(profile or cls.default_profile)
+            return cls.profiles.load(cls.default_profile if profile is None else profile)
         return profile
 
     @classmethod
