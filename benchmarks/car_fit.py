@@ -32,16 +32,19 @@ RELATIVE = 0.05
 
 
 def hidden(seed: int):
+    """A ROAR car made different within what real cars differ by (car_profile.REAL_CARS_*), seeded."""
     rng = np.random.default_rng(seed)
     base = car_profile.load()
-    motor = rng.uniform(0.7, 1.2)
+    spread, share = car_profile.REAL_CARS_ABSOLUTE, car_profile.REAL_CARS_SHARE
+    motor = rng.uniform(*share["motor"])
     return dataclasses.replace(
-        base, title=f"hidden car {seed}", steering_trim_deg=round(rng.uniform(-4, 4), 2),
-        servo_lag_s=round(rng.uniform(0.02, 0.08), 3), latency_s=round(rng.uniform(0.0, 0.06), 3),
+        base, title=f"hidden car {seed}", steering_trim_deg=round(rng.uniform(*spread["steering_trim_deg"]), 2),
+        servo_lag_s=round(rng.uniform(*spread["servo_lag_s"]), 3),
+        latency_s=round(rng.uniform(*spread["latency_s"]), 3),
         motor_speed_rad_s=round(base.motor_speed_rad_s * motor, 1),
         motor_torque_nm=round(base.motor_torque_nm * motor, 4),
-        tyre_friction=round(base.tyre_friction * rng.uniform(0.7, 1.1), 3),
-        esc_deadband_us=round(rng.uniform(0, 60), 1))
+        tyre_friction=round(base.tyre_friction * rng.uniform(*share["tyre_friction"]), 3),
+        esc_deadband_us=round(rng.uniform(*spread["esc_deadband_us"]), 1))
 
 
 def run() -> None:

@@ -16,10 +16,10 @@ LAPS = 2.0  # the fixed reward: laps per 30 s episode, averaged over 20 episodes
 TIMEOUT_S = 1800  # [s] one training
 
 
-def train(vec: str, out: Path) -> tuple[str, int, float, str] | str:
-    """(verdict, steps, wall seconds, policy fingerprint), or why it failed."""
-    done = subprocess.run([sys.executable, str(EXAMPLE), "--until-laps", str(LAPS), "--vec", vec, "--out", str(out)],
-                          capture_output=True, text=True, timeout=TIMEOUT_S)
+def train(vec: str, out: Path, extra: list[str] = (), laps: float = LAPS) -> tuple[str, int, float, str] | str:
+    """(verdict, steps, wall seconds, policy fingerprint), or why it failed; extra: more options."""
+    done = subprocess.run([sys.executable, str(EXAMPLE), "--until-laps", str(laps), "--vec", vec, "--out", str(out),
+                           *extra], capture_output=True, text=True, timeout=TIMEOUT_S)
     found = re.search(r"^(reached|did not reach) .* after (\d+) steps, (\d+) s .*policy ([0-9a-f]+)", done.stdout,
                       re.S | re.M)
     if done.returncode not in (0, 2) or not found:  # 2: stopped short of the laps, a verdict too

@@ -6,6 +6,8 @@ environments stepped on every core (roar_sim.gym_env.sb3.RaceVecEnv).
     python examples/train_ppo.py                              # on the oval until episodes average 2 laps
     python examples/train_ppo.py --until-laps 1 --track figure-eight --out out/ppo8
     python examples/train_ppo.py --drive out/ppo/model.zip    # drive one episode, report
+    python examples/train_ppo.py --randomize --out out/ppo_dr    # each episode another car (domain randomisation)
+    python examples/train_ppo.py --drive out/ppo_dr/model.zip --car-profile mycar.toml   # drive your fitted car
 
 The policy sees the state (pose, speed, cross-track and heading error) and the lidar; the reward
 is metres along the centre line (minus a penalty at a wall); an episode ends at a wall or after
@@ -16,6 +18,12 @@ The same --seed gives the same policy, bit for bit, however many processes step 
 (--workers): the run ends by printing the policy's fingerprint to show it. Exit status, as the
 roar commands': 0 when the episodes reached --until-laps, 2 when training stopped short of it (at
 --steps), 1 for bad input, 130 on Ctrl-C.
+
+--randomize draws each episode's car within what real cars of its kind differ by (steering trim
+±4 deg, servo lag 20-80 ms, command latency 0-60 ms, ESC dead band 0-60 us, motor 70-120 %, grip
+70-110 %: roar_sim.plants.car_profile.real_car_spans), so the policy learns to drive cars it has not
+met; --car-profile trains or drives one car (a shipped profile, or the .toml `roar fit` writes).
+`make bench` (benchmarks/rl_transfer.py) trains with and without it and drives five such cars.
 
 Measured here (2 cores, the defaults: 4 environments on 2 processes, seed 0, on a day this machine
 ran at about 60 % of its best): the last 20 episodes averaged two laps of the oval (2 x 17.4 m in
@@ -43,16 +51,23 @@ from tqdm import tqdm
 from roar.cli.sdk import ExitStatus
 from roar_sim.gym_env import RaceEnv
 from roar_sim.gym_env.sb3 import RaceVecEnv
+from roar_sim.plants.car_profile import real_car_spans
 
 EPISODE_S = 30.0  # [s] of simulated time, the longest episode
 LIDAR_BEAMS = 36  # over 270 deg
 MEAN_OF = 20  # episodes averaged for --until-laps
 
 
-def environments(track: str, count: int, workers: int | None, vec: str = "race") -> VecMonitor:
+def environments(track: str, count: int, workers: int | None, vec: str = "race", profile: str | None = None,
+                 randomize: bool = False) -> VecMonitor:
     """count environments on `workers` processes (default one per core), episodes recorded; or,
-    for comparison, in SB3's SubprocVecEnv (a process each, woken by pipes every step)."""
-    kwargs = {"track": track, "max_seconds": EPISODE_S, "lidar_beams": LIDAR_BEAMS}
+    for comparison, in SB3's SubprocVecEnv (a process each, woken by pipes every step). profile:
+    the car (None: the default); randomize: each episode's car drawn around it."""
+    kwargs = {"track": track, "max_seconds": EPISODE_S, "lidar_beams": LIDAR_BEAMS, "profile": profile}
+    if randomize:
+        from roar_sim.plants import car_profile
+
+        kwargs["randomize"] = real_car_spans(car_profile.load(profile) if profile else None)
     if vec == "subproc":
         return VecMonitor(SubprocVecEnv([lambda: RaceEnv(**kwargs)] * count, start_method="fork"))
     return VecMonitor(RaceVecEnv(count, workers=workers, **kwargs))
@@ -92,7 +107,8 @@ class Progress(BaseCallback):
 
 def train(args) -> int:
     torch.set_num_threads(1)  # the environments need the cores more than the small network does
-    envs = VecNormalize(environments(args.track, args.envs, args.workers, args.vec), gamma=0.99)
+    envs = VecNormalize(environments(args.track, args.envs, args.workers, args.vec, args.car_profile, args.randomize),
+                        gamma=0.99)
     lap_m = envs.get_attr("track")[0].length_m
     rollout = max(64, min(512, args.steps // args.envs))  # steps per environment between updates
     model = PPO("MultiInputPolicy", envs, n_steps=rollout, batch_size=64, seed=args.seed, device="cpu")
@@ -124,7 +140,7 @@ def drive(args) -> int:
     missing = [str(path) for path in (args.drive, statistics) if not path.is_file()]
     if missing:
         raise ValueError(f"no {' and no '.join(missing)} (train first: python examples/train_ppo.py --out DIR)")
-    envs = VecNormalize.load(str(statistics), environments(args.track, 1, 1))
+    envs = VecNormalize.load(str(statistics), environments(args.track, 1, 1, profile=args.car_profile))
     envs.training, envs.norm_reward = False, False
     model = PPO.load(args.drive, device="cpu")
     model.set_random_seed(args.seed)
@@ -156,6 +172,12 @@ if __name__ == "__main__":
     parser.add_argument("--seed", type=int, default=0, help="the same seed trains the same policy (default 0)")
     parser.add_argument("--out", type=Path, default=Path("out/ppo"), help="model and statistics go here")
     parser.add_argument("--drive", type=Path, metavar="MODEL.zip", help="drive one episode with a trained model")
+    parser.add_argument("--car-profile", metavar="NAME|FILE",
+                        help="the car trained or driven: a shipped profile (roar, f1tenth) or a .toml, e.g. the one "
+                             "`roar fit` wrote for your car (default: the ROAR car)")
+    parser.add_argument("--randomize", action="store_true",
+                        help="train on a different car each episode, drawn within what real cars differ by "
+                             "(trim, servo lag, latency, dead band, motor, grip)")
     args = parser.parse_args()
     if not 64 <= args.steps <= 100_000_000 or not 1 <= args.envs <= 64:
         parser.error("--steps must be 64..1e8 and --envs 1..64")
@@ -165,6 +187,8 @@ if __name__ == "__main__":
         parser.error("--workers must be 1..--envs")
     if not 0 < args.until_laps <= 1000:
         parser.error("--until-laps must be more than 0 and at most 1000")
+    if args.drive and args.randomize:
+        parser.error("--randomize is for training; to drive another car give --car-profile")
     try:
         sys.exit(drive(args) if args.drive else train(args))
     except KeyboardInterrupt:

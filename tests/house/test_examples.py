@@ -96,8 +96,9 @@ def test_the_ppo_training_example_trains_the_same_policy_from_the_same_seed_and_
     first = policy("--seed", "0", "--workers", "2")
     assert policy("--seed", "0", "--vec", "subproc") == first
     assert policy("--seed", "1", "--workers", "2") != first
+    assert policy("--seed", "0", "--workers", "2", "--randomize") != first  # other cars, another policy
     model = tmp_path / "seed-0-workers-2" / "model.zip"
-    driven = subprocess.run([sys.executable, str(example), "--drive", str(model)],
+    driven = subprocess.run([sys.executable, str(example), "--drive", str(model), "--car-profile", "f1tenth"],
                             capture_output=True, text=True, timeout=300)
     assert driven.returncode == 0, driven.stderr[-2000:]
     assert re.search(r"drove -?[0-9.]+ m = -?[0-9.]+ laps of oval in [0-9.]+ s \((hit a wall|time up)\)",
@@ -105,3 +106,7 @@ def test_the_ppo_training_example_trains_the_same_policy_from_the_same_seed_and_
     bad = subprocess.run([sys.executable, str(example), "--track", "nowhere", "--steps", "64"],
                          capture_output=True, text=True, timeout=300)
     assert bad.returncode == 1 and "train_ppo:" in bad.stderr and "Traceback" not in bad.stderr, bad.stderr
+    bad = subprocess.run([sys.executable, str(example), "--car-profile", "nope", "--randomize", "--steps", "64"],
+                         capture_output=True, text=True, timeout=300)
+    assert bad.returncode == 1 and bad.stderr.strip() == "train_ppo: no car profile 'nope': use f1tenth, iarrc, roar " \
+        "or a .toml file", bad.stderr

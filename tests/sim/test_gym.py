@@ -150,6 +150,33 @@ def test_randomize_draws_each_episodes_car_from_its_seed():
         env.close()
 
 
+def test_randomize_draws_the_sensors_too():
+    """The lidar's noise and mount and the camera's mount are drawn per episode from its seed: the
+    same seed, the same scan bit for bit; a turned lidar's scan and a tilted camera's depth differ
+    from a straight one's from the same start; a sensor's keys need that sensor."""
+    from roar_sim.gym_env import RaceEnv
+
+    def first(randomize=None, **kwargs):
+        env = RaceEnv("oval", randomize=randomize, **kwargs)
+        try:
+            return [env.reset(seed=seed) for seed in (5, 5)]
+        finally:
+            env.close()
+
+    lidar = {"lidar_noise_m": (0.05, 0.1), "lidar_yaw_rad": (0.1, 0.2)}
+    (a, info), (b, _) = first(lidar, lidar_beams=36)
+    (plain, _), _ = first(lidar_beams=36)
+    assert 0.05 <= info["sensors"]["lidar_noise_m"] <= 0.1 and 0.1 <= info["sensors"]["lidar_yaw_rad"] <= 0.2
+    assert a["lidar"].tobytes() == b["lidar"].tobytes() and "profile" not in info
+    assert np.abs(a["lidar"] - plain["lidar"]).mean() > 0.03
+    (tilted, info), _ = first({"camera_pitch_rad": (0.15, 0.2)}, lidar_beams=0, camera=(32, 24))
+    (level, _), _ = first(lidar_beams=0, camera=(32, 24))
+    assert tilted["depth"][12, 16] < 0.8 * level["depth"][12, 16]  # tilted down, it sees the floor nearer
+    with pytest.raises(ValueError, match=r"randomize\['lidar_noise_m'\] draws the lidar's: it needs lidar_beams above "
+                                         r"0; randomize\['camera_yaw_rad'\] draws the camera's: it needs camera="):
+        RaceEnv("oval", lidar_beams=0, randomize={"lidar_noise_m": (0, 0.1), "camera_yaw_rad": (0, 0.1)})
+
+
 def test_the_junior_randomizes_its_motors():
     """The Junior's profile keys are drawn too: its left motor weaker than its right, it veers left
     on an even throttle, episode after episode."""

@@ -70,6 +70,14 @@ MAX_SECONDS_S = 24 * 3600.0  # [s] the longest episode
 MAX_CONTACT_PENALTY = 1e6  # the largest reward penalty a step at a wall
 MAX_LIDAR_BEAMS = 1080  # beams of the largest scan
 SLIDE_M_S = 3.0  # [m/s] allowed sideways besides the speed along the heading, for the projection's search
+# What randomize= may draw besides a profile's keys: the sensors' (low, high, unit) and what each needs
+SENSOR_RANGES = {
+    "lidar_noise_m": (0.0, 0.2, "m"),  # the spread (sigma) of the noise on every range of a scan
+    "lidar_yaw_rad": (-0.2, 0.2, "rad"),  # the lidar's mount turned (left +): a scan's beams all turned by it
+    "camera_yaw_rad": (-0.2, 0.2, "rad"),  # the camera's mount turned (left +)...
+    "camera_pitch_rad": (-0.2, 0.2, "rad"),  # ...and tilted (down +)
+}
+SENSOR_NEEDS = {"lidar": "lidar_beams above 0", "camera": "camera=(width, height)"}
 
 
 def number_check(problems: list[str]):
@@ -205,8 +213,9 @@ def _profile(profile, kind, problems: list[str]):
     return None
 
 
-def _randomize(randomize, kind, problems: list[str]) -> dict[str, tuple[float, float]]:
-    """{profile key: (low, high)} checked: keys the robot's profiles have, bounds within their
+def _randomize(randomize, kind, problems: list[str], sensors: tuple[str, ...] = ()) -> dict[str, tuple[float, float]]:
+    """{key: (low, high)} checked: keys the robot's profiles have, or a sensor's of SENSOR_RANGES
+    where the environment has that sensor (`sensors`: "lidar", "camera"), bounds within their
     ranges; what is wrong goes to problems."""
     if randomize is None:
         return {}
@@ -215,10 +224,16 @@ def _randomize(randomize, kind, problems: list[str]) -> dict[str, tuple[float, f
         return {}
     if kind is None:
         return {}
-    ranges, checked = kind.profile_ranges(), {}
+    profile_keys, checked = kind.profile_ranges(), {}
+    ranges = {**profile_keys, **SENSOR_RANGES}
     for key, span in randomize.items():
         if key not in ranges:
-            problems.append(f"randomize: no profile key {shown(key)} (keys: {', '.join(sorted(ranges))})")
+            problems.append(f"randomize: no profile key {shown(key)} (keys: {', '.join(sorted(profile_keys))}; the "
+                            f"sensors': {', '.join(SENSOR_RANGES)})")
+            continue
+        sensor = key.split("_")[0] if key in SENSOR_RANGES else None
+        if sensor is not None and sensor not in sensors:
+            problems.append(f"randomize[{key!r}] draws the {sensor}'s: it needs {SENSOR_NEEDS[sensor]}")
             continue
         if not isinstance(span, (tuple, list)) or len(span) != 2:
             problems.append(f"randomize[{key!r}] must be (low, high), got {shown(span)}")
@@ -249,15 +264,18 @@ class RaceEnv(gym.Env):
         or a .toml file, as `roar race --car-profile` and sim://?profile=; None: the robot's default.
         randomize: domain randomisation, {profile key: (low, high)}: each episode's car has each
         key drawn uniformly within its span from the episode's seed (info["profile"] says what was
-        drawn), e.g. {"tyre_friction": (0.35, 0.55), "latency_s": (0.0, 0.06)}."""
+        drawn), e.g. {"tyre_friction": (0.35, 0.55), "latency_s": (0.0, 0.06)}; and the sensors'
+        (SENSOR_RANGES: the lidar's noise and mount, the camera's mount; info["sensors"])."""
         self.kind = robots.get(robot) if isinstance(robot, str) else None
         problems = _problems(self.metadata["render_modes"], track, camera, max_seconds, contact_penalty, crash_ends,
                              lidar_beams, render_mode, robot, self.kind)
         self.profile = _profile(profile, self.kind, problems)
-        self.randomize = _randomize(randomize, self.kind, problems)
+        if lidar_beams is None:
+            lidar_beams = LIDAR_BEAMS if self.kind is None or self.kind.has_lidar else 0
+        sensors = (*(("lidar",) if lidar_beams else ()), *(("camera",) if camera is not None else ()))
+        self.randomize = _randomize(randomize, self.kind, problems, sensors)
         if problems:
             raise ValueError("RaceEnv: " + "; ".join(problems))
-        lidar_beams = (LIDAR_BEAMS if self.kind.has_lidar else 0) if lidar_beams is None else lidar_beams
         self.track = track if isinstance(track, Track) else get(track)
         self.kind.check_track(self.track, self._least_turning())  # a bend the robot cannot turn: no lap to learn
         self.robot, self.lidar_beams = robot, lidar_beams
@@ -280,6 +298,8 @@ class RaceEnv(gym.Env):
         self._place: Place | None = None  # the car's, from reset()
         self._scan: np.ndarray | None = None  # the latest lidar scan
         self._steps = 0
+        self._sensors: dict[str, float] = {}  # this episode's draws of SENSOR_RANGES' keys
+        self._noise = np.random.default_rng(0)
 
     # --- gymnasium ---------------------------------------------------------------------------
 
@@ -291,6 +311,10 @@ class RaceEnv(gym.Env):
         own = {} if profile is None else {"profile": profile}
         self.sim = self.kind(self.track, pose, gui=self.render_mode == "human", **own)
         self.sim.arm()  # the ESC car boots latched until it hears neutral
+        self._sensors = {k: float(self.np_random.uniform(*self.randomize[k])) for k in sorted(self.randomize)
+                         if k in SENSOR_RANGES}
+        # the scans' noise from a generator of the episode's own: the same seed, the same noise
+        self._noise = np.random.default_rng(int(self.np_random.integers(2**63)))
         state = self.sim.state()
         self._place = Place(self.track, state)
         self._scan, self._steps = None, 0
@@ -328,13 +352,14 @@ class RaceEnv(gym.Env):
         """This episode's profile: the base with each randomized key drawn (None: the default car)."""
         if not self.randomize:
             return self.profile
-        draws = {k: float(self.np_random.uniform(a, b)) for k, (a, b) in sorted(self.randomize.items())}
-        return dataclasses.replace(self._base(), **draws)
+        draws = {k: float(self.np_random.uniform(a, b)) for k, (a, b) in sorted(self.randomize.items())
+                 if k not in SENSOR_RANGES}
+        return dataclasses.replace(self._base(), **draws) if draws else self.profile
 
     def _least_turning(self):
         """The profile the track's bends are checked against: the one that turns least of those drawn
         (the least steering, the longest wheelbase)."""
-        if not self.randomize:
+        if not set(self.randomize) - set(SENSOR_RANGES):
             return self.profile
         worst = {}
         if "max_steer_rad" in self.randomize:
@@ -348,22 +373,27 @@ class RaceEnv(gym.Env):
         observation = {"state": self._place.observation(s)}
         if self.lidar_beams:
             if self._steps % LIDAR_EVERY == 0:
-                scan = plant.lidar(beams=self.lidar_beams, range_m=LIDAR_RANGE_M).astype(np.float32)
-                self._scan = np.clip(scan, 0.0, LIDAR_RANGE_M)
+                scan = plant.lidar(beams=self.lidar_beams, range_m=LIDAR_RANGE_M,
+                                   turn_rad=self._sensors.get("lidar_yaw_rad", 0.0))
+                noise = self._sensors.get("lidar_noise_m", 0.0)
+                if noise:  # a beam that met nothing stays at the range
+                    scan = np.where(scan < LIDAR_RANGE_M, scan + self._noise.normal(0.0, noise, scan.shape), scan)
+                self._scan = np.clip(scan, 0.0, LIDAR_RANGE_M).astype(np.float32)
             observation["lidar"] = self._scan.copy()
         if self.ultrasonic_max_m is not None:
             observation["ultrasonic"] = np.array([min(self.sim.range_m, self.ultrasonic_max_m)], np.float32)
         self._steps += 1
         if self.camera_size is not None:
-            rgb, depth = plant.camera(*self.camera_size)
+            shake = (self._sensors.get("camera_yaw_rad", 0.0), self._sensors.get("camera_pitch_rad", 0.0))
+            rgb, depth = plant.camera(*self.camera_size, shake_rad=shake)
             observation["camera"] = np.ascontiguousarray(rgb)
             observation["depth"] = np.clip(depth, 0.0, FAR_M).astype(np.float32)
         return observation
 
     def _info(self, touching: bool = False) -> dict:
-        drawn = {k: getattr(self.sim.profile, k) for k in self.randomize}
+        drawn = {k: getattr(self.sim.profile, k) for k in self.randomize if k not in SENSOR_RANGES}
         return {"time_s": self.sim.t_us / 1e6, "progress_m": self._place.s, "wall_contact": touching, **self.sim.info(),
-                **({"profile": drawn} if drawn else {})}
+                **({"profile": drawn} if drawn else {}), **({"sensors": dict(self._sensors)} if self._sensors else {})}
 
 
 if "roar/Race-v0" not in gym.registry:  # make_vec(..., vectorization_mode="vector_entry_point"): every core

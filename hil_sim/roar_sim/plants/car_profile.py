@@ -40,6 +40,26 @@ OPTIONAL_RANGES = {
     "rolling_drag_nm": (0.0, 1.0, "N m"),  # per rear wheel: what slows a coasting car
 }
 
+# How far real cars of one kind differ from the one a profile describes (issue 46's survey: steering trim,
+# servo lag, command latency, ESC dead band as they are; motor and grip as shares of the profile's): the
+# hidden cars a fit is judged on are drawn within it, and learning is randomised over it (real_car_spans)
+REAL_CARS_ABSOLUTE = {"steering_trim_deg": (-4.0, 4.0), "servo_lag_s": (0.02, 0.08), "latency_s": (0.0, 0.06),
+                      "esc_deadband_us": (0.0, 60.0)}
+REAL_CARS_SHARE = {"motor": (0.7, 1.2), "tyre_friction": (0.7, 1.1)}  # motor: its speed and torque alike
+
+
+def real_car_spans(base: CarProfile | None = None) -> dict[str, tuple[float, float]]:
+    """{profile key: (low, high)} that real cars like `base` (default: the default profile) span,
+    for Race-v0's randomize= (the motor's speed and torque each over its share)."""
+    base = base or load()
+    spans = dict(REAL_CARS_ABSOLUTE)
+    low, high = REAL_CARS_SHARE["motor"]
+    for key in ("motor_speed_rad_s", "motor_torque_nm"):
+        spans[key] = (getattr(base, key) * low, getattr(base, key) * high)
+    low, high = REAL_CARS_SHARE["tyre_friction"]
+    spans["tyre_friction"] = (base.tyre_friction * low, base.tyre_friction * high)
+    return spans
+
 
 @dataclass(frozen=True)
 class Motor:

@@ -151,10 +151,13 @@ class JuniorPlant:
         origin, yaw = self._mount(ULTRASONIC_POS_M)
         return ultrasonic.reading_cm(self.world, origin, yaw, {self.robot, self.world.ground, *self.world.floor})
 
-    def camera(self, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
-        """(RGB uint8 HxWx3, depth float32 HxW [m]) from the ESP32-CAM on the front."""
+    def camera(self, width: int, height: int,
+               shake_rad: tuple[float, float] = (0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+        """(RGB uint8 HxWx3, depth float32 HxW [m]) from the ESP32-CAM on the front; shake_rad turns
+        it by (yaw, pitch) more, as a loose mount would."""
         position, yaw = self._mount(CAMERA_POS_M)
-        return self.world.render(position, yaw, CAMERA_PITCH_RAD, width, height, CAMERA_FOV_DEG)
+        return self.world.render(position, yaw + shake_rad[0], CAMERA_PITCH_RAD + shake_rad[1], width, height,
+                                 CAMERA_FOV_DEG)
 
     def wall_contacts(self, of: list[int] | None = None) -> int:
         """How many walls (or bodies of `of`) the robot touches right now."""

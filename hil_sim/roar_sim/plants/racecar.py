@@ -179,11 +179,13 @@ class Racecar:
                 math.remainder(pb.getEulerFromQuaternion(orn)[2] - yaw, math.tau))
 
     def lidar(self, beams: int = lidar.BEAMS, fov_rad: float = lidar.FOV_RAD, range_m: float = lidar.RANGE_M,
-              boxes=()) -> np.ndarray:
+              boxes=(), turn_rad: float = 0.0) -> np.ndarray:
         """A scan from the Hokuyo link: distances [m] from right to left; range_m where nothing is
-        hit. boxes: other cars' footprints (footprint()) the beams meet."""
+        hit. boxes: other cars' footprints (footprint()) the beams meet. turn_rad: the lidar's
+        mount turned by this much (left +), as a badly mounted one is."""
         pos, orn = pb.getLinkState(self.car, LIDAR_LINK, physicsClientId=self.client)[:2]
-        return lidar.scan(self.world, pos, pb.getEulerFromQuaternion(orn)[2], beams, fov_rad, range_m, boxes)
+        yaw = pb.getEulerFromQuaternion(orn)[2] + turn_rad
+        return lidar.scan(self.world, pos, yaw, beams, fov_rad, range_m, boxes)
 
     def footprint(self) -> tuple[float, float, float, float, float]:
         """(centre x [m], centre y [m], yaw [rad], half length [m], half width [m]) of the car's body
