@@ -115,6 +115,16 @@ def test_a_users_driver_class_races_as_an_opponent():
     assert result.cars[1].travelled_m > 5.0  # it drove
 
 
+def test_an_iarrc_car_races_as_an_opponent_and_waits_behind_a_slower_car():
+    """The IARRC car (its own tasks and PID, driven by setpoints) joins the race; faster than the
+    ESC car ahead of it on the grid, it keeps its gap behind it instead of driving into it."""
+    track = get("random:1,width=2.2")
+    result = head_to_head(track, [Rival(pace=0.9, robot="iarrc"), Rival(pace=0.5)], laps=1, timeout_s=12.0)
+    assert result.cars[1].travelled_m > 15.0, report(result)  # it drove (its setpoints reached its PID)
+    assert not [c for c in result.contacts if c.cars == (1, 2)], report(result)
+    assert all(r.wall_contacts == 0 for r in result.cars[1:]), report(result)
+
+
 @pytest.mark.parametrize("args, words", [
     (["--opponents", "6"], "--opponents must be 1..5"),
     (["--opponents", "1", "--opponent-pace", "0"], "--opponent-pace must be 0.3..1"),
@@ -123,6 +133,8 @@ def test_a_users_driver_class_races_as_an_opponent():
     (["--opponents", "1", "--track", "figure-eight"], "crosses itself"),
     (["--opponents", "5", "--track", "oval"], "a grid of 6 cars"),
     (["--opponents", "1", "--opponent-driver", "nosuch:Driver"], "cannot import 'nosuch'"),
+    (["--opponents", "2", "--opponent-robot", "esc,junior"], "--opponent-robot: 'junior' cannot race here"),
+    (["--opponent-robot", "iarrc"], "needs --opponents"),
 ])
 def test_bad_race_options_fail_in_one_line(args, words):
     run = subprocess.run([sys.executable, "-m", "roar.cli", "race", *args], capture_output=True, text=True, timeout=120)

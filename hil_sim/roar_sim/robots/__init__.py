@@ -204,6 +204,11 @@ class Robot(Lockstep):
         pursuit's look-ahead per m/s [s] (None: the robot's default)."""
         raise NotImplementedError
 
+    def speed_control(self):
+        """What turns a driver's target speed into its throttle (roar.autopilot's SpeedController
+        or SpeedSetpoint; None: race_agent's default, a SpeedController for its limits)."""
+        return None
+
     def observe(self) -> Observation:
         """The car's report; its yaw rate is the gyro's over the time since the last report (a
         MEMS gyro low-passes its rate: a knock shorter than a control period is felt whole, not

@@ -24,7 +24,7 @@ from roar.autopilot.pure_pursuit import PurePursuit
 from roar.calibration import Calibration
 from roar.protocol import encode_setpoint, spec
 from roar.telemetry import VehicleState
-from roar_sim.core.lockstep import CONTROL_PERIOD_S, PHYSICS_US
+from roar_sim.core.lockstep import CONTROL_PERIOD_S, LOOP_US, PHYSICS_US
 from roar_sim.core.rtos import Scheduler
 from roar_sim.core.iarrc import IarrcBoard, iarrc_tasks
 from roar_sim.core.library import IarrcTask
@@ -35,6 +35,7 @@ from roar_sim.plants.racecar import CarState, Racecar
 from roar_sim.robots import Pose, ProfileLimits, ProfileModel, ReplyLines, Robot, grip_on_circles
 from roar.tracks.track import Track
 from roar.vision.geometry import SIMULATED_CAR_CAMERA
+from roar_sim.world.scene import World
 from roar_wire import sbus
 
 FRAME_US = spec.TIMING_SERVO_FRAME_US  # [us] ESC/servo frame
@@ -98,7 +99,7 @@ class IarrcCar(Robot):
                  speedup: float = 1.0, gui: bool = False, esc: HobbyEsc | None = None,
                  servo: SteeringServo | None = None, battery_v: float = 12.0, task_cost=None,
                  clock_offset_us: int = 0, operator: bool = True, nvm: bytes | None = None,
-                 profile: CarProfile | str | None = None) -> None:
+                 profile: CarProfile | str | None = None, world: World | None = None) -> None:
         """profile: the car's own numbers (roar_sim.plants.car_profile: a name, a file or a
         CarProfile; default `iarrc`): its size, mass, motor, tyres, servo, ESC and latency;
         nvm: the board's flash as a previous run left it (`.nvm`: its signing key and session);
@@ -106,10 +107,12 @@ class IarrcCar(Robot):
         costs); clock_offset_us: [us] the board's counter at simulated time 0 (to test its 2^32
         wrap); operator: the person at the transmitter, who, after the receiver has locked with
         the mode switch at off, flips it to autonomous as soon as the host sends its first
-        setpoint (False: the switches are the caller's, in `transmitter`)."""
+        setpoint (False: the switches are the caller's, in `transmitter`); world: one car more in a
+        world that another steps (roar_sim.runs.fleet), which then calls firmware(), actuate() and
+        plant.tick(), and runs the receiver's lock (OPERATOR_LOCK_S) before a setpoint is sent."""
         super().__init__(track, realtime, speedup)
         self.profile = profile = self.profile_of(profile)
-        self.plant = Racecar(track, dt_s=PHYSICS_US / 1e6, gui=gui, pose=pose, profile=profile)
+        self.plant = Racecar(track, dt_s=PHYSICS_US / 1e6, gui=gui, world=world, pose=pose, profile=profile)
         self.board = IarrcBoard(counts_per_m=COUNTS_PER_M, nvm=nvm)
         self.tasks = iarrc_tasks()
         self.scheduler = Scheduler(self.tasks, self._body, cost=task_cost, overran=self.board.overran,
@@ -124,7 +127,7 @@ class IarrcCar(Robot):
         self._next_sbus_us = 0
         self._host_lines, self._link_lines = ReplyLines(), ReplyLines()
         self.board.begin()
-        if operator:
+        if operator and world is None:
             self.run(OPERATOR_LOCK_S)
 
     # --- what the host and the user see ------------------------------------------------------
@@ -188,9 +191,13 @@ class IarrcCar(Robot):
     def agent(self, line, margin: float = 0.9, lateral: str = "pursuit", k_dd_s: float | None = None) -> Agent:
         """Pure pursuit (or the heading PID) and the speed profile's speed as the setpoint: the
         car's own PID holds it, braking through the brake sequence."""
-        pursuit = None if k_dd_s is None else PurePursuit(MODEL.wheelbase_m, k_dd_s=k_dd_s)
-        return race_agent(line, MODEL, CONTROL_PERIOD_S, margin=margin, lateral=lateral, pursuit=pursuit,
-                          speed=SpeedSetpoint(FULL_SCALE_M_S))
+        pursuit = None if k_dd_s is None else PurePursuit(self.model.wheelbase_m, k_dd_s=k_dd_s)
+        return race_agent(line, self.model, CONTROL_PERIOD_S, margin=margin, lateral=lateral, pursuit=pursuit,
+                          speed=self.speed_control())
+
+    def speed_control(self) -> SpeedSetpoint:
+        """Its setpoint is the speed: its own PID holds it."""
+        return SpeedSetpoint(FULL_SCALE_M_S)
 
     def _collect(self) -> None:
         for out, lines in ((self.board.host_out, self._host_lines), (self.board.link_out, self._link_lines)):
@@ -211,7 +218,24 @@ class IarrcCar(Robot):
 
     def _advance(self, end_us: int) -> None:
         t = self.t_us
-        step_end = min(end_us, (t // PHYSICS_US + 1) * PHYSICS_US)
+        self._tasks_until(min(end_us, (t // PHYSICS_US + 1) * PHYSICS_US))
+        if t % PHYSICS_US == 0:
+            self.actuate()
+            self.plant.step()
+
+    def firmware(self, loops: int) -> None:
+        """Its tasks for `loops` firmware-loop periods (a Fleet's step: up to the next physics step)."""
+        self._tasks_until(self.t_us + loops * LOOP_US)
+
+    def actuate(self) -> None:
+        """The ESC's and servo's outputs onto the car, for the physics step to come."""
+        esc = self._esc_out
+        self.plant.apply(esc.drive, esc.brake, self.servo.advance(PHYSICS_US / 1e6))
+
+    def _tasks_until(self, step_end: int) -> None:
+        """The receiver's frames and the board's tasks up to step_end [us]; the ESC and the servo
+        take an output frame that started."""
+        t = self.t_us
         while self._next_sbus_us < step_end:  # the receiver's frames that start in this step
             frame = self.transmitter.frame()
             if frame is not None:
@@ -224,10 +248,6 @@ class IarrcCar(Robot):
         for throttle_us, steering_us in self._delay.due(t):
             self._esc_out = self.esc.pulse(throttle_us)
             self.servo.pulse(steering_us)
-        if t % PHYSICS_US == 0:
-            esc = self._esc_out
-            self.plant.apply(esc.drive, esc.brake, self.servo.advance(PHYSICS_US / 1e6))
-            self.plant.step()
 
     # --- its limits --------------------------------------------------------------------------
 

@@ -6,6 +6,10 @@ only through its lidar (roar.racing.detection and opponents); the simulator's tr
     result = head_to_head(get("random:3,width=2.2"), [Rival(pace=0.85)] * 2, laps=2)
     print(report(result))          # positions, laps, gaps, overtakes, contacts and who caused them
 
+The opponents the race puts up (line followers at a pace) keep their gap to a car ahead in their
+path (GapKeeping: the simulator tells them where the others are; they are the field, not the car
+under test), so a faster opponent waits behind a slower one instead of driving through it.
+
 Rules and scoring. Positions: laps, then distance. A car-to-car contact (a period of touching
 between two cars) is attributed when it starts: to the car that moved sideways toward the other
 by SIDEWAYS_M or more in the SIDEWAYS_S before; else to the car behind along the track if it was
@@ -22,16 +26,17 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from roar.autopilot.race_agent import CarModel, race_agent
+from roar.autopilot.agent import Module
+from roar.autopilot.race_agent import CarModel, Plan, race_agent
 from roar.autopilot.waypoints import LoopWaypointFollower
 from roar.racing.detection import CarDetector
 from roar.racing.lanes import segment_at
 from roar.racing.opponents import Opponents
-from roar.racing.racer import Racer
+from roar.racing.racer import CAR_WIDTH_M, LOOK_AHEAD_MIN_M, LOOK_AHEAD_S, PASS_SIDE_M, Racer, follow_speed
 from roar.tracks import Track, TrackError
 from roar_sim.core.lockstep import CONTROL_PERIOD_S as PERIOD_S
 from roar_sim.robots.esc import EscCar
-from roar_sim.runs.fleet import Fleet
+from roar_sim.runs.fleet import FLEET_ROBOTS, Fleet
 from roar_sim.runs.progress import laps_bar
 
 MAX_OPPONENTS = 5
@@ -41,6 +46,8 @@ GRID_SIDE_M = 0.25  # [m] each slot this far left or right of the centre line, a
 SIDEWAYS_M = 0.1  # [m] moved toward the other car in the SIDEWAYS_S before a contact: that car caused it
 SIDEWAYS_S = 0.5  # [s]
 CLOSING_M_S = 0.05  # [m/s] the car behind closing faster than this caused a contact
+MERGE_M = 0.3  # [m] a car ahead this much further across than a car's width is still taken as in the way: line
+# followers merge onto their line (from a staggered grid, out of a bend) without looking
 TIMEOUT_PER_LAP_S = 8.0  # [s] on top of 3x the limit laps
 
 
@@ -49,6 +56,7 @@ class Rival:
     pace: float = 0.85  # fraction of its limits it races at
     line: str = "racing"  # centre, racing (minimum curvature) or defensive (covers the inside before bends)
     driver: object = None  # a class: driver(track=, line=, model=, period_s=, pace=) -> a Module; None: line following
+    robot: str = "esc"  # which robot it is (roar_sim.runs.fleet.FLEET_ROBOTS): the ESC car, or the IARRC car by speed
 
 
 @dataclass
@@ -88,6 +96,38 @@ class HeadToHead:
 
     def caused_by(self, car: int) -> list[Contact]:
         return [c for c in self.contacts if c.caused_by == car]
+
+
+class GapKeeping(Module):
+    """A line-following opponent's planner that keeps its gap to the nearest car ahead in its path
+    (racer.follow_speed): `ahead` is set each period to (gap [m] centre to centre along the track,
+    that car's speed [m/s]), or None when the way is clear."""
+
+    def __init__(self, planner: Module, brake_m_s2: float) -> None:
+        self.planner, self.brake_m_s2 = planner, brake_m_s2
+        self.ahead: tuple[float, float] | None = None
+
+    def setup(self) -> None:
+        self.planner.setup()
+
+    def step(self, value) -> Plan:
+        plan = self.planner.step(value)
+        if self.ahead is None:
+            return plan
+        limit = follow_speed(*self.ahead, self.brake_m_s2)
+        return replace(plan, target_speed_m_s=min(plan.target_speed_m_s, limit))
+
+
+def car_ahead(track: Track, now: list[tuple[float, float, float]], i: int) -> tuple[float, float] | None:
+    """(gap [m] along the track, speed [m/s]) of the nearest car ahead of car i in its path (less
+    than a car's width, PASS_SIDE_M and MERGE_M beside it, within LOOK_AHEAD_S of it at its speed),
+    from each car's (s, d, speed) now; None: none is."""
+    s, d, speed = now[i]
+    reach = max(LOOK_AHEAD_MIN_M, LOOK_AHEAD_S * speed)
+    gaps = [(float(track.arc_delta(s, sj)), vj) for j, (sj, dj, vj) in enumerate(now)
+            if j != i and abs(dj - d) < CAR_WIDTH_M + PASS_SIDE_M + MERGE_M]
+    ahead = [g for g in gaps if 0.0 < g[0] < reach]
+    return min(ahead) if ahead else None
 
 
 def grid(track: Track, cars: int, half_width_m: float) -> list[tuple[float, float, float]]:
@@ -139,6 +179,9 @@ def head_to_head(track: Track, rivals: list[Rival], laps: int = 2, pace: float =
             raise ValueError(f"an opponent's pace is a fraction of its limits, 0.3..1, got {r.pace!r}")
         if r.line not in LINES:
             raise ValueError(f"an opponent's line is one of {', '.join(LINES)}, got {r.line!r}")
+        if r.robot not in FLEET_ROBOTS:
+            raise ValueError(f"an opponent is one of the robots {', '.join(FLEET_ROBOTS)} (the Junior keeps a world of "
+                             f"its own), got {r.robot!r}")
     check_race_track(track)
     EscCar.check_track(track)
     n = len(rivals) + 1
@@ -146,7 +189,8 @@ def head_to_head(track: Track, rivals: list[Rival], laps: int = 2, pace: float =
     racing_points = optimal_line(track).points
     result = HeadToHead(track, laps, [CarResult("ego")] + [CarResult(f"car {i}") for i in range(1, n)])
     timeout_s = timeout_s or laps * (3 * track.length_m / 2.0 + TIMEOUT_PER_LAP_S)
-    with Fleet(track, poses=list(reversed(poses))) as fleet:  # the ego at the back of the grid
+    robots = ["esc"] + [r.robot for r in rivals]
+    with Fleet(track, poses=list(reversed(poses)), robots=robots) as fleet:  # the ego at the back of the grid
         fleet.realtime = realtime
         cars = fleet.cars
         ego_car = cars[0]
@@ -165,8 +209,12 @@ def head_to_head(track: Track, rivals: list[Rival], laps: int = 2, pace: float =
                     drivers.append(rival.driver(track=track, line=line, model=car.model, period_s=PERIOD_S,
                                                 pace=rival.pace))
                 else:
-                    drivers.append(race_agent(line, paced(car.model, rival.pace), PERIOD_S, margin=1.0,
-                                              follower=LoopWaypointFollower(line, skip_at_start=ahead_of(line, car))))
+                    model = paced(car.model, rival.pace)
+                    agent = race_agent(line, model, PERIOD_S, margin=1.0,
+                                       follower=LoopWaypointFollower(line, skip_at_start=ahead_of(line, car)),
+                                       speed=car.speed_control())
+                    agent.planner = GapKeeping(agent.planner, model.limits.max_brake_m_s2)
+                    drivers.append(agent)
             lidar = Lidar(ego_car.plant, seed)
             sensed = Opponents(track, CarDetector(world_map(track)))
             for car in cars:
@@ -193,6 +241,9 @@ def head_to_head(track: Track, rivals: list[Rival], laps: int = 2, pace: float =
                 scan = lidar.scan(t, [car.plant for car in cars[1:]])
                 seen = sensed.update(scan, sensor, t)
                 ego.sense(seen)
+                for i, driver in enumerate(drivers[1:], start=1):
+                    if isinstance(getattr(driver, "planner", None), GapKeeping) and history:
+                        driver.planner.ahead = car_ahead(track, history[-1], i)
                 for car, driver, obs in zip(cars, drivers, observed):
                     car.send(driver.step(obs))
                 fleet.run(PERIOD_S)

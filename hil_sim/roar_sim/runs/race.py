@@ -280,7 +280,7 @@ def parser() -> argparse.ArgumentParser:
                    help="with --localize: the filter starts not knowing where the car is (particles over the whole "
                         "map) instead of at the start pose")
     p.add_argument("--opponents", type=int, default=None, metavar="N",
-                   help="race N (1-5) other ESC cars from a staggered grid, the ego at the back: it senses them by "
+                   help="race N (1-5) other cars from a staggered grid, the ego at the back: it senses them by "
                         "its lidar alone, follows or passes them; prints positions, overtakes and each car-to-car "
                         "contact with the car that caused it (docs/racing.md)")
     p.add_argument("--opponent-pace", type=float, default=0.85, metavar="F",
@@ -289,6 +289,10 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--opponent-line", choices=["centre", "racing", "defensive"], default="racing",
                    help="with --opponents: the line they follow: the centre line, the racing line (default), or a "
                         "defensive line that covers the inside before each bend")
+    p.add_argument("--opponent-robot", default="esc", metavar="ROBOT[,ROBOT...]",
+                   help="with --opponents: which robot each opponent is, esc (default) or iarrc (the IARRC car, driven "
+                        "by speed setpoints its own PID holds); a list is given to the opponents in turn "
+                        "(esc,iarrc: every other one an IARRC car)")
     p.add_argument("--opponent-driver", metavar="MODULE:CLASS",
                    help="with --opponents: drive them by your own class, called as CLASS(track=, line=, model=, "
                         "period_s=, pace=) and stepped as a roar.autopilot Module (setup(), step(observation) -> "
@@ -354,7 +358,8 @@ def main(argv: list[str] | None = None) -> int:
         robots.get(args.robot).profile_of(args.car_profile)
     opponent_options = {"--opponent-pace": args.opponent_pace != 0.85,
                         "--opponent-line": args.opponent_line != "racing",
-                        "--opponent-driver": args.opponent_driver is not None}
+                        "--opponent-driver": args.opponent_driver is not None,
+                        "--opponent-robot": args.opponent_robot != "esc"}
     if args.opponents is None and any(opponent_options.values()):
         p.error(f"{next(k for k, v in opponent_options.items() if v)} sets up the opponents: it needs --opponents N")
     if args.opponents is not None:
@@ -364,6 +369,12 @@ def main(argv: list[str] | None = None) -> int:
             p.error(f"--opponents must be 1..{MAX_OPPONENTS}")
         if not (math.isfinite(args.opponent_pace) and 0.3 <= args.opponent_pace <= 1.0):
             p.error("--opponent-pace must be 0.3..1 (a fraction of their limits)")
+        from roar_sim.runs.fleet import FLEET_ROBOTS
+
+        wrong = [r for r in args.opponent_robot.split(",") if r not in FLEET_ROBOTS]
+        if wrong:
+            p.error(f"--opponent-robot: {wrong[0]!r} cannot race here: give {' or '.join(FLEET_ROBOTS)}, or a list of "
+                    f"them (the Junior keeps a world of its own)")
         others = {"--robot": args.robot != "esc", "--driver lane": args.driver == "lane",
                   "--line": args.line != "centre",
                   "--waypoints": args.waypoints is not None, "--localize": args.localize,
@@ -440,7 +451,9 @@ def _head_to_head(args, track: Track) -> int:
     driver = None
     if args.opponent_driver:
         driver = load_driver(args.opponent_driver)
-    rivals = [h2h.Rival(args.opponent_pace, args.opponent_line, driver)] * args.opponents
+    kinds = args.opponent_robot.split(",")
+    rivals = [h2h.Rival(args.opponent_pace, args.opponent_line, driver, kinds[i % len(kinds)])
+              for i in range(args.opponents)]
     result = h2h.head_to_head(track, rivals, args.laps, pace=args.margin, timeout_s=args.seconds, progress=True,
                               log=args.log, serve_port=args.foxglove, realtime=args.realtime)
     print(h2h.report(result))

@@ -57,6 +57,17 @@ REPASS_S = 1.0  # [s] after a pass is given up, before another is tried (no swer
 SEARCH_EVERY_S = 0.1  # [s] after a search for a pass found no safe lane, before the next search
 
 
+def follow_speed(gap_m: float, ahead_m_s: float, brake_m_s2: float) -> float:
+    """[m/s] the speed that keeps the wanted gap behind a car gap_m [m] ahead (centre to centre,
+    along the track) going ahead_m_s [m/s], or closes on it no faster than a car braking at
+    brake_m_s2 [m/s^2] can stop within the gap there is."""
+    bumper = gap_m - CAR_LENGTH_M
+    ahead = max(ahead_m_s, 0.0)
+    closing = K_GAP * (bumper - (FOLLOW_GAP_M + TIME_GAP_S * ahead))
+    stop = math.sqrt(2 * brake_m_s2 * max(bumper - FOLLOW_GAP_M, 0.0))
+    return max(0.0, min(ahead + closing, ahead + stop))
+
+
 @dataclass(frozen=True)
 class Pass:
     target: int  # the passed car's track id
@@ -170,13 +181,7 @@ class Racer(Module[Observation, Command]):
         return next((o for o in self.opponents if o.id == id_), None)
 
     def _follow_speed(self, s: float, o: Opponent) -> float:
-        """[m/s] the speed that keeps the wanted gap behind o, or closes on it no faster than the
-        car can stop within the gap there is."""
-        bumper = self._gap(s, o) - CAR_LENGTH_M
-        want = FOLLOW_GAP_M + TIME_GAP_S * max(o.speed_m_s, 0.0)
-        closing = K_GAP * (bumper - want)
-        stop = math.sqrt(2 * self.space.limits.max_brake_m_s2 * max(bumper - FOLLOW_GAP_M, 0.0))
-        return max(0.0, min(max(o.speed_m_s, 0.0) + closing, max(o.speed_m_s, 0.0) + stop))
+        return follow_speed(self._gap(s, o), o.speed_m_s, self.space.limits.max_brake_m_s2)
 
     def _start_pass(self, s: float, v: float, target: Opponent) -> bool:
         """Choose the lane round `target` that is clear for the whole pass and done soonest; commit to it."""
