@@ -217,10 +217,12 @@ def main(argv: list[str]) -> int:
             while end is None or time.monotonic() < end:
                 rclpy.spin_once(node, timeout_sec=0.05)
         finally:
-            if bridge is not None:
-                bridge.close()
-            node.destroy_node()
-            rclpy.try_shutdown()
+            try:
+                if bridge is not None:
+                    bridge.close()
+            finally:  # whatever closing raised: a node left up kept the process alive after its error
+                node.destroy_node()
+                rclpy.try_shutdown()
             if bridge is not None:  # on Ctrl-C too
                 c = bridge.counts
                 print(f"{c.commands} command(s) driven, {c.refused} refused ({c.last_refusal or 'none'}), "

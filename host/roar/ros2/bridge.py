@@ -211,7 +211,7 @@ class Bridge:
         if silent or self._ask is None:
             if not self._neutral:
                 self.counts.timeouts += 1
-                self.vehicle.drive(**self.driver.neutral())
+                self.vehicle.drive(**self._neutral_command())
                 self._neutral = True
             return
         speed = state.speed_m_s if state is not None else None
@@ -410,7 +410,13 @@ class Bridge:
     def close(self) -> None:
         for poller in self.pollers:
             poller.stop()
-        self.vehicle.drive(**self.driver.neutral())
+        self.vehicle.drive(**self._neutral_command())
+
+    def _neutral_command(self) -> dict[str, float]:
+        """Neutral as this car takes it: zero speed for a car that drives by speed (said before any
+        command was driven: a bridge stopped before its first /drive put a throttle to the IARRC car)."""
+        self.driver.by_speed = self._drives_by_speed()
+        return self.driver.neutral()
 
 
 class Poller:
