@@ -61,3 +61,24 @@ def test_a_box_in_the_world_is_seen():
         add_box(sim.plant.world, x + 1.5 * math.cos(yaw), y + 1.5 * math.sin(yaw))
         boxed = sim.plant.lidar(beams=BEAMS, range_m=RANGE_M)[BEAMS // 2]
     assert boxed < 1.5 < ahead
+
+
+@pytest.mark.parametrize("name", ["oval", "random:3,width=2.2"])
+def test_a_scan_cast_on_the_walls_boxes_reads_as_bullets(name):
+    """A race's lidar casts the beams on the walls' boxes itself (for speed): its ranges are
+    Bullet's (the same planes in double precision), another car's footprint included."""
+    from roar_sim.runs.fleet import Fleet
+    from roar_sim.sensors.lidar import Lidar
+
+    track = get(name)
+    errors = []
+    with Fleet(track, count=2, gap_m=1.5) as fleet:
+        ahead, ego = fleet.cars
+        bullet, cast = Lidar(ego.plant), Lidar(ego.plant, track=track)
+        for k in range(6):
+            ego.write(encode(1600, 1500 + 60 * (k % 3 - 1)))
+            ahead.write(encode(1600, 1500))
+            fleet.run(0.4)
+            a, b = bullet.ranges([ahead.plant]), cast.ranges([ahead.plant])
+            errors.append(np.abs(a - b))
+    assert np.concatenate(errors).max() < 1e-4  # [m]

@@ -178,6 +178,11 @@ class Racecar:
         return (math.cos(yaw) * dx + math.sin(yaw) * dy, -math.sin(yaw) * dx + math.cos(yaw) * dy,
                 math.remainder(pb.getEulerFromQuaternion(orn)[2] - yaw, math.tau))
 
+    def lidar_pose(self) -> tuple[float, float, float]:
+        """(x [m], y [m], yaw [rad]) of the Hokuyo link in the world: where a scan starts."""
+        pos, orn = pb.getLinkState(self.car, LIDAR_LINK, physicsClientId=self.client)[:2]
+        return pos[0], pos[1], pb.getEulerFromQuaternion(orn)[2]
+
     def lidar(self, beams: int = lidar.BEAMS, fov_rad: float = lidar.FOV_RAD, range_m: float = lidar.RANGE_M,
               boxes=(), turn_rad: float = 0.0) -> np.ndarray:
         """A scan from the Hokuyo link: distances [m] from right to left; range_m where nothing is

@@ -215,7 +215,7 @@ def head_to_head(track: Track, rivals: list[Rival], laps: int = 2, pace: float =
                                        speed=car.speed_control())
                     agent.planner = GapKeeping(agent.planner, model.limits.max_brake_m_s2)
                     drivers.append(agent)
-            lidar = Lidar(ego_car.plant, seed)
+            lidar = Lidar(ego_car.plant, seed, track=track)  # its walls cast here: a race's world holds no more
             sensed = Opponents(track, CarDetector(world_map(track)))
             for car in cars:
                 car.drive(0.0, 0.0)
