@@ -68,13 +68,14 @@ def test_a_scan_cast_on_the_walls_boxes_reads_as_bullets(name):
     """A race's lidar casts the beams on the walls' boxes itself (for speed): its ranges are
     Bullet's (the same planes in double precision), another car's footprint included."""
     from roar_sim.runs.fleet import Fleet
-    from roar_sim.sensors.lidar import Lidar
+    from roar_sim.sensors.lidar import Lidar, WallCaster
+    from roar_sim.world.scene import WALL_THICKNESS_M
 
     track = get(name)
     errors = []
     with Fleet(track, count=2, gap_m=1.5) as fleet:
         ahead, ego = fleet.cars
-        bullet, cast = Lidar(ego.plant), Lidar(ego.plant, track=track)
+        bullet, cast = Lidar(ego.plant), Lidar(ego.plant, walls=WallCaster(track, WALL_THICKNESS_M))
         for k in range(6):
             ego.write(encode(1600, 1500 + 60 * (k % 3 - 1)))
             ahead.write(encode(1600, 1500))

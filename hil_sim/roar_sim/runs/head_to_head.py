@@ -169,7 +169,7 @@ def head_to_head(track: Track, rivals: list[Rival], laps: int = 2, pace: float =
     from roar.racing.lanes import Lanes
     from roar.localization.odometry import compose
     from roar_sim.runs.race_result import TRACKING_MARGIN_M, optimal_line
-    from roar_sim.sensors.lidar import Lidar
+    from roar_sim.sensors.lidar import Lidar, WallCaster
     from roar_sim.world.scene import WALL_THICKNESS_M, world_map
 
     if not 1 <= len(rivals) <= MAX_OPPONENTS:
@@ -215,7 +215,8 @@ def head_to_head(track: Track, rivals: list[Rival], laps: int = 2, pace: float =
                                        speed=car.speed_control())
                     agent.planner = GapKeeping(agent.planner, model.limits.max_brake_m_s2)
                     drivers.append(agent)
-            lidar = Lidar(ego_car.plant, seed, track=track)  # its walls cast here: a race's world holds no more
+            # its walls cast here: a race's world holds no more
+            lidar = Lidar(ego_car.plant, seed, walls=WallCaster(track, WALL_THICKNESS_M))
             sensed = Opponents(track, CarDetector(world_map(track)))
             for car in cars:
                 car.drive(0.0, 0.0)

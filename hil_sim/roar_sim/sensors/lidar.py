@@ -65,16 +65,16 @@ class WallCaster:
     compiled loop over the boxes in range: the ranges Bullet's rays find among the walls, ~20 x
     faster (a race's 1,080 beams every period cost Bullet 3-8 ms)."""
 
-    def __init__(self, track, range_m: float = RANGE_M) -> None:
-        from roar_sim.world.scene import WALL_THICKNESS_M
-
+    def __init__(self, track, wall_thickness_m: float, range_m: float = RANGE_M) -> None:
+        """track: its walls (Track.walls, the centre lines of the simulator's wall boxes);
+        wall_thickness_m [m]: theirs (roar_sim.world.scene.WALL_THICKNESS_M)."""
         boxes = []
         for wall in track.walls:
             a, b = wall, np.roll(wall, -1, axis=0)
             d = b - a
-            half_length = np.linalg.norm(d, axis=1) / 2 + WALL_THICKNESS_M / 2
+            half_length = np.linalg.norm(d, axis=1) / 2 + wall_thickness_m / 2
             boxes.append(np.column_stack([(a + b) / 2, np.arctan2(d[:, 1], d[:, 0]), half_length,
-                                          np.full(len(a), WALL_THICKNESS_M / 2)]))
+                                          np.full(len(a), wall_thickness_m / 2)]))
         self.boxes = np.ascontiguousarray(np.concatenate(boxes))
         self.range_m = range_m
         self._reach = np.hypot(self.boxes[:, 3], self.boxes[:, 4]) + range_m  # [m] a box this near may be met
@@ -97,14 +97,14 @@ class WallCaster:
 class Lidar:
     """The car's lidar as a real driver gives it: roar.localization.LaserScans of `beams` beams
     over FOV_RAD, each reading with seeded noise (a reading that meets nothing is the range).
-    track: a world of that track's walls alone (as a race's is): the beams are cast on its walls'
-    boxes here (WallCaster) rather than by Bullet's rays, the same ranges ~20 x faster."""
+    walls: a WallCaster of its world, which holds those walls alone (as a race's does): the beams
+    are cast on them here rather than by Bullet's rays, the same ranges ~20 x faster."""
 
     def __init__(self, plant, seed: int | None = None, beams: int = BEAMS, noise_m: float = NOISE_M,
-                 track=None) -> None:
+                 walls: WallCaster | None = None) -> None:
         self.plant, self.beams, self.noise_m = plant, beams, noise_m
         self.rng = np.random.default_rng(seed)
-        self.caster = None if track is None else WallCaster(track)
+        self.caster = walls
         self._angles = np.linspace(-FOV_RAD / 2, FOV_RAD / 2, beams)
 
     def ranges(self, others=()) -> np.ndarray:
