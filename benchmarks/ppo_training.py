@@ -16,6 +16,21 @@ LAPS = 2.0  # the fixed reward: laps per 30 s episode, averaged over 20 episodes
 TIMEOUT_S = 1800  # [s] one training
 
 
+def without_rl() -> bool:
+    """Whether stable-baselines3 is missing (said in one line: the benchmark is skipped)."""
+    try:
+        import stable_baselines3  # noqa: F401
+    except ImportError:
+        print("  skipped: pip install 'roar-platform[rl]' (stable-baselines3, PyTorch)")
+        return True
+    return False
+
+
+def failure(done: subprocess.CompletedProcess) -> str:
+    """Why a run of the example failed: its last line on stderr."""
+    return (done.stderr.strip().splitlines() or ["no output"])[-1]
+
+
 def train(vec: str, out: Path, extra: list[str] = (), laps: float = LAPS) -> tuple[str, int, float, str] | str:
     """(verdict, steps, wall seconds, policy fingerprint), or why it failed; extra: more options."""
     done = subprocess.run([sys.executable, str(EXAMPLE), "--until-laps", str(laps), "--vec", vec, "--out", str(out),
@@ -23,15 +38,12 @@ def train(vec: str, out: Path, extra: list[str] = (), laps: float = LAPS) -> tup
     found = re.search(r"^(reached|did not reach) .* after (\d+) steps, (\d+) s .*policy ([0-9a-f]+)", done.stdout,
                       re.S | re.M)
     if done.returncode not in (0, 2) or not found:  # 2: stopped short of the laps, a verdict too
-        return (done.stderr.strip().splitlines() or ["no output"])[-1]
+        return failure(done)
     return found.group(1), int(found.group(2)), float(found.group(3)), found.group(4)
 
 
 def run() -> None:
-    try:
-        import stable_baselines3  # noqa: F401
-    except ImportError:
-        print("  skipped: pip install 'roar-platform[rl]' (stable-baselines3, PyTorch)")
+    if without_rl():
         return
     with tempfile.TemporaryDirectory() as tmp:
         results = {vec: train(vec, Path(tmp) / vec) for vec in ("race", "subproc")}

@@ -13,7 +13,7 @@ import tempfile
 from pathlib import Path
 
 from benchmarks.car_fit import CARS, hidden
-from benchmarks.ppo_training import EXAMPLE, TIMEOUT_S, train
+from benchmarks.ppo_training import EXAMPLE, TIMEOUT_S, failure, train, without_rl
 from roar_sim.plants import car_profile
 
 TITLE = "a PPO policy trained on randomised cars drives five hidden cars (target: >= 2 laps, no wall, each)"
@@ -28,7 +28,7 @@ def drive(model: Path, profile: Path, seed: int) -> tuple[float, bool] | str:
                            "--seed", str(seed)], capture_output=True, text=True, timeout=TIMEOUT_S)
     found = re.search(r"= ([0-9.]+) laps of .*\((.*)\)", done.stdout)
     if done.returncode != 0 or not found:
-        return (done.stderr.strip().splitlines() or ["no output"])[-1]
+        return failure(done)
     return float(found.group(1)), found.group(2) == "hit a wall"
 
 
@@ -37,10 +37,7 @@ def shown(runs: list) -> str:
 
 
 def run() -> None:
-    try:
-        import stable_baselines3  # noqa: F401
-    except ImportError:
-        print("  skipped: pip install 'roar-platform[rl]' (stable-baselines3, PyTorch)")
+    if without_rl():
         return
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)

@@ -51,7 +51,7 @@ from tqdm import tqdm
 from roar.cli.sdk import ExitStatus
 from roar_sim.gym_env import RaceEnv
 from roar_sim.gym_env.sb3 import RaceVecEnv
-from roar_sim.plants.car_profile import real_car_spans
+from roar_sim.plants import car_profile
 
 EPISODE_S = 30.0  # [s] of simulated time, the longest episode
 LIDAR_BEAMS = 36  # over 270 deg
@@ -65,9 +65,7 @@ def environments(track: str, count: int, workers: int | None, vec: str = "race",
     the car (None: the default); randomize: each episode's car drawn around it."""
     kwargs = {"track": track, "max_seconds": EPISODE_S, "lidar_beams": LIDAR_BEAMS, "profile": profile}
     if randomize:
-        from roar_sim.plants import car_profile
-
-        kwargs["randomize"] = real_car_spans(car_profile.load(profile) if profile else None)
+        kwargs["randomize"] = car_profile.real_car_spans(car_profile.load(profile) if profile else None)
     if vec == "subproc":
         return VecMonitor(SubprocVecEnv([lambda: RaceEnv(**kwargs)] * count, start_method="fork"))
     return VecMonitor(RaceVecEnv(count, workers=workers, **kwargs))

@@ -203,6 +203,7 @@ def head_to_head(track: Track, rivals: list[Rival], laps: int = 2, pace: float =
                      "defensive": lanes.line(lanes.defensive_offsets()).points}
             ego = Racer(track, racing_points, ego_car.model, PERIOD_S, pace=pace, clearance_m=clearance)
             drivers = [ego]
+            keeping: dict[int, GapKeeping] = {}  # the line followers' planners, by car
             for car, rival in zip(cars[1:], rivals):
                 line = lines[rival.line]
                 if rival.driver is not None:
@@ -214,6 +215,7 @@ def head_to_head(track: Track, rivals: list[Rival], laps: int = 2, pace: float =
                                        follower=LoopWaypointFollower(line, skip_at_start=ahead_of(line, car)),
                                        speed=car.speed_control())
                     agent.planner = GapKeeping(agent.planner, model.limits.max_brake_m_s2)
+                    keeping[len(drivers)] = agent.planner
                     drivers.append(agent)
             # its walls cast here: a race's world holds no more
             lidar = Lidar(ego_car.plant, seed, walls=WallCaster(track, WALL_THICKNESS_M))
@@ -242,9 +244,9 @@ def head_to_head(track: Track, rivals: list[Rival], laps: int = 2, pace: float =
                 scan = lidar.scan(t, [car.plant for car in cars[1:]])
                 seen = sensed.update(scan, sensor, t)
                 ego.sense(seen)
-                for i, driver in enumerate(drivers[1:], start=1):
-                    if isinstance(getattr(driver, "planner", None), GapKeeping) and history:
-                        driver.planner.ahead = car_ahead(track, history[-1], i)
+                for i, planner in keeping.items():
+                    if history:
+                        planner.ahead = car_ahead(track, history[-1], i)
                 for car, driver, obs in zip(cars, drivers, observed):
                     car.send(driver.step(obs))
                 fleet.run(PERIOD_S)

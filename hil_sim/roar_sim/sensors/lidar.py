@@ -8,8 +8,6 @@ import math
 
 import numpy as np
 
-from roar.localization.raycast import compiled
-
 MIN_RANGE_M = 0.06  # [m] a UST-10LX's minimum range: the beams start this far out
 FOV_RAD = math.radians(270)  # [rad]
 RANGE_M = 10.0  # [m]
@@ -78,8 +76,9 @@ class WallCaster:
         self.boxes = np.ascontiguousarray(np.concatenate(boxes))
         self.range_m = range_m
         self._reach = np.hypot(self.boxes[:, 3], self.boxes[:, 4]) + range_m  # [m] a box this near may be met
-        self._slabs = compiled("wall slabs", lambda nb: __import__("roar_sim.sensors.slab_kernel",
-                                                                 fromlist=["slabs"]).slabs)
+        from roar.localization.raycast import compiled  # (not at start-up: every simulated car imports this module)
+
+        self._slabs = compiled("wall slabs", _slab_kernel)
 
     def cast(self, origin, angles: np.ndarray, others=()) -> np.ndarray:
         """[m] along each beam from origin (x, y) at world angles [rad] to the first wall or box of
@@ -92,6 +91,12 @@ class WallCaster:
         self._slabs(float(origin[0]), float(origin[1]), np.ascontiguousarray(angles, dtype=float),
                     np.ascontiguousarray(boxes), out)
         return out
+
+
+def _slab_kernel(nb):
+    from roar_sim.sensors.slab_kernel import slabs
+
+    return slabs
 
 
 class Lidar:
