@@ -244,6 +244,22 @@ int roar_board_init(void* board, roar_host_hal_t* hal, const roar_car_config_t* 
 void roar_board_begin(void* board) { as<HostCarBoard>(board)->board.begin(); }
 void roar_board_feed(void* board, const uint8_t* data, size_t n) { as<HostCarBoard>(board)->board.feed(data, n); }
 void roar_board_run(void* board, uint32_t loops) { as<HostCarBoard>(board)->run(loops); }
+void roar_boards_run(void* boards, roar_host_hal_t* hals, size_t n, const uint8_t* run, const uint16_t* throttle_us,
+                     const uint16_t* steering_us, uint32_t loops, uint16_t* wire_us) {
+  const size_t size = sizeof(HostCarBoard);
+  for (size_t i = 0; i < n; ++i) {
+    if (run && !run[i]) continue;
+    HostCarBoard* board = as<HostCarBoard>(static_cast<uint8_t*>(boards) + i * size);
+    roar_host_hal_t* m = &hals[i];
+    if (throttle_us[i]) serial_control(m, throttle_us[i], steering_us[i]);
+    for (uint32_t k = 0; k < loops; ++k) {
+      board->run(1);
+      wire_us[(k * n + i) * 2] = m->wire_us[0];
+      wire_us[(k * n + i) * 2 + 1] = m->wire_us[1];
+    }
+    m->tx_len = 0;
+  }
+}
 uint32_t roar_board_session(const void* board) {
   return static_cast<const HostCarBoard*>(board)->board.car().auth().session();
 }

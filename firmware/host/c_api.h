@@ -17,7 +17,7 @@
 extern "C" {
 #endif
 
-#define ROAR_CORE_ABI_VERSION 10
+#define ROAR_CORE_ABI_VERSION 11
 
 uint32_t roar_core_abi_version(void);
 uint32_t roar_protocol_version(void);
@@ -213,6 +213,17 @@ void roar_board_feed(void* board, const uint8_t* data, size_t n);   /* bytes of 
 void roar_board_run(void* board, uint32_t loops);
 uint32_t roar_board_session(const void* board); /* the signing session; 0 when the car has no key */
 uint32_t roar_board_last_counter(const void* board); /* the last counter the car accepted in it */
+
+/* --- many ESC cars' board loops at once (the batched simulator, roar_sim.batch) ------------------
+ * n boards side by side, board i at boards + i * roar_board_size() on hals[i], each initialised
+ * by roar_board_init and begun. roar_boards_run, for each car whose run[i] is not 0 (run NULL:
+ * every car): when throttle_us[i] is not 0, the control message (throttle_us[i], steering_us[i])
+ * arrives on its serial port as a host writes it (0: the host is silent this time); then its board
+ * runs `loops` loop iterations, and the pulses on its wire after iteration k go to
+ * wire_us[(k * n + i) * 2 + c] (c: 0 throttle, 1 steering). Reply lines are dropped. The very
+ * loop roar_board_run runs, one car after another; a car not run keeps its time and its rows. */
+void roar_boards_run(void* boards, roar_host_hal_t* hals, size_t n, const uint8_t* run, const uint16_t* throttle_us,
+                     const uint16_t* steering_us, uint32_t loops, uint16_t* wire_us);
 
 /* --- the Junior's loop (JuniorBoard) and its HTTP requests, on a HAL of plain memory -----------
  * roar_junior_board_run: each loop iteration runs JuniorBoard::poll() (failsafe, L298N pins with

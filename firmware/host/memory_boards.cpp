@@ -1,5 +1,7 @@
 #include "memory_boards.h"
 
+#include "roar/text.h"
+
 namespace roar {
 
 roar_side_pins_t to_c(const SidePins& s) { return roar_side_pins_t{s.in1, s.in2, s.duty}; }
@@ -74,6 +76,24 @@ void HostCarBoard::run(uint32_t loops) {
     mem->outputs = to_c(board.poll(), board.car());
     mem->now_us += mem->loop_us;
   }
+}
+
+void serial_control(roar_host_hal_t* m, uint16_t throttle_us, uint16_t steering_us) {
+  const uint16_t unread = m->rx_len > m->rx_pos ? m->rx_len - m->rx_pos : 0;
+  for (uint16_t i = 0; i < unread; ++i) m->rx[i] = m->rx[m->rx_pos + i];
+  char text[16];
+  size_t length = 0;
+  const char start[2] = {proto::kControlStartChar, 0}, separator[2] = {proto::kControlSeparatorChar, 0};
+  const char end[2] = {proto::kControlEndChar, 0};
+  append(text, sizeof(text), &length, start);
+  append_uint(text, sizeof(text), &length, throttle_us);
+  append(text, sizeof(text), &length, separator);
+  append_uint(text, sizeof(text), &length, steering_us);
+  append(text, sizeof(text), &length, end);
+  uint16_t len = unread;
+  for (size_t i = 0; i < length && len < sizeof(m->rx); ++i) m->rx[len++] = static_cast<uint8_t>(text[i]);
+  m->rx_pos = 0;
+  m->rx_len = len;
 }
 
 // --- the ROAR Junior ---------------------------------------------------------------------------

@@ -74,6 +74,10 @@ struct HostCarBoard {
   CarBoard board;
 };
 
+// A control message arriving on a board's serial port as a host writes it (roar.protocol's
+// encode: start, throttle, separator, steering, end), after the bytes the loop has not read yet.
+void serial_control(roar_host_hal_t* m, uint16_t throttle_us, uint16_t steering_us);
+
 // --- the ROAR Junior: JuniorBoard on roar_junior_hal_t ----------------------------------------
 class JuniorMemoryHal : public JuniorHal {
  public:

@@ -185,7 +185,7 @@ def fit(record: FitLog, wheelbase_m: float, held_out: str = "", start: Car | Non
     x = of(best.x)
     car = Car(*x)
     sigma = np.zeros(len(NAMES))
-    sigma[free] = _sigma(best, len(best.fun), np.median(np.diff(record.pose_t)))
+    sigma[free] = sigma_of(best, len(best.fun), max(1.0, SMOOTH_S / np.median(np.diff(record.pose_t))))
     sigma[~free] = grip_sigma
     held = _Problem(record, wheelbase_m, out, np.ones(len(out), dtype=bool)).prediction(car) if out.any() else None
     return FitResult(car, dict(zip(NAMES, sigma)), problem.prediction(car), held, held_out, evaluations)
@@ -209,12 +209,12 @@ def _grip(problem: _Problem, record: FitLog, names: list[str]) -> tuple[float, f
     return grip, float(np.std(top))
 
 
-def _sigma(result, n: int, pose_dt_s: float) -> np.ndarray:
-    """Each parameter's standard deviation from the Jacobian at the solution; the residuals of
-    neighbouring poses are not independent (the speeds are measured over SMOOTH_S), so the
-    variance is counted over SMOOTH_S-long pieces, not poses."""
+def sigma_of(result, n: int, correlated: float = 1.0) -> np.ndarray:
+    """Each parameter's standard deviation from the Jacobian at a least-squares solution (scipy's)
+    of n residuals, of which `correlated` neighbours are not independent (a test drive's speeds are
+    measured over SMOOTH_S: the variance is counted over SMOOTH_S-long pieces, not poses)."""
     jac = result.jac
     dof = max(n - jac.shape[1], 1)
     s2 = 2 * result.cost / dof
-    cov = np.linalg.pinv(jac.T @ jac) * s2 * max(1.0, SMOOTH_S / pose_dt_s)
+    cov = np.linalg.pinv(jac.T @ jac) * s2 * correlated
     return np.sqrt(np.clip(np.diag(cov), 0.0, None))

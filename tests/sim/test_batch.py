@@ -1,0 +1,211 @@
+"""The batched world (roar_sim.batch, roar/BatchRace-v0): its board loops are the core's, bit for
+bit with the single-car board, across the 32-bit clock's wrap and the failsafe; its car matches the
+PyBullet car closely on a lap and over 1 s of pulses; its lidar meets the walls where Bullet's rays
+do; its vector environment is Race-v0's spaces, gives each car what that car alone gives, the same
+seeds the same runs, refuses bad input in one line, and learns."""
+
+import numpy as np
+import pytest
+
+gym = pytest.importorskip("gymnasium", reason="pip install gymnasium (make setup installs it)")
+pytest.importorskip("numba", reason="pip install numba (make setup installs it)")
+pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
+
+from roar.protocol import encode, spec  # noqa: E402
+from roar.tracks import get  # noqa: E402
+from roar_sim.batch.boards import Boards  # noqa: E402
+from roar_sim.core.car import CarBoard  # noqa: E402
+
+N = spec.CONTROL_NEUTRAL_US
+WRAP_US = 1 << 32  # [us] a board's counter wraps here
+
+
+def command_script(seed: int, periods: int) -> list[tuple[int, int]]:
+    """(throttle, steering) [us] per control period, 0 throttle for silence: driving, braking into
+    reverse (the brake/reverse sequence), silences longer than the failsafe's timeout and back."""
+    rng = np.random.default_rng(seed)
+    script = []
+    while len(script) < periods:
+        kind = rng.integers(4)
+        hold = int(rng.integers(3, 25))
+        if kind == 0:  # silence: 60-500 ms
+            script += [(0, 0)] * hold
+        elif kind == 1:
+            script += [(int(rng.integers(N + 30, spec.CONTROL_MAX_US + 1)), int(rng.integers(1000, 2001)))] * hold
+        elif kind == 2:
+            script += [(int(rng.integers(spec.CONTROL_MIN_US, N - 30)), int(rng.integers(1000, 2001)))] * hold
+        else:
+            script += [(N, N)] * hold
+    return script[:periods]
+
+
+def test_the_batch_runs_the_cores_board_loop_bit_for_bit_across_the_clocks_wrap():
+    starts = [0, 7_000, WRAP_US - 150_000, WRAP_US - 1_000, WRAP_US - 20_000 * 13 - 3_000]  # [us] some wrap soon
+    periods = 150
+    scripts = [command_script(seed, periods) for seed in range(len(starts))]
+    boards = Boards(len(starts), start_us=starts)
+    singles = [CarBoard(start_us=s) for s in starts]
+    for board in singles:
+        board.begin()
+    phases, seen = set(), 0
+    for k in range(periods):
+        throttle = np.array([s[k][0] for s in scripts], np.uint16)
+        steering = np.array([s[k][1] for s in scripts], np.uint16)
+        wire = boards.run(throttle, steering, 20)
+        for i, board in enumerate(singles):
+            if throttle[i]:
+                board.serial_in(encode(int(throttle[i]), int(steering[i])))
+            for loop in range(20):
+                board.run(1)
+                assert tuple(wire[loop, i]) == board.wire, f"car {i}, period {k}, loop {loop}"
+            assert boards.now_us(i) == board.hal.now_us
+            phases.add(board.outputs.brake_phase)
+            seen += board.outputs.latched
+    assert seen and len(phases) >= 3  # the failsafe latched and the brake sequence ran
+    assert any(boards.now_us(i) < starts[i] for i in range(len(starts)))  # the counters wrapped
+
+
+def test_a_board_not_run_keeps_its_time_and_a_reboot_starts_it_latched():
+    boards = Boards(3)
+    neutral = np.full(3, N, np.uint16)
+    boards.run(neutral, neutral, 20)
+    before = boards.now_us(1)
+    boards.run(np.full(3, 1800, np.uint16), neutral, 20, cars=np.array([True, False, True]))
+    assert boards.now_us(1) == before and boards.now_us(0) == before + 20_000
+    forward = boards.run(np.full(3, 1800, np.uint16), neutral, 40)
+    assert forward[-1, 0, 0] == 1800
+    boards.reboot([0])
+    again = boards.run(np.full(3, 1800, np.uint16), neutral, 40)
+    assert again[-1, 0, 0] == N and again[-1, 2, 0] == 1800  # rebooted: latched until it hears neutral
+
+
+def test_bad_batch_sizes_are_refused_in_one_line():
+    from roar_sim.gym_env.batched import BatchRaceEnv
+
+    for bad, words in ((0, "num_envs must be a whole number 1..65536, got 0"), (2.5, "got 2.5"),
+                       (True, "got True")):
+        with pytest.raises(ValueError, match="^BatchRaceEnv: ") as e:
+            BatchRaceEnv(bad)
+        assert words in str(e.value) and "\n" not in str(e.value)
+    with pytest.raises(ValueError, match="unknown track 'nowhere'"):
+        BatchRaceEnv(2, track="nowhere")
+    with pytest.raises(ValueError, match="the batched world has no camera"):
+        BatchRaceEnv(2, randomize={"camera_yaw_rad": (0, 0.1)})
+
+
+def test_nan_actions_are_refused_naming_the_car_and_nothing_moves():
+    from roar_sim.gym_env.batched import BatchRaceEnv
+
+    env = BatchRaceEnv(3)
+    env.reset(seed=1)
+    before = env.world.states().copy()
+    actions = np.zeros((3, 2))
+    actions[2, 0] = np.nan
+    with pytest.raises(ValueError, match=r"got car 2's \[nan, 0.0\]"):
+        env.step(actions)
+    with pytest.raises(ValueError, match=r"got shape \(2,\)"):
+        env.step(np.zeros(2))
+    assert np.array_equal(env.world.states(), before)
+
+
+def rollout(env, seed: int, steps: int, n: int):
+    rng = np.random.default_rng(seed)
+    observation, _ = env.reset(seed=seed)
+    out = [observation]
+    for _ in range(steps):
+        actions = np.column_stack([rng.uniform(0.1, 1.0, n), rng.uniform(-1.0, 1.0, n)])
+        observation, reward, terminated, truncated, _ = env.step(actions)
+        out.append((observation, reward, terminated, truncated))
+    return out
+
+
+def test_each_car_is_what_it_is_alone_and_the_same_seeds_give_the_same_runs():
+    """The batch of 4 against a SyncVectorEnv of 4 one-car batched environments (roar/BatchRace-v0),
+    with every car randomised, ends and autoresets among them; and against itself."""
+    from roar_sim.gym_env.batched import BatchCarEnv, BatchRaceEnv
+
+    keywords = dict(track="figure-eight", randomize={"tyre_friction": (0.4, 0.6), "latency_s": (0.0, 0.05),
+                                                      "lidar_noise_m": (0.0, 0.05)}, max_seconds=3.0)
+    batch = rollout(BatchRaceEnv(4, **keywords), 11, 200, 4)
+    again = rollout(BatchRaceEnv(4, **keywords), 11, 200, 4)
+    singles = gym.vector.SyncVectorEnv([lambda: BatchCarEnv(**keywords) for _ in range(4)])
+    alone = rollout(singles, 11, 200, 4)
+    ends = 0
+    for a, b, c in zip(batch[1:], again[1:], alone[1:]):
+        for part in range(4):
+            x, y, z = a[part], b[part], c[part]
+            if isinstance(x, dict):
+                assert all(np.array_equal(x[key], y[key]) and np.array_equal(x[key], z[key]) for key in x)
+            else:
+                assert np.array_equal(x, y) and np.array_equal(x, z)
+        ends += int(a[2].sum() + a[3].sum())
+    assert ends >= 4  # episodes ended (walls, time) and began again within the run
+
+
+def test_the_vector_api_has_race_v0s_spaces_and_both_autoresets():
+    from gymnasium.vector.vector_env import AutoresetMode
+
+    from roar_sim.gym_env import RaceEnv
+    from roar_sim.gym_env.batched import BatchRaceEnv
+
+    env = gym.make_vec("roar_sim.gym_env.batched:roar/BatchRace-v0", num_envs=3,
+                       vectorization_mode="vector_entry_point", max_seconds=0.5)
+    single = RaceEnv(track="oval")
+    assert env.single_observation_space == single.observation_space
+    assert env.single_action_space == single.action_space
+    observation, info = env.reset(seed=2)
+    assert env.observation_space.contains(observation) and info["time_s"].tolist() == [0.02] * 3
+    for _ in range(24):  # 0.5 s with the arming period
+        observation, reward, terminated, truncated, info = env.step(np.zeros((3, 2)))
+    assert truncated.all() and not terminated.any()
+    observation, reward, terminated, truncated, info = env.step(np.ones((3, 2)))  # next step: reset, action unused
+    assert (reward == 0).all() and info["time_s"].tolist() == [0.02] * 3
+    same = BatchRaceEnv(3, max_seconds=0.5, autoreset_mode=AutoresetMode.SAME_STEP)
+    same.reset(seed=2)
+    for _ in range(24):
+        observation, reward, terminated, truncated, info = same.step(np.zeros((3, 2)))
+    assert truncated.all() and info["_final_obs"].all() and info["time_s"].tolist() == [0.02] * 3
+    assert info["final_info"][0]["time_s"] == pytest.approx(0.5)
+    env.close()
+    single.close()
+
+
+def test_the_lidar_meets_the_walls_where_bullets_rays_do():
+    """From poses along two tracks (on the centre line and off it, turned), the marched 1,080-beam
+    scan against PyBullet's own rays from the same lidar: within 1 cm but where a beam grazes a wall's
+    end."""
+    from roar_sim.batch.world import BatchWorld
+    from roar_sim.plants.racecar import Racecar
+    from roar_sim.world.bullet import pb
+
+    for name in ("oval", "random:2"):
+        track = get(name)
+        world = BatchWorld(1, pool=None, tracks=[track])
+        car = Racecar(track)
+        try:
+            rng = np.random.default_rng(0)
+            for s in np.linspace(0, track.length_m, 6, endpoint=False):
+                x, y, yaw = track.pose_at(float(s), float(rng.uniform(-0.2, 0.2)))
+                yaw += float(rng.uniform(-0.3, 0.3))
+                pb.resetBasePositionAndOrientation(car.car, [x, y, 0.05], pb.getQuaternionFromEuler([0, 0, yaw]),
+                                                   physicsClientId=car.client)
+                world.reset([0], [[x, y, yaw]])
+                bullet = car.lidar(beams=1080)
+                ours = world.scan(beams=1080)[0]
+                error = np.abs(ours - bullet)
+                assert np.percentile(error, 99) < 0.01 and np.median(error) < 0.001, (name, s, error.max())
+        finally:
+            car.close()
+
+
+def test_the_batched_car_laps_as_the_pybullet_car_does():
+    """The same pure-pursuit driver round the figure eight in both worlds: the flying lap within 3 %
+    and the path within 5 cm RMS (docs/gym.md has every track's figures; make bench measures five)."""
+    from roar_sim.batch.fidelity import closed_loop
+    from roar_sim.plants import car_profile
+
+    laps = closed_loop(get("figure-eight"), car_profile.load())
+    assert len(laps.pybullet.laps) == len(laps.batch.laps) == 2
+    assert abs(laps.time_ratio[1] - 1) <= 0.03, laps.time_ratio
+    assert laps.path_rms_m <= 0.05
+    assert laps.pybullet.walls == laps.batch.walls == 0
