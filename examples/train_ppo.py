@@ -8,6 +8,8 @@ environments stepped on every core (roar_sim.gym_env.sb3.RaceVecEnv).
     python examples/train_ppo.py --drive out/ppo/model.zip    # drive one episode, report
     python examples/train_ppo.py --randomize --out out/ppo_dr    # each episode another car (domain randomisation)
     python examples/train_ppo.py --drive out/ppo_dr/model.zip --car-profile mycar.toml   # drive your fitted car
+    python examples/train_ppo.py --batched --out out/ppo_b    # 128 cars of the batched world: seconds, not minutes
+    python examples/train_ppo.py --drive out/ppo_b/model.zip  # ...and the policy drives the PyBullet car
 
 The policy sees the state (pose, speed, cross-track and heading error) and the lidar; the reward
 is metres along the centre line (minus a penalty at a wall); an episode ends at a wall or after
@@ -24,6 +26,11 @@ roar commands': 0 when the episodes reached --until-laps, 2 when training stoppe
 70-110 %: roar_sim.plants.car_profile.real_car_spans), so the policy learns to drive cars it has not
 met; --car-profile trains or drives one car (a shipped profile, or the .toml `roar fit` writes).
 `make bench` (benchmarks/rl_transfer.py) trains with and without it and drives five such cars.
+
+--batched trains on the batched world (roar_sim.gym_env.batched: the same spaces, the firmware core's
+board loop in C for every car, a single-track body fitted to the PyBullet car), 128 cars in this
+process by default, with larger batches for the learner (BATCHED_PPO); --drive then drives the
+PyBullet car, as without it. `make bench` (benchmarks/batched_world.py) times it against 10 s.
 
 Measured here (2 cores, the defaults: 4 environments on 2 processes, seed 0, on a day this machine
 ran at about 60 % of its best): the last 20 episodes averaged two laps of the oval (2 x 17.4 m in
@@ -54,6 +61,10 @@ from roar_sim.gym_env.sb3 import RaceVecEnv
 from roar_sim.plants import car_profile
 
 EPISODE_S = 30.0  # [s] of simulated time, the longest episode
+BATCHED_ENVS = 128  # --batched's cars by default
+# PPO's settings on the batched world: many cars, so longer batches and fewer epochs (the learner's time
+# is most of a batched training's)
+BATCHED_PPO = {"n_steps": 64, "batch_size": 2048, "n_epochs": 4, "learning_rate": 1e-3}
 LIDAR_BEAMS = 36  # over 270 deg
 MEAN_OF = 20  # episodes averaged for --until-laps
 
@@ -61,13 +72,16 @@ MEAN_OF = 20  # episodes averaged for --until-laps
 def environments(track: str, count: int, workers: int | None, vec: str = "race", profile: str | None = None,
                  randomize: bool = False) -> VecMonitor:
     """count environments on `workers` processes (default one per core), episodes recorded; or,
-    for comparison, in SB3's SubprocVecEnv (a process each, woken by pipes every step). profile:
-    the car (None: the default); randomize: each episode's car drawn around it."""
+    for comparison, in SB3's SubprocVecEnv (a process each, woken by pipes every step); vec="batched":
+    the batched world's cars, in this process. profile: the car (None: the default); randomize: each
+    episode's car drawn around it."""
     kwargs = {"track": track, "max_seconds": EPISODE_S, "lidar_beams": LIDAR_BEAMS, "profile": profile}
     if randomize:
         kwargs["randomize"] = car_profile.real_car_spans(car_profile.load(profile) if profile else None)
     if vec == "subproc":
         return VecMonitor(SubprocVecEnv([lambda: RaceEnv(**kwargs)] * count, start_method="fork"))
+    if vec == "batched":
+        return VecMonitor(RaceVecEnv(count, batched=True, **kwargs))
     return VecMonitor(RaceVecEnv(count, workers=workers, **kwargs))
 
 
@@ -87,6 +101,8 @@ class Progress(BaseCallback):
         # on a terminal only (disable=None): in a log a bar is a stream of carriage-return frames
         self.bar = tqdm(total=steps, unit="step", unit_scale=True, dynamic_ncols=True, mininterval=1.0, disable=None)
         self.lap_m, self.until_laps, self.reached = lap_m, until_laps, False
+        self.env_s, self._rollout_began = 0.0, 0.0  # [s] spent collecting rollouts (the environments and the policy's
+        #                                               actions); the rest of a training is the learner's
 
     def laps(self) -> float | None:
         episodes = list(self.model.ep_info_buffer)[-MEAN_OF:]
@@ -96,7 +112,11 @@ class Progress(BaseCallback):
         self.bar.update(self.training_env.num_envs)
         return not self.reached  # (checked again after the update that followed the rollout that reached it)
 
+    def _on_rollout_start(self) -> None:
+        self._rollout_began = time.perf_counter()
+
     def _on_rollout_end(self) -> None:
+        self.env_s += time.perf_counter() - self._rollout_began
         laps = self.laps()
         if laps is not None:
             self.bar.set_postfix_str(f"{laps:.2f} laps/episode")
@@ -104,12 +124,17 @@ class Progress(BaseCallback):
 
 
 def train(args) -> int:
-    torch.set_num_threads(1)  # the environments need the cores more than the small network does
+    # the environments' processes need the cores more than the small network does; the batched world
+    # steps in this process, and then the learner's time is most of the training's
+    torch.set_num_threads(2 if args.vec == "batched" else 1)
     envs = VecNormalize(environments(args.track, args.envs, args.workers, args.vec, args.car_profile, args.randomize),
                         gamma=0.99)
     lap_m = envs.get_attr("track")[0].length_m
-    rollout = max(64, min(512, args.steps // args.envs))  # steps per environment between updates
-    model = PPO("MultiInputPolicy", envs, n_steps=rollout, batch_size=64, seed=args.seed, device="cpu")
+    if args.vec == "batched":
+        settings = BATCHED_PPO
+    else:
+        settings = {"n_steps": max(64, min(512, args.steps // args.envs)), "batch_size": 64}  # steps per env an update
+    model = PPO("MultiInputPolicy", envs, seed=args.seed, device="cpu", **settings)
     progress = Progress(args.steps, lap_m, args.until_laps)
     start = time.perf_counter()
     try:
@@ -125,7 +150,8 @@ def train(args) -> int:
     done = f"{laps:.2f} laps/episode" if laps is not None else f"fewer than {MEAN_OF} episodes ended"
     verdict = "reached" if progress.reached else "did not reach"
     print(f"{verdict} {args.until_laps:g} laps/episode on {args.track}: {done} after {steps} steps, "
-          f"{wall_s:.0f} s ({steps / wall_s:.0f} steps/s)")
+          f"{wall_s:.0f} s ({steps / wall_s:.0f} steps/s; environments {progress.env_s:.1f} s, learner "
+          f"{wall_s - progress.env_s:.1f} s)")
     print(f"saved {args.out / 'model.zip'} and {args.out / 'normalise.pkl'}; policy {fingerprint(model)} "
           f"(seed {args.seed})")
     return ExitStatus.OK if progress.reached else ExitStatus.SHORT  # the roar commands' convention: 2, it fell short
@@ -161,7 +187,7 @@ if __name__ == "__main__":
     parser.add_argument("--until-laps", type=float, default=2.0, metavar="LAPS",
                         help=f"stop when the last {MEAN_OF} episodes average this many laps (default 2)")
     parser.add_argument("--steps", type=int, default=1_000_000, help="the most environment steps (default 1000000)")
-    parser.add_argument("--envs", type=int, default=4, help="environments (default 4)")
+    parser.add_argument("--envs", type=int, help=f"environments (default 4; with --batched {BATCHED_ENVS})")
     parser.add_argument("--workers", type=int, help="processes stepping them, this one among them (default: one "
                                                     "per core); the result does not depend on it")
     parser.add_argument("--vec", choices=("race", "subproc"), default="race",
@@ -173,12 +199,21 @@ if __name__ == "__main__":
     parser.add_argument("--car-profile", metavar="NAME|FILE",
                         help="the car trained or driven: a shipped profile (roar, f1tenth) or a .toml, e.g. the one "
                              "`roar fit` wrote for your car (default: the ROAR car)")
+    parser.add_argument("--batched", action="store_true",
+                        help="train on the batched world's cars (many in this process; the policy then drives the "
+                             "PyBullet car with --drive)")
     parser.add_argument("--randomize", action="store_true",
                         help="train on a different car each episode, drawn within what real cars differ by "
                              "(trim, servo lag, latency, dead band, motor, grip)")
     args = parser.parse_args()
-    if not 64 <= args.steps <= 100_000_000 or not 1 <= args.envs <= 64:
-        parser.error("--steps must be 64..1e8 and --envs 1..64")
+    if args.batched:
+        if args.vec != "race" or args.workers is not None:
+            parser.error("--batched steps its cars in this process: leave out --vec and --workers")
+        args.vec = "batched"
+    most_envs = 4096 if args.batched else 64
+    args.envs = args.envs if args.envs is not None else BATCHED_ENVS if args.batched else 4
+    if not 64 <= args.steps <= 100_000_000 or not 1 <= args.envs <= most_envs:
+        parser.error(f"--steps must be 64..1e8 and --envs 1..{most_envs}")
     if args.vec == "subproc" and args.workers is not None:
         parser.error("--workers is RaceVecEnv's (--vec race); SubprocVecEnv runs a process per environment")
     if args.workers is not None and not 1 <= args.workers <= args.envs:

@@ -182,6 +182,18 @@ class BatchRaceEnv(gym.vector.VectorEnv):
         return observation, [{"time_s": float(infos["time_s"][i]), "progress_m": float(infos["progress_m"][i]),
                               "wall_contact": False} for i in range(self.num_envs)]
 
+    def get_attr(self, name: str) -> tuple:
+        """Each car's value of an attribute (as RaceVectorEnv's): its track for "track", else the batch's."""
+        if name == "track":
+            return tuple(self.pool.tracks[k] for k in self.world.track_of.tolist())
+        return (getattr(self, name),) * self.num_envs
+
+    def set_attr(self, name: str, values) -> None:
+        raise AttributeError(f"BatchRaceEnv: {name} is the batch's, not a car's: set it when making the batch")
+
+    def call(self, name: str, *args, **kwargs) -> tuple:
+        return (getattr(self, name)(*args, **kwargs),) * self.num_envs
+
     # --- helpers -----------------------------------------------------------------------------
 
     def _least_turning(self):

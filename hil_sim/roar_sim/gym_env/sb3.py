@@ -3,6 +3,7 @@
     from stable_baselines3 import PPO
     from roar_sim.gym_env.sb3 import RaceVecEnv
     envs = RaceVecEnv(4, track="oval", lidar_beams=36)   # RaceVectorEnv's keywords: workers, RaceEnv's
+    envs = RaceVecEnv(1024, batched=True, track="oval")  # the batched world's cars (BatchRaceEnv's keywords)
     PPO("MultiInputPolicy", envs, seed=0).learn(100_000)
 
 RaceVectorEnv (roar_sim.gym_env.vector) with same-step autoreset under SB3's names: an ended
@@ -22,8 +23,15 @@ from roar_sim.gym_env.vector import RaceVectorEnv
 
 
 class RaceVecEnv(VecEnv):
-    def __init__(self, num_envs: int = 2, **kwargs) -> None:
-        self.vector = RaceVectorEnv(num_envs, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
+    def __init__(self, num_envs: int = 2, batched: bool = False, **kwargs) -> None:
+        """batched=True: the batched world's cars (roar_sim.gym_env.batched.BatchRaceEnv, its
+        keywords), thousands at a time in this process; otherwise RaceVectorEnv's."""
+        if batched:
+            from roar_sim.gym_env.batched import BatchRaceEnv
+
+            self.vector = BatchRaceEnv(num_envs, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
+        else:
+            self.vector = RaceVectorEnv(num_envs, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
         super().__init__(num_envs, self.vector.single_observation_space, self.vector.single_action_space)
         self._actions = None
 
