@@ -8,6 +8,7 @@
                from the same state at 0.5-2.5 m/s, drives the fit never saw (within 5 cm)
     learning   examples/train_ppo.py --batched until two laps per episode (target <= 10 s wall,
                environments' and learner's times apart), then the policy drives the PyBullet car
+               and sim:// by its URL
 """
 
 import re
@@ -119,6 +120,9 @@ def learning() -> None:
             driven = subprocess.run([sys.executable, str(EXAMPLE), "--drive", str(Path(out) / "model.zip"),
                                      "--seed", str(seed)], capture_output=True, text=True, timeout=600)
             print(f"    the policy on the PyBullet car, seed {seed}: {driven.stdout.strip() or driven.stderr[-200:]}")
+        driven = subprocess.run([sys.executable, str(EXAMPLE), "--drive", str(Path(out) / "model.zip"), "--url",
+                                 "sim://oval?speedup=4"], capture_output=True, text=True, timeout=600)
+        print(f"    the policy by URL: {driven.stdout.strip() or driven.stderr[-200:]}")
 
 
 def run() -> None:

@@ -10,6 +10,7 @@ environments stepped on every core (roar_sim.gym_env.sb3.RaceVecEnv).
     python examples/train_ppo.py --drive out/ppo_dr/model.zip --car-profile mycar.toml   # drive your fitted car
     python examples/train_ppo.py --batched --out out/ppo_b    # 128 cars of the batched world: seconds, not minutes
     python examples/train_ppo.py --drive out/ppo_b/model.zip  # ...and the policy drives the PyBullet car
+    python examples/train_ppo.py --drive out/ppo_b/model.zip --url "sim://oval?speedup=4"   # ...or a car by URL
 
 The policy sees the state (pose, speed, cross-track and heading error) and the lidar; the reward
 is metres along the centre line (minus a penalty at a wall); an episode ends at a wall or after
@@ -31,6 +32,12 @@ met; --car-profile trains or drives one car (a shipped profile, or the .toml `ro
 board loop in C for every car, a single-track body fitted to the PyBullet car), 128 cars in this
 process by default, with larger batches for the learner (BATCHED_PPO); --drive then drives the
 PyBullet car, as without it. `make bench` (benchmarks/batched_world.py) times it against 10 s.
+
+--drive with --url drives a car by its URL through roar.Vehicle, as any script would: the policy's
+observation made from what the link reports (the car's pose, speed and yaw rate; its lidar's scan,
+resampled to the policy's beams), its action sent at 50 Hz of the car's time; the lap counted along
+the track's centre line, and the car's nearest approach to a wall (its half width beside the
+cross-track error) reported. sim:// is the simulated car in real time (?speedup= runs it faster).
 
 Measured here (2 cores, the defaults: 4 environments on 2 processes, seed 0, on a day this machine
 ran at about 60 % of its best): the last 20 episodes averaged two laps of the oval (2 x 17.4 m in
@@ -164,6 +171,8 @@ def drive(args) -> int:
     missing = [str(path) for path in (args.drive, statistics) if not path.is_file()]
     if missing:
         raise ValueError(f"no {' and no '.join(missing)} (train first: python examples/train_ppo.py --out DIR)")
+    if args.url:
+        return drive_url(args, statistics)
     envs = VecNormalize.load(str(statistics), environments(args.track, 1, 1, profile=args.car_profile))
     envs.training, envs.norm_reward = False, False
     model = PPO.load(args.drive, device="cpu")
@@ -178,6 +187,63 @@ def drive(args) -> int:
     ending = "hit a wall" if info.get("wall_contact") else "time up" if info.get("TimeLimit.truncated") else "ended"
     print(f"drove {metres:.1f} m = {metres / length:.2f} laps of {args.track} in {info['time_s']:.1f} s ({ending})")
     envs.close()
+    return ExitStatus.OK
+
+
+def drive_url(args, statistics: Path) -> int:
+    """The policy drives the car at args.url for EPISODE_S of the car's time (roar.Vehicle)."""
+    import math
+    import pickle
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from roar import Vehicle
+    from roar.tracks import get
+    from roar_sim.gym_env import LIDAR_EVERY, LIDAR_RANGE_M, Place
+    from roar_sim.robots.esc import EscCar
+    from roar_sim.sensors.lidar import FOV_RAD
+
+    with open(statistics, "rb") as f:
+        normalise = pickle.load(f)  # VecNormalize's running statistics (without its environments)
+    model = PPO.load(args.drive, device="cpu")
+    model.set_random_seed(args.seed)
+    track = get(args.track)
+    beams = model.observation_space["lidar"].shape[0]
+    angles = np.linspace(-FOV_RAD / 2, FOV_RAD / 2, beams)
+    with Vehicle(args.url) as car:
+        if not car.wait_armed(timeout_s=5):
+            raise ValueError(f"{args.url}: the car did not arm within 5 s")
+        first = car.state()
+        if first.x_m is None or car.lidar() is None:
+            raise ValueError(f"{args.url}: the policy needs the car's pose and its lidar, and this link gives "
+                             f"{'neither' if first.x_m is None and car.lidar() is None else 'only one'}")
+
+        def now():
+            s = car.state()
+            return SimpleNamespace(x=s.x_m, y=s.y_m, yaw=s.yaw_rad, speed=s.speed_m_s, yaw_rate=s.yaw_rate_rad_s or 0.0,
+                                   t=s.time_s)
+
+        state = now()
+        place, start_s, steps = Place(track, state), state.t, 0
+        metres, nearest_m, scan = 0.0, math.inf, None
+        while state.t - start_s < EPISODE_S:
+            if steps % LIDAR_EVERY == 0:
+                ranges = np.asarray(car.lidar(), dtype=float)
+                scan = np.interp(angles, np.linspace(-FOV_RAD / 2, FOV_RAD / 2, len(ranges)), ranges)
+            observation = {"state": place.observation(state)[None], "lidar": np.clip(scan, 0, LIDAR_RANGE_M)[None]}
+            action, _ = model.predict(normalise.normalize_obs(observation), deterministic=False)
+            throttle, steering = np.clip(action[0], -1.0, 1.0).tolist()
+            car.drive(throttle=throttle, steering=steering)
+            while (later := now()).t - state.t < 0.02:  # a control period of the car's time
+                time.sleep(0.002)
+            state, steps = later, steps + 1
+            metres += place.advance(state)
+            left, right = track.half_widths_at(place.hint)
+            nearest_m = min(nearest_m, (left - place.cte if place.cte > 0 else right + place.cte) - EscCar.half_width_m)
+    laps = metres / track.length_m
+    print(f"drove {metres:.1f} m = {laps:.2f} laps of {args.track} in {state.t - start_s:.1f} s on {args.url}; "
+          f"nearest a wall {nearest_m:.2f} m ({'touched it' if nearest_m <= 0 else 'never touched one'})")
     return ExitStatus.OK
 
 
@@ -196,6 +262,8 @@ if __name__ == "__main__":
     parser.add_argument("--seed", type=int, default=0, help="the same seed trains the same policy (default 0)")
     parser.add_argument("--out", type=Path, default=Path("out/ppo"), help="model and statistics go here")
     parser.add_argument("--drive", type=Path, metavar="MODEL.zip", help="drive one episode with a trained model")
+    parser.add_argument("--url", help="with --drive: the car to drive, by URL (e.g. \"sim://oval?speedup=4\"; a car "
+                                      "whose link gives its pose and lidar)")
     parser.add_argument("--car-profile", metavar="NAME|FILE",
                         help="the car trained or driven: a shipped profile (roar, f1tenth) or a .toml, e.g. the one "
                              "`roar fit` wrote for your car (default: the ROAR car)")
@@ -220,6 +288,8 @@ if __name__ == "__main__":
         parser.error("--workers must be 1..--envs")
     if not 0 < args.until_laps <= 1000:
         parser.error("--until-laps must be more than 0 and at most 1000")
+    if args.url and not args.drive:
+        parser.error("--url is the car --drive drives")
     if args.drive and args.randomize:
         parser.error("--randomize is for training; to drive another car give --car-profile")
     try:
