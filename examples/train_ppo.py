@@ -191,7 +191,7 @@ def drive(args) -> int:
 
 
 def drive_url(args, statistics: Path) -> int:
-    """The policy drives the car at args.url for EPISODE_S of the car's time (roar.Vehicle)."""
+    """The policy drives the car at args.url for --seconds of the car's time (roar.Vehicle)."""
     import math
     import pickle
     from types import SimpleNamespace
@@ -227,7 +227,7 @@ def drive_url(args, statistics: Path) -> int:
         state = now()
         place, start_s, steps = Place(track, state), state.t, 0
         metres, nearest_m, scan = 0.0, math.inf, None
-        while state.t - start_s < EPISODE_S:
+        while state.t - start_s < args.seconds:
             if steps % LIDAR_EVERY == 0:
                 ranges = np.asarray(car.lidar(), dtype=float)
                 scan = np.interp(angles, np.linspace(-FOV_RAD / 2, FOV_RAD / 2, len(ranges)), ranges)
@@ -262,6 +262,8 @@ if __name__ == "__main__":
     parser.add_argument("--seed", type=int, default=0, help="the same seed trains the same policy (default 0)")
     parser.add_argument("--out", type=Path, default=Path("out/ppo"), help="model and statistics go here")
     parser.add_argument("--drive", type=Path, metavar="MODEL.zip", help="drive one episode with a trained model")
+    parser.add_argument("--seconds", type=float, default=EPISODE_S,
+                        help=f"with --url: how long to drive, of the car's time (default {EPISODE_S:g})")
     parser.add_argument("--url", help="with --drive: the car to drive, by URL (e.g. \"sim://oval?speedup=4\"; a car "
                                       "whose link gives its pose and lidar)")
     parser.add_argument("--car-profile", metavar="NAME|FILE",
@@ -290,6 +292,8 @@ if __name__ == "__main__":
         parser.error("--until-laps must be more than 0 and at most 1000")
     if args.url and not args.drive:
         parser.error("--url is the car --drive drives")
+    if not 0 < args.seconds <= 3600:
+        parser.error("--seconds must be more than 0 and at most 3600")
     if args.drive and args.randomize:
         parser.error("--randomize is for training; to drive another car give --car-profile")
     try:

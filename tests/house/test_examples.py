@@ -111,31 +111,3 @@ def test_the_ppo_training_example_trains_the_same_policy_from_the_same_seed_and_
     assert bad.returncode == 1 and bad.stderr.strip() == "train_ppo: no car profile 'nope': use f1tenth, iarrc, roar " \
         "or a .toml file", bad.stderr
 
-
-def test_ppo_on_the_batched_world_learns_two_laps_and_drives_the_pybullet_car(tmp_path):
-    """examples/train_ppo.py --batched: 128 cars of the batched world until episodes average two laps
-    of the oval (seconds; make bench times it), environments' and learner's times printed apart; the
-    policy then drives the PyBullet car (RaceEnv) two laps or more, no wall, and sim:// by its URL."""
-    import re
-
-    import pytest
-
-    pytest.importorskip("stable_baselines3", reason="pip install 'roar-platform[rl]' (make setup installs it)")
-    example = ROOT / "examples" / "train_ppo.py"
-    trained = subprocess.run([sys.executable, str(example), "--batched", "--steps", "1000000", "--out", str(tmp_path)],
-                             capture_output=True, text=True, timeout=600)
-    assert trained.returncode == 0, trained.stdout[-1000:] + trained.stderr[-2000:]
-    assert re.search(r"^reached 2 laps/episode on oval: .* environments [0-9.]+ s, learner [0-9.]+ s\)$",
-                     trained.stdout, re.M), trained.stdout
-    driven = subprocess.run([sys.executable, str(example), "--drive", str(tmp_path / "model.zip")],
-                            capture_output=True, text=True, timeout=300)
-    found = re.search(r"drove [0-9.]+ m = ([0-9.]+) laps of oval in [0-9.]+ s \(time up\)", driven.stdout)
-    assert driven.returncode == 0 and found and float(found.group(1)) >= 2.0, driven.stdout + driven.stderr[-2000:]
-    by_url = subprocess.run([sys.executable, str(example), "--drive", str(tmp_path / "model.zip"), "--url",
-                             "sim://oval?speedup=4"], capture_output=True, text=True, timeout=300)
-    found = re.search(r"drove [0-9.]+ m = ([0-9.]+) laps of oval in 3[0-9.]+ s on sim://oval\?speedup=4; nearest a "
-                      r"wall [0-9.]+ m \(never touched one\)", by_url.stdout)
-    assert by_url.returncode == 0 and found and float(found.group(1)) >= 2.0, by_url.stdout + by_url.stderr[-2000:]
-    bad = subprocess.run([sys.executable, str(example), "--batched", "--workers", "2", "--steps", "64"],
-                         capture_output=True, text=True, timeout=300)
-    assert bad.returncode == 2 and "--batched steps its cars in this process" in bad.stderr, bad.stderr

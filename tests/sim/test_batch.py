@@ -4,6 +4,11 @@ PyBullet car closely on a lap and over 1 s of pulses; its lidar meets the walls 
 do; its vector environment is Race-v0's spaces, gives each car what that car alone gives, the same
 seeds the same runs, refuses bad input in one line, and learns."""
 
+import re
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -89,8 +94,10 @@ def test_bad_batch_sizes_are_refused_in_one_line():
         assert words in str(e.value) and "\n" not in str(e.value)
     with pytest.raises(ValueError, match="unknown track 'nowhere'"):
         BatchRaceEnv(2, track="nowhere")
-    with pytest.raises(ValueError, match="the batched world has no camera"):
+    with pytest.raises(ValueError, match=r"randomize\['camera_yaw_rad'\] draws the camera's: it needs camera="):
         BatchRaceEnv(2, randomize={"camera_yaw_rad": (0, 0.1)})
+    with pytest.raises(ValueError, match=r"camera width must be a finite number 16\.\.1280 px, got 8"):
+        BatchRaceEnv(2, camera=(8, 100))
 
 
 def test_nan_actions_are_refused_naming_the_car_and_nothing_moves():
@@ -209,3 +216,92 @@ def test_the_batched_car_laps_as_the_pybullet_car_does():
     assert abs(laps.time_ratio[1] - 1) <= 0.03, laps.time_ratio
     assert laps.path_rms_m <= 0.05
     assert laps.pybullet.walls == laps.batch.walls == 0
+
+
+def test_the_camera_sees_what_pybullets_does_as_the_lane_detector_finds_it():
+    """From poses along three tracks (off the centre line and turned), the batched camera's frame and
+    PyBullet's at 320 x 240: the lane detector finds the road's centre in both, and where it puts it
+    0.6-1.2 m ahead differs by a median of at most 2 px (docs/gym.md states the spread); depth agrees
+    where both see the floor."""
+    from roar.vision.geometry import SIMULATED_CAR_CAMERA, BirdsEye
+    from roar.vision.lanes import LaneDetector
+    from roar_sim.batch.camera import FloorPool, render
+    from roar_sim.batch.world import BatchWorld
+    from roar_sim.plants.racecar import Racecar
+    from roar_sim.world.bullet import pb
+
+    width, height = 320, 240
+    model = SIMULATED_CAR_CAMERA.model(width, height)
+    errors, floor_depth = [], []
+    for name in ("oval", "random:1", "figure-eight"):
+        track = get(name)
+        world = BatchWorld(1, tracks=[track])
+        floors = FloorPool(world.pool)
+        car = Racecar(track)
+        try:
+            for _ in range(30):  # settled on its wheels
+                car.step()
+            z = pb.getBasePositionAndOrientation(car.car, physicsClientId=car.client)[0][2]
+            rng = np.random.default_rng(1)
+            for s in np.linspace(0, track.length_m, 10, endpoint=False):
+                x, y, yaw = track.pose_at(float(s), float(rng.uniform(-0.15, 0.15)))
+                yaw += float(rng.uniform(-0.15, 0.15))
+                pb.resetBasePositionAndOrientation(car.car, [x, y, z], pb.getQuaternionFromEuler([0, 0, yaw]),
+                                                   physicsClientId=car.client)
+                world.reset([0], [[x, y, yaw]])
+                theirs, their_depth = car.camera(width, height)
+                ours, our_depth = render(world, floors, width, height)
+                seen = [LaneDetector(BirdsEye(model)).detect(frame).centre for frame in (theirs, ours[0])]
+                assert all(seen), (name, s)
+                for ahead in (0.6, 0.9, 1.2):
+                    u = [model.project(np.array([ahead]), np.array([line.y(ahead)]))[0][0] for line in seen]
+                    errors.append(abs(u[0] - u[1]))
+                floor_depth.append(np.abs(our_depth[0, -60:] - their_depth[-60:]).max())  # the nearest rows
+        finally:
+            car.close()
+    assert np.median(errors) <= 2.0, np.percentile(errors, [50, 90, 100])
+    assert max(floor_depth) < 0.01
+
+
+
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "train_ppo.py"
+
+
+@pytest.fixture(scope="module")
+def batched_policy(tmp_path_factory):
+    """examples/train_ppo.py --batched: 128 cars of the batched world until episodes average two
+    laps of the oval (make bench times it); the training's printout and the model's folder."""
+    pytest.importorskip("stable_baselines3", reason="pip install 'roar-platform[rl]' (make setup installs it)")
+    out = tmp_path_factory.mktemp("ppo_batched")
+    trained = subprocess.run([sys.executable, str(EXAMPLE), "--batched", "--steps", "1000000", "--out", str(out)],
+                             capture_output=True, text=True, timeout=600)
+    assert trained.returncode == 0, trained.stdout[-1000:] + trained.stderr[-2000:]
+    return trained.stdout, out
+
+
+@pytest.mark.xdist_group("batched_policy")  # one training for both tests
+def test_ppo_on_the_batched_world_learns_two_laps_and_drives_the_pybullet_car(batched_policy):
+    """Environments' and learner's times printed apart; the policy drives the PyBullet car (RaceEnv)
+    two laps or more, no wall; the example refuses --batched with processes of its own."""
+    printed, out = batched_policy
+    assert re.search(r"^reached 2 laps/episode on oval: .* environments [0-9.]+ s, learner [0-9.]+ s\)$", printed,
+                     re.M), printed
+    driven = subprocess.run([sys.executable, str(EXAMPLE), "--drive", str(out / "model.zip")],
+                            capture_output=True, text=True, timeout=300)
+    found = re.search(r"drove [0-9.]+ m = ([0-9.]+) laps of oval in [0-9.]+ s \(time up\)", driven.stdout)
+    assert driven.returncode == 0 and found and float(found.group(1)) >= 2.0, driven.stdout + driven.stderr[-2000:]
+    bad = subprocess.run([sys.executable, str(EXAMPLE), "--batched", "--workers", "2", "--steps", "64"],
+                         capture_output=True, text=True, timeout=300)
+    assert bad.returncode == 2 and "--batched steps its cars in this process" in bad.stderr, bad.stderr
+
+
+@pytest.mark.xdist_group("batched_policy")
+def test_the_batched_policy_drives_sim_by_its_url(batched_policy):
+    """The same policy drives sim://oval through roar.Vehicle (in real time: the car's failsafe
+    keeps its 250 ms on a busy machine) two laps in 16 s of the car's time, never at a wall."""
+    _, out = batched_policy
+    by_url = subprocess.run([sys.executable, str(EXAMPLE), "--drive", str(out / "model.zip"), "--url", "sim://oval",
+                             "--seconds", "16"], capture_output=True, text=True, timeout=300)
+    found = re.search(r"drove [0-9.]+ m = ([0-9.]+) laps of oval in 1[0-9.]+ s on sim://oval; nearest a wall "
+                      r"[0-9.]+ m \(never touched one\)", by_url.stdout)
+    assert by_url.returncode == 0 and found and float(found.group(1)) >= 2.0, by_url.stdout + by_url.stderr[-2000:]

@@ -7,5 +7,7 @@ lidar marched on each track's distance field (docs/gym.md: when to use it, how c
     kernels      the compiled loops: ESC, servo, latency, body, contact, lidar, progress
     model        a car's numbers: its profile's and the identified physics (Physics)
     world        BatchWorld: n cars, reset and stepped together
+    camera       every car's camera: rays cast on the floor's paint and the walls
     identify     Physics fitted to the PyBullet car by least squares
+    fidelity     how closely the batched car and the PyBullet car agree
 """

@@ -86,7 +86,12 @@ def _servo_advance(act, i, dt, rate, lag):
 @nb.njit(cache=True, nogil=True, fastmath=True)
 def _sdf(pool, meta, k, x, y):
     """[m] track k's distance from (x, y) to its nearest wall's face, bilinear; 1e9 off its grid."""
-    x0, y0, res, nx, ny, start = meta[k, 0], meta[k, 1], meta[k, 2], int(meta[k, 3]), int(meta[k, 4]), int(meta[k, 5])
+    return _sdf_in(pool, meta[k, 0], meta[k, 1], meta[k, 2], int(meta[k, 3]), int(meta[k, 4]), int(meta[k, 5]), x, y)
+
+
+@nb.njit(cache=True, nogil=True, fastmath=True)
+def _sdf_in(pool, x0, y0, res, nx, ny, start, x, y):
+    """_sdf on one track's grid given by its meta row's numbers (a loop over one track reads them once)."""
     fx, fy = (x - x0) / res, (y - y0) / res
     if not (0.0 <= fx < nx - 1 and 0.0 <= fy < ny - 1):
         return 1e9

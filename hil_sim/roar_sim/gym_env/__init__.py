@@ -108,13 +108,7 @@ def _problems(render_modes, track, camera, max_seconds, contact_penalty, crash_e
         problems.append(f"robot must be a robot's name ({', '.join(robots.names())}), got {shown(robot)}")
     if not isinstance(track, (str, Track)):
         problems.append(f"track must be a Track or a track's name ({FORMS}), got {shown(track)}")
-    if camera is not None:
-        size = tuple(camera) if isinstance(camera, (tuple, list)) else ()
-        if len(size) != 2 or not all(isinstance(v, int) and not isinstance(v, bool) for v in size):
-            problems.append(f"camera must be (width, height) in whole pixels, got {shown(camera)}")
-        else:
-            check("camera width", size[0], MIN_CAMERA_PX, MAX_CAMERA_SIZE[0], "px")
-            check("camera height", size[1], MIN_CAMERA_PX, MAX_CAMERA_SIZE[1], "px")
+    camera_check(camera, problems)
     check("max_seconds", max_seconds, 0, MAX_SECONDS_S, "s", low_open=True)
     check("contact_penalty", contact_penalty, 0, MAX_CONTACT_PENALTY)
     if not isinstance(crash_ends, bool):
@@ -133,6 +127,19 @@ def _problems(render_modes, track, camera, max_seconds, contact_penalty, crash_e
                         "use render_mode='rgb_array'; gymnasium's check_env(env, skip_render_check=True) skips "
                         "the human mode")
     return problems
+
+
+def camera_check(camera, problems: list[str]) -> None:
+    """What is wrong with a camera=(width, height) keyword (None: no camera) goes to problems."""
+    if camera is None:
+        return
+    size = tuple(camera) if isinstance(camera, (tuple, list)) else ()
+    if len(size) != 2 or not all(isinstance(v, int) and not isinstance(v, bool) for v in size):
+        problems.append(f"camera must be (width, height) in whole pixels, got {shown(camera)}")
+        return
+    check = number_check(problems)
+    check("camera width", size[0], MIN_CAMERA_PX, MAX_CAMERA_SIZE[0], "px")
+    check("camera height", size[1], MIN_CAMERA_PX, MAX_CAMERA_SIZE[1], "px")
 
 
 def action_values(action) -> tuple[float, float]:

@@ -40,16 +40,15 @@ from roar.calibration import Calibration
 from roar.checks import shown
 from roar.tracks import Track, TrackError
 from roar_sim import robots
-from roar_sim.gym_env import (LIDAR_BEAMS, LIDAR_EVERY, LIDAR_RANGE_M, MAX_CONTACT_PENALTY, MAX_LIDAR_BEAMS,
-                              MAX_SECONDS_S, SENSOR_RANGES, _profile, _randomize, number_check, start_pose,
-                              state_bounds)
+from roar_sim.gym_env import (FAR_M, LIDAR_BEAMS, LIDAR_EVERY, LIDAR_RANGE_M, MAX_CONTACT_PENALTY, MAX_LIDAR_BEAMS,
+                              MAX_SECONDS_S, SENSOR_RANGES, _profile, _randomize, camera_check, number_check,
+                              start_pose, state_bounds)
 from roar_sim.batch.model import physics_for
 from roar_sim.batch.track_pool import MAX_TRACKS, TrackPool
 from roar_sim.batch.world import BatchWorld
 from roar_sim.core.lockstep import CONTROL_PERIOD_S
 
 MAX_ENVS = 65536  # the most cars a batch steps
-CAMERA_KEYS = ("camera_yaw_rad", "camera_pitch_rad")  # randomize= keys of a camera the batch does not have
 
 
 def _tracks(track, problems: list[str]) -> list:
@@ -65,8 +64,9 @@ def _tracks(track, problems: list[str]) -> list:
 class BatchRaceEnv(gym.vector.VectorEnv):
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
 
-    def __init__(self, num_envs: int = 1024, track="oval", max_seconds: float = 60.0, contact_penalty: float = 1.0,
-                 crash_ends: bool = True, lidar_beams: int | None = None, profile: str | None = None,
+    def __init__(self, num_envs: int = 1024, track="oval", camera: tuple[int, int] | None = None,
+                 max_seconds: float = 60.0, contact_penalty: float = 1.0, crash_ends: bool = True,
+                 lidar_beams: int | None = None, profile: str | None = None,
                  randomize: dict[str, tuple[float, float]] | None = None,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, physics=None) -> None:
         """Race-v0's keywords (a track may be a list: the pool), num_envs (1..MAX_ENVS), autoreset_mode;
@@ -78,6 +78,7 @@ class BatchRaceEnv(gym.vector.VectorEnv):
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or not 1 <= num_envs <= MAX_ENVS:
             problems.append(f"num_envs must be a whole number 1..{MAX_ENVS}, got {shown(num_envs)}")
         tracks = _tracks(track, problems)
+        camera_check(camera, problems)
         check("max_seconds", max_seconds, 0, MAX_SECONDS_S, "s", low_open=True)
         check("contact_penalty", contact_penalty, 0, MAX_CONTACT_PENALTY)
         if not isinstance(crash_ends, bool):
@@ -90,11 +91,8 @@ class BatchRaceEnv(gym.vector.VectorEnv):
             check("lidar_beams", lidar_beams, 0, MAX_LIDAR_BEAMS)
         kind = robots.get("esc")
         base = _profile(profile, kind, problems)
-        for key in CAMERA_KEYS:
-            if isinstance(randomize, dict) and key in randomize:
-                problems.append(f"randomize[{key!r}]: the batched world has no camera (use roar/Race-v0)")
-                randomize = {k: v for k, v in randomize.items() if k != key}
-        self.randomize = _randomize(randomize, kind, problems, ("lidar",) if lidar_beams else ())
+        sensors = (*(("lidar",) if lidar_beams else ()), *(("camera",) if camera is not None else ()))
+        self.randomize = _randomize(randomize, kind, problems, sensors)
         try:
             autoreset_mode = AutoresetMode(autoreset_mode)
         except ValueError:
@@ -126,6 +124,17 @@ class BatchRaceEnv(gym.vector.VectorEnv):
         single = {"state": spaces.Box(-high, high, (8,), np.float32)}
         if lidar_beams:
             single["lidar"] = spaces.Box(0.0, LIDAR_RANGE_M, (lidar_beams,), np.float32)
+        self.camera_size = camera
+        self.floors = None
+        if camera is not None:
+            from roar_sim.batch.camera import FloorPool
+
+            w, h = camera
+            single["camera"] = spaces.Box(0, 255, (h, w, 3), np.uint8)
+            single["depth"] = spaces.Box(0.0, FAR_M, (h, w), np.float32)
+            self.floors = FloorPool(pool)
+            self._frames = (np.zeros((n, h, w, 3), np.uint8), np.zeros((n, h, w), np.float32))
+            self._mount = np.zeros((n, 2))  # each car's camera mount turned: (yaw, pitch) [rad] (randomize=)
         self.single_observation_space = spaces.Dict(single)
         self.single_action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         self.observation_space = batch_space(self.single_observation_space, n)
@@ -223,6 +232,8 @@ class BatchRaceEnv(gym.vector.VectorEnv):
             sensors = {k: float(rng.uniform(*self.randomize[k])) for k in sorted(self.randomize) if k in SENSOR_RANGES}
             self._lidar_noise[i] = sensors.get("lidar_noise_m", 0.0)
             self._lidar_turn[i] = sensors.get("lidar_yaw_rad", 0.0)
+            if self.camera_size is not None:
+                self._mount[i] = sensors.get("camera_yaw_rad", 0.0), sensors.get("camera_pitch_rad", 0.0)
             self._noise[i] = np.random.default_rng(int(rng.integers(2**63)))
         self.world.reset(idx, poses)
         self._steps[idx] = 0
@@ -309,6 +320,14 @@ class BatchRaceEnv(gym.vector.VectorEnv):
                 out["lidar"] = lidar
             else:
                 out["lidar"][scan] = lidar[scan]
+        if self.camera_size is not None:  # every car's frame, every step (only the lidar is held between scans)
+            from roar_sim.batch.camera import render
+
+            rgb, depth = render(w, self.floors, *self.camera_size, shake=self._mount, out=self._frames)
+            if into is None:
+                out["camera"], out["depth"] = rgb.copy(), depth.copy()
+            else:
+                out["camera"][scan], out["depth"][scan] = rgb[scan], depth[scan]
         return out
 
     def _infos(self, touching: np.ndarray) -> dict:
