@@ -94,7 +94,8 @@ def fidelity() -> None:
               f"path {laps.path_rms_m * 100:.1f} cm RMS; walls {laps.pybullet.walls}/{laps.batch.walls}: "
               f"{'ok' if ok else 'MISSED'}{cause}")
     drives = pybullet_drives(profile, HELD_OUT_SEEDS)
-    ends = open_loop(profile, drives)
+    kinds = open_loop(profile, drives)
+    ends = kinds["all"]
     share = float(np.mean(ends <= TARGET_END_M))
     verdict = "ok" if share == 1.0 else ("MISSED (the worst at full throttle and hard braking: PyBullet's rear wheels "
                                          "spin and lock, and its contacts jolt the yaw rate by up to 0.4 rad/s at full "
@@ -102,6 +103,11 @@ def fidelity() -> None:
     print(f"  open loop: {len(ends)} windows of 1 s from 0.5-2.5 m/s (drives the fit never saw): ends apart by median "
           f"{np.median(ends) * 100:.1f} cm, 90th percentile {np.percentile(ends, 90) * 100:.1f} cm, worst "
           f"{ends.max() * 100:.1f} cm; {share:.0%} within {TARGET_END_M * 100:.0f} cm: {verdict}")
+    for kind in ("gentle", "braking", "full throttle"):
+        e = kinds[kind]
+        if len(e):
+            print(f"    {kind}: {len(e)} windows, median {np.median(e) * 100:.1f} cm, {np.mean(e <= TARGET_END_M):.0%} "
+                  f"within {TARGET_END_M * 100:.0f} cm")
 
 
 def learning() -> None:

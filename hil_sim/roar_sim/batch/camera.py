@@ -1,10 +1,11 @@
 """A camera for the batched world's flat worlds: each pixel's ray cast onto the floor (its paint, a
 raster of each track) and the walls (marched on the track's distance field once a bearing: they
 stand upright), batched over cars and rows in compiled loops. The PyBullet car's camera as
-roar/Race-v0 has it: the ZED link's place, the same pinhole (roar.vision's SIMULATED_CAR_CAMERA: vertical field of view, pitch, principal
-point between the middle pixels), PyBullet's default light on the same colours, white beyond the
-far plane, depth along the optical axis; its mount's shake and its sensor's noise as
-roar_sim.sensors.camera_noise draws them (seeded per car, the same every run).
+roar/Race-v0 has it: the ZED link's place, the same pinhole (roar.vision's SIMULATED_CAR_CAMERA:
+vertical field of view, pitch, principal point between the middle pixels), PyBullet's default
+light on the same colours, white beyond the far plane, depth along the optical axis; its mount's
+shake and its sensor's noise as roar_sim.sensors.camera_noise draws them (seeded per car, the same
+every run).
 
     floors = FloorPool(pool)                          # every track's paint at 1 cm
     rgb, depth = render(world, floors, 320, 240)      # uint8 [n, 240, 320, 3], float32 [n, 240, 320]

@@ -116,15 +116,33 @@ def _agent(model, track: Track):
     return race_agent(track.centerline, model, CONTROL_PERIOD_S)
 
 
+FULL_THROTTLE_US = 1900  # [us] a window with a pulse this high: full throttle (wheelspin in PyBullet)
+BRAKING_US = 1450  # [us] a window with a pulse this low: braking (locked wheels in PyBullet)
+
+
 def open_loop(profile: CarProfile, drives: list[Drive], physics: Physics | None = None,
-              speeds=MOVING_M_S) -> np.ndarray:
-    """[m] where each 1 s window that starts at `speeds` ends, the batch's against PyBullet's."""
+              speeds=MOVING_M_S) -> dict[str, np.ndarray]:
+    """[m] where each 1 s window that starts at `speeds` ends, the batch's against PyBullet's: all
+    of them ("all"), and apart by what the window asks: "full throttle" (a pulse at or above
+    FULL_THROTTLE_US), "braking" (one at or below BRAKING_US), "gentle" (neither)."""
     from roar_sim.batch.identify import WINDOW_S, window_errors
     from roar_sim.batch.model import physics_for
 
     physics = physics or physics_for(profile)
     errors = window_errors(drives, batch_drives(profile, physics, drives))
     every = round(WINDOW_S / CONTROL_PERIOD_S)
-    starts = np.array([d.body[0:errors.shape[1] * every:every, 3] for d in drives])
-    keep = (np.abs(starts) >= speeds[0]) & (np.abs(starts) <= speeds[1])
-    return errors[keep]
+    out = {"all": [], "full throttle": [], "braking": [], "gentle": []}
+    for drive, ends in zip(drives, errors):
+        for w, end in enumerate(ends.tolist()):
+            pulses = drive.throttle_us[w * every:(w + 1) * every]
+            if not speeds[0] <= abs(drive.body[w * every, 3]) <= speeds[1]:
+                continue
+            out["all"].append(end)
+            full, braking = pulses.max() >= FULL_THROTTLE_US, pulses.min() <= BRAKING_US
+            if full:
+                out["full throttle"].append(end)
+            if braking:
+                out["braking"].append(end)
+            if not (full or braking):
+                out["gentle"].append(end)
+    return {kind: np.array(values) for kind, values in out.items()}

@@ -32,7 +32,7 @@ FREE = ("mu_share", "slip_tau_s", "cg_share", "yaw_radius", "cg_height_m", "tau_
         "sliding_grip", "wheel_share")
 BOUNDS = {"mu_share": (0.3, 2.0), "slip_tau_s": (0.001, 0.1), "cg_share": (0.2, 0.8),
           "yaw_radius": (0.05, 0.3), "cg_height_m": (0.0, 0.2), "tau_s": (0.002, 0.5), "roll_n_per_kg": (0.0, 2.0),
-          "damping_per_s": (0.0, 2.0), "sliding_grip": (0.0, 1.0), "wheel_share": (0.8, 1.05)}
+          "damping_per_s": (0.0, 2.0), "sliding_grip": (0.0, 1.0), "wheel_share": (0.8, 1.2)}
 YAW_M = 0.3  # [m] a radian of heading weighs as this far in a window's error
 SPEED_S = 0.3  # [s] a m/s of speed weighs as this far
 
@@ -184,11 +184,14 @@ def main(argv=None) -> int:
 
     parser = argparse.ArgumentParser(prog="python -m roar_sim.batch.identify", description=__doc__.split("\n\n")[0])
     parser.add_argument("profile", nargs="?", default=car_profile.DEFAULT, help="a car profile's name or .toml file")
-    parser.add_argument("--drives", type=int, default=8, help="PyBullet drives to fit on (default 8)")
+    parser.add_argument("--drives", type=int, default=12, help="PyBullet drives to fit on (default 12)")
     args = parser.parse_args(argv)
     profile = car_profile.load(args.profile)
     drives = pybullet_drives(profile, range(args.drives))
-    fitted = fit(profile, drives)
+    from roar_sim.batch.model import physics_for
+
+    fitted = fit(profile, drives, physics_for(profile))  # from its last fit (or the default's): least squares finds
+    #                                                      the nearest minimum
     print(fitted.table())
     print(physics_toml(profile, fitted))
     return 0
