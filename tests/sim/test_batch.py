@@ -155,7 +155,7 @@ def test_the_vector_api_has_race_v0s_spaces_and_both_autoresets():
     from roar_sim.gym_env import RaceEnv
     from roar_sim.gym_env.batched import BatchRaceEnv
 
-    env = gym.make_vec("roar_sim.gym_env.batched:roar/BatchRace-v0", num_envs=3,
+    env = gym.make_vec("roar_sim.gym_env:roar/BatchRace-v0", num_envs=3,
                        vectorization_mode="vector_entry_point", max_seconds=0.5)
     single = RaceEnv(track="oval")
     assert env.single_observation_space == single.observation_space

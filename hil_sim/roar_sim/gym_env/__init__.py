@@ -406,3 +406,6 @@ class RaceEnv(gym.Env):
 if "roar/Race-v0" not in gym.registry:  # make_vec(..., vectorization_mode="vector_entry_point"): every core
     gym.register(id="roar/Race-v0", entry_point="roar_sim.gym_env:RaceEnv",
                  vector_entry_point="roar_sim.gym_env.vector:RaceVectorEnv")
+if "roar/BatchRace-v0" not in gym.registry:  # the batched world's cars (roar_sim.gym_env.batched), one or many
+    gym.register(id="roar/BatchRace-v0", entry_point="roar_sim.gym_env.batched:BatchCarEnv",
+                 vector_entry_point="roar_sim.gym_env.batched:BatchRaceEnv")

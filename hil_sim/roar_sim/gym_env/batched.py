@@ -3,8 +3,9 @@ vector API, with Race-v0's observation and action spaces, rewards and ends, for 
 speed (docs/gym.md: when to use it, when the PyBullet world, and how closely they agree).
 
     envs = BatchRaceEnv(1024, track=["oval", "random:3"])       # a pool of tracks, shared out in turn
-    envs = gymnasium.make_vec("roar/BatchRace-v0", num_envs=1024, vectorization_mode="vector_entry_point")
-    env = gymnasium.make("roar/BatchRace-v0")                    # one car (BatchCarEnv)
+    envs = gymnasium.make_vec("roar_sim.gym_env:roar/BatchRace-v0", num_envs=1024,
+                              vectorization_mode="vector_entry_point")
+    env = gymnasium.make("roar_sim.gym_env:roar/BatchRace-v0")   # one car (BatchCarEnv)
 
 Each car is the ESC car: its action goes through the library's calibration to a control message,
 the firmware core's board loop (in C, for all cars in one call), its ESC and servo behind its
@@ -13,7 +14,9 @@ track's distance field. Car i drives track i mod K of the pool. Everything else 
 
     action       [throttle, steering], each -1..1 (clipped); a NaN or an infinity is a ValueError
     observation  {"state": [x, y, cos yaw, sin yaw, speed, yaw rate, cross-track, heading error],
-                  "lidar": ranges [m] over 270 deg, right to left, a scan every 2nd action}
+                  "lidar": ranges [m] over 270 deg, right to left, a scan every 2nd action,
+                  "camera": RGB and "depth": metres, when camera=(width, height) is asked for
+                           (roar_sim.batch.camera: the floor's paint and the walls)}
     reward       metres of progress along the centre line, minus contact_penalty a step at a wall
     terminated   touching a wall (crash_ends=True), or off the track;  truncated: after max_seconds
 
@@ -376,7 +379,3 @@ class BatchCarEnv(gym.Env):
         return ({k: v[0] for k, v in observation.items()}, float(rewards[0]), bool(terminated[0]),
                 bool(truncated[0]), infos[0])
 
-
-if "roar/BatchRace-v0" not in gym.registry:
-    gym.register(id="roar/BatchRace-v0", entry_point="roar_sim.gym_env.batched:BatchCarEnv",
-                 vector_entry_point="roar_sim.gym_env.batched:BatchRaceEnv")
