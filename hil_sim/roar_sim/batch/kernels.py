@@ -265,6 +265,8 @@ def scan(body, params, track_of, pool, meta, angles, turn, range_m, min_range_m,
         ahead = p[P_LIDAR] - p[P_BASE]  # [m] from the centre of mass to the lidar
         ox, oy = body[i, X] + ahead * c, body[i, Y] + ahead * s
         k = track_of[i]
+        x0, y0, res = meta[k, 0], meta[k, 1], meta[k, 2]
+        nx, ny, start = int(meta[k, 3]), int(meta[k, 4]), int(meta[k, 5])
         for b in range(beams):
             a = yaw + turn[i] + angles[b]
             dx, dy = math.cos(a), math.sin(a)
@@ -272,7 +274,7 @@ def scan(body, params, track_of, pool, meta, angles, turn, range_m, min_range_m,
             hit = range_m
             last_d, last_step = 1e9, 0.0
             for _ in range(MARCH_STEPS):
-                d = _sdf(pool, meta, k, ox + t * dx, oy + t * dy)
+                d = _sdf_in(pool, x0, y0, res, nx, ny, start, ox + t * dx, oy + t * dy)  # (its track's grid read once)
                 if last_step > last_d + d:  # the over-long step passed a wall: back to a plain one
                     t -= last_step - last_d
                     last_d, last_step = 1e9, last_d
