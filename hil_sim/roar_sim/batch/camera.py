@@ -3,9 +3,9 @@ raster of each track) and the walls (marched on the track's distance field once 
 stand upright), batched over cars and rows in compiled loops. The PyBullet car's camera as
 roar/Race-v0 has it: the ZED link's place, the same pinhole (roar.vision's SIMULATED_CAR_CAMERA:
 vertical field of view, pitch, principal point between the middle pixels), PyBullet's default
-light on the same colours, white beyond the far plane, depth along the optical axis; its mount's
-shake and its sensor's noise as roar_sim.sensors.camera_noise draws them (seeded per car, the same
-every run).
+light on the same colours, white beyond the far plane, depth along the optical axis; on request a
+mount turned per car (shake=, as roar_sim.sensors.camera_noise shakes it) and the sensor's noise
+(noise=, its sigma; drawn from each car's key, the same every run).
 
     floors = FloorPool(pool)                          # every track's paint at 1 cm
     rgb, depth = render(world, floors, 320, 240)      # uint8 [n, 240, 320, 3], float32 [n, 240, 320]
@@ -41,14 +41,6 @@ BINS = 1024
 Q_MAX = 1.3
 
 
-def _lit(rgb, normal, light: Light) -> np.ndarray:
-    """A colour as PyBullet's renderers shade a face (ambient + diffuse by its angle to the light)."""
-    to_light = np.asarray(light.direction, dtype=float)
-    to_light /= np.linalg.norm(to_light)
-    shade = light.ambient + light.diffuse * max(0.0, float(np.dot(normal, to_light)))
-    return np.clip(np.asarray(rgb, dtype=float) * shade, 0, 255)
-
-
 class FloorPool:
     """Every pool track's floor as colour classes at FLOOR_RES_M (0: asphalt, then each paint of
     roar_sim.world.floor in turn) and the classes' colours as lit from above."""
@@ -79,11 +71,12 @@ class FloorPool:
             at += raster.size
         self.raster = np.concatenate(rasters)
         self.meta = np.array(meta, dtype=np.float64)
-        self.palette = np.array([_lit(c, (0.0, 0.0, 1.0), self.light) for c in colours], dtype=np.float64)
-        self.wall_rgb = np.asarray(WALL_RGBA[:3]) * 255
         to_light = np.asarray(self.light.direction, dtype=float)
-        self.to_light = to_light / np.linalg.norm(to_light)
-
+        self.to_light = to_light / np.linalg.norm(to_light)  # (the renderers shade a face by ambient + diffuse
+        #                                                      times its normal's cosine to this)
+        floor_shade = self.light.ambient + self.light.diffuse * max(0.0, float(self.to_light[2]))
+        self.palette = np.clip(np.array(colours, dtype=np.float64) * floor_shade, 0, 255)
+        self.wall_rgb = np.asarray(WALL_RGBA[:3]) * 255
         self._tables = (np.empty((0, BINS)), np.empty((0, BINS)))
 
     def tables(self, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -91,10 +84,6 @@ class FloorPool:
         if self._tables[0].shape[0] != n:
             self._tables = (np.empty((n, BINS)), np.empty((n, BINS)))
         return self._tables
-
-    @property
-    def bytes(self) -> int:
-        return self.raster.nbytes + self.meta.nbytes
 
 
 @nb.njit(cache=True, nogil=True, fastmath=True)

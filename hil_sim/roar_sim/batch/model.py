@@ -43,9 +43,6 @@ class Physics:
     wheel_share: float = 0.95  # the wheels' rolling radius, a share of theirs (they sink into the floor a little)
     base_ahead_m: float = 0.0  # [m] the base's origin ahead of the rear axle
 
-    def vector(self) -> np.ndarray:
-        return np.array([getattr(self, f.name) for f in fields(self)])
-
 
 def parameters(profile: CarProfile, physics: Physics | None = None) -> np.ndarray:
     """float64 [kernels.PARAMS]: the kernels' numbers for a car of this profile."""

@@ -4,9 +4,11 @@ latency and its single-track body (roar_sim.batch.kernels, compiled), in the PyB
 physics steps.
 
     world = BatchWorld(1024, tracks=["oval", "random:3"])
-    world.reset(np.arange(1024), seeds)               # each car at its track's start, its board rebooted
+    world.track_of[:] = np.arange(1024) % 2           # which of the pool's tracks each car drives
+    world.reset(np.arange(1024), poses)               # at poses [1024, 3], at rest, its board rebooted
     world.step(throttle_us, steering_us)              # one control period (20 ms) for every car
-    world.scan(beams=72); world.place()               # lidar ranges; where each car is on its track
+    world.scan(beams=72); world.states()              # lidar ranges; each car's pose, speed, yaw rate
+    world.s, world.cte, world.touching                # where each car is on its track, at a wall
 
 Cars never meet: each drives its own copy of its track. A car that touches a wall stops there.
 """
@@ -70,14 +72,12 @@ class BatchWorld:
         """Car i's own numbers from now on (its next reset puts it back at the start)."""
         self.params[i] = parameters(profile, physics or self.physics)
 
-    def reset(self, cars, poses: np.ndarray, tracks=None) -> None:
-        """Those cars placed at poses ([len(cars), 3]: the base's x, y [m] and yaw [rad]) on the pool's
-        tracks (indices; default: as they were), at rest, their boards rebooted; their next step()
-        is their arming: neutral, whatever it is given."""
+    def reset(self, cars, poses: np.ndarray) -> None:
+        """Those cars placed at poses ([len(cars), 3]: the base's x, y [m] and yaw [rad]) on their
+        tracks (track_of), at rest, their boards rebooted; their next step() is their arming:
+        neutral, whatever it is given."""
         cars = np.atleast_1d(np.asarray(cars, dtype=np.int64))
         poses = np.asarray(poses, dtype=np.float64).reshape(len(cars), 3)
-        if tracks is not None:
-            self.track_of[cars] = np.broadcast_to(tracks, cars.shape)
         self.boards.reboot(cars)
         ahead = self.params[cars, k.P_BASE]  # [m] the centre of mass ahead of the base
         self.body[cars] = 0.0

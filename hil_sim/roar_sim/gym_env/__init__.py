@@ -142,6 +142,27 @@ def camera_check(camera, problems: list[str]) -> None:
     check("camera height", size[1], MIN_CAMERA_PX, MAX_CAMERA_SIZE[1], "px")
 
 
+def profile_draws(randomize: dict[str, tuple[float, float]], rng: np.random.Generator) -> dict[str, float]:
+    """An episode's draw of randomize='s profile keys (in the order of their names), from rng."""
+    return {k: float(rng.uniform(a, b)) for k, (a, b) in sorted(randomize.items()) if k not in SENSOR_RANGES}
+
+
+def sensor_draws(randomize: dict[str, tuple[float, float]], rng: np.random.Generator) -> dict[str, float]:
+    """An episode's draw of randomize='s sensor keys (SENSOR_RANGES'), from rng, after its profile's."""
+    return {k: float(rng.uniform(a, b)) for k, (a, b) in sorted(randomize.items()) if k in SENSOR_RANGES}
+
+
+def least_turning(profile, base, randomize: dict[str, tuple[float, float]]):
+    """The profile a track's bends are checked against: of those randomize= may draw around base, the
+    one that turns least (the least steering, the longest wheelbase); `profile` where none turns less."""
+    worst = {}
+    if "max_steer_rad" in randomize:
+        worst["max_steer_rad"] = randomize["max_steer_rad"][0]
+    if "wheelbase_m" in randomize:
+        worst["wheelbase_m"] = randomize["wheelbase_m"][1]
+    return dataclasses.replace(base, **worst) if worst else profile
+
+
 def action_values(action) -> tuple[float, float]:
     """(throttle, steering), each clipped to -1..1 (the action space's bounds); a ValueError in
     one line for anything but two finite numbers."""
@@ -318,8 +339,7 @@ class RaceEnv(gym.Env):
         own = {} if profile is None else {"profile": profile}
         self.sim = self.kind(self.track, pose, gui=self.render_mode == "human", **own)
         self.sim.arm()  # the ESC car boots latched until it hears neutral
-        self._sensors = {k: float(self.np_random.uniform(*self.randomize[k])) for k in sorted(self.randomize)
-                         if k in SENSOR_RANGES}
+        self._sensors = sensor_draws(self.randomize, self.np_random)
         # the scans' noise from a generator of the episode's own: the same seed, the same noise
         self._noise = np.random.default_rng(int(self.np_random.integers(2**63)))
         state = self.sim.state()
@@ -357,23 +377,11 @@ class RaceEnv(gym.Env):
 
     def _drawn(self):
         """This episode's profile: the base with each randomized key drawn (None: the default car)."""
-        if not self.randomize:
-            return self.profile
-        draws = {k: float(self.np_random.uniform(a, b)) for k, (a, b) in sorted(self.randomize.items())
-                 if k not in SENSOR_RANGES}
+        draws = profile_draws(self.randomize, self.np_random)
         return dataclasses.replace(self._base(), **draws) if draws else self.profile
 
     def _least_turning(self):
-        """The profile the track's bends are checked against: the one that turns least of those drawn
-        (the least steering, the longest wheelbase)."""
-        if not set(self.randomize) - set(SENSOR_RANGES):
-            return self.profile
-        worst = {}
-        if "max_steer_rad" in self.randomize:
-            worst["max_steer_rad"] = self.randomize["max_steer_rad"][0]
-        if "wheelbase_m" in self.randomize:
-            worst["wheelbase_m"] = self.randomize["wheelbase_m"][1]
-        return dataclasses.replace(self._base(), **worst)
+        return least_turning(self.profile, self._base(), self.randomize)
 
     def _observation(self, s) -> dict:
         plant = self.sim.plant

@@ -44,8 +44,8 @@ from roar.checks import shown
 from roar.tracks import Track, TrackError
 from roar_sim import robots
 from roar_sim.gym_env import (FAR_M, LIDAR_BEAMS, LIDAR_EVERY, LIDAR_RANGE_M, MAX_CONTACT_PENALTY, MAX_LIDAR_BEAMS,
-                              MAX_SECONDS_S, SENSOR_RANGES, _profile, _randomize, camera_check, number_check,
-                              start_pose, state_bounds)
+                              MAX_SECONDS_S, _profile, _randomize, camera_check, least_turning, number_check,
+                              profile_draws, sensor_draws, start_pose, state_bounds)
 from roar_sim.batch.model import physics_for
 from roar_sim.batch.track_pool import MAX_TRACKS, TrackPool
 from roar_sim.batch.world import BatchWorld
@@ -108,7 +108,7 @@ class BatchRaceEnv(gym.vector.VectorEnv):
         self.profile = base or kind.profile_of()
         try:
             pool = TrackPool(tracks)
-            least = self._least_turning()
+            least = least_turning(self.profile, self.profile, self.randomize)
             for t in pool.tracks:
                 kind.check_track(t, least)
         except (TrackError, ValueError) as e:
@@ -174,15 +174,10 @@ class BatchRaceEnv(gym.vector.VectorEnv):
         self._started = True
         return self._observation(cars), self._infos(np.zeros(n, dtype=bool))
 
-    def step(self, actions):
-        observation, rewards, terminated, truncated, infos = self._step(actions)
-        return observation, rewards, terminated, truncated, infos
-
     def step_each(self, actions):
         """step() with each car's info as a dict of its own (what Stable-Baselines3 wants)."""
-        observation, rewards, terminated, truncated, infos = self._step(actions)
-        each = [{"time_s": float(infos["time_s"][i]), "progress_m": float(infos["progress_m"][i]),
-                 "wall_contact": bool(infos["wall_contact"][i])} for i in range(self.num_envs)]
+        observation, rewards, terminated, truncated, infos = self.step(actions)
+        each = [_info_of(infos, i) for i in range(self.num_envs)]
         if "final_obs" in infos:
             for i in np.flatnonzero(infos["_final_obs"]).tolist():
                 each[i]["final_obs"] = infos["final_obs"][i]
@@ -191,8 +186,7 @@ class BatchRaceEnv(gym.vector.VectorEnv):
 
     def reset_each(self, *, seed=None, options=None):
         observation, infos = self.reset(seed=seed, options=options)
-        return observation, [{"time_s": float(infos["time_s"][i]), "progress_m": float(infos["progress_m"][i]),
-                              "wall_contact": False} for i in range(self.num_envs)]
+        return observation, [_info_of(infos, i) for i in range(self.num_envs)]
 
     def get_attr(self, name: str) -> tuple:
         """Each car's value of an attribute (as RaceVectorEnv's): its track for "track", else the batch's."""
@@ -208,15 +202,6 @@ class BatchRaceEnv(gym.vector.VectorEnv):
 
     # --- helpers -----------------------------------------------------------------------------
 
-    def _least_turning(self):
-        """The profile the tracks' bends are checked against: the one that turns least of those drawn."""
-        worst = {}
-        if "max_steer_rad" in self.randomize:
-            worst["max_steer_rad"] = self.randomize["max_steer_rad"][0]
-        if "wheelbase_m" in self.randomize:
-            worst["wheelbase_m"] = self.randomize["wheelbase_m"][1]
-        return dataclasses.replace(self.profile, **worst) if worst else self.profile
-
     def _neutral_pulses(self) -> np.ndarray:
         return np.full(self.num_envs, self.calibration.throttle.trim_us, dtype=np.uint16)
 
@@ -224,15 +209,14 @@ class BatchRaceEnv(gym.vector.VectorEnv):
         """Those cars at their tracks' starts (each seed's), their episodes' cars and sensors drawn."""
         idx = np.flatnonzero(cars)
         poses = np.empty((len(idx), 3))
-        profile_keys = sorted(k for k in self.randomize if k not in SENSOR_RANGES)
         for row, i in enumerate(idx.tolist()):
             rng = self._rngs[i]
             track = self.pool.tracks[self.world.track_of[i]]
             poses[row] = start_pose(track.start_pose, rng)
-            if profile_keys:
-                draws = {k: float(rng.uniform(*self.randomize[k])) for k in profile_keys}
+            draws = profile_draws(self.randomize, rng)
+            if draws:
                 self.world.set_car(i, dataclasses.replace(self.profile, **draws))
-            sensors = {k: float(rng.uniform(*self.randomize[k])) for k in sorted(self.randomize) if k in SENSOR_RANGES}
+            sensors = sensor_draws(self.randomize, rng)
             self._lidar_noise[i] = sensors.get("lidar_noise_m", 0.0)
             self._lidar_turn[i] = sensors.get("lidar_yaw_rad", 0.0)
             if self.camera_size is not None:
@@ -250,7 +234,7 @@ class BatchRaceEnv(gym.vector.VectorEnv):
         a = np.clip(a, -1.0, 1.0)
         return _to_us(self.calibration.throttle, a[:, 0]), _to_us(self.calibration.steering, a[:, 1])
 
-    def _step(self, actions):
+    def step(self, actions):
         if not self._started:
             raise RuntimeError("call reset() before step()")
         throttle, steering = self._pulses(actions)
@@ -272,8 +256,7 @@ class BatchRaceEnv(gym.vector.VectorEnv):
         observation = self._observation(resetting | (self._steps % LIDAR_EVERY == 0))
         if self.autoreset_mode == AutoresetMode.SAME_STEP and ended.any():
             final_obs = _rows(observation, ended)
-            final_info = [{"time_s": float(infos["time_s"][i]), "progress_m": float(infos["progress_m"][i]),
-                           "wall_contact": bool(infos["wall_contact"][i])} for i in np.flatnonzero(ended).tolist()]
+            final_info = [_info_of(infos, i) for i in np.flatnonzero(ended).tolist()]
             self._reset_cars(ended)
             world.step(self._neutral_pulses(), self._neutral_pulses(), ended)  # their arming period
             observation = self._observation(ended, observation)
@@ -345,6 +328,12 @@ def _to_us(channel, v: np.ndarray) -> np.ndarray:
     v = -v if channel.reversed else v
     span = np.where(v >= 0, channel.max_us - channel.trim_us, channel.trim_us - channel.min_us)
     return np.round(channel.trim_us + v * span).astype(np.uint16)
+
+
+def _info_of(infos: dict, i: int) -> dict:
+    """Car i's info as a dict of its own, from the batch's arrays."""
+    return {"time_s": float(infos["time_s"][i]), "progress_m": float(infos["progress_m"][i]),
+            "wall_contact": bool(infos["wall_contact"][i])}
 
 
 def _first_bad(a: np.ndarray, n: int) -> str:
