@@ -9,6 +9,7 @@ import re
 import signal
 import subprocess
 import sys
+import textwrap
 import time
 import urllib.request
 from collections.abc import Iterator
@@ -170,3 +171,55 @@ def test_ctrl_c_ends_a_command_started_with_sigint_ignored(busy_machine, tmp_pat
         then(wait_for_output(proc, out, marker))
         status, ended_s, text = interrupt(proc, out, "int-process")
     assert status == ExitStatus.INTERRUPTED and ended_s < ENDS_WITHIN_S and "Traceback" not in text, text
+
+
+def run_python(tmp_path, source: str, *args: str) -> subprocess.CompletedProcess:
+    """`python -m probe ARGS` (as `python -m roar.cli` runs) with source as probe.py."""
+    (tmp_path / "probe.py").write_text(textwrap.dedent(source))
+    return subprocess.run([sys.executable, "-m", "probe", *args], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=120)
+
+
+def test_a_ctrl_c_that_landed_in_an_import_does_not_turn_the_status_into_a_death_by_sigint(tmp_path):
+    """A Ctrl-C that lands while scipy imports leaves its `exec("from numpy import *")`; the command
+    catches it and reports 130 (here: the error status of a bad command), and CPython 3.11 must not
+    then kill it by SIGINT at exit (which a shell shows as 130 too; a parent process sees -2)."""
+    done = run_python(tmp_path, """
+        import sys
+        from roar.cli.main import main, parser
+        parser()  # what main() would import and build first, built here
+        try:
+            exec("raise KeyboardInterrupt")  # a Ctrl-C that left an exec() of a string, caught
+        except KeyboardInterrupt:
+            pass
+        sys.exit(main())
+        """, "no-such-command")
+    assert done.returncode == ExitStatus.ERROR, done.stderr
+
+
+def test_ctrl_c_while_osqp_solves_the_racing_line_interrupts_the_command(tmp_path):
+    """OSQP takes SIGINT for itself while it solves (and returns "interrupted"): the racing line
+    raises the Ctrl-C as the KeyboardInterrupt it is, instead of racing on with a half-solved line."""
+    done = run_python(tmp_path, """
+        import os, signal, threading
+        import numpy as np
+        import osqp
+        import scipy.sparse as sp
+        from roar.autopilot.racing_line import _solve
+
+        solve = osqp.OSQP.solve
+
+        def solve_until_ctrl_c(self, *args, **kwargs):
+            threading.Timer(0.05, os.kill, (os.getpid(), signal.SIGINT)).start()
+            return solve(self, *args, **kwargs)
+
+        osqp.OSQP.solve = solve_until_ctrl_c
+        n = 100_000  # a solve of about a second, well past the Ctrl-C
+        d2 = sp.diags([1.0, -2.0, 1.0], [-1, 0, 1], shape=(n, n))
+        try:
+            _solve(osqp, sp, (d2.T @ d2).tocsc(), np.random.default_rng(0).normal(size=n), -np.ones(n), np.ones(n))
+            print("solved on")
+        except KeyboardInterrupt:
+            print("interrupted")
+        """)
+    assert done.stdout.split()[-1:] == ["interrupted"], done.stdout + done.stderr

@@ -129,6 +129,9 @@ def _solve(osqp, sp, p, q, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     problem.setup(sp.triu(p, format="csc"), q, sp.identity(len(q), format="csc"), lower, upper, verbose=False,
                   eps_abs=1e-6, eps_rel=1e-6, max_iter=200_000, polishing=False)
     result = problem.solve(raise_error=False)  # its status is checked here
+    if result.info.status_val == osqp.SolverStatus.OSQP_SIGINT:
+        # OSQP takes SIGINT for itself while it solves and returns "interrupted": the Ctrl-C is ours
+        raise KeyboardInterrupt
     if result.x is None or not np.all(np.isfinite(result.x)):
         raise ValueError(f"the racing line's QP was not solved: {result.info.status}")
     return np.clip(result.x, lower, upper)

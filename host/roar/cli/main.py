@@ -113,6 +113,10 @@ def main(argv: list[str] | None = None) -> int:
         # it has ended: a Ctrl-C while the interpreter shuts down (its threads, its atexit) must
         # not turn the status it reports (130 for the Ctrl-C that ended it) into a death by SIGINT
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+        # CPython 3.11 marks a KeyboardInterrupt that left any exec() of a string (scipy runs
+        # `exec("from numpy import *")` on import) as unhandled, and `python -m roar.cli` then dies
+        # by SIGINT after the status was set, whatever caught it; an exec() that ends well unmarks it
+        exec("")
     return status
 
 
