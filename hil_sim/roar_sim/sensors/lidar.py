@@ -76,9 +76,9 @@ class WallCaster:
         self.boxes = np.ascontiguousarray(np.concatenate(boxes))
         self.range_m = range_m
         self._reach = np.hypot(self.boxes[:, 3], self.boxes[:, 4]) + range_m  # [m] a box this near may be met
-        from roar.localization.raycast import compiled  # (not at start-up: every simulated car imports this module)
+        from roar.compiled import compiled  # (not at start-up: every simulated car imports this module)
 
-        self._slabs = compiled("wall slabs", _slab_kernel)
+        self._slabs = compiled("the simulated lidar's wall slabs", _slab_kernel, "sim")
 
     def cast(self, origin, angles: np.ndarray, others=()) -> np.ndarray:
         """[m] along each beam from origin (x, y) at world angles [rad] to the first wall or box of

@@ -27,6 +27,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from roar.compiled import compiled
 from roar.protocol import spec
 
 N = spec.CONTROL_NEUTRAL_US  # [us]
@@ -164,22 +165,23 @@ def esc_fraction(car: Car, throttle_us: np.ndarray) -> np.ndarray:
 
 def speeds(car: Car, throttle_us: np.ndarray, starts: np.ndarray, v0: np.ndarray, steps: int) -> np.ndarray:
     """[m/s] speed over `steps` grid steps from each start index (rows: windows), from v0 there,
-    for the throttle pulses the ESC takes at each grid step (after the board's sequence)."""
+    for the throttle pulses the ESC takes at each grid step (after the board's sequence): the
+    motor pushes towards its wheels' speed (top * fraction) and never past it, a car faster than
+    its wheels (same direction) coasts down to them, and within the dead band it coasts to rest
+    (roar.fit.speed_kernel, compiled)."""
     drive = esc_fraction(car, throttle_us)
     idx = np.minimum(starts[:, None] + np.arange(steps)[None, :], len(throttle_us) - 1)
-    fractions = drive[idx]
-    v = v0.astype(float)
     out = np.empty(idx.shape)
-    for k in range(steps):
-        f = fractions[:, k]
-        target = f * car.top_m_s  # the wheels' speed the motor drives towards (0 in the dead band)
-        push = np.minimum(car.drive_m_s2 * np.abs(f) + car.coast_m_s2, car.traction_m_s2) * STEP_S
-        coast = car.coast_m_s2 * STEP_S
-        towards = np.where(f != 0, push, coast)  # driven: the motor's push; in the dead band: drag to rest
-        # the motor pushes towards its speed and never past it; a car faster than its wheels
-        # (same direction) coasts down to them
-        faster = (np.abs(v) > np.abs(target)) & (v * target >= 0) & (f != 0)
-        step = np.where(faster, coast, towards)
-        v = np.where(v < target, np.minimum(v + step, target), np.maximum(v - step, target))
-        out[:, k] = v
+    _speed_kernel()(np.ascontiguousarray(drive[idx]), np.asarray(v0, dtype=float), float(car.top_m_s),
+                    float(car.drive_m_s2), float(car.coast_m_s2), float(car.traction_m_s2), STEP_S, out)
     return out
+
+
+def _speed_kernel():
+    return compiled("the fit's speed model", _build_speed_kernel, "fit")
+
+
+def _build_speed_kernel(nb):
+    from roar.fit.speed_kernel import speeds as kernel
+
+    return kernel

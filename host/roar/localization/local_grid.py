@@ -25,7 +25,7 @@ import numpy as np
 from roar.checks import number
 from roar.localization.odometry import Pose, checked_pose
 from roar.localization.particle_filter import LocalizationError
-from roar.localization.raycast import compiled
+from roar.compiled import compiled
 from roar.localization.scan import LaserScan
 from roar.tracks.occupancy_map import OccupancyMap
 
@@ -78,7 +78,7 @@ class LocalGrid:
         self.origin = (0, 0)  # the world lattice cell of [0, 0]
         self.time_s: float | None = None
         self.skipped_beams = 0
-        self._trace = compiled("local grid", _build_trace)
+        self._trace = compiled("the local grid's beams", _build_trace)
         self._angles_key = None
         self._cos = self._sin = None
         self._grown: dict[int, np.ndarray] = {}  # grow_cells -> the known map's walls grown by that many cells

@@ -1,7 +1,7 @@
 """The ray casting kernels, compiled by Numba: RayMarcher's march (each step as long as the
 distance to the nearest wall allows), the particle filter's march_log_weights, and bresenham (every
 cell along the ray, the plain method the benchmark measures against). Imported only once Numba is
-known to be there (raycast.compiled); module-level functions, so that Numba's disk cache serves
+known to be there (roar.compiled); module-level functions, so that Numba's disk cache serves
 every later process (a kernel closed over another one is compiled again in each process).
 """
 

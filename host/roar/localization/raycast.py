@@ -16,31 +16,14 @@ import math
 
 import numpy as np
 
-from roar.errors import MissingNumba
+from roar.compiled import compiled
+from roar.errors import MissingNumba  # noqa: F401 (raised by compiled(); imported from here too)
 from roar.tracks.occupancy_map import OccupancyMap
-
-def numba():
-    try:
-        import numba
-    except ImportError:
-        raise MissingNumba("the particle filter's ray casting needs Numba: pip install 'roar-platform[localization]'") \
-            from None
-    return numba
-
-
-def compiled(name: str, build):
-    """build(numba) -> kernels, once a process (Numba also caches the machine code on disk)."""
-    if name not in _COMPILED:
-        _COMPILED[name] = build(numba())
-    return _COMPILED[name]
-
-
-_COMPILED: dict[str, object] = {}
 
 
 def _kernels():
     """The ray casting kernels: march, march_log_weights, bresenham."""
-    return compiled("ray casting", _build_casters)
+    return compiled("the particle filter's ray casting", _build_casters)
 
 
 def _build_casters(nb):

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from roar.localization.raycast import compiled
+from roar.compiled import compiled
 from roar.planning.grid import PlanningError, PlanningGrid
 
 MARGIN_M = 0.03  # [m] added round the car's outline: the pose's error while it follows a path
@@ -81,7 +81,7 @@ class Footprint:
         cell (or leaves the grid); -1 if it fits at every one."""
         p = np.asarray(poses, dtype=float).reshape(-1, 3)
         bx, by = self._points(grid.resolution_m)
-        kernel = compiled("footprint", _build)
+        kernel = compiled("the planner's footprint checks", _build, "planning")
         return int(kernel(grid.blocked, grid.x0, grid.y0, 1.0 / grid.resolution_m, np.ascontiguousarray(p[:, 0]),
                           np.ascontiguousarray(p[:, 1]), np.ascontiguousarray(p[:, 2]), bx, by))
 
