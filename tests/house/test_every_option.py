@@ -9,6 +9,7 @@ cut after GUARD_S, as by Ctrl-C (status 130): only the documented long runs may 
 
 import argparse
 import ast
+import functools
 import io
 import signal
 from pathlib import Path
@@ -18,10 +19,11 @@ import pytest
 
 from roar import TransportError, Vehicle
 from roar.cli import main as roar
-from roar.cli.sdk import ExitStatus
+from roar.cli.sdk import ExitStatus, UserError
 from roar.cli.main import commands as roar_commands
 
-pytestmark = pytest.mark.realtime  # keeps to the wall clock: one at a time under xdist (conftest)
+# a run keeps to the wall clock (realtime: one at a time under xdist, conftest); a value its
+# parser refuses is checked beside the other tests (CASES)
 
 pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
 
@@ -105,6 +107,7 @@ NAMES = {"--out", "--plot", "--video", "--record", "--file", "--calibration", "-
 NAME_VALUES = ["-1", "", "fast"]
 
 
+@functools.cache
 def commands() -> dict[str, tuple[list[str], argparse.ArgumentParser]]:
     """name -> (the flags that select its parser, the parser), for every installed command."""
     found = {}
@@ -124,7 +127,48 @@ def options(parser: argparse.ArgumentParser) -> list[tuple[str, argparse.Action]
     return found
 
 
-CASES = [(command, option, value) for command, (_, parser) in commands().items()
+def _replaced(argv: list[str], option: str, value: str) -> list[str]:
+    i = argv.index(option)
+    return [*argv[:i + 1], value, *argv[i + 2:]]
+
+
+def _positional_replaced(base: list[str], flags: list[str], position: int, value: str) -> list[str]:
+    """base with its position-th positional argument (after the selecting flags) given `value`."""
+    def is_value(i: int) -> bool:  # the value of the option before it
+        return i > 0 and base[i - 1].startswith("--") and base[i - 1] not in flags
+
+    positionals = [i for i, a in enumerate(base) if not a.startswith("-") and not is_value(i)]
+    out = list(base)
+    out[positionals[position]] = value
+    return out
+
+
+def command_argv(command: str, option: str, value: str, tmp, frames, recording) -> list[str]:
+    """The arguments (after `roar NAME`) of the command's short run with `option` given `value`."""
+    flags, parser = commands()[command]
+    base = [a.format(tmp=tmp, frames=frames, recording=recording) for a in BASE[command]]
+    if dict(options(parser))[option].option_strings:
+        return [*base, option, value] if option not in base else _replaced(base, option, value)
+    position = [o for o, a in options(parser) if not a.option_strings].index(option)  # a positional: its
+    return _positional_replaced(base, flags, position, value)  # value in the base run replaced
+
+
+def refused_by_its_parser(command: str, option: str, value: str) -> bool:
+    """The value is refused before the command runs anything: such a case keeps to no clock (it
+    runs beside the others); a run, or a refusal that comes after one starts, keeps to the wall
+    clock with the realtime tests."""
+    argv = command_argv(command, option, value, "/nonexistent", "/nonexistent", "/nonexistent/run.mcap")
+    flags, parser = commands()[command]
+    try:
+        parser.parse_args([a for a in argv if a not in flags])  # as roar.cli.sdk.Command.parse_args
+    except UserError:
+        return True
+    return False
+
+
+CASES = [pytest.param(command, option, value, id=f"{command}-{option}-{value or 'empty'}",
+                      marks=() if refused_by_its_parser(command, option, value) else pytest.mark.realtime)
+         for command, (_, parser) in commands().items()
          for option, _ in options(parser) for value in (NAME_VALUES if option in NAMES else VALUES)]
 
 
@@ -169,20 +213,13 @@ class Guard:
         signal.signal(signal.SIGALRM, self.previous)
 
 
-@pytest.mark.parametrize("command, option, value", CASES, ids=[f"{c}-{o}-{v or 'empty'}" for c, o, v in CASES])
+@pytest.mark.parametrize("command, option, value", CASES)
 def test_a_bad_value_is_one_line_or_a_documented_run(command, option, value, tmp_path, frames, recording, capsys,
                                                     monkeypatch):
     monkeypatch.setattr("sys.stdin", io.StringIO(""))  # nobody types: an interactive command reads its end
     monkeypatch.chdir(tmp_path)  # files and folders a valid value names land here
-    flags, parser = commands()[command]
     name = command.split()[0]
-    base = [a.format(tmp=tmp_path, frames=frames, recording=recording) for a in BASE[command]]
-    action = dict(options(parser))[option]
-    if action.option_strings:
-        argv = [*base, option, value] if option not in base else _replaced(base, option, value)
-    else:  # a positional: its value in the base run replaced
-        position = [o for o, a in options(parser) if not a.option_strings].index(option)
-        argv = _positional_replaced(base, flags, position, value)
+    argv = command_argv(command, option, value, tmp_path, frames, recording)
     key = (command, option, value)
     with Guard(UNTIL_STOPPED_S if "until Ctrl-C" in RUNS.get(key, "") else GUARD_S):
         status = roar([name, *argv])
@@ -198,22 +235,6 @@ def test_a_bad_value_is_one_line_or_a_documented_run(command, option, value, tmp
         return
     pytest.fail(f"roar {name} {' '.join(argv)}: accepted {value!r} for {option} (status {status}) -- refuse it "
                 f"in one line, or document the run in RUNS\n{out}\n{err}")
-
-
-def _replaced(argv: list[str], option: str, value: str) -> list[str]:
-    i = argv.index(option)
-    return [*argv[:i + 1], value, *argv[i + 2:]]
-
-
-def _positional_replaced(base: list[str], flags: list[str], position: int, value: str) -> list[str]:
-    """base with its position-th positional argument (after the selecting flags) given `value`."""
-    def is_value(i: int) -> bool:  # the value of the option before it
-        return i > 0 and base[i - 1].startswith("--") and base[i - 1] not in flags
-
-    positionals = [i for i, a in enumerate(base) if not a.startswith("-") and not is_value(i)]
-    out = list(base)
-    out[positionals[position]] = value
-    return out
 
 
 # --- car URLs -----------------------------------------------------------------------------------
@@ -272,6 +293,7 @@ def test_every_scheme_has_a_url_to_try_options_on():
     assert len(URL_CASES) >= 9 * 10  # the options were found
 
 
+@pytest.mark.realtime
 @pytest.mark.parametrize("scheme, option, value", URL_CASES, ids=[f"{s}-{o}-{v or 'empty'}" for s, o, v in URL_CASES])
 def test_a_bad_url_option_is_one_line_or_a_documented_car(scheme, option, value, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # files a valid value names land here
