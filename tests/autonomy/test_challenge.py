@@ -143,6 +143,30 @@ def test_two_teams_run_the_course_concurrently_each_seeing_the_other_as_an_obsta
     assert math.dist(second.true_path[0], first.true_path[0]) < 0.1  # the same start; its time from its own
 
 
+def test_a_challenge_run_records_its_detections_plans_trees_and_grid(tmp_path):
+    """The run's record (roar_sim.links.sim_log): the plans, their trees, the local grid, the camera
+    at its rate, a filter step per firmware step, and the cones found, also as Foxglove's scene.
+    (In lockstep, as every challenge run: it keeps to no clock.)"""
+    pytest.importorskip("foxglove", reason="pip install foxglove-sdk (the project's record extra)")
+    from roar.replay import messages, read_log
+
+    path = tmp_path / "challenge.mcap"
+    result = challenge(get("tunnel:3"), goal_m=8.0, seed=2, log=path)
+    assert result.finished
+    c = read_log(path).channels
+    assert c["/planning/path"].count == len(result.paths) and c["/planning/tree"].count >= 5
+    assert c["/localization/local_grid"].count >= 5 and c["/camera/image"].rate_hz == pytest.approx(10, abs=0.5)
+    assert c["/localization/steps"].count == c["/sim/firmware"].count
+    grid = next(m for _, _, m in messages(path, ["/localization/local_grid"]))
+    assert grid.column_count * grid.row_stride == len(grid.data) and set(grid.data) <= {0, 50, 100}
+    cones = [m for _, _, m in messages(path, ["/perception/cones"])]
+    found = [(p.position.x, p.position.y) for p in cones[-1].poses]
+    assert found and all(min(math.dist(f, o[:2]) for o in result.course.cones) < 0.4 for f in found)
+    scene = [m for _, _, m in messages(path, ["/perception/scene"])][-1]  # the same, for Foxglove's 3D panel
+    assert [(round(c.pose.position.x, 6), round(c.pose.position.y, 6)) for c in scene.entities[0].cylinders] == \
+        [(round(x, 6), round(y, 6)) for x, y in found]
+
+
 def test_the_plan_example_finds_a_drivable_path():
 
     example = ROOT / "examples" / "plan.py"

@@ -11,7 +11,6 @@ import pytest
 
 from conftest import ROOT, wait_for
 
-pytestmark = pytest.mark.realtime  # keeps to the wall clock: one at a time under xdist (conftest)
 
 CIRCLE = ROOT / "examples" / "circle.py"
 WHEEL_CIRCUMFERENCE_M = 2 * math.pi * 0.05  # [m] racecar.urdf
@@ -23,6 +22,7 @@ def test_the_example_is_short():
     assert len(lines) <= 15
 
 
+@pytest.mark.realtime  # keeps to the wall clock: one at a time under xdist (conftest)
 def test_the_same_script_drives_the_simulator_and_a_serial_car(tmp_path, pty_car):
     trace = tmp_path / "circle.csv"
     # Both at once: the in-process simulator at 4x, and the serial car in real time.
@@ -76,7 +76,8 @@ def test_the_same_script_drives_the_simulator_and_a_serial_car(tmp_path, pty_car
 def test_the_ppo_training_example_trains_the_same_policy_from_the_same_seed_and_drives_it(tmp_path):
     """examples/train_ppo.py, one rollout and update: the same seed trains the same policy (its
     printed fingerprint) on RaceVecEnv's 2 processes and in SB3's SubprocVecEnv (a process per
-    environment), another seed another; the saved model drives an episode."""
+    environment), another seed another; the saved model drives an episode. (Stepped in lockstep,
+    as Race-v0 is: it keeps to no clock, and runs beside the other tests.)"""
     import re
 
     import pytest

@@ -635,28 +635,6 @@ def test_a_lane_driver_race_records_its_frames_and_what_it_saw_in_them(tmp_path)
     assert set(states) <= {s.value for s in LaneState} and states[-1] == LaneState.FOLLOWING.value
 
 
-def test_a_challenge_run_records_its_detections_plans_trees_and_grid(tmp_path):
-    pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
-    from roar.tracks import get
-    from roar_sim.runs.challenge import challenge
-
-    path = tmp_path / "challenge.mcap"
-    result = challenge(get("tunnel:3"), goal_m=8.0, seed=2, log=path)
-    assert result.finished
-    c = read_log(path).channels
-    assert c["/planning/path"].count == len(result.paths) and c["/planning/tree"].count >= 5
-    assert c["/localization/local_grid"].count >= 5 and c["/camera/image"].rate_hz == pytest.approx(10, abs=0.5)
-    assert c["/localization/steps"].count == c["/sim/firmware"].count
-    grid = next(m for _, _, m in messages(path, ["/localization/local_grid"]))
-    assert grid.column_count * grid.row_stride == len(grid.data) and set(grid.data) <= {0, 50, 100}
-    cones = [m for _, _, m in messages(path, ["/perception/cones"])]
-    found = [(p.position.x, p.position.y) for p in cones[-1].poses]
-    assert found and all(min(math.dist(f, o[:2]) for o in result.course.cones) < 0.4 for f in found)
-    scene = [m for _, _, m in messages(path, ["/perception/scene"])][-1]  # the same, for Foxglove's 3D panel
-    assert [(round(c.pose.position.x, 6), round(c.pose.position.y, 6)) for c in scene.entities[0].cylinders] == \
-        [(round(x, 6), round(y, 6)) for x, y in found]
-
-
 @pytest.mark.parametrize("robot", ["iarrc", "junior"])
 def test_every_robots_drive_becomes_a_dataset(robot, tmp_path):
     from roar import Vehicle
