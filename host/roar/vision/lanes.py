@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from roar.compiled import compiled
 from roar.vision.geometry import BirdsEye, cv2
 
 BLOCK_PX = 21  # [px] the adaptive threshold's block (about 20 x 20 as in the seed)
@@ -239,41 +240,17 @@ class LaneDetector:
         pixels is the next point, and the direction turns to run through the last two points
         (a line found anew turns at its first point to its pixels' long axis, when they have one).
         A step that finds nothing goes on in the same direction (a dash's gap, a shadow). A
-        quadratic y(x) through the points."""
-        step, known = self._step_m, start[1] is not None
-        pos, d = np.array(start[0], dtype=float), np.array(start[1] if known else (1.0, 0.0), dtype=float)
+        quadratic y(x) through the points. (The walk is compiled: roar.vision.walk_kernel.)"""
+        d = np.array(start[1] if start[1] is not None else (1.0, 0.0), dtype=float)
         d /= np.linalg.norm(d)
-        points: list[np.ndarray] = []
-        for _ in range(BANDS):
-            if d[0] < MIN_AHEAD:  # the line turns across the view: a fit y(x) ends here
-                break
-            n = np.array([-d[1], d[0]])
-            corners = np.array([pos + s * n * WINDOW_M / 2 + a * d * step for s in (-1, 1) for a in (0, 1)])
-            (r_hi, c_hi), (r_lo, c_lo) = (self.bev.to_pixel(corners[:, 0].min(), corners[:, 1].min()),
-                                         self.bev.to_pixel(corners[:, 0].max(), corners[:, 1].max()))
-            r0, r1 = int(max(0, r_lo)), int(min(mask.shape[0], r_hi + 1))
-            c0, c1 = int(max(0, c_lo)), int(min(mask.shape[1], c_hi + 1))
-            if r1 - r0 < 2 or c1 - c0 < 2:
-                break
-            rr, cc = np.nonzero(mask[r0:r1, c0:c1])
-            xy = np.column_stack(self.bev.to_car(rr + r0, cc + c0))
-            rel = xy - pos
-            along, across = rel @ d, rel @ n
-            inside = xy[(along >= 0) & (along < step) & (np.abs(across) <= WINDOW_M / 2)]
-            if len(inside) < MIN_PIXELS:
-                pos = pos + d * step
-                continue
-            point = inside.mean(axis=0)
-            if points and np.linalg.norm(point - points[-1]) > step / 4:
-                d = _turned(d, point - points[-1], MAX_TURN_RAD_PER_M * np.linalg.norm(point - points[-1]))
-                if d[0] < MIN_AHEAD:  # this stretch already runs across the view: y(x) ends before it
-                    break
-            elif not points and not known:
-                d = _long_axis(inside, d)
-            points.append(point)
-            pos = point + d * step / 2
-        confidence = len(points) / BANDS
-        return _fit(np.array(points, dtype=float), confidence) if confidence >= MIN_CONFIDENCE else None
+        g = self.bev.grid
+        points = np.empty((BANDS, 2))
+        found = _walk_kernel()(np.ascontiguousarray(mask), float(start[0][0]), float(start[0][1]), float(d[0]),
+                               float(d[1]), start[1] is not None, self._step_m, g.x_far, g.y_left, g.m_per_px,
+                               WINDOW_M, MIN_PIXELS, MIN_AHEAD, MAX_TURN_RAD_PER_M, ELONGATED, points)
+        points = points[:found]
+        confidence = found / BANDS
+        return _fit(points, confidence) if confidence >= MIN_CONFIDENCE else None
 
     def _lanes(self, found: dict[str, Line | None]) -> Lanes:
         left, right, yellow = found["left"], found["right"], found["yellow"]
@@ -316,24 +293,14 @@ def _fit(points: np.ndarray, confidence: float) -> Line:
     return Line(tuple(float(v) for v in np.concatenate([np.zeros(3 - len(coeffs)), coeffs])), confidence, points)
 
 
-def _turned(d: np.ndarray, towards: np.ndarray, max_rad: float) -> np.ndarray:
-    """The unit direction d turned towards `towards`, by at most max_rad."""
-    turn = math.atan2(d[0] * towards[1] - d[1] * towards[0], d @ towards)
-    turn = max(-max_rad, min(max_rad, turn))
-    c, s = math.cos(turn), math.sin(turn)
-    return np.array([c * d[0] - s * d[1], s * d[0] + c * d[1]])
+def _walk_kernel():
+    return compiled("the lane detector's walk", _build_walk, "vision")
 
 
-def _long_axis(xy: np.ndarray, towards: np.ndarray) -> np.ndarray:
-    """The unit direction of a pixel cloud's long axis, pointing along `towards`; `towards`
-    itself when the cloud is not clearly longer than wide (a dash cut short by the window)."""
-    if len(xy) < 3:
-        return towards
-    values, vectors = np.linalg.eigh(np.cov((xy - xy.mean(axis=0)).T))
-    if values[-1] < ELONGATED ** 2 * max(values[0], 1e-12):
-        return towards
-    axis = vectors[:, -1]
-    return axis if axis @ towards >= 0 else -axis
+def _build_walk(nb):
+    from roar.vision.walk_kernel import walk
+
+    return walk
 
 
 def debug_view(detector: LaneDetector, rgb: np.ndarray):
