@@ -143,7 +143,7 @@ class Vehicle:
         s = self._steering if steering is None else check_unit("steering", steering)
         v = self._speed if speed is None else _check_speed(speed)
         self._check_usable()
-        if speed is not None and self._speed_version() != spec.META_SPEED_VERSION:
+        if speed is not None and self.told_version() != spec.META_SPEED_VERSION:
             heard = (f"says READY {self.protocol_version}: it drives by throttle" if self.protocol_version
                      else f"has not said which messages it takes (no READY or telemetry line in {VERSION_WAIT_S:g} s)")
             raise ValueError(f"drive(speed=...) needs a car with a speed controller (READY "
@@ -161,8 +161,9 @@ class Vehicle:
         self._sender.set(self._message())
         time.sleep(0)  # yield the GIL so the sender can put it on the wire now, even in a busy loop
 
-    def _speed_version(self) -> int | None:
-        """The car's protocol version, waiting up to VERSION_WAIT_S for it to tell."""
+    def told_version(self) -> int | None:
+        """The car's protocol version (READY n), waiting up to VERSION_WAIT_S for it to tell; None if
+        it has not (a car that says nothing takes pulses)."""
         with self._events_cond:
             self._events_cond.wait_for(lambda: self.protocol_version is not None, VERSION_WAIT_S)
         return self.protocol_version

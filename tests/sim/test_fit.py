@@ -163,7 +163,9 @@ def test_roar_fit_recovers_a_hidden_car_over_a_pty_with_the_phones_pose(tmp_path
     # (the motor's torque is not asserted: the ROAR car's tyres, not its motor, limit it above a fifth of
     # throttle, so one drive shows it hardly at all: found 0.04-0.13 for 0.12; make bench prints it)
     assert found.tyre_friction == pytest.approx(0.42, rel=0.3)  # (found 0.42-0.52: make bench's 5 % is missed)
-    assert 0.0 <= found.latency_s < 0.06 and found.servo_lag_s < 0.1  # 0.03 and 0.05, seen mostly as one delay
+    # 0.03 and 0.05, seen mostly as one delay: their sum, which a busy machine's pty lengthens (0.118 once, all of
+    # it as servo lag)
+    assert found.latency_s >= 0.0 and found.servo_lag_s >= 0.0 and 0.04 <= found.latency_s + found.servo_lag_s < 0.13
     # the trim in the calibration file: steering 0 through it drives the hidden car straight
     trim = Calibration.load(calibration)
     assert trim.steering.trim_us > 1530
