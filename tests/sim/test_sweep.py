@@ -314,6 +314,27 @@ def test_after_ctrl_c_a_slow_ray_goodbye_is_cut_short():
     assert ray.server.poll() == -9 and ray.ended  # killed, and so the goodbye ended
 
 
+def test_the_kill_works_on_a_snapshot_of_rays_table_which_its_shutdown_changes_meanwhile():
+    """Ray's shutdown, still running in its thread, takes each process out of the node's table as it
+    stops it while the kill walks the table (seen once: "dictionary changed size during iteration",
+    a traceback instead of status 130)."""
+    ray = _Stuck()
+    table = ray._private.worker._global_node.all_processes
+
+    class Leaving:  # the table loses its raylet while the kill looks at this process
+        @property
+        def process(self):
+            table.pop("raylet", None)
+            return ray.server
+
+    table["dashboard"] = [Leaving()]
+    try:
+        sweep_workers._kill_local_ray(ray)
+        assert ray.server.wait(5) == -9
+    finally:
+        ray.server.kill()
+
+
 def test_ctrl_c_ends_a_sweep_on_local_processes_at_once_and_keeps_what_finished(tmp_path):
     """Seeded random tracks as a range (random:1-3: three tracks), raced on this machine's
     processes; Ctrl-C ends the sweep and every process it started within seconds (status 130)."""

@@ -137,11 +137,13 @@ def _node(ray):
 def _kill_local_ray(ray) -> None:
     """SIGKILL to the local Ray's processes and all they started."""
     node = _node(ray)
-    for infos in node.all_processes.values() if node else ():
-        for info in infos:
-            for pid in [*descendants(info.process.pid), info.process.pid]:
-                with suppress(OSError):
-                    os.kill(pid, signal.SIGKILL)
+    # a snapshot (list() of a dict is one step under the GIL): ray.shutdown, still running in its
+    # thread, takes processes out of the table meanwhile
+    infos = [info for infos in list(node.all_processes.values()) for info in list(infos)] if node else []
+    for info in infos:
+        for pid in [*descendants(info.process.pid), info.process.pid]:
+            with suppress(OSError):
+                os.kill(pid, signal.SIGKILL)
 
 
 def _without_grace(ray) -> None:
