@@ -77,7 +77,8 @@ def main() -> int:
     node.destroy_node()
     rclpy.shutdown()
     if len(laps) < args.laps:
-        print(f"{len(laps)} of {args.laps} laps in {args.timeout:g} s", file=sys.stderr)
+        heard = "no odometry" if "msg" not in pose else f"{len(visited)} tenths of the line driven this lap"
+        print(f"{len(laps)} of {args.laps} laps in {args.timeout:g} s ({heard})", file=sys.stderr)
         return 2
     return 0
 
