@@ -190,7 +190,7 @@ class Racecar:
         mount turned by this much (left +), as a badly mounted one is."""
         pos, orn = pb.getLinkState(self.car, LIDAR_LINK, physicsClientId=self.client)[:2]
         yaw = pb.getEulerFromQuaternion(orn)[2] + turn_rad
-        return lidar.scan(self.world, pos, yaw, beams, fov_rad, range_m, boxes)
+        return lidar.scan(self.world, pos, yaw, beams, fov_rad, range_m, boxes, self.car)
 
     def footprint(self) -> tuple[float, float, float, float, float]:
         """(centre x [m], centre y [m], yaw [rad], half length [m], half width [m]) of the car's body

@@ -169,7 +169,7 @@ def head_to_head(track: Track, rivals: list[Rival], laps: int = 2, pace: float =
     from roar.racing.lanes import Lanes
     from roar.localization.odometry import compose
     from roar_sim.runs.race_result import TRACKING_MARGIN_M, optimal_line
-    from roar_sim.sensors.lidar import Lidar, WallCaster
+    from roar_sim.sensors.lidar import Lidar
     from roar_sim.world.scene import WALL_THICKNESS_M, world_map
 
     if not 1 <= len(rivals) <= MAX_OPPONENTS:
@@ -217,8 +217,7 @@ def head_to_head(track: Track, rivals: list[Rival], laps: int = 2, pace: float =
                     agent.planner = GapKeeping(agent.planner, model.limits.max_brake_m_s2)
                     keeping[len(drivers)] = agent.planner
                     drivers.append(agent)
-            # its walls cast here: a race's world holds no more
-            lidar = Lidar(ego_car.plant, seed, walls=WallCaster(track, WALL_THICKNESS_M))
+            lidar = Lidar(ego_car.plant, seed)
             sensed = Opponents(track, CarDetector(world_map(track)))
             for car in cars:
                 car.drive(0.0, 0.0)

@@ -15,16 +15,21 @@ BEAMS = 1080
 
 
 def scan(world, position, yaw: float, beams: int = BEAMS, fov_rad: float = FOV_RAD,
-         range_m: float = RANGE_M, boxes=()) -> np.ndarray:
-    """Distances [m] from right to left of a scan from `position` facing `yaw` [rad]. The beams
-    start at the housing's edge: from the link's centre, inside its own collision box, Bullet now
-    and then reports a hit at distance 0 (the lidar seeing itself). boxes: other cars' footprints
-    (box_ranges'), met by the beams at any height; the world's rays then go to its walls alone."""
+         range_m: float = RANGE_M, boxes=(), body: int | None = None) -> np.ndarray:
+    """Distances [m] from right to left of a scan from `position` facing `yaw` [rad] by the lidar on
+    `body`. boxes: other cars' footprints (box_ranges'), met by the beams at any height. Where the
+    world can account for every body but those cars and `body` (World.lidar_caster), the beams are
+    cast on its walls and solids without Bullet; otherwise Bullet's rays go through the whole world,
+    starting at the housing's edge: from the link's centre, inside its own collision box, Bullet
+    now and then reports a hit at distance 0 (the lidar seeing itself)."""
     angles = yaw + np.linspace(-fov_rad / 2, fov_rad / 2, beams)
+    caster = world.lidar_caster(body, len(boxes), range_m)
+    if caster is not None:
+        return np.maximum(caster.cast(position, angles, boxes), MIN_RANGE_M)
     directions = np.stack([np.cos(angles), np.sin(angles), np.zeros(beams)], axis=1)
     start = np.asarray(position) + MIN_RANGE_M * directions
     end = np.asarray(position) + range_m * directions
-    hits = world.ray_test(start.tolist(), end.tolist(), walls_only=bool(len(boxes)))
+    hits = world.ray_test(start.tolist(), end.tolist())
     reach = range_m - MIN_RANGE_M
     ranges = np.array([MIN_RANGE_M + h[2] * reach if h[0] >= 0 else range_m for h in hits])
     if len(boxes):
@@ -57,68 +62,76 @@ def box_ranges(origin, angles: np.ndarray, boxes) -> np.ndarray:
 NOISE_M = 0.015  # [m] standard deviation of a reading's noise (a UST-10LX: +-40 mm accuracy)
 
 
-class WallCaster:
-    """A world's walls as 2D boxes (each wall segment as the simulator builds it: WALL_THICKNESS_M
-    thick, half a thickness longer at each end) and beams cast on them by the slab method in one
-    compiled loop over the boxes in range: the ranges Bullet's rays find among the walls, ~20 x
-    faster (a race's 1,080 beams every period cost Bullet 3-8 ms)."""
+def wall_boxes(track, wall_thickness_m: float) -> np.ndarray:
+    """(K, 5) a track's walls as the simulator builds them (roar_sim.world.scene: each wall segment
+    a box wall_thickness_m [m] thick, half a thickness longer at each end), as 2D boxes: centre x
+    [m], centre y [m], yaw [rad], half length [m], half width [m]."""
+    boxes = []
+    for wall in track.walls:
+        a, b = wall, np.roll(wall, -1, axis=0)
+        d = b - a
+        half_length = np.linalg.norm(d, axis=1) / 2 + wall_thickness_m / 2
+        boxes.append(np.column_stack([(a + b) / 2, np.arctan2(d[:, 1], d[:, 0]), half_length,
+                                      np.full(len(a), wall_thickness_m / 2)]))
+    return np.ascontiguousarray(np.concatenate(boxes)) if boxes else np.zeros((0, 5))
 
-    def __init__(self, track, wall_thickness_m: float, range_m: float = RANGE_M) -> None:
-        """track: its walls (Track.walls, the centre lines of the simulator's wall boxes);
-        wall_thickness_m [m]: theirs (roar_sim.world.scene.WALL_THICKNESS_M)."""
-        boxes = []
-        for wall in track.walls:
-            a, b = wall, np.roll(wall, -1, axis=0)
-            d = b - a
-            half_length = np.linalg.norm(d, axis=1) / 2 + wall_thickness_m / 2
-            boxes.append(np.column_stack([(a + b) / 2, np.arctan2(d[:, 1], d[:, 0]), half_length,
-                                          np.full(len(a), wall_thickness_m / 2)]))
-        self.boxes = np.ascontiguousarray(np.concatenate(boxes))
-        self.range_m = range_m
+
+class Caster:
+    """A world's walls and static solids as a level lidar meets them, and the beams cast on them in
+    compiled loops: boxes (the walls, cubes) by the slab method, the cross-sections of cylinders
+    and cones at the lidar's height as circles. The ranges Bullet's rays find there, ~20-100 x
+    faster (1,080 beams every period cost Bullet 3-8 ms among walls, ~22 ms among a tunnel's cones
+    and people).
+
+    solids: (M, 7) rows of centre x [m], centre y [m], yaw [rad], half length [m], half width [m]
+    (a box; 0, 0 for a round solid), radius at the floor [m] (0 for a box), height [m]; a round
+    solid with a negative radius is a cone (its radius -r at the floor, 0 at its top)."""
+
+    def __init__(self, walls: np.ndarray, solids: np.ndarray, range_m: float = RANGE_M) -> None:
+        self.boxes, self.solids, self.range_m = walls, np.asarray(solids, dtype=float).reshape(-1, 7), range_m
         self._reach = np.hypot(self.boxes[:, 3], self.boxes[:, 4]) + range_m  # [m] a box this near may be met
         from roar.compiled import compiled  # (not at start-up: every simulated car imports this module)
 
-        self._slabs = compiled("the simulated lidar's wall slabs", _slab_kernel, "sim")
+        self._slabs, self._circles = compiled("the simulated lidar's ray casting", _kernels, "sim")
+
+    def sections(self, z_m: float) -> tuple[np.ndarray, np.ndarray]:
+        """(boxes (K, 5), circles (M, 3): centre x, centre y, radius [m]) of the solids at height z_m."""
+        s = self.solids[self.solids[:, 6] > z_m]
+        round_ = s[:, 5] != 0
+        radius = np.where(s[:, 5] > 0, s[:, 5], -s[:, 5] * (1 - z_m / s[:, 6]))
+        return s[~round_, :5], np.column_stack([s[round_, :2], radius[round_]])
 
     def cast(self, origin, angles: np.ndarray, others=()) -> np.ndarray:
-        """[m] along each beam from origin (x, y) at world angles [rad] to the first wall or box of
-        `others` ((centre x, centre y, yaw, half length, half width)) it meets; range_m if none."""
+        """[m] along each beam from origin (x, y, z) at world angles [rad] to the first wall, solid or
+        box of `others` ((centre x, centre y, yaw, half length, half width)) it meets; range_m if none."""
         near = np.hypot(self.boxes[:, 0] - origin[0], self.boxes[:, 1] - origin[1]) < self._reach
-        boxes = self.boxes[near]
-        if len(others):
-            boxes = np.concatenate([boxes, np.asarray(others, dtype=float).reshape(-1, 5)])
+        boxes, circles = self.sections(float(origin[2]))
+        boxes = np.concatenate([self.boxes[near], boxes, np.asarray(others, dtype=float).reshape(-1, 5)])
         out = np.full(len(angles), self.range_m)
-        self._slabs(float(origin[0]), float(origin[1]), np.ascontiguousarray(angles, dtype=float),
-                    np.ascontiguousarray(boxes), out)
+        angles = np.ascontiguousarray(angles, dtype=float)
+        self._slabs(float(origin[0]), float(origin[1]), angles, np.ascontiguousarray(boxes), out)
+        if len(circles):
+            self._circles(float(origin[0]), float(origin[1]), angles, np.ascontiguousarray(circles), out)
         return out
 
 
-def _slab_kernel(nb):
-    from roar_sim.sensors.slab_kernel import slabs
+def _kernels(nb):
+    from roar_sim.sensors.slab_kernel import circles, slabs
 
-    return slabs
+    return slabs, circles
 
 
 class Lidar:
     """The car's lidar as a real driver gives it: roar.localization.LaserScans of `beams` beams
-    over FOV_RAD, each reading with seeded noise (a reading that meets nothing is the range).
-    walls: a WallCaster of its world, which holds those walls alone (as a race's does): the beams
-    are cast on them here rather than by Bullet's rays, the same ranges ~20 x faster."""
+    over FOV_RAD, each reading with seeded noise (a reading that meets nothing is the range)."""
 
-    def __init__(self, plant, seed: int | None = None, beams: int = BEAMS, noise_m: float = NOISE_M,
-                 walls: WallCaster | None = None) -> None:
+    def __init__(self, plant, seed: int | None = None, beams: int = BEAMS, noise_m: float = NOISE_M) -> None:
         self.plant, self.beams, self.noise_m = plant, beams, noise_m
         self.rng = np.random.default_rng(seed)
-        self.caster = walls
-        self._angles = np.linspace(-FOV_RAD / 2, FOV_RAD / 2, beams)
 
     def ranges(self, others=()) -> np.ndarray:
-        """[m] right to left, before the noise: the walls and the other cars' footprints."""
-        boxes = [o.footprint() for o in others]
-        if self.caster is None:
-            return self.plant.lidar(self.beams, boxes=boxes)
-        x, y, yaw = self.plant.lidar_pose()
-        return np.maximum(self.caster.cast((x, y), yaw + self._angles, boxes), MIN_RANGE_M)
+        """[m] right to left, before the noise: the world and the other cars' footprints."""
+        return self.plant.lidar(self.beams, boxes=[o.footprint() for o in others])
 
     def scan(self, t_s: float, others=()):
         """others: the plants of other cars in its world (met by their footprints)."""

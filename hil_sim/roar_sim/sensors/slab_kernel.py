@@ -1,5 +1,6 @@
-"""The lidar's beams cast on boxes by the slab method, compiled by Numba (roar_sim.sensors.lidar.
-WallCaster): a module-level kernel, so that Numba's disk cache serves every later process."""
+"""The simulated lidar's beams cast on boxes (the slab method) and on circles, compiled by Numba
+(roar_sim.sensors.lidar.Caster): module-level kernels, so that Numba's disk cache serves every
+later process."""
 
 import math
 
@@ -33,3 +34,22 @@ def slabs(ox, oy, angles, boxes, out):
                 near, far = max(near, min(t1, t2)), min(far, max(t1, t2))
             if near <= far and 0.0 < near < out[b]:
                 out[b] = near
+
+
+@nb.njit(cache=True, nogil=True, fastmath=True)
+def circles(ox, oy, angles, discs, out):
+    """out[b]: the nearer of itself and the first of discs (M, 3: centre x, centre y, radius [m])
+    that the beam from (ox, oy) at world angle angles[b] meets from outside [m]."""
+    dxs, dys = np.cos(angles), np.sin(angles)
+    for k in range(discs.shape[0]):
+        px, py, r = ox - discs[k, 0], oy - discs[k, 1], discs[k, 2]
+        c = px * px + py * py - r * r
+        if c <= 0.0:
+            continue  # the beams start inside it
+        for b in range(angles.shape[0]):
+            half = px * dxs[b] + py * dys[b]
+            disc = half * half - c
+            if half < 0.0 and disc >= 0.0:
+                t = -half - math.sqrt(disc)
+                if t < out[b]:
+                    out[b] = t

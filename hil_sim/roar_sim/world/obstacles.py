@@ -27,8 +27,10 @@ def add_box(world, x: float, y: float, half_m: float = BOX_HALF_M, yaw: float = 
     c = world.client
     shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[half_m] * 3, physicsClientId=c)
     visual = pb.createVisualShape(pb.GEOM_BOX, halfExtents=[half_m] * 3, rgbaColor=list(BOX_RGBA), physicsClientId=c)
-    return pb.createMultiBody(0, shape, visual, [x, y, half_m], pb.getQuaternionFromEuler([0, 0, yaw]),
+    body = pb.createMultiBody(0, shape, visual, [x, y, half_m], pb.getQuaternionFromEuler([0, 0, yaw]),
                               physicsClientId=c)
+    world.solids[body] = (x, y, yaw, half_m, half_m, 0.0, 2 * half_m)
+    return body
 
 
 def add_cone(world, x: float, y: float) -> int:
@@ -46,7 +48,9 @@ def add_cone(world, x: float, y: float) -> int:
         indices += [i, j, apex, j, i, base]
     shape = pb.createCollisionShape(pb.GEOM_MESH, vertices=vertices, physicsClientId=c)  # its convex hull
     visual = mesh_visual(c, vertices, indices, rgba=CONE_RGBA)
-    return pb.createMultiBody(0, shape, visual, [x, y, 0.0], physicsClientId=c)
+    body = pb.createMultiBody(0, shape, visual, [x, y, 0.0], physicsClientId=c)
+    world.solids[body] = (x, y, 0.0, 0.0, 0.0, -CONE_RADIUS_M, CONE_HEIGHT_M)  # (its facets' corners on the circle)
+    return body
 
 
 def add_person(world, x: float, y: float) -> int:
@@ -58,7 +62,9 @@ def add_person(world, x: float, y: float) -> int:
                                     physicsClientId=c)
     visual = pb.createVisualShape(pb.GEOM_CYLINDER, radius=PERSON_RADIUS_M, length=PERSON_HEIGHT_M,
                                   rgbaColor=list(PERSON_RGBA), physicsClientId=c)
-    return pb.createMultiBody(0, shape, visual, [x, y, PERSON_HEIGHT_M / 2], physicsClientId=c)
+    body = pb.createMultiBody(0, shape, visual, [x, y, PERSON_HEIGHT_M / 2], physicsClientId=c)
+    world.solids[body] = (x, y, 0.0, 0.0, 0.0, PERSON_RADIUS_M, PERSON_HEIGHT_M)
+    return body
 
 
 def place_boxes(world, track: Track, spots: Sequence[tuple[float, float]]) -> list[int]:

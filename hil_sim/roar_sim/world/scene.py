@@ -19,6 +19,7 @@ from roar_sim.world import renderer as renderers
 from roar_sim.world.floor import add_floor
 from roar_sim.world.tiles import Tiles, frustum_reach_m, tile_files
 from roar_sim.world.obstacles import add_cone, add_person
+from roar_sim.sensors.lidar import Caster, wall_boxes
 from roar_sim.world.bullet import pb, silenced
 from roar.tracks import Track
 from roar.tracks.occupancy_map import OccupancyMap, track_map
@@ -115,6 +116,10 @@ class World:
         self._cull = self.renderer_name == "tiny" and not gui  # tiles out of a frame's reach hidden (tiles.py)
         self.walls = [_mesh_body(c, *wall_mesh(track))] if track else []  # one body: the physics stays fast
         self.tiles = [Tiles.add(c, wall_tile_files(track), WALL_RGBA)] if track else []  # what the camera sees of them
+        # the static solids the lidar meets, by body (roar_sim.sensors.lidar.Caster's rows; obstacles.py adds them)
+        self.solids: dict[int, tuple[float, ...]] = {}
+        self._casters: dict[float, Caster] = {}
+        self._colliding: tuple[int, list[int]] = (0, [])  # (bodies seen, which of them collide, unaccounted for)
         course = track.course if track else None  # a tunnel world's cones and people (not in its map)
         self.cones = [add_cone(self, x, y) for x, y in course.cones] if course else []
         self.people = [add_person(self, x, y) for x, y in course.people] if course else []
@@ -154,16 +159,13 @@ class World:
             centre, size = tuple((lo + hi) / 2), float(max(hi - lo))
         pb.resetDebugVisualizerCamera(size, 0, -60, [centre[0], centre[1], 0], physicsClientId=c)
 
-    def ray_test(self, starts: list, ends: list, walls_only: bool = False) -> list:
+    def ray_test(self, starts: list, ends: list) -> list:
         """pb.rayTestBatch for a sensor on a robot in this world. While the world holds nothing but
         its walls, ground, floor and that robot, the rays go to a second client that holds only the
         walls: the same mesh, so the same answers, without the robot's own wheels and boxes near
-        the rays' starts, which cost Bullet up to 2 ms a 72-beam scan (most of a lidar's time).
-        walls_only: to that client however many bodies there are (a race's lidar meets the other
-        cars by their footprints: roar_sim.sensors.lidar.box_ranges; 1,080 beams among three cars
-        cost Bullet 19 ms in the whole world, 3 ms among the walls alone)."""
+        the rays' starts, which cost Bullet up to 2 ms a 72-beam scan."""
         c = self.client
-        if not self.walls or (not walls_only and pb.getNumBodies(physicsClientId=c) != len(self._own_bodies()) + 1):
+        if not self.walls or pb.getNumBodies(physicsClientId=c) != len(self._own_bodies()) + 1:
             return pb.rayTestBatch(starts, ends, physicsClientId=c)
         if self._rays is None:
             self._rays = _walls_only(self.track)
@@ -171,6 +173,32 @@ class World:
         with lock:
             hits = pb.rayTestBatch(starts, ends, physicsClientId=client)
         return [(self.walls[0], *h[1:]) if h[0] == walls else h for h in hits]
+
+    def lidar_caster(self, body: int | None, others: int, range_m: float) -> Caster | None:
+        """The world as a level lidar on `body` meets it, cast without Bullet (its walls and
+        self.solids), while every other body that collides is one of `others` cars (whose
+        footprints the lidar is given); None otherwise: Bullet's rays must find what it is."""
+        if body is None or len(self._unaccounted(body)) != others:
+            return None
+        if range_m not in self._casters:
+            walls = wall_boxes(self.track, WALL_THICKNESS_M) if self.track else np.zeros((0, 5))
+            self._casters[range_m] = Caster(walls, list(self.solids.values()), range_m)
+        caster = self._casters[range_m]
+        if len(caster.solids) != len(self.solids):  # a solid added since
+            caster.solids = np.asarray(list(self.solids.values()), dtype=float).reshape(-1, 7)
+        return caster
+
+    def _unaccounted(self, body: int) -> list[int]:
+        """The bodies but `body` that collide and are neither walls, ground nor solids (robots)."""
+        c = self.client
+        count = pb.getNumBodies(physicsClientId=c)
+        if count != self._colliding[0]:
+            known = {*self.walls, self.ground, *self.solids}
+            ids = [pb.getBodyUniqueId(i, physicsClientId=c) for i in range(count)]
+            self._colliding = (count, [b for b in ids if b not in known and any(
+                pb.getCollisionShapeData(b, link, physicsClientId=c)
+                for link in range(-1, pb.getNumJoints(b, physicsClientId=c)))])
+        return [b for b in self._colliding[1] if b != body]
 
     def _own_bodies(self) -> list[int]:
         return [*self.walls, *(b for tiles in self.tiles for b in tiles.bodies), self.ground]
