@@ -264,6 +264,7 @@ def challenge_teams(track: Track, teams: int = 2, behind_s: float = TEAM_GAP_S, 
                         fleet.run(CONTROL_PERIOD_S)
                     running.append(_Team(track, car, route, oracle, seed + 100 * len(running), scoring, latency_s,
                                          fps, max_seconds, particles, started_s=fleet.time_s))
+                    running[-1].car.others = [other.plant for other in cars if other is not car]  # to its lidar
                     result.starts_s.append(fleet.time_s)
                 done = [team.period(sim_log if i == 0 else None) for i, team in enumerate(running)]
                 if sim_log is not None:

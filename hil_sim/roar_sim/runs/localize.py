@@ -139,7 +139,8 @@ class LocalizedCar:
     oracle: the pose is the simulator's own (no filter runs; the local grid is fed from the true
     lidar pose): the same stack with a perfect localization, to compare against. explore: set by
     a driver that has lost its way, the car heads for the open way as while not localized; towards:
-    a world point [m] the open way is sought nearest to (the course's direction), else ahead."""
+    a world point [m] the open way is sought nearest to (the course's direction), else ahead.
+    others: the plants of the other cars in its world, which its lidar meets by their footprints."""
 
     def __init__(self, robot: Robot, grid: OccupancyMap, seed: int | None = None, particles: int = PARTICLES,
                  beams: int = BEAMS, start: tuple[float, float, float] | None | str = "true",
@@ -147,6 +148,7 @@ class LocalizedCar:
         self.robot = robot
         self.sensors = WheelOdometry(robot.plant, seed)
         self.lidar = Lidar(robot.plant, None if seed is None else seed + 1, SCAN_BEAMS)
+        self.others: list = []
         s = robot.state()
         profile = getattr(robot.plant, "profile", None)  # encoders on the front wheels, the pose at the rear axle
         self.odometry = Odometry((s.x, s.y, s.yaw), profile.wheelbase_m if profile is not None else 0.0)
@@ -184,7 +186,7 @@ class LocalizedCar:
         if not self.oracle:
             self.filter.predict(odo)
         if t + 1e-9 >= self._next_scan_s:
-            self.scan = self.lidar.scan(t)
+            self.scan = self.lidar.scan(t, self.others)
             if self.oracle:
                 self.filter.start_at((truth.x, truth.y, truth.yaw))
             else:
