@@ -1,5 +1,5 @@
 """Kernels compiled by Numba (one CPU thread each), built once a process: the particle filter's
-ray casting, the local grid's beams, the planner's footprint checks, the fit's speed model.
+ray casting, the local grid's beams, the planner's arcs and footprint checks, the fit's speed model.
 Numba keeps their machine code in its disk cache, so a later process loads rather than compiles
 them; for that the kernels are module-level functions of modules imported only once Numba is
 known to be there (a kernel closed over another one is compiled again in each process).

@@ -20,6 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from roar.compiled import compiled
+
 MAX_TURN_RAD = math.pi  # [rad] no edge turns further than a half circle
 
 
@@ -41,38 +43,31 @@ class Arcs:
 def arcs(x, y, heading, px: float, py: float, r_min_m: float, reverse: bool = False,
          max_turn_rad: float = MAX_TURN_RAD) -> Arcs:
     """The arcs from poses (x, y, heading) (arrays or numbers) to the point (px, py)."""
-    x, y, heading = (np.asarray(v, dtype=float) for v in (x, y, heading))
-    th = heading + math.pi if reverse else heading
-    c, s = np.cos(th), np.sin(th)
-    dx, dy = px - x, py - y
-    ahead = c * dx + s * dy  # along the direction of travel
-    left = -s * dx + c * dy  # d . v_left
-    d2 = dx * dx + dy * dy
-    with np.errstate(divide="ignore", invalid="ignore"):
-        straight = np.abs(left) <= 1e-12 * np.maximum(d2, 1e-300)
-        radius = np.where(straight, np.inf, d2 / (2 * np.where(straight, 1.0, left)))
-        angle = np.where(straight, np.where(ahead >= 0, 0.0, np.inf), 2 * np.arctan2(left, ahead))
-        length = np.where(straight, np.where(ahead >= 0, np.sqrt(d2), np.inf), np.abs(angle * radius))
-    length = np.where((np.abs(radius) < r_min_m) | (np.abs(angle) > max_turn_rad), np.inf, length)
-    finite_r = np.where(np.isfinite(radius), radius, 0.0)
-    return Arcs(radius, x - s * finite_r, y + c * finite_r, angle, length,
-                np.where(np.isfinite(angle), heading + np.where(np.isfinite(angle), angle, 0.0), heading),
-                np.full(x.shape, -1 if reverse else 1, np.int8))
+    x, y, heading = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (x, y, heading)))
+    shape = x.shape
+    out = np.empty((6, x.size))
+    _kernels().arcs_into(np.ascontiguousarray(x.ravel()), np.ascontiguousarray(y.ravel()),
+                         np.ascontiguousarray(heading.ravel()), float(px), float(py), float(r_min_m), bool(reverse),
+                         float(max_turn_rad), out)
+    radius, cx, cy, angle, length, end = (row.reshape(shape) for row in out)
+    return Arcs(radius, cx, cy, angle, length, end, np.full(shape, -1 if reverse else 1, np.int8))
 
 
 def arc_poses(x: float, y: float, heading: float, radius_m: float, angle_rad: float, length_m: float,
               direction: int, step_m: float) -> np.ndarray:
     """(K, 3) poses along one arc from its start (excluded) to its end (included), at most step_m apart."""
-    n = max(1, int(math.ceil(length_m / step_m)))
-    f = np.arange(1, n + 1) / n
-    th = heading + (math.pi if direction < 0 else 0.0)
-    if math.isinf(radius_m):
-        ahead, left, turn = f * length_m, np.zeros(n), np.zeros(n)
-    else:
-        turn = f * angle_rad
-        ahead, left = radius_m * np.sin(turn), radius_m * (1 - np.cos(turn))
-    c, s = math.cos(th), math.sin(th)
-    return np.stack([x + c * ahead - s * left, y + s * ahead + c * left, heading + turn], axis=1)
+    return _kernels().arc_poses(float(x), float(y), float(heading), float(radius_m), float(angle_rad),
+                                float(length_m), int(direction), float(step_m))
+
+
+def _kernels():
+    return compiled("the planner's arcs", _build, "planning")
+
+
+def _build(nb):
+    from roar.planning import arc_kernel
+
+    return arc_kernel
 
 
 def truncated(angle_rad: float, length_m: float, max_m: float) -> tuple[float, float]:

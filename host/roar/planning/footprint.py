@@ -22,15 +22,15 @@ MARGIN_M = 0.03  # [m] added round the car's outline: the pose's error while it 
 
 def _build(nb):
     @nb.njit(cache=True, nogil=True, fastmath=True)
-    def first_collision(blocked, x0, y0, inv_res, xs, ys, ths, bx, by):
-        """Index of the first pose (xs, ys, ths) at which a body point (bx, by) lies in a blocked
-        cell or off the grid; -1 if none."""
+    def first_collision(blocked, x0, y0, inv_res, poses, bx, by):
+        """Index of the first of poses (N, 3: x, y, heading) at which a body point (bx, by) lies in
+        a blocked cell or off the grid; -1 if none."""
         nx, ny = blocked.shape
-        for k in range(xs.shape[0]):
-            c, s = math.cos(ths[k]), math.sin(ths[k])
+        for k in range(poses.shape[0]):
+            c, s = math.cos(poses[k, 2]), math.sin(poses[k, 2])
             for p in range(bx.shape[0]):
-                fx = (xs[k] + c * bx[p] - s * by[p] - x0) * inv_res
-                fy = (ys[k] + s * bx[p] + c * by[p] - y0) * inv_res
+                fx = (poses[k, 0] + c * bx[p] - s * by[p] - x0) * inv_res
+                fy = (poses[k, 1] + s * bx[p] + c * by[p] - y0) * inv_res
                 if fx < 0.0 or fy < 0.0:
                     return k
                 i, j = int(fx), int(fy)
@@ -79,11 +79,10 @@ class Footprint:
     def first_collision(self, grid: PlanningGrid, poses) -> int:
         """Index of the first of the poses (N, 3) [m, m, rad] at which the car touches a blocked
         cell (or leaves the grid); -1 if it fits at every one."""
-        p = np.asarray(poses, dtype=float).reshape(-1, 3)
+        p = np.ascontiguousarray(poses, dtype=float).reshape(-1, 3)
         bx, by = self._points(grid.resolution_m)
         kernel = compiled("the planner's footprint checks", _build, "planning")
-        return int(kernel(grid.blocked, grid.x0, grid.y0, 1.0 / grid.resolution_m, np.ascontiguousarray(p[:, 0]),
-                          np.ascontiguousarray(p[:, 1]), np.ascontiguousarray(p[:, 2]), bx, by))
+        return int(kernel(grid.blocked, grid.x0, grid.y0, 1.0 / grid.resolution_m, p, bx, by))
 
     def fits(self, grid: PlanningGrid, poses) -> bool:
         return self.first_collision(grid, poses) < 0
