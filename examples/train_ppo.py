@@ -57,6 +57,7 @@ try:
     import torch
     from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import BaseCallback
+    from stable_baselines3.common.logger import Logger
     from stable_baselines3.common.vec_env import SubprocVecEnv, VecMonitor, VecNormalize
 except ImportError:
     sys.exit("this example needs stable-baselines3 and PyTorch: pip install 'roar-platform[rl]'")
@@ -142,6 +143,7 @@ def train(args) -> int:
     else:
         settings = {"n_steps": max(64, min(512, args.steps // args.envs)), "batch_size": 64}  # steps per env an update
     model = PPO("MultiInputPolicy", envs, seed=args.seed, device="cpu", **settings)
+    model.set_logger(Logger(None, []))  # the progress bar says it all (SB3's own would leave a folder in /tmp per run)
     progress = Progress(args.steps, lap_m, args.until_laps)
     start = time.perf_counter()
     try:

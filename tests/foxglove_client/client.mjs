@@ -1,6 +1,6 @@
 // An independent Foxglove WebSocket client (npm @foxglove/ws-protocol over ws), for the test suite:
 //   node client.mjs ws://127.0.0.1:8765 TOPIC[,TOPIC...] COUNT [SECONDS]
-// Prints one JSON line per event: {"advertised": [{topic, schemaName, encoding}]} once, then
+// Prints one JSON line per event: {"advertised": [{topic, schemaName, encoding}]} for each advertisement,
 // {"topic", "logTime", "json"} for each of COUNT messages of each listed topic whose encoding is
 // json (its payload parsed) or {"topic", "logTime", "bytes"} for others; exits 0 when every topic
 // gave COUNT messages, 1 on an error or after SECONDS (default 20) without them.

@@ -310,9 +310,19 @@ def test_topics_frames_stamps_and_qos_as_documented(monkeypatch):
                                        ("image", Image, "/camera/image_raw", qos_profile_sensor_data),
                                        ("camera_info", CameraInfo, "/camera/camera_info", 10)):
             node.create_subscription(kind, topic, keep(name), qos)
-        end = time.monotonic() + 3.0
-        while time.monotonic() < end:
+        # 3 s at least, and on a busy machine until every topic came (at most 20 s)
+        began = time.monotonic()
+        names = ("scan best effort", "scan reliable", "odom", "imu", "clock", "tf", "tf_static", "diagnostics",
+                 "image", "camera_info")
+
+        def enough() -> bool:
+            return (time.monotonic() - began >= 3.0 and all(got.get(n) for n in names)
+                    and min(len(got["scan best effort"]), len(got["scan reliable"])) > 20
+                    and max(c.clock.sec + c.clock.nanosec * 1e-9 for c in got["clock"]) > 4.0)
+
+        while not enough() and time.monotonic() - began < 20.0:
             rclpy.spin_once(node, timeout_sec=0.01)
+        listened_s = time.monotonic() - began
         node.create_subscription(OccupancyGrid, "/map", keep("map"), latched)  # late: transient local
         end = time.monotonic() + 1.0
         while time.monotonic() < end and "map" not in got:
@@ -334,7 +344,7 @@ def test_topics_frames_stamps_and_qos_as_documented(monkeypatch):
     clocks = {(c.clock.sec, c.clock.nanosec) for c in got["clock"]}
     assert all((m.header.stamp.sec, m.header.stamp.nanosec) in clocks for m in got["odom"][-10:])
     sim_s = max(s + ns * 1e-9 for s, ns in clocks)
-    assert sim_s > 4.0  # 3 s and more of wall time at twice real time
+    assert sim_s > 4.0  # 3 s and more of wall time at twice real time (or as fast as a busy machine ran it)
     edges = {(t.header.frame_id, t.child_frame_id) for m in got["tf"] + got["tf_static"] for t in m.transforms}
     assert edges == {("odom", "base_link"), ("base_link", "laser"), ("base_link", "camera_optical"), ("map", "odom")}
     laser = next(t for m in got["tf_static"] for t in m.transforms if t.child_frame_id == "laser")
@@ -345,7 +355,7 @@ def test_topics_frames_stamps_and_qos_as_documented(monkeypatch):
     assert pixels.std() > 10  # a picture, not a blank
     focal = 120 / math.tan(math.radians(70) / 2)  # the simulated car's camera: 70 degrees vertically
     assert info.k[0] == pytest.approx(focal) and info.k[4] == pytest.approx(focal) and info.k[2] == 159.5
-    assert 5 <= len(got["image"]) <= 3 * 10 + 2  # at 10 frames a second of wall time
+    assert 5 <= len(got["image"]) <= listened_s * 10 + 2  # at 10 frames a second of wall time
     mount = next(t for m in got["tf_static"] for t in m.transforms if t.child_frame_id == "camera_optical")
     q = mount.transform.rotation
     # the optical axis (the rotation's third column) in the car's frame: ahead, pitched down a quarter

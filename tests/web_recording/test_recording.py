@@ -328,10 +328,13 @@ def foxglove_client(port: int, topics: list[str], count: int, seconds: float = 3
                            str(seconds)], capture_output=True, text=True, timeout=seconds + 30)
     events = [json.loads(line) for line in done.stdout.splitlines() if line.startswith("{")]
     assert done.returncode == 0, (done.stdout[-2000:], done.stderr[-2000:])
-    got: dict[str, list[dict]] = {}
-    for e in events[1:]:
-        got.setdefault(e["topic"], []).append(e)
-    return {c["topic"]: c for c in events[0]["advertised"]}, got
+    advertised, got = {}, {}  # (a server may advertise its channels in several messages, as they begin)
+    for e in events:
+        if "advertised" in e:
+            advertised.update({c["topic"]: c for c in e["advertised"]})
+        else:
+            got.setdefault(e["topic"], []).append(e)
+    return advertised, got
 
 
 def test_a_served_car_is_live_in_an_independent_foxglove_client(tmp_path):
