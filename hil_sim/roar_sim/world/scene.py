@@ -19,7 +19,7 @@ from roar_sim.world import renderer as renderers
 from roar_sim.world.floor import add_floor
 from roar_sim.world.tiles import Tiles, frustum_reach_m, tile_files
 from roar_sim.world.obstacles import add_cone, add_person
-from roar_sim.sensors.lidar import Caster, wall_boxes
+from roar_sim.world.lidar_caster import Caster, wall_boxes
 from roar_sim.world.bullet import pb, silenced
 from roar.tracks import Track
 from roar.tracks.occupancy_map import OccupancyMap, track_map
@@ -116,7 +116,7 @@ class World:
         self._cull = self.renderer_name == "tiny" and not gui  # tiles out of a frame's reach hidden (tiles.py)
         self.walls = [_mesh_body(c, *wall_mesh(track))] if track else []  # one body: the physics stays fast
         self.tiles = [Tiles.add(c, wall_tile_files(track), WALL_RGBA)] if track else []  # what the camera sees of them
-        # the static solids the lidar meets, by body (roar_sim.sensors.lidar.Caster's rows; obstacles.py adds them)
+        # the static solids the lidar meets, by body (lidar_caster.Caster's rows; obstacles.py adds them)
         self.solids: dict[int, tuple[float, ...]] = {}
         self._casters: dict[float, Caster] = {}
         self._colliding: tuple[int, list[int]] = (0, [])  # (bodies seen, which of them collide, unaccounted for)

@@ -1,5 +1,5 @@
 """The simulated lidar's beams cast on boxes (the slab method) and on circles, compiled by Numba
-(roar_sim.sensors.lidar.Caster): module-level kernels, so that Numba's disk cache serves every
+(roar_sim.world.lidar_caster): module-level kernels, so that Numba's disk cache serves every
 later process."""
 
 import math
