@@ -408,8 +408,7 @@ class Bridge:
             self.map_pub.publish(occupancy_grid(self.known, self.names.map_frame, stamp))
 
     def close(self) -> None:
-        for poller in self.pollers:
-            poller.stop()
+        stop_pollers(self.pollers)
         self.vehicle.drive(**self._neutral_command())
 
     def _neutral_command(self) -> dict[str, float]:
@@ -436,10 +435,7 @@ class Poller:
         self._thread.start()
 
     def stop(self) -> None:
-        """Ends the thread after its read in hand (a scan, a render, a stream's next frame); one
-        that hangs on a dead link is left to end with the process, not waited for (Ctrl-C ends in 1 s)."""
-        self._stop.set()
-        self._thread.join(timeout=STOP_WAIT_S)
+        stop_pollers([self])
 
     def _run(self) -> None:
         next_at = time.monotonic()
@@ -457,6 +453,18 @@ class Poller:
                 next_at = time.monotonic() + retry_s - self.period_s
             next_at = max(next_at + self.period_s, time.monotonic())
             self._stop.wait(next_at - time.monotonic())
+
+
+def stop_pollers(pollers) -> None:
+    """Ends every poller's thread after its read in hand (a scan, a render, a stream's next frame):
+    all asked at once, then waited for together, STOP_WAIT_S at most in all (one after the other, a
+    scan's and a camera's waits added up to Ctrl-C's whole second); one that hangs on a dead link
+    is left to end with the process, not waited for (Ctrl-C ends in 1 s)."""
+    for poller in pollers:
+        poller._stop.set()
+    deadline = time.monotonic() + STOP_WAIT_S
+    for poller in pollers:
+        poller._thread.join(timeout=max(0.0, deadline - time.monotonic()))
 
 
 class Camera:
