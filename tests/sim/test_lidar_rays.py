@@ -54,9 +54,7 @@ def test_other_sensors_rays_go_to_a_walls_only_client_that_answers_as_the_world_
     with EscCar(get(name)) as sim:
         world = sim.plant.world
         for _, there, who, position in drive_and_scan(sim):
-            c = sim.plant.client
-            yaw = pb.getEulerFromQuaternion(pb.getLinkState(sim.plant.car, LIDAR_LINK, physicsClientId=c)[1])[2]
-            angles = yaw + np.linspace(-math.radians(135), math.radians(135), BEAMS)
+            angles = yaw_of(sim.plant) + np.linspace(-math.radians(135), math.radians(135), BEAMS)
             d = np.stack([np.cos(angles), np.sin(angles), np.zeros(BEAMS)], axis=1)
             hits = world.ray_test((np.asarray(position) + MIN_RANGE_M * d).tolist(),
                                   (np.asarray(position) + RANGE_M * d).tolist())

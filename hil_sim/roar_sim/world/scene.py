@@ -119,7 +119,7 @@ class World:
         # the static solids the lidar meets, by body (lidar_caster.Caster's rows; obstacles.py adds them)
         self.solids: dict[int, tuple[float, ...]] = {}
         self._casters: dict[float, Caster] = {}
-        self._colliding: tuple[int, list[int]] = (0, [])  # (bodies seen, which of them collide, unaccounted for)
+        self._colliding: tuple[int, list[int]] = (0, [])  # (bodies counted, those that collide unaccounted for)
         course = track.course if track else None  # a tunnel world's cones and people (not in its map)
         self.cones = [add_cone(self, x, y) for x, y in course.cones] if course else []
         self.people = [add_person(self, x, y) for x, y in course.people] if course else []
