@@ -195,22 +195,57 @@ def recording(tmp_path_factory):
 
 
 class Guard:
-    """SIGALRM after `seconds`: the run ends as on Ctrl-C (a hang becomes status 130)."""
+    """After `seconds`, a Ctrl-C: SIGINT, to whatever handler the run installed (asyncio.run's cancels
+    its main task); then, every AGAIN_S while it has not ended, a second Ctrl-C raised where the run
+    is (a hang becomes status 130). A KeyboardInterrupt raised inside an event loop at first would
+    be harsher than a Ctrl-C: it can land between the loop taking a task's wake-up and running it,
+    and asyncio.run's clean-up then waits for that task for ever."""
 
-    def __init__(self, seconds: float) -> None:
-        self.seconds = seconds
+    AGAIN_S = 5.0  # [s]
+
+    def __init__(self, seconds: float, again_s: float = AGAIN_S) -> None:
+        self.seconds, self.again_s, self.fired = seconds, again_s, 0
 
     def __enter__(self):
         self.previous = signal.signal(signal.SIGALRM, self._fire)
-        signal.setitimer(signal.ITIMER_REAL, self.seconds)
+        signal.setitimer(signal.ITIMER_REAL, self.seconds, self.again_s)
         return self
 
     def _fire(self, signum, frame):
-        raise KeyboardInterrupt
+        self.fired += 1
+        if self.fired == 1:
+            signal.raise_signal(signal.SIGINT)
+        else:
+            raise KeyboardInterrupt
 
     def __exit__(self, *exc):
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, self.previous)
+
+
+def test_the_guard_stops_a_run_as_ctrl_c_does_then_again_where_it_hangs():
+    import time
+
+    heard = []
+
+    def ctrl_c(signum, frame):  # what a run's own SIGINT handler (asyncio.run's) would hear
+        heard.append(signum)
+        raise KeyboardInterrupt
+
+    def run_until_stopped(sigint_handler, again_s=Guard.AGAIN_S) -> Guard:
+        previous = signal.signal(signal.SIGINT, sigint_handler)
+        try:
+            with pytest.raises(KeyboardInterrupt), Guard(0.1, again_s) as guard:
+                while True:
+                    time.sleep(0.01)
+        finally:
+            signal.signal(signal.SIGINT, previous)
+        return guard
+
+    assert run_until_stopped(ctrl_c).fired == 1 and heard == [signal.SIGINT]
+    start = time.monotonic()
+    assert run_until_stopped(lambda *_: None, again_s=0.2).fired == 2  # a run that ignores Ctrl-C still ends
+    assert time.monotonic() - start < 4.0
 
 
 @pytest.mark.parametrize("command, option, value", CASES)

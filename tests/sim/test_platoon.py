@@ -132,7 +132,7 @@ def test_roar_platoon_reports_the_gap_and_the_stop(tmp_path):
         args.append("--netns")  # the command's own link; the API's is tested above on both paths
     done = subprocess.run([sys.executable, "-m", "roar.cli", "platoon", *args], capture_output=True, text=True,
                           timeout=120)
-    assert done.returncode == 0, done.stderr
+    assert done.returncode == 0, done.stdout + done.stderr  # the report says which check fell short
     assert "held within +-0.2 m" in done.stdout and "the follower stopped (below 0.1 m/s)" in done.stdout
     assert ("namespace" in done.stdout) == ("--netns" in args)
     assert "contacts between the cars: 0" in done.stdout and plot.read_bytes()[:4] == b"\x89PNG"
