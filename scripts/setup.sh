@@ -111,3 +111,8 @@ if [[ $level == test ]]; then
     fi
   fi
 fi
+
+# the simulated camera's compiled loops into Numba's disk cache (~8 s the first time): a car's
+# first frame then takes ~0.7 s, not a stall of a real-time loop (a phone's stream, roar web)
+.venv/bin/python -c "from roar_sim.world.ray_camera import warm; warm()" ||
+  { echo "setup: the simulated camera's kernels did not compile" >&2; exit 1; }

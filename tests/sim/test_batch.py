@@ -265,6 +265,52 @@ def test_the_camera_sees_what_pybullets_does_as_the_lane_detector_finds_it():
 
 
 
+def test_the_camera_sees_a_tunnels_cones_and_people_and_added_boxes_where_pybullet_does():
+    """tunnel:3's cones (orange) and people (blue) from poses along it, and a box added to the
+    pool's oval: the batched frame's pixels of each colour overlap PyBullet's (TinyRenderer's) by
+    nine in ten where either has them."""
+    from roar_sim.batch.camera import FloorPool, render
+    from roar_sim.batch.world import BatchWorld
+    from roar_sim.plants.racecar import Racecar
+    from roar_sim.world.appearance import solid_row
+    from roar_sim.world.bullet import pb
+    from roar_sim.world.obstacles import BOX_RGBA, add_box
+
+    def masks(rgb):
+        rgb = rgb.astype(int)
+        orange = (rgb[..., 0] > 120) & (rgb[..., 1] > 30) & (rgb[..., 2] < 40)
+        blue = (rgb[..., 2] > 1.5 * rgb[..., 0]) & (rgb[..., 2] > 60)
+        return orange, blue
+
+    overlaps = []
+    for name in ("tunnel:3", "oval"):
+        track = get(name)
+        world = BatchWorld(1, tracks=[track])
+        floors = FloorPool(world.pool)
+        car = Racecar(track)
+        try:
+            if name == "oval":  # a box 1.5 m ahead of the start, in both worlds
+                x, y, yaw = track.pose_at(2.0, 0.1)
+                add_box(car.world, x, y, yaw=yaw)
+                floors.add(0, [solid_row(x, y, yaw, 0.1, 0.1, 0.0, 0.2, 0.0, BOX_RGBA)])
+            for _ in range(30):
+                car.step()
+            z = pb.getBasePositionAndOrientation(car.car, physicsClientId=car.client)[0][2]
+            for s in (np.linspace(0, track.length_m, 12, endpoint=False) if name != "oval" else [0.3]):
+                x, y, yaw = track.pose_at(float(s))
+                pb.resetBasePositionAndOrientation(car.car, [x, y, z], pb.getQuaternionFromEuler([0, 0, yaw]),
+                                                   physicsClientId=car.client)
+                world.reset([0], [[x, y, yaw]])
+                theirs = masks(car.camera(320, 240)[0])
+                ours = masks(render(world, floors, 320, 240)[0][0])
+                for a, b in zip(theirs, ours):
+                    if (a | b).sum() > 200:  # something of that colour in view
+                        overlaps.append((a & b).sum() / (a | b).sum())
+        finally:
+            car.close()
+    assert len(overlaps) >= 5 and min(overlaps) >= 0.9, overlaps
+
+
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "train_ppo.py"
 
 

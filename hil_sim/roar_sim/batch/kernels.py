@@ -11,6 +11,7 @@ import math
 import numba as nb
 
 from roar.protocol import spec
+from roar_sim.world.wall_field import sdf_in
 
 G_M_S2 = 9.81  # [m/s^2]
 NEUTRAL_US = float(spec.CONTROL_NEUTRAL_US)  # [us]
@@ -86,20 +87,7 @@ def _servo_advance(act, i, dt, rate, lag):
 @nb.njit(cache=True, nogil=True, fastmath=True)
 def _sdf(pool, meta, k, x, y):
     """[m] track k's distance from (x, y) to its nearest wall's face, bilinear; 1e9 off its grid."""
-    return _sdf_in(pool, meta[k, 0], meta[k, 1], meta[k, 2], int(meta[k, 3]), int(meta[k, 4]), int(meta[k, 5]), x, y)
-
-
-@nb.njit(cache=True, nogil=True, fastmath=True)
-def _sdf_in(pool, x0, y0, res, nx, ny, start, x, y):
-    """_sdf on one track's grid given by its meta row's numbers (a loop over one track reads them once)."""
-    fx, fy = (x - x0) / res, (y - y0) / res
-    if not (0.0 <= fx < nx - 1 and 0.0 <= fy < ny - 1):
-        return 1e9
-    ix, iy = int(fx), int(fy)
-    tx, ty = fx - ix, fy - iy
-    at = start + ix * ny + iy
-    a, b, c, d = pool[at], pool[at + 1], pool[at + ny], pool[at + ny + 1]
-    return (a * (1 - ty) + b * ty) * (1 - tx) + (c * (1 - ty) + d * ty) * tx
+    return sdf_in(pool, meta[k, 0], meta[k, 1], meta[k, 2], int(meta[k, 3]), int(meta[k, 4]), int(meta[k, 5]), x, y)
 
 
 @nb.njit(cache=True, nogil=True, fastmath=True)
@@ -274,7 +262,7 @@ def scan(body, params, track_of, pool, meta, angles, turn, range_m, min_range_m,
             hit = range_m
             last_d, last_step = 1e9, 0.0
             for _ in range(MARCH_STEPS):
-                d = _sdf_in(pool, x0, y0, res, nx, ny, start, ox + t * dx, oy + t * dy)  # (its track's grid read once)
+                d = sdf_in(pool, x0, y0, res, nx, ny, start, ox + t * dx, oy + t * dy)  # (its track's grid read once)
                 if last_step > last_d + d:  # the over-long step passed a wall: back to a plain one
                     t -= last_step - last_d
                     last_d, last_step = 1e9, last_d

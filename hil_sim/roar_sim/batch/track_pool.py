@@ -1,13 +1,9 @@
 """The tracks a batch drives on, shared by all its cars: each track's walls as a distance field on
-a grid (what the lidar marches on and the footprint is checked against) and its centre line
-(what progress is measured along).
+a grid (roar_sim.world.wall_field: what the lidar marches on and the footprint is checked against)
+and its centre line (what progress is measured along).
 
     pool = TrackPool(["oval", "random:3"])    # names, or roar.tracks.Track objects
     pool.tracks[1].length_m, pool.bytes        # the tracks; the memory the pool holds [bytes]
-
-A wall is the simulator's (roar_sim.world.scene): a box WALL_THICKNESS_M thick along each piece of a
-wall polyline, half a thickness longer at each end; the field holds the distance to those boxes (each
-node's to the boxes of the pieces of its nearest samples, SAMPLE_M apart along them).
 """
 
 from __future__ import annotations
@@ -15,53 +11,9 @@ from __future__ import annotations
 import numpy as np
 
 from roar.tracks import Track, TrackError, get
-from roar_sim.world.scene import WALL_THICKNESS_M
+from roar_sim.world.wall_field import RES_M, distance_field
 
-RES_M = 0.025  # [m] the distance field's cell (at 5 cm a beam grazing a wall's end erred 2-4 cm, 1 time in 100)
-SAMPLE_M = 0.01  # [m] between the points each wall is sampled at
-MARGIN_M = 0.5  # [m] the field reaches this far beyond the walls
 MAX_TRACKS = 64  # a pool's most
-NEAREST = 4  # samples whose pieces each node's distance is measured to
-
-
-def wall_segments(track: Track) -> tuple[np.ndarray, np.ndarray]:
-    """(segments [S, 2, 2] [m]: every wall polyline's pieces, start and end; points [M, 3]: (x, y,
-    its segment) along each piece, SAMPLE_M apart at most)."""
-    segments, points = [], []
-    for wall in track.walls:
-        for p, q in zip(wall, np.roll(wall, -1, axis=0)):
-            k = max(1, int(np.ceil(np.hypot(*(q - p)) / SAMPLE_M)))
-            along = p + np.outer(np.arange(k) / k, q - p)
-            points.append(np.column_stack([along, np.full(k, len(segments))]))
-            segments.append((p, q))
-    return np.array(segments), np.concatenate(points)
-
-
-def distance_field(track: Track, res_m: float = RES_M) -> tuple[np.ndarray, tuple[float, float, int, int]]:
-    """(field float32 [nx, ny] [m] to the nearest wall's face (negative inside a wall), (x0, y0, nx,
-    ny)): the grid's first node at (x0, y0), res_m apart. Each node's distance is to the boxes of the
-    pieces of its nearest few samples, exactly."""
-    from scipy.spatial import cKDTree
-
-    segments, points = wall_segments(track)
-    low, high = points[:, :2].min(axis=0) - MARGIN_M, points[:, :2].max(axis=0) + MARGIN_M
-    nx, ny = (np.ceil((high - low) / res_m).astype(int) + 1).tolist()
-    gx, gy = np.meshgrid(low[0] + res_m * np.arange(nx), low[1] + res_m * np.arange(ny), indexing="ij")
-    nodes = np.column_stack([gx.ravel(), gy.ravel()])
-    _, nearest = cKDTree(points[:, :2]).query(nodes, k=NEAREST, workers=-1)
-    best = np.full(len(nodes), np.inf)
-    half_width = WALL_THICKNESS_M / 2
-    for j in range(NEAREST):  # each candidate piece's box, as the simulator builds it: signed distance to it
-        a, b = segments[points[nearest[:, j], 2].astype(int)].transpose(1, 0, 2)
-        d = b - a
-        length = np.maximum(np.hypot(*d.T), 1e-12)
-        ux, uy = d[:, 0] / length, d[:, 1] / length
-        rx, ry = nodes[:, 0] - (a[:, 0] + b[:, 0]) / 2, nodes[:, 1] - (a[:, 1] + b[:, 1]) / 2
-        qx = np.abs(rx * ux + ry * uy) - (length / 2 + half_width)
-        qy = np.abs(-rx * uy + ry * ux) - half_width
-        box = np.hypot(np.maximum(qx, 0.0), np.maximum(qy, 0.0)) + np.minimum(np.maximum(qx, qy), 0.0)
-        best = np.minimum(best, box)
-    return best.astype(np.float32).reshape(nx, ny), (float(low[0]), float(low[1]), nx, ny)
 
 
 class TrackPool:

@@ -157,7 +157,7 @@ class JuniorPlant:
         it by (yaw, pitch) more, as a loose mount would."""
         position, yaw = self._mount(CAMERA_POS_M)
         return self.world.render(position, yaw + shake_rad[0], CAMERA_PITCH_RAD + shake_rad[1], width, height,
-                                 CAMERA_FOV_DEG)
+                                 CAMERA_FOV_DEG, body=self.robot)
 
     def wall_contacts(self, of: list[int] | None = None) -> int:
         """How many walls (or bodies of `of`) the robot touches right now."""

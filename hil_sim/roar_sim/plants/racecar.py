@@ -104,7 +104,8 @@ class Racecar:
         and slightly down; shake_rad turns it by (yaw, pitch) more, as a shaking mount would."""
         pos, orn = pb.getLinkState(self.car, CAMERA_LINK, physicsClientId=self.client)[:2]
         yaw = pb.getEulerFromQuaternion(orn)[2] + shake_rad[0]
-        return self.world.render(pos, yaw, CAMERA.pitch_rad + shake_rad[1], width, height, CAMERA.fov_deg, far_m)
+        return self.world.render(pos, yaw, CAMERA.pitch_rad + shake_rad[1], width, height, CAMERA.fov_deg, far_m,
+                                 body=self.car)
 
     def apply(self, drive: float, brake: float, steer_rad: float) -> None:
         """drive -1..1 of the motor limit, brake 0..1, steer_rad the virtual centre angle."""

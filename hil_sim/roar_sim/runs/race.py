@@ -5,7 +5,7 @@ robot.
     roar race [--robot esc|iarrc|junior] [--track NAME|FILE] [--laps 2]
               [--line centre|optimal|RACELINE.csv] [--waypoints FILE] [--margin 0.9] [--k-dd S] [--steering pursuit|pid] [--driver line|lane]
               [--start-lights SEED] [--boxes N] [--avoid] [--frames DIR] [--shaky-camera SEED]
-              [--renderer tiny|egl] [--plot out/race.png]
+              [--renderer tiny|rays|egl] [--plot out/race.png]
               [--realtime] [--gui]
 
 Every command reaches the robot as a host's does (roar_sim.robots): the ESC car hears control
@@ -89,7 +89,7 @@ def race(track: Track, laps: int = 2, waypoints: np.ndarray | None = None, margi
     pursuit's look-ahead per m/s [s] (None: the robot's default). profile: the robot's profile
     (a racecar's: roar_sim.plants.car_profile; the Junior's: roar_sim.plants.junior_profile; a
     name or a .toml; None: the robot's default). renderer: what draws the
-    camera's frames ("egl", "tiny"; None: roar_sim.world.renderer.wanted()). shaky_camera: a seed:
+    camera's frames ("rays", "egl", "tiny"; None: roar_sim.world.renderer.wanted()). shaky_camera: a seed:
     the lane driver's camera mount shakes and its sensor adds noise (roar_sim.sensors.camera_noise).
     green_span_s: [s] the span the start lights' green moment is drawn from. localize: the driver
     drives on the particle filter's pose (roar_sim.runs.localize: odometry and lidar on the
@@ -266,9 +266,11 @@ def parser() -> argparse.ArgumentParser:
                    help="with --driver lane: the camera's mount shakes (0.5 degrees a frame) and its sensor adds "
                         "noise, drawn from SEED, as on a real car")
     p.add_argument("--renderer", choices=renderers.RENDERERS, default=None,
-                   help="what draws the lane driver's camera frames: tiny (PyBullet's TinyRenderer, the default) or "
-                        "egl (OpenGL without a window: 2.7x faster at 640x480, 1.1x at 320x240 here; TinyRenderer "
-                        "where it cannot start); also the environment's ROAR_RENDERER")
+                   help="what draws the lane driver's camera frames: tiny (PyBullet's TinyRenderer, the default), "
+                        "rays (each pixel's ray cast on the paint, walls and solids: ~10x faster at 320x240; "
+                        "TinyRenderer where another car is in the world) or egl (OpenGL without a window: 2.7x "
+                        "faster than tiny at 640x480; tiny where it cannot start); also the environment's "
+                        "ROAR_RENDERER")
     p.add_argument("--localize", action="store_true",
                    help="drive on the particle filter's pose instead of the simulator's: the car's odometry (wheel "
                         "encoders and gyro, with their errors) and its lidar's scans on the track's map "

@@ -12,6 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from roar_sim.world.bullet import pb
+from roar_sim.world.appearance import solid_row
 from roar_sim.world.renderer import mesh_visual
 from roar.tracks.track import Track
 
@@ -30,6 +31,7 @@ def add_box(world, x: float, y: float, half_m: float = BOX_HALF_M, yaw: float = 
     body = pb.createMultiBody(0, shape, visual, [x, y, half_m], pb.getQuaternionFromEuler([0, 0, yaw]),
                               physicsClientId=c)
     world.solids[body] = (x, y, yaw, half_m, half_m, 0.0, 2 * half_m)
+    world.visuals[body] = solid_row(*world.solids[body], 0.0, BOX_RGBA)
     return body
 
 
@@ -50,6 +52,7 @@ def add_cone(world, x: float, y: float) -> int:
     visual = mesh_visual(c, vertices, indices, rgba=CONE_RGBA)
     body = pb.createMultiBody(0, shape, visual, [x, y, 0.0], physicsClientId=c)
     world.solids[body] = (x, y, 0.0, 0.0, 0.0, -CONE_RADIUS_M, CONE_HEIGHT_M)  # (its facets' corners on the circle)
+    world.visuals[body] = solid_row(*world.solids[body], 0.0, CONE_RGBA)
     return body
 
 
@@ -64,6 +67,7 @@ def add_person(world, x: float, y: float) -> int:
                                   rgbaColor=list(PERSON_RGBA), physicsClientId=c)
     body = pb.createMultiBody(0, shape, visual, [x, y, PERSON_HEIGHT_M / 2], physicsClientId=c)
     world.solids[body] = (x, y, 0.0, 0.0, 0.0, PERSON_RADIUS_M, PERSON_HEIGHT_M)
+    world.visuals[body] = solid_row(*world.solids[body], 0.0, PERSON_RGBA)
     return body
 
 

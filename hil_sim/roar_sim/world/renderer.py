@@ -1,6 +1,12 @@
 """Which of PyBullet's renderers draws a world's camera frames, and the mesh files both can draw.
 
     tiny  PyBullet's TinyRenderer: software, in PyBullet itself, always there.
+    rays  roar_sim.world.ray_camera: each pixel's ray cast on the floor's paint, the walls and the
+          solids in compiled loops, without Bullet, wherever the world accounts for every body the
+          camera may see (World.visuals: boxes, cones, people, start lights; not other cars or
+          markers); TinyRenderer draws the other frames. ~10x faster than TinyRenderer at 320 x 240
+          (make bench); tests/sim/test_renderers.py checks that the lane detector finds the same
+          lines as in TinyRenderer's frames.
     egl   PyBullet's EGL plugin: OpenGL without a window (Mesa's llvmpipe here, a GPU where there
           is one): 2.7x faster at 640x480 on this project's two-core machine, 1.1x at 320x240
           (make bench). It must be loaded into a client before any body is added (it never sees
@@ -14,7 +20,7 @@
 A world takes the renderer of its `renderer=` argument, else the one `chosen()` names where it is
 made, else ROAR_RENDERER from the environment, else tiny (loading EGL costs ~0.12 s a world,
 which only worlds that render many frames repay). EGL falls back to tiny, saying so once, where
-it cannot start (no libEGL, no driver).
+it cannot start (no libEGL, no driver); a PyBullet window draws with TinyRenderer.
 
     with renderer.chosen("egl"):            # roar race --renderer egl
         robot = robots.get("esc")(track)
@@ -34,7 +40,7 @@ from pathlib import Path
 
 from roar_sim.world.bullet import pb, silenced
 
-RENDERERS = ("egl", "tiny")  # what `--renderer` and ROAR_RENDERER take
+RENDERERS = ("egl", "rays", "tiny")  # what `--renderer` and ROAR_RENDERER take
 DEFAULT = "tiny"
 ENV = "ROAR_RENDERER"
 
@@ -68,6 +74,8 @@ def start(client: int, name: str) -> tuple[int, str]:
     """Make `client` draw with `name` before any body is added: (the getCameraImage renderer
     flag, the renderer's name as it turned out: tiny where EGL cannot start)."""
     global _egl_failed
+    if name == "rays":
+        return pb.ER_TINY_RENDERER, "rays"  # (TinyRenderer for what the rays cannot account for)
     if name == "egl" and not _egl_failed:
         plugin = pkgutil.get_loader("eglRenderer")
         with silenced((1, 2)):  # the plugin prints its OpenGL version on stdout

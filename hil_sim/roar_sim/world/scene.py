@@ -9,7 +9,6 @@ import math
 import os
 import threading
 from contextlib import nullcontext
-from dataclasses import dataclass
 
 import numpy as np
 import pybullet_data
@@ -24,47 +23,11 @@ from roar_sim.world.bullet import pb, silenced
 from roar.tracks import Track
 from roar.tracks.occupancy_map import OccupancyMap, track_map
 from roar_sim.world.cache import per_shape
+from roar_sim.world.appearance import WALL_HEIGHT_M, WALL_RGBA, WALL_THICKNESS_M, Light  # noqa: F401 (theirs)
 
-WALL_HEIGHT_M, WALL_THICKNESS_M = 0.3, 0.05  # [m] higher than the lidar (0.17 m)
-WALL_RGBA = (0.8, 0.8, 0.8, 1.0)  # light grey
 WALL_PIECE_M = 0.15  # [m] longest wall box: the camera's renderer drops whole triangles that cross its near plane
 GROUND_HALF_M = 25.0  # [m] asphalt shown beyond the track (or around the origin without one)
 EGL_CHATTY_FRAMES = 2  # EGL prints its vendor on stdout within its first frames
-
-
-@dataclass(frozen=True)
-class Light:
-    """The light a world's frames are drawn in: where it comes from (a direction towards it), its
-    colour (RGB 0..1) and how much of it is ambient, diffuse and specular (PyBullet's renderers'
-    own parameters, which shade faces by their angle to it), and how much of it reaches the
-    camera per channel (gain: PyBullet's ambient term ignores the colour, so a dim or tinted
-    room is the frame scaled by it). Light.dim(0.4) is a dim room; Light.tinted((1, 0.8, 0.55))
-    a warm lamp."""
-
-    direction: tuple[float, float, float] = (0.3, 0.4, 1.0)
-    colour: tuple[float, float, float] = (1.0, 1.0, 1.0)
-    ambient: float = 0.6
-    diffuse: float = 0.35
-    specular: float = 0.05
-    gain: tuple[float, float, float] = (1.0, 1.0, 1.0)
-
-    @classmethod
-    def dim(cls, brightness: float) -> Light:
-        return cls.tinted((brightness,) * 3)
-
-    @classmethod
-    def tinted(cls, rgb: tuple[float, float, float], direction: tuple[float, float, float] = (0.3, 0.4, 1.0)) -> Light:
-        return cls(direction=direction, colour=tuple(rgb), gain=tuple(rgb))
-
-    def lit(self, rgb: np.ndarray) -> np.ndarray:
-        if self.gain == (1.0, 1.0, 1.0):
-            return rgb
-        return np.clip(rgb * np.asarray(self.gain, dtype=np.float32), 0, 255).astype(np.uint8)
-
-    def camera_args(self) -> dict:
-        return {"lightDirection": list(self.direction), "lightColor": list(self.colour),
-                "lightAmbientCoeff": self.ambient, "lightDiffuseCoeff": self.diffuse,
-                "lightSpecularCoeff": self.specular}
 
 
 SOLVER_ITERATIONS = 10  # contact solver iterations per step (PyBullet default 50): a car on a plane settles in few
@@ -113,11 +76,17 @@ class World:
         pb.setPhysicsEngineParameter(numSolverIterations=SOLVER_ITERATIONS, physicsClientId=c)
         # Nearest-first for the camera's software renderer: a pixel already covered by a wall or the
         # floor is rejected by its depth test before it is shaded again for what lies beneath.
-        self._cull = self.renderer_name == "tiny" and not gui  # tiles out of a frame's reach hidden (tiles.py)
+        self._cull = self.renderer_name != "egl" and not gui  # tiles out of a frame's reach hidden (tiles.py)
         self.walls = [_mesh_body(c, *wall_mesh(track))] if track else []  # one body: the physics stays fast
         self.tiles = [Tiles.add(c, wall_tile_files(track), WALL_RGBA)] if track else []  # what the camera sees of them
         # the static solids the lidar meets, by body (lidar_caster.Caster's rows; obstacles.py adds them)
         self.solids: dict[int, tuple[float, ...]] = {}
+        # what the ray-cast camera sees of the bodies that are neither walls, ground nor paint, by body
+        # (ray_camera.solid_row's rows: the solids above, and visual-only ones such as start lights)
+        self.visuals: dict[int, tuple[float, ...]] = {}
+        self._ray_scene = None  # (ray_camera.Scenes of this world, the visuals' rows it holds, its light)
+        self._seen: tuple[list[int], list[int], int] = ([], [], 0)  # (the bodies, those the ray camera
+        #                                                                 cannot draw, visuals counted)
         self._casters: dict[float, Caster] = {}
         self._colliding: tuple[int, list[int]] = (0, [])  # (bodies counted, those that collide unaccounted for)
         course = track.course if track else None  # a tunnel world's cones and people (not in its map)
@@ -218,9 +187,12 @@ class World:
         return len(touching & set(self.walls if of is None else of))
 
     def render(self, position, yaw: float, pitch: float, width: int, height: int, fov_deg: float,
-               far_m: float = 10.0, near_m: float = 0.05) -> tuple[np.ndarray, np.ndarray]:
+               far_m: float = 10.0, near_m: float = 0.05, body: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(RGB uint8 HxWx3, depth float32 HxW [m]) from a camera at `position` looking along `yaw`,
-        tilted down by `pitch` [rad], in the world's light (self.light: None is PyBullet's own)."""
+        tilted down by `pitch` [rad], in the world's light (self.light: None is PyBullet's own).
+        body: the robot the camera is on (the ray-cast camera leaves it out: it looks ahead of it)."""
+        if self.renderer_name == "rays" and self.track is not None and not self._unseen(body):
+            return self._ray_render(position, yaw, pitch, width, height, fov_deg, far_m)
         if self._cull:
             reach = frustum_reach_m(far_m, fov_deg, width / height)
             for tiles in self.tiles:
@@ -228,7 +200,7 @@ class World:
         forward = np.array([math.cos(yaw), math.sin(yaw), -math.tan(pitch)])
         view = pb.computeViewMatrix(list(position), (np.array(position) + forward).tolist(), [0, 0, 1])
         proj = pb.computeProjectionMatrixFOV(fov_deg, width / height, near_m, far_m)
-        if self.renderer_name == "tiny":  # OpenGL samples pixel centres, TinyRenderer their corners:
+        if self.renderer_name != "egl":  # OpenGL samples pixel centres, TinyRenderer their corners:
             proj = list(proj)  # half a pixel down and right, and both draw a pinhole camera's image with
             proj[8] += 1.0 / width  # its centre between the middle pixels (roar.vision's CameraModel)
             proj[9] += 1.0 / height  # (column-major: the clip x and y added per unit of depth)
@@ -243,6 +215,36 @@ class World:
             rgb = self.light.lit(rgb)
         d = np.asarray(depth_buf, dtype=np.float32).reshape(height, width)
         return rgb, far_m * near_m / (far_m - (far_m - near_m) * d)
+
+    def _unseen(self, body: int | None) -> list[int]:
+        """The bodies but `body` the ray-cast camera cannot draw: neither walls, ground, paint nor
+        self.visuals (other robots, markers). A body removed since leaves visuals and solids."""
+        c = self.client
+        ids = [pb.getBodyUniqueId(i, physicsClientId=c) for i in range(pb.getNumBodies(physicsClientId=c))]
+        if ids != self._seen[0] or len(self.visuals) != self._seen[2]:
+            present = set(ids)
+            for registry in (self.visuals, self.solids):
+                for gone in [b for b in registry if b not in present]:
+                    del registry[gone]
+            known = {*self._own_bodies(), *self.visuals}
+            self._seen = (ids, [b for b in ids if b not in known], len(self.visuals))
+        return [b for b in self._seen[1] if b != body]
+
+    def _ray_render(self, position, yaw: float, pitch: float, width: int, height: int, fov_deg: float,
+                    far_m: float) -> tuple[np.ndarray, np.ndarray]:
+        from roar_sim.world import ray_camera
+
+        rows = tuple(self.visuals.values())
+        if self._ray_scene is None or self._ray_scene[2] is not self.light:  # (a light set since: shades anew)
+            self._ray_scene = (ray_camera.Scenes([self.track], self.light), None, self.light)
+        scene, held, light = self._ray_scene
+        if rows != held:
+            scene.set_solids(0, rows)
+            self._ray_scene = (scene, rows, light)
+        cam = np.array([[position[0], position[1], position[2], yaw, pitch]])
+        rgb, depth = ray_camera.render(scene, cam, 0, width, height, fov_deg, far_m)
+        self._rendered += 1
+        return (rgb[0] if self.light is None else self.light.lit(rgb[0])), depth[0]
 
     def step(self) -> None:
         pb.stepSimulation(physicsClientId=self.client)

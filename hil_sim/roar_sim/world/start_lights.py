@@ -13,6 +13,7 @@ import math
 import random
 
 from roar_sim.world.bullet import pb
+from roar_sim.world.appearance import solid_row
 from roar.tracks.track import Track
 
 AHEAD_M = 2.0  # [m] from the start along the track
@@ -35,11 +36,13 @@ class StartLights:
     """Red until green_at_s [s] of simulated time, then green."""
 
     def __init__(self, world, track: Track, green_at_s: float) -> None:
-        self.client, self.green_at_s = world.client, green_at_s
+        self.world, self.client, self.green_at_s = world, world.client, green_at_s
+        self._shape: dict[int, tuple] = {}  # body -> (x, y, z [m], half extents [m]): as the ray camera sees it
         ahead = track.pose_at(AHEAD_M)
         right = track.half_widths_at(track.project(ahead[:2], heading=ahead[2])[0])[1]
         x, y, yaw = track.pose_at(AHEAD_M, -(right + BEYOND_EDGE_M))
         orn = pb.getQuaternionFromEuler([0, 0, yaw])
+        self.yaw = yaw
         # the housing and lamps face back along the track, towards the car at the start
         face = (-math.cos(yaw), -math.sin(yaw))
         self.housing = self._box(x, y, (RED_Z_M + GREEN_Z_M) / 2, (0.03, 0.1, 0.17), HOUSING, orn)
@@ -53,14 +56,22 @@ class StartLights:
     def _box(self, x: float, y: float, z: float, half: tuple, rgba: tuple, orn) -> int:
         visual = pb.createVisualShape(pb.GEOM_BOX, halfExtents=list(half), rgbaColor=list(rgba),
                                       physicsClientId=self.client)
-        return pb.createMultiBody(0, -1, visual, [x, y, z], orn, physicsClientId=self.client)
+        body = pb.createMultiBody(0, -1, visual, [x, y, z], orn, physicsClientId=self.client)
+        self._shape[body] = (x, y, z, half)
+        self._paint(body, rgba)
+        return body
+
+    def _paint(self, body: int, rgba: tuple) -> None:
+        """A lamp's (or the housing's) colour, to both renderers."""
+        pb.changeVisualShape(body, -1, rgbaColor=list(rgba), physicsClientId=self.client)
+        x, y, z, (hx, hy, hz) = self._shape[body]
+        self.world.visuals[body] = solid_row(x, y, self.yaw, hx, hy, 0.0, 2 * hz, z - hz, rgba)
 
     def show(self, green: bool) -> None:
         """Green (red dark), or red (green dark), now."""
         self.is_green = green
-        pb.changeVisualShape(self.red, -1, rgbaColor=list(RED_OFF if green else RED_ON), physicsClientId=self.client)
-        pb.changeVisualShape(self.green, -1, rgbaColor=list(GREEN_ON if green else GREEN_OFF),
-                             physicsClientId=self.client)
+        self._paint(self.red, RED_OFF if green else RED_ON)
+        self._paint(self.green, GREEN_ON if green else GREEN_OFF)
 
     def reset(self, green_at_s: float) -> None:
         """Red again, green at green_at_s [s] of simulated time."""
