@@ -16,6 +16,7 @@ WALL_RGBA = (0.8, 0.8, 0.8, 1.0)  # light grey
 # height [m], its foot above the floor [m], and its colour (RGB 0..255, unlit)
 SOLID_COLUMNS = 11
 X, Y, YAW, HALF_L, HALF_W, RADIUS, HEIGHT, Z0, RED = range(9)
+PAINT_EDGE = 255  # the ray camera's paint raster: a cell an edge crosses (the triangles there say which paint)
 
 
 def solid_row(x: float, y: float, yaw: float, half_l: float, half_w: float, radius: float, height: float,

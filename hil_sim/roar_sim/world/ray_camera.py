@@ -1,5 +1,5 @@
-"""A camera without Bullet for flat worlds: each pixel's ray cast onto the floor (its paint's
-triangles, found on a grid), the walls (marched on the track's distance field once a
+"""A camera without Bullet for flat worlds: each pixel's ray cast onto the floor (its paint: a
+raster away from its edges, its triangles near them), the walls (marched on the track's distance field once a
 bearing: they stand upright) and the few solids (boxes, cylinders, cones and floating lamps:
 their surfaces solved exactly), batched over cameras and rows in compiled loops. PyBullet's
 renderers' pinhole (square pixels, the principal point between the middle pixels, depth along the
@@ -21,11 +21,15 @@ import math
 import numpy as np
 
 from roar_sim.world import floor
-from roar_sim.world.appearance import SOLID_COLUMNS, WALL_HEIGHT_M, WALL_RGBA, WALL_THICKNESS_M, Light, solid_row
+from roar_sim.world.appearance import (PAINT_EDGE, SOLID_COLUMNS, WALL_HEIGHT_M, WALL_RGBA, WALL_THICKNESS_M, Light,
+                                       solid_row)
 from roar_sim.world.lidar_caster import wall_boxes
 from roar_sim.world.cache import per_shape
 
 PAINT_CELL_M = 0.1  # [m] the paint's index grid: each cell lists the triangles that meet it
+RASTER_M = 0.02  # [m] the paint's raster: a cell's colour class where no triangle's edge comes near it, else
+#                  appearance.PAINT_EDGE: a point there is found among the triangles (exact edges; most pixels
+#                  read one cell)
 MARGIN_M = 1.0  # [m] the grid reaches this far beyond the walls
 # Walls stand upright, so where a ray meets one depends on its bearing alone: each frame marches
 # BINS bearings once on the floor's plane (uniform in q, the bearing's tangent off the heading, out
@@ -50,24 +54,29 @@ class Scenes:
         self.tracks = list(tracks)
         self.light = light or Light(direction=PYBULLET_LIGHT)
         colours = [floor.ASPHALT_RGB]
-        tris, classes, starts, owners, meta = [], [], [], [], []
-        tri_base = pair_base = cell_base = 0
+        tris, classes, starts, owners, rasters, meta = [], [], [], [], [], []
+        tri_base = pair_base = cell_base = raster_base = 0
         for track in self.tracks:
-            t, c, (x0, y0, nx, ny), cell_start, cell_tris, own = floor_paint(track)
+            t, c, (x0, y0, nx, ny), cell_start, cell_tris, own, raster = floor_paint(track)
             for rgb in own:
                 if rgb not in colours:
                     colours.append(rgb)
+            to_ours = np.array([colours.index(rgb) for rgb in own] + [PAINT_EDGE] * (256 - len(own)), dtype=np.uint8)
             tris.append(t)
-            classes.append(np.array([colours.index(rgb) for rgb in own], dtype=np.uint8)[c])
+            classes.append(to_ours[c])
             starts.append(cell_start + pair_base)
             owners.append(cell_tris + tri_base)
-            meta.append((x0, y0, PAINT_CELL_M, nx, ny, cell_base))
+            rasters.append(to_ours[raster].ravel())
+            meta.append((x0, y0, PAINT_CELL_M, nx, ny, cell_base, RASTER_M, *raster.shape, raster_base))
             tri_base, pair_base, cell_base = tri_base + len(t), pair_base + len(cell_tris), cell_base + len(cell_start)
+            raster_base += raster.size
         self.paint = np.ascontiguousarray(np.concatenate(tris))  # [M, 6] every track's paint triangles
         self.paint_class = np.concatenate(classes)  # [M] their colours (palette rows)
         self.cell_start = np.concatenate(starts)  # each track's index grid, one after another
         self.cell_tris = np.concatenate(owners)
-        self.meta = np.array(meta, dtype=np.float64)  # [K, 6]: x0, y0, cell, nx, ny, its first cell
+        self.raster = np.concatenate(rasters)  # each track's raster, one after another
+        # [K, 10]: x0, y0, cell, nx, ny, its first cell; the raster's cell, size and first index
+        self.meta = np.array(meta, dtype=np.float64)
         self.field, self.field_meta = fields if fields is not None else (None, None)
         self.wall_boxes = None if fields is not None else [
             wall_boxes(t, WALL_THICKNESS_M) if t.walls else np.zeros((0, 5)) for t in self.tracks]
@@ -113,8 +122,9 @@ def floor_paint(track):
     """(triangles [M, 6]: each paint triangle's corners x0, y0, x1, y1, x2, y2 [m]; classes uint8 [M]:
     each one's colour, an index into colours; (x0, y0, nx, ny): the index grid's first cell's corner
     [m] and its size in PAINT_CELL_M cells; cell_start [nx * ny + 1], cell_tris: the triangles each
-    cell meets are cell_tris[cell_start[c]:cell_start[c + 1]]; colours, asphalt first), made once per
-    track shape in a process."""
+    cell meets are cell_tris[cell_start[c]:cell_start[c + 1]]; colours, asphalt first; raster uint8
+    [rnx, rny]: the class of each RASTER_M cell from the same corner, PAINT_EDGE where an edge is within a
+    cell), made once per track shape in a process."""
     def make():
         colours = [floor.ASPHALT_RGB]
         tris, classes = [np.zeros((0, 6))], [np.zeros(0, np.uint8)]
@@ -145,9 +155,33 @@ def floor_paint(track):
         order = np.argsort(cells, kind="stable")
         cell_start = np.searchsorted(cells[order], np.arange(nx * ny + 1)).astype(np.int64)
         grid = (float(low[0]), float(low[1]), nx, ny)
-        return tris, classes, grid, cell_start, owners[order].astype(np.int64), colours
+        raster = _raster(tris, classes, low, high)
+        return tris, classes, grid, cell_start, owners[order].astype(np.int64), colours, raster
 
     return per_shape("floor paint triangles", track, make)
+
+
+def _raster(tris: np.ndarray, classes: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """The paint's classes at RASTER_M, PAINT_EDGE in every cell an edge crosses and the cells round it
+    (so that a cell not PAINT_EDGE lies wholly inside one class)."""
+    from PIL import Image, ImageDraw
+
+    rnx, rny = (np.ceil((high - low) / RASTER_M).astype(int) + 1).tolist()
+    image, edges = Image.new("L", (rnx, rny), 0), Image.new("L", (rnx, rny), 0)  # x along columns
+    fill, outline = ImageDraw.Draw(image), ImageDraw.Draw(edges)
+    cells = (tris.reshape(-1, 3, 2) - low) / RASTER_M
+    for corners, c in zip(cells, classes):
+        points = [tuple(p) for p in corners]
+        fill.polygon(points, fill=int(c))
+        outline.polygon(points, outline=1)
+    raster = np.asarray(image, dtype=np.uint8).T.copy()  # [rnx, rny]
+    near = np.asarray(edges, dtype=bool).T
+    grown = near.copy()
+    for dx in (-1, 0, 1):
+        for dy in (-1, 0, 1):
+            grown |= np.roll(np.roll(near, dx, axis=0), dy, axis=1)
+    raster[grown] = PAINT_EDGE
+    return raster
 
 
 def _course_solids(track):
@@ -203,7 +237,8 @@ def render(scenes: Scenes, cams: np.ndarray, track_of, width: int, height: int, 
     near = np.empty((n, max(1, len(solids))), np.int64)
     near_count = solids_near(cams, track_of, solids if len(solids) else np.zeros((1, SOLID_COLUMNS)),
                               solid_at, reach, near)
-    pixels(cams, track_of, scenes.paint, scenes.paint_class, scenes.cell_start, scenes.cell_tris, scenes.meta,
+    pixels(cams, track_of, scenes.paint, scenes.paint_class, scenes.cell_start, scenes.cell_tris, scenes.raster,
+           scenes.meta,
            scenes.palette, scenes.wall_rgb, fx, fy, cx, cy, float(far_m), q_max, WALL_HEIGHT_M, float(noise), keys,
            wall_at, wall_shade, solids if len(solids) else np.zeros((1, SOLID_COLUMNS)), near, near_count,
            scenes.to_light, scenes.colour, light.ambient, light.diffuse, rgb, depth)

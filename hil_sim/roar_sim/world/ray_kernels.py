@@ -7,7 +7,7 @@ import math
 import numba as nb
 import numpy as np
 
-from roar_sim.world.appearance import HALF_L, HALF_W, HEIGHT, RADIUS, RED, X, Y, YAW, Z0
+from roar_sim.world.appearance import HALF_L, HALF_W, PAINT_EDGE, HEIGHT, RADIUS, RED, X, Y, YAW, Z0
 from roar_sim.world.wall_field import sdf_in
 
 BACKGROUND = 255  # what is beyond the far plane: PyBullet's white
@@ -159,10 +159,17 @@ def _hit_solid(s, ox, oy, oz, dx, dy, dz):
     return best, px / r / norm, py / r / norm, k / norm
 
 
-@nb.njit(cache=True, nogil=True, fastmath=True)
-def _paint_at(x, y, paint, paint_class, cell_start, cell_tris, x0, y0, cell, nx, ny, cell_base):
-    """The colour class of the floor at (x, y) [m]: the paint triangle there (from its grid cell's
-    list), else 0 (asphalt)."""
+@nb.njit(cache=True, nogil=True, fastmath=True, inline="always")
+def _paint_at(x, y, paint, paint_class, cell_start, cell_tris, raster, x0, y0, cell, nx, ny, cell_base, rres, rnx,
+              rny, rbase):
+    """The colour class of the floor at (x, y) [m]: its raster cell's, where no edge is near; else the
+    paint triangle there (from its grid cell's list), else 0 (asphalt)."""
+    fx, fy = (x - x0) / rres, (y - y0) / rres
+    if not (0.0 <= fx < rnx and 0.0 <= fy < rny):
+        return 0
+    c = raster[rbase + int(fx) * rny + int(fy)]
+    if c != PAINT_EDGE:
+        return c
     ix, iy = int(math.floor((x - x0) / cell)), int(math.floor((y - y0) / cell))
     if not (0 <= ix < nx and 0 <= iy < ny):
         return 0
@@ -179,9 +186,9 @@ def _paint_at(x, y, paint, paint_class, cell_start, cell_tris, x0, y0, cell, nx,
 
 
 @nb.njit(cache=True, nogil=True, fastmath=True, parallel=True)
-def pixels(cams, track_of, paint, paint_class, cell_start, cell_tris, paint_meta, palette, wall_rgb, fx, fy, cx, cy,
-           far, q_max, wall_height, noise, keys, wall_at, wall_shade, solids, near, near_count, to_light, colour,
-           ambient, diffuse, rgb, depth):
+def pixels(cams, track_of, paint, paint_class, cell_start, cell_tris, raster, paint_meta, palette, wall_rgb, fx, fy,
+           cx, cy, far, q_max, wall_height, noise, keys, wall_at, wall_shade, solids, near, near_count, to_light,
+           colour, ambient, diffuse, rgb, depth):
     """Every pixel of every camera's frame: the floor where its ray meets the floor before a wall (by
     walls_around's table at its bearing), a wall's face, or the white beyond; then the nearest
     solid it meets before that."""
@@ -198,6 +205,8 @@ def pixels(cams, track_of, paint, paint_class, cell_start, cell_tris, paint_meta
         bx, by = ahead * cy_, ahead * sy_
         px0, py0, cell = paint_meta[k_, 0], paint_meta[k_, 1], paint_meta[k_, 2]
         pnx, pny, cell_base = int(paint_meta[k_, 3]), int(paint_meta[k_, 4]), int(paint_meta[k_, 5])
+        rres, rnx = paint_meta[k_, 6], int(paint_meta[k_, 7])
+        rny, rbase = int(paint_meta[k_, 8]), int(paint_meta[k_, 9])
         t_ground = oz / -dz if dz < 0.0 else 1e9
         # (a camera below the walls' top: a rising ray is past everything where it rises above them)
         t_end = min(t_ground, far, (wall_height - oz) / dz if dz > 0.0 else 1e9)
@@ -219,7 +228,7 @@ def pixels(cams, track_of, paint, paint_class, cell_start, cell_tris, paint_meta
                 t_hit = t_wall
             elif t_ground < far:
                 c = _paint_at(ox + t_ground * dx, oy + t_ground * dy, paint, paint_class, cell_start, cell_tris,
-                              px0, py0, cell, pnx, pny, cell_base)
+                              raster, px0, py0, cell, pnx, pny, cell_base, rres, rnx, rny, rbase)
                 r, g, bl = palette[c, 0], palette[c, 1], palette[c, 2]
                 t_hit = t_ground
             else:
