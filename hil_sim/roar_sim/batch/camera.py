@@ -7,7 +7,7 @@ added (boxes, start lights' lamps: FloorPool.add); on request a mount turned per
 roar_sim.sensors.camera_noise shakes it) and the sensor's noise (noise=, its sigma; drawn from each
 car's key, the same every run).
 
-    floors = FloorPool(pool)                          # every track's paint at 1 cm
+    floors = FloorPool(pool)                          # every track's paint, walls and solids
     rgb, depth = render(world, floors, 320, 240)      # uint8 [n, 240, 320, 3], float32 [n, 240, 320]
 
 What it leaves out: other cars, markers standing up, shadows, and the renderers' anti-aliasing.

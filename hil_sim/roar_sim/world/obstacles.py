@@ -23,6 +23,26 @@ PERSON_RGBA = (0.2, 0.3, 0.6, 1.0)  # dark blue clothes
 CONE_SIDES = 16  # the cone mesh's facets round
 
 
+def cone_row(x: float, y: float) -> tuple[float, ...]:
+    """A cone at (x, y) as the ray camera sees it (appearance.solid_row; its first 7 columns the
+    lidar's): round, its mesh's facets' corners on the circle."""
+    from roar.tracks.tunnel import CONE_HEIGHT_M, CONE_RADIUS_M
+
+    return solid_row(x, y, 0.0, 0.0, 0.0, -CONE_RADIUS_M, CONE_HEIGHT_M, 0.0, CONE_RGBA)
+
+
+def person_row(x: float, y: float) -> tuple[float, ...]:
+    """A person at (x, y) as the ray camera sees it (its first 7 columns the lidar's)."""
+    from roar.tracks.tunnel import PERSON_HEIGHT_M, PERSON_RADIUS_M
+
+    return solid_row(x, y, 0.0, 0.0, 0.0, PERSON_RADIUS_M, PERSON_HEIGHT_M, 0.0, PERSON_RGBA)
+
+
+def _register(world, body: int, row: tuple[float, ...]) -> None:
+    """A solid both the lidar (its first 7 columns) and the ray camera meet."""
+    world.solids[body], world.visuals[body] = row[:7], row
+
+
 def add_box(world, x: float, y: float, half_m: float = BOX_HALF_M, yaw: float = 0.0) -> int:
     """A static cube standing on the floor at (x, y) [m]."""
     c = world.client
@@ -30,8 +50,7 @@ def add_box(world, x: float, y: float, half_m: float = BOX_HALF_M, yaw: float = 
     visual = pb.createVisualShape(pb.GEOM_BOX, halfExtents=[half_m] * 3, rgbaColor=list(BOX_RGBA), physicsClientId=c)
     body = pb.createMultiBody(0, shape, visual, [x, y, half_m], pb.getQuaternionFromEuler([0, 0, yaw]),
                               physicsClientId=c)
-    world.solids[body] = (x, y, yaw, half_m, half_m, 0.0, 2 * half_m)
-    world.visuals[body] = solid_row(*world.solids[body], 0.0, BOX_RGBA)
+    _register(world, body, solid_row(x, y, yaw, half_m, half_m, 0.0, 2 * half_m, 0.0, BOX_RGBA))
     return body
 
 
@@ -51,8 +70,7 @@ def add_cone(world, x: float, y: float) -> int:
     shape = pb.createCollisionShape(pb.GEOM_MESH, vertices=vertices, physicsClientId=c)  # its convex hull
     visual = mesh_visual(c, vertices, indices, rgba=CONE_RGBA)
     body = pb.createMultiBody(0, shape, visual, [x, y, 0.0], physicsClientId=c)
-    world.solids[body] = (x, y, 0.0, 0.0, 0.0, -CONE_RADIUS_M, CONE_HEIGHT_M)  # (its facets' corners on the circle)
-    world.visuals[body] = solid_row(*world.solids[body], 0.0, CONE_RGBA)
+    _register(world, body, cone_row(x, y))
     return body
 
 
@@ -66,8 +84,7 @@ def add_person(world, x: float, y: float) -> int:
     visual = pb.createVisualShape(pb.GEOM_CYLINDER, radius=PERSON_RADIUS_M, length=PERSON_HEIGHT_M,
                                   rgbaColor=list(PERSON_RGBA), physicsClientId=c)
     body = pb.createMultiBody(0, shape, visual, [x, y, PERSON_HEIGHT_M / 2], physicsClientId=c)
-    world.solids[body] = (x, y, 0.0, 0.0, 0.0, PERSON_RADIUS_M, PERSON_HEIGHT_M)
-    world.visuals[body] = solid_row(*world.solids[body], 0.0, PERSON_RGBA)
+    _register(world, body, person_row(x, y))
     return body
 
 

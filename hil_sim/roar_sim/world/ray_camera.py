@@ -42,10 +42,10 @@ PYBULLET_LIGHT = (-0.42, 0.25, 0.97)
 
 
 class Scenes:
-    """Every track's floor paint as triangles (roar_sim.world.floor's, each of a colour class: 0 is
-    asphalt, then each paint in turn) indexed on a grid, its walls' distance field, and its solids (rows of
-    SOLID_COLUMNS; a tunnel's cones and people from the start, add() others); the classes' and
-    walls' colours as lit."""
+    """Every track's floor paint (roar_sim.world.floor's, each of a colour class: 0 is asphalt, then
+    each paint in turn) as a raster and, near its edges, triangles indexed on a grid; its walls
+    (a distance field, or their boxes); and its solids (rows of SOLID_COLUMNS; a tunnel's cones and
+    people from the start, add() others); the classes' and walls' colours as lit."""
 
     def __init__(self, tracks, light: Light | None = None, fields: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         """fields: (every track's walls' distance field one after another, its meta rows), where a
@@ -89,7 +89,7 @@ class Scenes:
         self.wall_rgb = np.asarray(WALL_RGBA[:3]) * 255
         self._solids: list[list[tuple]] = [[*_course_solids(t)] for t in self.tracks]
         self._packed: tuple[np.ndarray, np.ndarray] | None = None
-        self._tables = (np.empty((0, BINS)), np.empty((0, BINS)))
+        self._tables = (np.empty((0, BINS)), np.empty((0, BINS, 3)))
 
     def add(self, track_index: int, rows) -> None:
         """Solids (rows of SOLID_COLUMNS, e.g. solid_row's) standing in a track's world."""
@@ -189,12 +189,9 @@ def _course_solids(track):
     course = getattr(track, "course", None)
     if course is None:
         return []
-    from roar.tracks.tunnel import CONE_HEIGHT_M, CONE_RADIUS_M, PERSON_HEIGHT_M, PERSON_RADIUS_M
-    from roar_sim.world.obstacles import CONE_RGBA, PERSON_RGBA
+    from roar_sim.world.obstacles import cone_row, person_row
 
-    return ([solid_row(x, y, 0.0, 0.0, 0.0, -CONE_RADIUS_M, CONE_HEIGHT_M, 0.0, CONE_RGBA) for x, y in course.cones]
-            + [solid_row(x, y, 0.0, 0.0, 0.0, PERSON_RADIUS_M, PERSON_HEIGHT_M, 0.0, PERSON_RGBA)
-               for x, y in course.people])
+    return [cone_row(x, y) for x, y in course.cones] + [person_row(x, y) for x, y in course.people]
 
 
 def pinhole(width: int, height: int, fov_deg: float) -> tuple[float, float, float, float]:
@@ -234,13 +231,14 @@ def render(scenes: Scenes, cams: np.ndarray, track_of, width: int, height: int, 
     else:
         _walls_by_boxes(scenes, cams, track_of, reach, q_max, wall_at, wall_shade)
     solids, solid_at = scenes.solids()
-    near = np.empty((n, max(1, len(solids))), np.int64)
-    near_count = solids_near(cams, track_of, solids if len(solids) else np.zeros((1, SOLID_COLUMNS)),
+    solids = solids if len(solids) else np.zeros((1, SOLID_COLUMNS))  # (none at all: a row no track owns)
+    near = np.empty((n, len(solids)), np.int64)
+    near_count = solids_near(cams, track_of, solids,
                               solid_at, reach, near)
     pixels(cams, track_of, scenes.paint, scenes.paint_class, scenes.cell_start, scenes.cell_tris, scenes.raster,
            scenes.meta,
            scenes.palette, scenes.wall_rgb, fx, fy, cx, cy, float(far_m), q_max, WALL_HEIGHT_M, float(noise), keys,
-           wall_at, wall_shade, solids if len(solids) else np.zeros((1, SOLID_COLUMNS)), near, near_count,
+           wall_at, wall_shade, solids, near, near_count,
            scenes.to_light, scenes.colour, light.ambient, light.diffuse, rgb, depth)
     return rgb, depth
 

@@ -58,14 +58,18 @@ class StartLights:
                                       physicsClientId=self.client)
         body = pb.createMultiBody(0, -1, visual, [x, y, z], orn, physicsClientId=self.client)
         self._shape[body] = (x, y, z, half)
-        self._paint(body, rgba)
+        self._seen(body, rgba)
         return body
 
-    def _paint(self, body: int, rgba: tuple) -> None:
-        """A lamp's (or the housing's) colour, to both renderers."""
-        pb.changeVisualShape(body, -1, rgbaColor=list(rgba), physicsClientId=self.client)
+    def _seen(self, body: int, rgba: tuple) -> None:
+        """The body in its colour as the ray camera sees it."""
         x, y, z, (hx, hy, hz) = self._shape[body]
         self.world.visuals[body] = solid_row(x, y, self.yaw, hx, hy, 0.0, 2 * hz, z - hz, rgba)
+
+    def _paint(self, body: int, rgba: tuple) -> None:
+        """A lamp's colour, to both renderers."""
+        pb.changeVisualShape(body, -1, rgbaColor=list(rgba), physicsClientId=self.client)
+        self._seen(body, rgba)
 
     def show(self, green: bool) -> None:
         """Green (red dark), or red (green dark), now."""
