@@ -10,8 +10,8 @@ import pytest
 
 pytest.importorskip("pybullet", reason="pip install pybullet (make setup installs it)")
 
-from roar.autopilot.lane_agent import (FRONT_M, LANE_OFFSET_M, LANE_SHIFT_M_S, SWITCH_HOLD_S, SWITCH_M,  # noqa: E402
-                                       LanePlanner, LaneState, Seen)
+from roar.autopilot.lane_agent import (CREEP_M_S, FRONT_M, LANE_OFFSET_M, MIN_LOOKAHEAD_M, SHIFT_SLOPE,  # noqa: E402
+                                       SWITCH_HOLD_S, SWITCH_M, LanePlanner, LaneState, Seen)
 from roar.vision.lanes import Lanes, Line  # noqa: E402
 from roar.vision.occupancy import Occupancy  # noqa: E402
 from roar_sim.sensors import tfmini  # noqa: E402
@@ -104,16 +104,21 @@ def test_something_ahead_in_its_lane_sends_it_to_the_other_lane_and_back():
     in_right_lane = straight_road(LANE_OFFSET_M)  # the car in the right lane's middle
     plan = p.step(Seen(in_right_lane, 1.0, laser_m=SWITCH_M - 0.1))
     assert p.side == 1 and p.switches == 1
-    assert plan.goal[1] == pytest.approx(LANE_SHIFT_M_S * PERIOD_S)  # the followed line starts across
+    # the followed line is a ramp across, laid from the car: the goal point rides it
+    assert plan.goal == pytest.approx((MIN_LOOKAHEAD_M, SHIFT_SLOPE * (1.0 * PERIOD_S + MIN_LOOKAHEAD_M)))
     p.step(Seen(in_right_lane, 1.0, laser_m=SWITCH_M - 0.2))  # the box still ahead of the car: stay
     assert p.side == 1 and p.switches == 1
     in_left_lane = straight_road(-LANE_OFFSET_M)
     p.step(Seen(in_left_lane, 1.0, laser_m=1.5))  # something in the left lane at once: no flip-flop
     assert p.side == 1 and p.switches == 1
-    for _ in range(round(2 * LANE_OFFSET_M / LANE_SHIFT_M_S / PERIOD_S)):
+    change_s = 2 * LANE_OFFSET_M / SHIFT_SLOPE / 1.0  # [s] the ramp's length at 1 m/s
+    for _ in range(round(change_s / PERIOD_S) - 6):  # three steps taken above, three left
         plan = p.step(Seen(in_right_lane, 1.0))
-    assert plan.goal[1] == pytest.approx(2 * LANE_OFFSET_M)  # ... and ends in the left lane's middle
-    assert SWITCH_HOLD_S < 2 * LANE_OFFSET_M / LANE_SHIFT_M_S
+    assert plan.state is LaneState.CHANGING and plan.goal[1] == pytest.approx(2 * LANE_OFFSET_M)  # the goal is across
+    for _ in range(3):
+        plan = p.step(Seen(in_right_lane, 1.0))
+    assert plan.state is LaneState.FOLLOWING and plan.goal[1] == pytest.approx(2 * LANE_OFFSET_M)  # ... and so is the car
+    assert SWITCH_HOLD_S < change_s
     p.step(Seen(in_left_lane, 1.0, laser_m=1.5))  # the next box, in the left lane
     assert p.side == -1 and p.switches == 2
 
@@ -138,6 +143,23 @@ def test_what_the_depth_camera_finds_in_its_lane_switches_where_the_laser_looks_
     p = planner()
     p.step(Seen(road, 1.0, grid=grid_with(FRONT_M + 1.0, 2 * LANE_OFFSET_M)))  # in the other lane
     assert p.side == -1
+
+
+def test_the_box_it_changes_lanes_for_is_not_in_its_path_nor_is_a_stopped_car_stuck_behind_it():
+    """The path checked for obstacles is the ramp the car will drive: a box 1.2 m ahead in the lane
+    it leaves at 1.3 m/s is beside that path, not a reason to brake. Stopped behind one (seen
+    late), the ramp still moves across, at CREEP_M_S, until the path is clear."""
+    box = grid_with(1.2, 0.0)
+    road = straight_road(LANE_OFFSET_M)  # the car in the right lane's middle, the box dead ahead
+    p = planner()
+    plan = p.step(Seen(road, 1.3, grid=box, laser_m=1.2 - FRONT_M - 0.15))
+    assert p.side == 1 and plan.state is LaneState.CHANGING and plan.target_speed_m_s > 1.0
+    p = planner()
+    p.side = 1  # changing lanes, the line still in the right lane's middle, stopped at a box 0.7 m ahead, 0.1 m left
+    creep_s = 2 * LANE_OFFSET_M / (CREEP_M_S * SHIFT_SLOPE)  # [s] for the ramp to reach the other lane
+    states = [p.step(Seen(road, 0.0, grid=grid_with(0.7, 0.1))).state for _ in range(round(creep_s / PERIOD_S))]
+    assert states[0] is LaneState.OBSTACLE and LaneState.CHANGING in states  # it moved off ...
+    assert states[-1] is LaneState.FOLLOWING  # ... and is across, in the other lane
 
 
 @pytest.mark.parametrize("laser_m,y_centre", [

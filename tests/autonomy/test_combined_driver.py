@@ -28,8 +28,9 @@ def test_the_follower_keeps_its_gap_then_changes_lanes_round_the_box():
     first_change = next(i for i, (a, b) in enumerate(changes) if b == "CHANGING")
     assert ("FOLLOWING", "BEHIND_LEADER") in changes[:first_change]  # behind the leader before the box
     behind = np.asarray(result.states) == "BEHIND_LEADER"
-    gaps = np.asarray(result.gaps_m)[behind]
-    assert abs(np.median(gaps) - FOLLOW_GAP_M) <= 0.3 and gaps.min() > 1.2
+    gaps = np.asarray(result.gaps_m)[behind]  # from 3 m at the start, closing in
+    kept = gaps[np.argmax(gaps <= FOLLOW_GAP_M + 0.1):]  # once closed up
+    assert len(kept) >= 50 and np.abs(kept - FOLLOW_GAP_M).max() <= 0.3 and gaps.min() > 1.2  # a second or more
     text = report(result)
     assert "following -> keeping the gap to the leader" in text and "changing lanes" in text
 
