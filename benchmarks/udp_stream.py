@@ -13,6 +13,7 @@ import time
 
 from roar.stream import Reassembler, StreamReceiver, whole
 from roar_sim.links.impair import ImpairedRelay, Impairment
+from roar_sim.world import renderer
 from roar_wire import stream as wire
 
 TITLE = "UDP camera stream (ROAR's chunked format)"
@@ -140,7 +141,7 @@ def run() -> None:
     for w, h in ((320, 240), (640, 480)):
         delivered, rendered, ms = asyncio.run(end_to_end(w, h))
         print(f"  end to end from the simulator, {w}x{h}: {delivered:.1f} frames/s delivered; "
-              f"the renderer {rendered:.1f} frames/s ({ms:.0f} ms a frame, TinyRenderer + JPEG)")
+              f"the renderer {rendered:.1f} frames/s ({ms:.0f} ms a frame, {renderer.wanted()} + JPEG)")
     ours, theirs, glued = compare(frames)
     print(f"  {COMPARE_FRAMES} frames, 5 % loss + 2 % duplicates + 5 % reordered: ours {ours} intact (0 corrupt), "
           f"ROAR's original {theirs} intact + {glued} glued from two frames; ratio {ours / max(1, theirs):.2f} "

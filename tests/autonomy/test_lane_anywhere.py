@@ -60,7 +60,8 @@ def test_the_road_width_is_measured_not_assumed():
         for edge, side in ((lanes.left, -1), (lanes.right, 1)):  # the road's centre from one edge alone
             centre = edge.offset(side * detector.half_width_m)
             x = np.linspace(centre.points[:, 0].min(), centre.points[:, 0].max(), 10)
-            assert np.abs(centre.y(x) - lanes.yellow.y(x)).max() <= 0.03  # is the yellow line
+            # is the yellow line, within 3 pixels where the far edge is last seen (1.2 cm each at 2.5 m)
+            assert np.abs(centre.y(x) - lanes.yellow.y(x)).max() <= 0.04
 
 
 def test_a_stop_says_why_where_and_for_how_long():

@@ -199,7 +199,7 @@ def test_the_rays_leave_what_they_cannot_draw_to_tinyrenderer():
 
 def test_a_renderer_is_chosen_by_name_block_or_environment(monkeypatch):
     monkeypatch.delenv(renderers.ENV, raising=False)
-    assert renderers.wanted() == "tiny" and renderers.wanted("egl") == "egl"
+    assert renderers.wanted() == renderers.DEFAULT == "rays" and renderers.wanted("egl") == "egl"
     monkeypatch.setenv(renderers.ENV, "egl")
     assert renderers.wanted() == "egl"
     with renderers.chosen("tiny"):

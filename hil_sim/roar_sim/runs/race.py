@@ -266,9 +266,9 @@ def parser() -> argparse.ArgumentParser:
                    help="with --driver lane: the camera's mount shakes (0.5 degrees a frame) and its sensor adds "
                         "noise, drawn from SEED, as on a real car")
     p.add_argument("--renderer", choices=renderers.RENDERERS, default=None,
-                   help="what draws the lane driver's camera frames: tiny (PyBullet's TinyRenderer, the default), "
-                        "rays (each pixel's ray cast on the paint, walls and solids: ~10x faster at 320x240; "
-                        "TinyRenderer where another car is in the world) or egl (OpenGL without a window: 2.7x "
+                   help="what draws the lane driver's camera frames: rays (the default: each pixel's ray cast on "
+                        "the paint, walls and solids, ~6x faster than tiny at 320x240; TinyRenderer where another "
+                        "car is in the world), tiny (PyBullet's TinyRenderer) or egl (OpenGL without a window: 2.7x "
                         "faster than tiny at 640x480; tiny where it cannot start); also the environment's "
                         "ROAR_RENDERER")
     p.add_argument("--localize", action="store_true",

@@ -18,7 +18,7 @@
           finds the same lines in both.
 
 A world takes the renderer of its `renderer=` argument, else the one `chosen()` names where it is
-made, else ROAR_RENDERER from the environment, else tiny (loading EGL costs ~0.12 s a world,
+made, else ROAR_RENDERER from the environment, else rays (loading EGL costs ~0.12 s a world,
 which only worlds that render many frames repay). EGL falls back to tiny, saying so once, where
 it cannot start (no libEGL, no driver); a PyBullet window draws with TinyRenderer.
 
@@ -41,7 +41,7 @@ from pathlib import Path
 from roar_sim.world.bullet import pb, silenced
 
 RENDERERS = ("egl", "rays", "tiny")  # what `--renderer` and ROAR_RENDERER take
-DEFAULT = "tiny"
+DEFAULT = "rays"
 ENV = "ROAR_RENDERER"
 
 _chosen: contextvars.ContextVar[str | None] = contextvars.ContextVar("roar_renderer", default=None)
@@ -63,7 +63,7 @@ def chosen(name: str | None) -> Iterator[None]:
 
 
 def wanted(name: str | None = None) -> str:
-    """The renderer a world made now should use: `name`, else chosen(), else ROAR_RENDERER, else tiny."""
+    """The renderer a world made now should use: `name`, else chosen(), else ROAR_RENDERER, else DEFAULT."""
     name = name or _chosen.get() or os.environ.get(ENV) or DEFAULT
     if name not in RENDERERS:
         raise ValueError(f"{ENV}={name!r}: choose one of {', '.join(RENDERERS)}")

@@ -55,7 +55,7 @@ def display_problem() -> str | None:
 class World:
     """A PyBullet client (DIRECT, or GUI when gui=True) with gravity, the ground and, with a
     track, its walls and painted floor. Robots add their own bodies to `client`. Camera frames
-    come from `renderer` ("egl" or "tiny"; default: roar_sim.world.renderer.wanted())."""
+    come from `renderer` ("rays", "tiny" or "egl"; default: roar_sim.world.renderer.wanted())."""
 
     def __init__(self, track: Track | None, dt_s: float, gui: bool = False, renderer: str | None = None) -> None:
         problem = display_problem() if gui else None
