@@ -216,10 +216,12 @@ def drive_url(args, statistics: Path) -> int:
     with Vehicle(args.url) as car:
         if not car.wait_armed(timeout_s=5):
             raise ValueError(f"{args.url}: the car did not arm within 5 s")
-        first = car.state()
-        if first.x_m is None or car.lidar() is None:
+        deadline = time.monotonic() + 2.0  # [s] for the first pose and scan (a scan comes at its own rate)
+        while (car.state().x_m is None or car.lidar() is None) and time.monotonic() < deadline:
+            time.sleep(0.02)
+        if car.state().x_m is None or car.lidar() is None:
             raise ValueError(f"{args.url}: the policy needs the car's pose and its lidar, and this link gives "
-                             f"{'neither' if first.x_m is None and car.lidar() is None else 'only one'}")
+                             f"{'neither' if car.state().x_m is None and car.lidar() is None else 'only one'}")
 
         def now():
             s = car.state()

@@ -122,6 +122,7 @@ class Phone:
         self.sent = 0
         self.log = None  # a roar_sim.links.sim_log.SimLog: the run recorded or served live
         self._noise = np.random.default_rng(self.config.seed)
+        self._frame_s: float | None = None
 
     async def start(self) -> Phone:
         loop = asyncio.get_running_loop()
@@ -129,7 +130,8 @@ class Phone:
             _, proto = await loop.create_datagram_endpoint(lambda k=kind: _Port(self, k),
                                                            local_addr=(self.config.host, port))
             self._endpoints[kind] = proto
-        return self
+        self.render()  # the first frame now: its renderer's first-frame cost (the rays' kernels loading, ~0.7 s)
+        return self  # is paid before the stream is announced, not in its real-time loop where Ctrl-C waits on it
 
     def bound(self, kind: str) -> tuple[str, int]:
         """The address a stream (or the control port) is bound to."""
@@ -182,6 +184,7 @@ class Phone:
         else:
             frame = {"state": wire.state_line(state)}
         self._frame_id = (self._frame_id + 1) % wire.MODULUS
+        self._frame_s = self.sim.time_s  # [s] the simulator's time of the latest frame
         self._latest = {kind: wire.chunks(p, self._frame_id) for kind, p in frame.items()}
         self.frames_rendered += 1
         self.render_s += time.perf_counter() - start
@@ -209,6 +212,8 @@ class Phone:
         for `seconds` (0: until cancelled). step(seconds): what runs the car a loop turn (default
         its run() and read(); a roar_sim.links.pty.PtyCar's pump() when a pty carries its control)."""
         next_frame = next_forward = next_log = self.sim.time_s
+        if self._frame_s == self.sim.time_s:  # start() rendered this instant's frame
+            next_frame += 1.0 / self.config.rate_hz
         wall0, sim0 = time.monotonic(), self.sim.time_s
         while seconds <= 0 or self.sim.time_s - sim0 < seconds:
             if self.sim.time_s >= next_forward:
