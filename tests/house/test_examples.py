@@ -7,6 +7,7 @@ import subprocess
 import sys
 import time
 
+import numpy as np
 import pytest
 
 from conftest import ROOT, wait_for
@@ -52,10 +53,16 @@ def test_the_same_script_drives_the_simulator_and_a_serial_car(tmp_path, pty_car
     assert sim_out.splitlines() == [f"driving in circles on sim://?speedup=4&trace={trace} for 12 s (Ctrl-C stops)",
                                     "done: neutral sent, the car stops"]
 
-    # Simulator: 48 s of simulated circles, staying on one circle round one centre.
+    # Simulator: up to 48 s of simulated circles, staying on one circle round one centre. The rows
+    # where it turns: after neutral the car coasts straight until the process ends (under load, for
+    # simulated seconds at speedup 4).
     with trace.open() as f:
-        rows = [(float(r["x_m"]), float(r["y_m"])) for r in csv.DictReader(f)]
-    xs, ys = zip(*rows[len(rows) // 4:])
+        rows = [(float(r["t_s"]), float(r["x_m"]), float(r["y_m"]), float(r["yaw_rad"])) for r in csv.DictReader(f)]
+    t, yaw = (np.array([r[i] for r in rows]) for i in (0, 3))
+    turning = np.flatnonzero(np.abs(np.diff(np.unwrap(yaw)) / np.maximum(np.diff(t), 1e-6)) > 0.5)  # [rad/s]
+    assert t[turning[-1]] - t[turning[0]] > 20.0  # [s] of circles, of the 48 s simulated
+    circling = rows[turning[0]:turning[-1] + 1]
+    xs, ys = zip(*[(x, y) for _, x, y, _ in circling[len(circling) // 4:]])
     cx, cy = (max(xs) + min(xs)) / 2, (max(ys) + min(ys)) / 2
     radii = [math.hypot(x - cx, y - cy) for x, y in zip(xs, ys)]
     assert 0.5 < min(radii) and max(radii) < 1.2 and max(radii) - min(radii) < 0.1
