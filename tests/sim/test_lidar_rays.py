@@ -116,7 +116,11 @@ def test_a_box_in_the_world_is_seen_and_a_body_it_cannot_account_for_goes_to_bul
         assert world.lidar_caster(sim.plant.car, 0, RANGE_M) is None  # Bullet's rays must find it
         assert world.lidar_caster(sim.plant.car, 1, RANGE_M) is not None  # one car: its footprint will be given
         blocked = sim.plant.lidar(beams=BEAMS, range_m=RANGE_M)[BEAMS // 2]
-    assert blocked < 1.0 < boxed < 1.5 < ahead
+        pb.removeBody(other.car, physicsClientId=sim.plant.client)
+        pb.removeBody(next(iter(world.solids)), physicsClientId=sim.plant.client)  # the box, gone: no frame between
+        cleared = sim.plant.lidar(beams=BEAMS, range_m=RANGE_M)[BEAMS // 2]
+        assert not world.solids and world.lidar_caster(sim.plant.car, 0, RANGE_M) is not None
+    assert blocked < 1.0 < boxed < 1.5 < ahead == pytest.approx(cleared, abs=0.05)
 
 
 @pytest.mark.parametrize("name", ["oval", "random:3,width=2.2"])

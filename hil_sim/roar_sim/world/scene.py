@@ -85,10 +85,11 @@ class World:
         # (ray_camera.solid_row's rows: the solids above, and visual-only ones such as start lights)
         self.visuals: dict[int, tuple[float, ...]] = {}
         self._ray_scene = None  # (ray_camera.Scenes of this world, the visuals' rows it holds, its light)
-        self._seen: tuple[list[int], list[int], int] = ([], [], 0)  # (the bodies, those the ray camera
-        #                                                                 cannot draw, visuals counted)
-        self._casters: dict[float, Caster] = {}
-        self._colliding: tuple[int, list[int]] = (0, [])  # (bodies counted, those that collide unaccounted for)
+        self._ids: list[int] = []  # the bodies, as _bodies() last listed them
+        self._unseen_by: tuple[list[int] | None, int, list[int]] = (None, 0, [])  # (for _ids, visuals counted,
+        #                                                                            the bodies the rays cannot draw)
+        self._casters: dict[float, tuple[Caster, list[int] | None]] = {}  # (a caster, the _ids its solids are for)
+        self._colliding: tuple[list[int] | None, list[int]] = (None, [])  # (for _ids, colliding unaccounted for)
         course = track.course if track else None  # a tunnel world's cones and people (not in its map)
         self.cones = [add_cone(self, x, y) for x, y in course.cones] if course else []
         self.people = [add_person(self, x, y) for x, y in course.people] if course else []
@@ -151,20 +152,37 @@ class World:
             return None
         if range_m not in self._casters:
             walls = wall_boxes(self.track, WALL_THICKNESS_M) if self.track else np.zeros((0, 5))
-            self._casters[range_m] = Caster(walls, list(self.solids.values()), range_m)
-        caster = self._casters[range_m]
-        if len(caster.solids) != len(self.solids):  # a solid added since
+            self._casters[range_m] = (Caster(walls, [], range_m), None)
+        caster, for_ids = self._casters[range_m]
+        if for_ids is not self._ids:  # a body added or removed since: the solids anew
             caster.solids = np.asarray(list(self.solids.values()), dtype=float).reshape(-1, 7)
+            self._casters[range_m] = (caster, self._ids)
         return caster
+
+    def _bodies(self, by_count: bool = False) -> list[int]:
+        """The world's bodies now (a new list only when they changed). A body removed since leaves
+        self.solids and self.visuals: neither the lidar nor the camera meets it any more. by_count:
+        listed anew only when their number changed (the lidar's, every scan: listing a circuit's 155
+        bodies would add 12 % to a scan; a body removed and another added between scans is missed)."""
+        c = self.client
+        count = pb.getNumBodies(physicsClientId=c)
+        if by_count and count == len(self._ids):
+            return self._ids
+        ids = [pb.getBodyUniqueId(i, physicsClientId=c) for i in range(count)]
+        if ids != self._ids:
+            present = set(ids)
+            for registry in (self.visuals, self.solids):
+                for gone in [b for b in registry if b not in present]:
+                    del registry[gone]
+            self._ids = ids
+        return self._ids
 
     def _unaccounted(self, body: int) -> list[int]:
         """The bodies but `body` that collide and are neither walls, ground nor solids (robots)."""
-        c = self.client
-        count = pb.getNumBodies(physicsClientId=c)
-        if count != self._colliding[0]:
+        c, ids = self.client, self._bodies(by_count=True)
+        if self._colliding[0] is not ids:
             known = {*self.walls, self.ground, *self.solids}
-            ids = [pb.getBodyUniqueId(i, physicsClientId=c) for i in range(count)]
-            self._colliding = (count, [b for b in ids if b not in known and any(
+            self._colliding = (ids, [b for b in ids if b not in known and any(
                 pb.getCollisionShapeData(b, link, physicsClientId=c)
                 for link in range(-1, pb.getNumJoints(b, physicsClientId=c)))])
         return [b for b in self._colliding[1] if b != body]
@@ -219,16 +237,11 @@ class World:
     def _unseen(self, body: int | None) -> list[int]:
         """The bodies but `body` the ray-cast camera cannot draw: neither walls, ground, paint nor
         self.visuals (other robots, markers). A body removed since leaves visuals and solids."""
-        c = self.client
-        ids = [pb.getBodyUniqueId(i, physicsClientId=c) for i in range(pb.getNumBodies(physicsClientId=c))]
-        if ids != self._seen[0] or len(self.visuals) != self._seen[2]:
-            present = set(ids)
-            for registry in (self.visuals, self.solids):
-                for gone in [b for b in registry if b not in present]:
-                    del registry[gone]
+        ids = self._bodies()
+        if self._unseen_by[0] is not ids or self._unseen_by[1] != len(self.visuals):  # (visuals come after their body)
             known = {*self._own_bodies(), *self.visuals}
-            self._seen = (ids, [b for b in ids if b not in known], len(self.visuals))
-        return [b for b in self._seen[1] if b != body]
+            self._unseen_by = (ids, len(self.visuals), [b for b in ids if b not in known])
+        return [b for b in self._unseen_by[2] if b != body]
 
     def _ray_render(self, position, yaw: float, pitch: float, width: int, height: int, fov_deg: float,
                     far_m: float) -> tuple[np.ndarray, np.ndarray]:
