@@ -221,7 +221,7 @@ def render(scenes: Scenes, cams: np.ndarray, track_of, width: int, height: int, 
     q_max = (width / 2) / fx / least_ahead * 1.02
     from roar.compiled import compiled
 
-    walls_around, solids_near, pixels = compiled("the ray-cast camera", _kernels, "sim")
+    walls_around, solids_near, pixels, _ = compiled("the ray-cast camera", _kernels, "sim")
     light = scenes.light
     wall_at, wall_shade = scenes.tables(n)
     reach = far_m * math.sqrt(1.0 + q_max**2)  # [m] on the floor's plane: the farthest a ray within the far plane gets
@@ -251,6 +251,7 @@ def _walls_by_boxes(scenes: Scenes, cams: np.ndarray, track_of: np.ndarray, reac
     from roar.compiled import compiled
 
     slabs = compiled("the simulated lidar's ray casting", beam_kernels, "sim")[0]
+    wall_faces = compiled("the ray-cast camera", _kernels, "sim")[3]
     light = scenes.light
     q = np.linspace(-q_max, q_max, BINS)
     for i, (ox, oy, _, yaw, _) in enumerate(cams):
@@ -260,16 +261,8 @@ def _walls_by_boxes(scenes: Scenes, cams: np.ndarray, track_of: np.ndarray, reac
         angles = yaw - np.arctan(q)
         out = np.full(BINS, reach)
         slabs(float(ox), float(oy), angles, boxes, out)
-        hit = out < reach
-        wall_at[i] = np.where(hit, out, 1e9)
-        points = np.column_stack([ox + out * np.cos(angles), oy + out * np.sin(angles)])
-        before, after = points - np.roll(points, 1, axis=0), np.roll(points, -1, axis=0) - points
-        before[0], after[-1] = after[0], before[-1]
-        along = np.where((np.hypot(*before.T) < np.hypot(*after.T))[:, None], before, after)
-        normal = np.column_stack([-along[:, 1], along[:, 0]]) / np.maximum(np.hypot(*along.T), 1e-12)[:, None]
-        normal *= np.sign(np.einsum("ij,ij->i", normal, np.array([ox, oy]) - points))[:, None]  # facing the camera
-        cos = np.maximum(0.0, normal @ scenes.to_light[:2])
-        wall_shade[i] = light.ambient + light.diffuse * scenes.colour[None, :] * cos[:, None]
+        wall_faces(float(ox), float(oy), angles, out, reach, scenes.to_light, scenes.colour, light.ambient,
+                   light.diffuse, wall_at[i], wall_shade[i])
 
 
 def warm() -> None:
@@ -288,6 +281,6 @@ def warm() -> None:
 
 
 def _kernels(nb):
-    from roar_sim.world.ray_kernels import pixels, solids_near, walls_around
+    from roar_sim.world.ray_kernels import pixels, solids_near, wall_faces, walls_around
 
-    return walls_around, solids_near, pixels
+    return walls_around, solids_near, pixels, wall_faces

@@ -72,6 +72,33 @@ def walls_around(cams, track_of, field, field_meta, to_light, colour, ambient, d
 
 
 @nb.njit(cache=True, nogil=True, fastmath=True)
+def wall_faces(ox, oy, angles, out, reach, to_light, colour, ambient, diffuse, wall_at, wall_shade):
+    """One camera's wall_at and wall_shade rows (walls_around's) from the ranges `out` [m] at which
+    its bearings `angles` [rad, world] met the walls' boxes (reach: none): a face's normal from the
+    hit at the neighbouring bearing nearer this one's (on the same wall), turned to the camera."""
+    bins = angles.shape[0]
+    xs, ys = np.empty(bins), np.empty(bins)
+    for b in range(bins):
+        wall_at[b] = out[b] if out[b] < reach else 1e9
+        xs[b], ys[b] = ox + out[b] * math.cos(angles[b]), oy + out[b] * math.sin(angles[b])
+    for b in range(bins):
+        before = b - 1 if b > 0 else 0  # the segment to the previous hit; at an end, the only one
+        after = b + 1 if b < bins - 1 else bins - 1
+        lo, hi = (before, before + 1) if b == bins - 1 else (b, after)
+        if 0 < b < bins - 1 and math.hypot(xs[b] - xs[b - 1], ys[b] - ys[b - 1]) < math.hypot(
+                xs[b + 1] - xs[b], ys[b + 1] - ys[b]):
+            lo, hi = b - 1, b
+        alx, aly = xs[hi] - xs[lo], ys[hi] - ys[lo]
+        norm = max(math.hypot(alx, aly), 1e-12)
+        nx, ny = -aly / norm, alx / norm
+        facing = nx * (ox - xs[b]) + ny * (oy - ys[b])
+        side = 1.0 if facing > 0.0 else (-1.0 if facing < 0.0 else 0.0)
+        cos = max(0.0, side * (nx * to_light[0] + ny * to_light[1]))
+        for ch in range(3):
+            wall_shade[b, ch] = ambient + diffuse * colour[ch] * cos
+
+
+@nb.njit(cache=True, nogil=True, fastmath=True)
 def solids_near(cams, track_of, solids, solid_at, reach, near):
     """near[i, :count] the solids of camera i's track within `reach` [m] and not wholly behind it;
     returns each camera's count."""
