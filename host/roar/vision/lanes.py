@@ -311,7 +311,9 @@ def debug_view(detector: LaneDetector, rgb: np.ndarray):
     import matplotlib.pyplot as plt
 
     d = detector.debug
-    fig, axes = plt.subplots(1, 3, figsize=(12, 4), constrained_layout=True)
+    # margins fixed, not constrained: solving the layout took half of each frame's 0.34 s in roar vision
+    fig, axes = plt.subplots(1, 3, figsize=(12, 4))
+    fig.subplots_adjust(left=0.04, right=0.99, bottom=0.12, top=0.92, wspace=0.25)
     axes[0].imshow(rgb)
     axes[0].set_title("camera")
     grid = detector.bev.grid  # the bird's-eye image in metres: across (left +) and ahead of the car

@@ -135,7 +135,8 @@ def figure(rgb: np.ndarray, grid: Occupancy):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (ax, ax_grid) = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
+    fig, (ax, ax_grid) = plt.subplots(1, 2, figsize=(10, 4))  # margins fixed: as lanes.debug_view's
+    fig.subplots_adjust(left=0.04, right=0.98, bottom=0.12, top=0.92, wspace=0.2)
     ax.imshow(rgb)
     ax.set_title("camera")
     ax.axis("off")
