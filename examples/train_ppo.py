@@ -219,9 +219,10 @@ def drive_url(args, statistics: Path) -> int:
         deadline = time.monotonic() + 2.0  # [s] for the first pose and scan (a scan comes at its own rate)
         while (car.state().x_m is None or car.lidar() is None) and time.monotonic() < deadline:
             time.sleep(0.02)
-        if car.state().x_m is None or car.lidar() is None:
+        pose, scan = car.state().x_m is not None, car.lidar() is not None
+        if not (pose and scan):
             raise ValueError(f"{args.url}: the policy needs the car's pose and its lidar, and this link gives "
-                             f"{'neither' if car.state().x_m is None and car.lidar() is None else 'only one'}")
+                             f"{'neither' if not (pose or scan) else 'only one'}")
 
         def now():
             s = car.state()

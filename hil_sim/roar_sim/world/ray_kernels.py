@@ -82,13 +82,11 @@ def wall_faces(ox, oy, angles, out, reach, to_light, colour, ambient, diffuse, w
         wall_at[b] = out[b] if out[b] < reach else 1e9
         xs[b], ys[b] = ox + out[b] * math.cos(angles[b]), oy + out[b] * math.sin(angles[b])
     for b in range(bins):
-        before = b - 1 if b > 0 else 0  # the segment to the previous hit; at an end, the only one
-        after = b + 1 if b < bins - 1 else bins - 1
-        lo, hi = (before, before + 1) if b == bins - 1 else (b, after)
+        lo = min(b, bins - 2)  # the segment lo -> lo + 1: to the next hit (at the last bearing, from the one before)
         if 0 < b < bins - 1 and math.hypot(xs[b] - xs[b - 1], ys[b] - ys[b - 1]) < math.hypot(
                 xs[b + 1] - xs[b], ys[b + 1] - ys[b]):
-            lo, hi = b - 1, b
-        alx, aly = xs[hi] - xs[lo], ys[hi] - ys[lo]
+            lo = b - 1  # the one before is shorter
+        alx, aly = xs[lo + 1] - xs[lo], ys[lo + 1] - ys[lo]
         norm = max(math.hypot(alx, aly), 1e-12)
         nx, ny = -aly / norm, alx / norm
         facing = nx * (ox - xs[b]) + ny * (oy - ys[b])
