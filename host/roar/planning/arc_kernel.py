@@ -9,29 +9,35 @@ import numpy as np
 
 
 @nb.njit(cache=True, nogil=True)
+def arc(x, y, heading, px, py, r_min_m, reverse, max_turn_rad):
+    """(signed radius, centre x, centre y, signed turn, length, heading at the end) of the arc from
+    the pose (x, y, heading) to (px, py)."""
+    th = heading + math.pi if reverse else heading
+    c, s = math.cos(th), math.sin(th)
+    dx, dy = px - x, py - y
+    ahead, left = c * dx + s * dy, -s * dx + c * dy  # along the direction of travel; d . v_left
+    d2 = dx * dx + dy * dy
+    if abs(left) <= 1e-12 * max(d2, 1e-300):  # straight
+        radius = math.inf
+        angle = 0.0 if ahead >= 0 else math.inf
+        length = math.sqrt(d2) if ahead >= 0 else math.inf
+    else:
+        radius = d2 / (2 * left)
+        angle = 2 * math.atan2(left, ahead)
+        length = abs(angle * radius)
+    if abs(radius) < r_min_m or abs(angle) > max_turn_rad:
+        length = math.inf
+    finite_r = radius if math.isfinite(radius) else 0.0
+    end = heading + angle if math.isfinite(angle) else heading
+    return radius, x - s * finite_r, y + c * finite_r, angle, length, end
+
+
+@nb.njit(cache=True, nogil=True)
 def arcs_into(x, y, heading, px, py, r_min_m, reverse, max_turn_rad, out):
-    """out (6, N): signed radius, centre x, centre y, signed turn, length, heading at the end of the
-    arc from each pose (x[k], y[k], heading[k]) to (px, py)."""
+    """out (6, N): arc()'s six numbers for the arc from each pose (x[k], y[k], heading[k]) to (px, py)."""
     for k in range(x.shape[0]):
-        th = heading[k] + math.pi if reverse else heading[k]
-        c, s = math.cos(th), math.sin(th)
-        dx, dy = px - x[k], py - y[k]
-        ahead, left = c * dx + s * dy, -s * dx + c * dy  # along the direction of travel; d . v_left
-        d2 = dx * dx + dy * dy
-        if abs(left) <= 1e-12 * max(d2, 1e-300):  # straight
-            radius = math.inf
-            angle = 0.0 if ahead >= 0 else math.inf
-            length = math.sqrt(d2) if ahead >= 0 else math.inf
-        else:
-            radius = d2 / (2 * left)
-            angle = 2 * math.atan2(left, ahead)
-            length = abs(angle * radius)
-        if abs(radius) < r_min_m or abs(angle) > max_turn_rad:
-            length = math.inf
-        finite_r = radius if math.isfinite(radius) else 0.0
-        out[0, k], out[1, k], out[2, k] = radius, x[k] - s * finite_r, y[k] + c * finite_r
-        out[3, k], out[4, k] = angle, length
-        out[5, k] = heading[k] + angle if math.isfinite(angle) else heading[k]
+        out[0, k], out[1, k], out[2, k], out[3, k], out[4, k], out[5, k] = arc(
+            x[k], y[k], heading[k], px, py, r_min_m, reverse, max_turn_rad)
 
 
 @nb.njit(cache=True, nogil=True)

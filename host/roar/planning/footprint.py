@@ -21,24 +21,9 @@ MARGIN_M = 0.03  # [m] added round the car's outline: the pose's error while it 
 
 
 def _build(nb):
-    @nb.njit(cache=True, nogil=True, fastmath=True)
-    def first_collision(blocked, x0, y0, inv_res, poses, bx, by):
-        """Index of the first of poses (N, 3: x, y, heading) at which a body point (bx, by) lies in
-        a blocked cell or off the grid; -1 if none."""
-        nx, ny = blocked.shape
-        for k in range(poses.shape[0]):
-            c, s = math.cos(poses[k, 2]), math.sin(poses[k, 2])
-            for p in range(bx.shape[0]):
-                fx = (poses[k, 0] + c * bx[p] - s * by[p] - x0) * inv_res
-                fy = (poses[k, 1] + s * bx[p] + c * by[p] - y0) * inv_res
-                if fx < 0.0 or fy < 0.0:
-                    return k
-                i, j = int(fx), int(fy)
-                if i >= nx or j >= ny or blocked[i, j]:
-                    return k
-        return -1
+    from roar.planning import footprint_kernel
 
-    return first_collision
+    return footprint_kernel.first_collision
 
 
 @dataclass(frozen=True)
@@ -66,7 +51,14 @@ class Footprint:
         return np.array([[back, -half], [front, -half], [front, half], [back, half]])
 
     def body_points(self, resolution_m: float) -> tuple[np.ndarray, np.ndarray]:
-        """(x, y) [m] points covering the outline at most half a cell apart, edges included."""
+        """(x, y) [m] points covering the outline at most half a cell apart, edges included (made
+        once per resolution)."""
+        cache = self.__dict__.setdefault("_cache", {})
+        if resolution_m not in cache:
+            cache[resolution_m] = self._body_points(resolution_m)
+        return cache[resolution_m]
+
+    def _body_points(self, resolution_m: float) -> tuple[np.ndarray, np.ndarray]:
         (back, right), (front, left) = self.corners()[0], self.corners()[2]
         nx = int(math.ceil((front - back) / (resolution_m / 2))) + 1
         ny = int(math.ceil((left - right) / (resolution_m / 2))) + 1
@@ -80,7 +72,7 @@ class Footprint:
         """Index of the first of the poses (N, 3) [m, m, rad] at which the car touches a blocked
         cell (or leaves the grid); -1 if it fits at every one."""
         p = np.ascontiguousarray(poses, dtype=float).reshape(-1, 3)
-        bx, by = self._points(grid.resolution_m)
+        bx, by = self.body_points(grid.resolution_m)
         kernel = compiled("the planner's footprint checks", _build, "planning")
         return int(kernel(grid.blocked, grid.x0, grid.y0, 1.0 / grid.resolution_m, p, bx, by))
 
@@ -102,9 +94,3 @@ class Footprint:
         out_u = np.maximum(np.maximum(back - u, u - front), 0.0)
         out_v = np.maximum(np.maximum(right - v, v - left), 0.0)
         return bool((np.hypot(out_u, out_v) < radius_m).any())
-
-    def _points(self, resolution_m: float) -> tuple[np.ndarray, np.ndarray]:
-        cache = self.__dict__.setdefault("_cache", {})
-        if resolution_m not in cache:
-            cache[resolution_m] = self.body_points(resolution_m)
-        return cache[resolution_m]

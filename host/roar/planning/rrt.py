@@ -18,9 +18,10 @@ max_reverse_m: a path reverses at most this far in a row, counting what the car 
 (plan's reversed_m): there is no camera behind, and a long way backwards is a long way blind.
 
 stop_room_m: a path ends only where the car would still fit that much further on (a car that
-overshoots its stop does not meet the wall). improve=N draws N more samples after the first path and keeps the cheapest path to the goal then
-(no rewiring: another branch that happens to be cheaper). smooth=True shortcuts a path found: from its start, the one arc to the farthest of its nodes that
-fits, then on from there (the new arcs join the tree as a branch of their own, so a replan keeps
+overshoots its stop does not meet the wall). improve=N draws N more samples after the first path
+and keeps the cheapest path to the goal then (no rewiring: another branch that happens to be
+cheaper). smooth=True shortcuts a path found: from its start, the one arc to the farthest of its
+nodes that fits, then on from there (the new arcs join the tree as a branch of their own, so a replan keeps
 them); the random detours of a first RRT path go, and it stays a chain of drivable arcs.
 """
 
@@ -32,7 +33,8 @@ import time
 import numpy as np
 
 from roar.localization.odometry import checked_pose as pose_of
-from roar.planning.arcs import arc_poses, arcs, truncated
+from roar.compiled import compiled
+from roar.planning.arcs import MAX_TURN_RAD, arc_poses, arcs
 from roar.planning.footprint import Footprint
 from roar.planning.grid import NoPath, PlanningError, PlanningGrid
 from roar.planning.path import Path
@@ -51,6 +53,19 @@ REROOT_RAD = 0.6  # [rad] ... and its heading within this
 MAX_NODES = 200_000
 MAX_KEPT = 2000  # a replan keeping more nodes than this starts afresh (each sample weighs every node)
 ROOM_COST = 3.0  # extra metres per metre driven with no room beside the car's rectangle, falling to none at room_m
+
+
+_NO_ROOM = np.zeros((0, 0))  # rrt_kernel.extend's "no crowding cost"
+
+
+def _kernel():
+    return compiled("the planner's growth step", _build, "planning")
+
+
+def _build(nb):
+    from roar.planning import rrt_kernel
+
+    return rrt_kernel
 
 
 def checked_pose(what: str, value, size: int = 3) -> tuple[float, ...]:
@@ -203,9 +218,10 @@ class ArcRRT:
         bad = np.zeros(len(t), bool)
         if self.max_reverse_m is not None:
             bad[1:] = t.reversed[1:] > self.max_reverse_m + 1e-6
-        for k in range(1, len(t)):
-            if not bad[k] and not bad[t.parent[k]] and not self.footprint.fits(self.grid, self.edge_poses(k)):
-                bad[k] = True
+        g = self.grid
+        bx, by = self.footprint.body_points(g.resolution_m)
+        _kernel().blocked_edges(t.x, t.y, t.heading, t.parent, t.radius, t.angle, t.length, t.direction, bad,
+                                g.blocked, float(g.x0), float(g.y0), float(g.resolution_m), bx, by)
         if bad.any():
             drop = np.zeros(len(t), bool)
             for k in np.flatnonzero(bad):
@@ -225,35 +241,25 @@ class ArcRRT:
 
     def _extend(self, px: float, py: float) -> int | None:
         """Grow the tree towards (px, py): the cheapest arcs from its nodes (ahead, and reversing
-        at reverse_cost), cut at step_m, the first that fits; its new node or None."""
-        t = self.tree
-        options = [arcs(t.x, t.y, t.heading, px, py, self.r_min_m)]
-        if self.reverse:
-            options.append(arcs(t.x, t.y, t.heading, px, py, self.r_min_m, reverse=True))
-        room = np.full(len(t), np.inf) if self.max_reverse_m is None else self.max_reverse_m - t.reversed  # [m]
-        metric = np.concatenate([options[0].length_m] + ([np.where(room > 0.05, options[1].length_m, np.inf)
-                                                          * self.reverse_cost] if self.reverse else []))
-        n = len(t)
-        k = min(CANDIDATES if self.room_m <= 0 else PARENTS, len(metric))
-        best = np.argpartition(metric, k - 1)[:k] if len(metric) > k else np.arange(len(metric))
-        order = metric[best] if self.room_m <= 0 else metric[best] + t.cost[best % n]
-        for b in best[np.argsort(order)]:
-            if not math.isfinite(metric[b]):
-                break
-            a, node = options[b // n], int(b % n)
-            reach = self.step_m if a is options[0] else min(self.step_m, float(room[node]))
-            angle, length = truncated(float(a.angle_rad[node]), float(a.length_m[node]), reach)
-            if length < 1e-3:
-                continue
-            radius, direction = float(a.radius_m[node]), int(a.direction[node])
-            poses = arc_poses(*t.pose(node), radius, angle, length, direction, self.grid.resolution_m)
-            if not self.footprint.fits(self.grid, poses):
-                continue
-            x, y, th = poses[-1]
-            cost = float(t.cost[node]) + length * (self.reverse_cost if direction < 0 else 1.0) + \
-                self._crowding(poses, length)
-            return t.add(x, y, math.remainder(th, math.tau), node, cost, direction, radius, angle, length)
-        return None
+        at reverse_cost, while a node has reversing left under max_reverse_m), cut at step_m (a
+        reversing one also at what is left), the first that fits; its new node or None. The CANDIDATES
+        nearest by arc length are tried shortest first, or with room_m the PARENTS nearest, cheapest
+        way to the new node first (cost to come + arc). Compiled: roar.planning.rrt_kernel."""
+        t, g, fp = self.tree, self.grid, self.footprint
+        bx, by = fp.body_points(g.resolution_m)
+        if self._room is None or self.room_m <= 0:
+            room, i0, j0 = _NO_ROOM, 0, 0
+        else:
+            room, i0, j0 = self._room
+        node, x, y, th, cost, direction, radius, angle, length = _kernel().extend(
+            t.x, t.y, t.heading, t.cost, t.reversed, float(px), float(py), self.r_min_m, self.reverse,
+            self.reverse_cost, math.inf if self.max_reverse_m is None else float(self.max_reverse_m), MAX_TURN_RAD,
+            CANDIDATES if self.room_m <= 0 else PARENTS, self.room_m > 0, self.step_m, g.blocked, float(g.x0),
+            float(g.y0), float(g.resolution_m), bx, by, room, int(i0), int(j0), (fp.front_m - fp.rear_m) / 2,
+            fp.half_width_m + fp.margin_m, float(self.room_m), ROOM_COST)
+        if node < 0:
+            return None
+        return t.add(x, y, math.remainder(th, math.tau), node, cost, direction, radius, angle, length)
 
     def _grow(self, goal, budget_s: float, max_iterations: int | None, t_s: float) -> Path:
         t = self.tree
@@ -322,14 +328,10 @@ class ArcRRT:
         if self._room is None or self.room_m <= 0:
             return 0.0
         dist, i0, j0 = self._room
-        fp = self.footprint
-        mid = (fp.front_m - fp.rear_m) / 2  # [m] the rectangle's centre ahead of the pose
-        centres = poses[:, :2] + mid * np.stack([np.cos(poses[:, 2]), np.sin(poses[:, 2])], axis=1)
-        ij = self.grid.cells(centres) - (i0, j0)
-        inside = (ij[:, 0] >= 0) & (ij[:, 1] >= 0) & (ij[:, 0] < dist.shape[0]) & (ij[:, 1] < dist.shape[1])
-        clear = np.full(len(poses), np.inf)
-        clear[inside] = dist[ij[inside, 0], ij[inside, 1]] - (fp.half_width_m + fp.margin_m)
-        return ROOM_COST * length * float(np.mean(np.clip(1.0 - clear / self.room_m, 0.0, 1.0)))
+        fp, g = self.footprint, self.grid
+        return _kernel().crowding(np.ascontiguousarray(poses, dtype=float), float(length), dist, int(i0), int(j0),
+                                  float(g.x0), float(g.y0), float(g.resolution_m), (fp.front_m - fp.rear_m) / 2,
+                                  fp.half_width_m + fp.margin_m, float(self.room_m), ROOM_COST)
 
     def _reached(self, goal, nodes: np.ndarray) -> int | None:
         t = self.tree
