@@ -112,7 +112,16 @@ if [[ $level == test ]]; then
   fi
 fi
 
-# the simulated camera's compiled loops into Numba's disk cache (~8 s the first time): a car's
-# first frame then takes ~0.7 s, not a stall of a real-time loop (a phone's stream, roar web)
-.venv/bin/python -c "from roar_sim.world.ray_camera import warm; warm()" ||
-  { echo "setup: the simulated camera's kernels did not compile" >&2; exit 1; }
+# Numba's kernels into its disk cache. For a race the simulated camera's (~8 s the first time): a
+# car's first frame then takes ~0.7 s, not a stall of a real-time loop (a phone's stream, roar web).
+# For the suite every kernel (scripts/warm_kernels.py: ~45 s the first time, again when a module
+# holding a kernel changes, as Numba's cache does), so that no worker compiles one on first use.
+warmed=.venv/.numba-warm
+if [[ $level == run ]]; then
+  .venv/bin/python -c "from roar_sim.world.ray_camera import warm; warm()" ||
+    { echo "setup: the simulated camera's kernels did not compile" >&2; exit 1; }
+elif [[ ! -f $warmed || -n $(find host hil_sim -name '*.py' -newer "$warmed" -exec grep -l 'njit' {} +) ]]; then
+  echo "setup: compiling Numba's kernels (scripts/warm_kernels.py)"
+  .venv/bin/python scripts/warm_kernels.py && touch "$warmed" ||
+    { echo "setup: Numba's kernels did not compile (scripts/warm_kernels.py says why)" >&2; exit 1; }
+fi
