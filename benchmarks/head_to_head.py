@@ -16,7 +16,7 @@ Where a target is missed the row says which and why (the race's report follows a
 import statistics
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
+from benchmarks import pool
 
 TITLE = ("racing two opponents (targets: at 85 % all passed in >= 90 % of races, 0 contacts caused, 0 walls, "
          "<= 1.10 x solo lap; at 98 % following within 1.5 m; four cars >= 10 x real time)")
@@ -103,8 +103,8 @@ def run(wide: list[str] | None = None, narrow: list[str] | None = None) -> None:
     wide = WIDE if wide is None else wide
     narrow = NARROW if narrow is None else narrow
     jobs = [(n, SLOW) for n in wide] + [(n, CLOSE) for n in wide] + [(n, SLOW) for n in narrow]
-    with ProcessPoolExecutor(max_workers=2) as pool:  # two races at once: this machine's cores
-        rows = list(pool.map(one, *zip(*jobs)))
+    with pool() as workers:  # two races at once
+        rows = list(workers.map(one, *zip(*jobs)))
     for (name, pace), (row, _, _) in zip(jobs, rows):
         print(row, flush=True)
     slow = [r for (n, p), r in zip(jobs, rows) if p == SLOW and n in wide]

@@ -11,7 +11,7 @@ starts after waiting 0-5 s for the start lights, one on each of the 20 tracks (t
 leave the first bend behind, without touching a wall)."""
 
 import sys
-from concurrent.futures import ProcessPoolExecutor
+from benchmarks import pool
 
 import numpy as np
 
@@ -91,8 +91,8 @@ def standing(name: str, seed: int) -> str:
 
 def run(names: list[str] | None = None) -> None:
     names = names or [*NARROW, *WIDE, *CIRCUITS]
-    with ProcessPoolExecutor(max_workers=2) as pool:  # two races at once: this machine's cores
-        rows = list(pool.map(one, names))
+    with pool() as workers:  # two races at once
+        rows = list(workers.map(one, names))
         for row in rows:
             print(row, flush=True)
         done = sum(row.endswith(" ok") for row in rows)
@@ -101,7 +101,7 @@ def run(names: list[str] | None = None) -> None:
         seeds = list(range(1, len(narrow) + 1))
         for title, fn, target in (("shaking, noisy camera", shaky, SHAKY_TARGET),
                                   ("standing starts after 0-5 s", standing, len(narrow))):
-            rows = list(pool.map(fn, narrow, seeds))
+            rows = list(workers.map(fn, narrow, seeds))
             for row in rows:
                 print(row, flush=True)
             done = sum(row.endswith(" ok") for row in rows)

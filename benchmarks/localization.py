@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
+from benchmarks import pool
 
 import numpy as np
 
@@ -136,8 +136,8 @@ def run(_args=None) -> None:
     if _args:  # python -m benchmarks.localization global|kidnap|laps: one part
         part = {"laps": (laps, LAP_WORLDS), "global": (global_start, GLOBAL_WORLDS), "kidnap": (kidnap, KIDNAP_WORLDS)}
         fn, names = part[_args[0]]
-        with ProcessPoolExecutor(max_workers=2) as pool:
-            for row in pool.map(fn, names):
+        with pool() as workers:
+            for row in workers.map(fn, names):
                 print(row, flush=True)
         return
     march_hz, march_rms = update_rate("march", 200)
@@ -148,12 +148,12 @@ def run(_args=None) -> None:
           f"{march_hz / walk_hz:.1f} x  {'ok' if ok else 'MISSED'}")
     ms = grid_rate()
     print(f"  local grid, 1080-beam scan, 10 m at 5 cm: {ms:.2f} ms  {'ok' if ms <= GRID_TARGET_MS else 'MISSED'}")
-    with ProcessPoolExecutor(max_workers=2) as pool:
+    with pool() as workers:
         for title, fn, names in (("three laps on the filter's pose", laps, LAP_WORLDS),
                                  ("global starts", global_start, GLOBAL_WORLDS),
                                  ("kidnaps", kidnap, KIDNAP_WORLDS)):
             print(f"  {title}:", flush=True)
-            rows = list(pool.map(fn, names))
+            rows = list(workers.map(fn, names))
             for row in rows:
                 print(row, flush=True)
             print(f"  {sum(r.endswith(' ok') for r in rows)} of {len(rows)} met the target")

@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
+from benchmarks import pool
 
 import numpy as np
 
@@ -155,8 +155,8 @@ def planners() -> None:
         return
     tasks = [(kind, *p) for p in pairs() for kind in PLANNERS]
     results: dict[str, list] = {k: [] for k in PLANNERS}
-    with ProcessPoolExecutor(max_workers=2) as pool:
-        for kind, out in pool.map(_one, tasks):
+    with pool() as workers:
+        for kind, out in workers.map(_one, tasks):
             results[kind].append(out)
     n = len(tasks) // len(PLANNERS)
     rows = {}
@@ -191,8 +191,8 @@ def _challenge(task):
 def challenge_runs() -> None:
     tasks = [(f"tunnel:{s}", oracle) for s in CHALLENGE_SEEDS for oracle in (False, True)]
     rows = {}
-    with ProcessPoolExecutor(max_workers=2) as pool:
-        for name, oracle, finished, t, cones, markers, score, pr, wall in pool.map(_challenge, tasks):
+    with pool() as workers:
+        for name, oracle, finished, t, cones, markers, score, pr, wall in workers.map(_challenge, tasks):
             rows[(name, oracle)] = (finished, t, cones, markers, score, pr)
             who = "oracle" if oracle else "filter"
             print(f"  {name:<10} {who}: {'finished' if finished else 'DID NOT FINISH'} {t:6.2f} s, cones {cones}, "
@@ -231,8 +231,8 @@ def _teams(name: str):
 
 def teams_runs() -> None:
     both, contacts = 0, 0
-    with ProcessPoolExecutor(max_workers=2) as pool:
-        for name, r, wall in pool.map(_teams, [f"tunnel:{s}" for s in CHALLENGE_SEEDS]):
+    with pool() as workers:
+        for name, r, wall in workers.map(_teams, [f"tunnel:{s}" for s in CHALLENGE_SEEDS]):
             finished = len(r.teams) == 2 and all(t.finished for t in r.teams)
             both += finished
             contacts += len(r.contacts)
