@@ -4,8 +4,7 @@
     rays  roar_sim.world.ray_camera: each pixel's ray cast on the floor's paint, the walls and the
           solids in compiled loops, without Bullet, wherever the world accounts for every body the
           camera may see (World.visuals: boxes, cones, people, start lights; not other cars or
-          markers); TinyRenderer draws the frames where such a body may be in view (another car
-          behind the camera leaves its frames to the rays). ~10x faster than TinyRenderer at 320 x 240
+          markers); TinyRenderer draws the other frames. ~10x faster than TinyRenderer at 320 x 240
           (make bench); tests/sim/test_renderers.py checks that the lane detector finds the same
           lines as in TinyRenderer's frames.
     egl   PyBullet's EGL plugin: OpenGL without a window (Mesa's llvmpipe here, a GPU where there

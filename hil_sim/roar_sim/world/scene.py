@@ -209,8 +209,7 @@ class World:
         """(RGB uint8 HxWx3, depth float32 HxW [m]) from a camera at `position` looking along `yaw`,
         tilted down by `pitch` [rad], in the world's light (self.light: None is PyBullet's own).
         body: the robot the camera is on (the ray-cast camera leaves it out: it looks ahead of it)."""
-        if self.renderer_name == "rays" and self.track is not None and \
-                not self._any_in_view(self._unseen(body), position, yaw, fov_deg, width / height, far_m):
+        if self.renderer_name == "rays" and self.track is not None and not self._unseen(body):
             return self._ray_render(position, yaw, pitch, width, height, fov_deg, far_m)
         if self._cull:
             reach = frustum_reach_m(far_m, fov_deg, width / height)
@@ -243,30 +242,6 @@ class World:
             known = {*self._own_bodies(), *self.visuals}
             self._unseen_by = (ids, len(self.visuals), [b for b in ids if b not in known])
         return [b for b in self._unseen_by[2] if b != body]
-
-    def _any_in_view(self, bodies: list[int], position, yaw: float, fov_deg: float, aspect: float,
-                     far_m: float) -> bool:
-        """Whether any of bodies may show in a camera at position looking along yaw [rad] (fov_deg
-        the vertical field of view): seen from above, the circle round a body's links reaches into
-        the horizontal field of view within far_m [m] (up and down not counted: the answer errs
-        towards yes). Another car behind the camera is no reason to leave the ray-cast camera."""
-        half = math.atan(math.tan(math.radians(fov_deg) / 2) * aspect)  # [rad] the horizontal half field of view
-        c = self.client
-        for b in bodies:
-            links = range(-1, pb.getNumJoints(b, physicsClientId=c))
-            boxes = [pb.getAABB(b, link, physicsClientId=c) for link in links]
-            lo, hi = np.min([box[0] for box in boxes], axis=0), np.max([box[1] for box in boxes], axis=0)
-            radius = math.hypot(hi[0] - lo[0], hi[1] - lo[1]) / 2  # [m]
-            dx, dy = (lo[0] + hi[0]) / 2 - position[0], (lo[1] + hi[1]) / 2 - position[1]
-            distance = math.hypot(dx, dy)  # [m]
-            if distance <= radius:
-                return True
-            if distance - radius > far_m:
-                continue
-            off = abs(math.remainder(math.atan2(dy, dx) - yaw, math.tau))  # [rad] from the camera's axis
-            if off - math.asin(radius / distance) <= half:
-                return True
-        return False
 
     def _ray_render(self, position, yaw: float, pitch: float, width: int, height: int, fov_deg: float,
                     far_m: float) -> tuple[np.ndarray, np.ndarray]:
