@@ -10,6 +10,8 @@ import subprocess
 import tempfile
 from pathlib import Path
 
+from roar_sim.toolchains import build_lock, stale
+
 ROOT = Path(__file__).resolve().parent.parent
 TARGETS_DIR = ROOT / "fuzz" / "targets"
 BUILD = ROOT / "build" / "fuzz"
@@ -53,14 +55,10 @@ def _sources() -> list[Path]:
     return sorted((CORE / "src").glob("*.cpp")) + [HOST / "c_api.cpp", HOST / "memory_boards.cpp"]
 
 
-def _stale(out: Path, inputs: list[Path]) -> bool:
-    return not out.exists() or any(p.stat().st_mtime > out.stat().st_mtime for p in inputs)
-
-
 def _compile(cxx: str, source: Path, obj: Path, extra: list[str]) -> None:
     headers = [*(CORE / "include" / "roar").glob("*.h"), HOST / "c_api.h", HOST / "memory_boards.h",
                TARGETS_DIR / "harness.h"]
-    if not _stale(obj, [source, *headers]):
+    if not stale(obj, [source, *headers]):
         return
     r = subprocess.run([cxx, *FLAGS, *SANITIZE, *extra, "-c", str(source), "-o", str(obj)],
                        capture_output=True, text=True)
@@ -75,11 +73,13 @@ def build(names: list[str] | None = None, jobs: int | None = None) -> dict[str, 
     problem = missing()
     if problem:
         raise FuzzBuildError(problem)
-    cxx = compiler()
-    names = names or targets()
+    with build_lock(BUILD / "targets"):  # one process builds, others (the suite's workers) wait and find it built
+        return _build(compiler(), names or targets(), jobs or os.cpu_count() or 1)
+
+
+def _build(cxx: str, names: list[str], jobs: int) -> dict[str, Path]:
     objects = BUILD / "obj"
     objects.mkdir(parents=True, exist_ok=True)
-    jobs = jobs or os.cpu_count() or 1
     core = [(s, objects / f"{s.stem}.o", ["-fsanitize=fuzzer-no-link"]) for s in _sources()]
     mains = [(TARGETS_DIR / f"{n}.cpp", objects / f"target_{n}.o", ["-fsanitize=fuzzer-no-link"]) for n in names]
     with concurrent.futures.ThreadPoolExecutor(jobs) as pool:
@@ -89,7 +89,7 @@ def build(names: list[str] | None = None, jobs: int | None = None) -> dict[str, 
     for name in names:
         exe = BUILD / name
         parts = [o for _, o, _ in core] + [objects / f"target_{name}.o"]
-        if _stale(exe, parts):
+        if stale(exe, parts):
             r = subprocess.run([cxx, "-fsanitize=fuzzer", *SANITIZE, *map(str, parts), "-o", str(exe)],
                                capture_output=True, text=True)
             if r.returncode != 0:
