@@ -23,9 +23,8 @@ or have a neutral-set button). Steering trim has no such limit.
 from __future__ import annotations
 
 import tomllib
+from dataclasses import dataclass, field, fields
 from pathlib import Path
-
-from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
 from roar.checks import number
 from roar.errors import CalibrationError
@@ -35,24 +34,31 @@ from roar.user_files import config_folder, read_parsed
 LO, HI, MID = spec.CONTROL_MIN_US, spec.CONTROL_MAX_US, spec.CONTROL_NEUTRAL_US
 ARM_WINDOW = spec.TIMING_ARM_WINDOW_US  # [us] the car arms on a throttle within this of MID
 THROTTLE_TRIM_RANGE = (MID - ARM_WINDOW, MID + ARM_WINDOW)  # [us]
+CHANNELS = ("throttle", "steering")  # a calibration's sections
 
 
-class ChannelCalibration(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+@dataclass(frozen=True)
+class ChannelCalibration:
+    """One channel's pulses; a ValueError naming the key for values of the wrong type (an integer
+    is an integer: not true, not 1500.0, not "1500") or out of order."""
 
     trim_us: int = MID  # [us] pulse for 0
     min_us: int = LO  # [us] pulse for -1
     max_us: int = HI  # [us] pulse for +1
     reversed: bool = False
 
-    @model_validator(mode="after")
-    def _ordered(self) -> ChannelCalibration:
+    def __post_init__(self) -> None:
+        for name in ("trim_us", "min_us", "max_us"):
+            value = getattr(self, name)
+            if type(value) is not int:
+                raise ValueError(f"{name}: must be an integer [us], got {value!r}")
+        if type(self.reversed) is not bool:
+            raise ValueError(f"reversed: must be true or false, got {self.reversed!r}")
         if not LO <= self.min_us <= self.trim_us <= self.max_us <= HI:
             raise ValueError(f"need {LO} <= min_us <= trim_us <= max_us <= {HI} [us], got min_us={self.min_us}, "
                              f"trim_us={self.trim_us}, max_us={self.max_us}")
         if self.min_us == self.max_us:
             raise ValueError("min_us and max_us must differ")
-        return self
 
     def to_us(self, value: float) -> int:
         """[-1, 1] -> [us]: 0 is the trim, -1 min_us, +1 max_us, linear on each side."""
@@ -61,14 +67,17 @@ class ChannelCalibration(BaseModel):
         return int(round(self.trim_us + v * span))
 
 
-class Calibration(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+KEYS = tuple(f.name for f in fields(ChannelCalibration))  # a section's keys
 
-    throttle: ChannelCalibration = ChannelCalibration()
-    steering: ChannelCalibration = ChannelCalibration()
 
-    @model_validator(mode="after")
-    def _armable_and_drivable(self) -> Calibration:
+@dataclass(frozen=True)
+class Calibration:
+    """Both channels; a ValueError for a throttle that would never arm the car or drive it forward."""
+
+    throttle: ChannelCalibration = field(default_factory=ChannelCalibration)
+    steering: ChannelCalibration = field(default_factory=ChannelCalibration)
+
+    def __post_init__(self) -> None:
         th = self.throttle
         lo, hi = THROTTLE_TRIM_RANGE
         if not lo <= th.trim_us <= hi:
@@ -78,7 +87,26 @@ class Calibration(BaseModel):
         if th.to_us(1.0) == th.trim_us:
             raise ValueError(f"throttle +1 gives the trim pulse ({th.trim_us} us): the car could not drive forward; "
                              f"{'min_us' if th.reversed else 'max_us'} must differ from trim_us")
-        return self
+
+    @classmethod
+    def from_dict(cls, data: dict) -> Calibration:
+        """From a file's tables ({"steering": {"trim_us": 1520}}, missing keys at their defaults):
+        a ValueError naming the section and key that is wrong (`steering.trim: not a key ...`)."""
+        channels = {}
+        for section, values in data.items():
+            if section not in CHANNELS:
+                raise ValueError(f"{section}: not a section of a calibration (use {' and '.join(CHANNELS)})")
+            if not isinstance(values, dict):
+                raise ValueError(f"{section}: must be a table of {', '.join(KEYS)}")
+            for key in values:
+                if key not in KEYS:
+                    raise ValueError(f"{section}.{key}: not a key of a channel (use {', '.join(KEYS)})")
+            try:
+                channels[section] = ChannelCalibration(**values)
+            except ValueError as e:
+                named = str(e).split(":")[0] in KEYS  # a key's own error: "trim_us: must be ..."
+                raise ValueError(f"{section}{'.' if named else ': '}{e}") from None
+        return cls(**channels)
 
     def message(self, throttle: float, steering: float) -> bytes:
         """The control message for throttle and steering in [-1, 1]."""
@@ -89,9 +117,9 @@ class Calibration(BaseModel):
         path = Path(path)
         data = read_parsed(path, tomllib.loads, CalibrationError, "TOML")
         try:
-            return cls.model_validate(data)
-        except ValidationError as e:
-            raise CalibrationError(f"{path}: {first_error(e)}") from None
+            return cls.from_dict(data)
+        except ValueError as e:
+            raise CalibrationError(f"{path}: {e}") from None
 
     def save(self, path: str | Path) -> None:
         path = Path(path)
@@ -125,10 +153,3 @@ def check_unit(name: str, value) -> float:
     """A command value as float in [-1, 1]; one-line ValueError otherwise (NaN and inf included)."""
     return number(name, value, -1.0, 1.0)
 
-
-def first_error(e: ValidationError) -> str:
-    err = e.errors()[0]
-    where = ".".join(str(p) for p in err["loc"])
-    msg = err["msg"].removeprefix("Value error, ")
-    extra = f" (and {e.error_count() - 1} more)" if e.error_count() > 1 else ""
-    return f"{where}: {msg}{extra}" if where else msg + extra

@@ -53,12 +53,19 @@ def test_default_is_the_protocol_range():
     (dict(trim_us=2100, max_us=2000), "min_us <= trim_us <= max_us"),
     (dict(min_us=1600, trim_us=1500), "min_us <= trim_us"),
     (dict(min_us=1500, trim_us=1500, max_us=1500), "must differ"),
-    (dict(trim_us="1500"), "integer"),
-    (dict(offset=3), "Extra inputs"),
+    (dict(trim_us="1500"), "trim_us: must be an integer"),
+    (dict(trim_us=1500.0), "trim_us: must be an integer"),
+    (dict(max_us=True), "max_us: must be an integer"),
+    (dict(reversed=1), "reversed: must be true or false"),
 ])
 def test_bad_channels_are_rejected(kwargs, words):
     with pytest.raises(ValueError, match=words):
         ChannelCalibration(**kwargs)
+
+
+def test_a_channel_has_no_other_keys():
+    with pytest.raises(TypeError, match="offset"):
+        ChannelCalibration(offset=3)
 
 
 def test_file_round_trip(tmp_path):
@@ -79,10 +86,13 @@ def test_missing_keys_take_defaults(tmp_path):
 
 @pytest.mark.parametrize("text, words", [
     ("[steering]\ntrim_us = 2500\n", "steering: need 1000 <= min_us"),
-    ("[steering]\ntrim = 1500\n", "steering.trim: Extra inputs"),
-    ("[wheels]\n", "wheels: Extra inputs"),
+    ("[steering]\ntrim = 1500\n", "steering.trim: not a key of a channel (use trim_us, min_us, max_us, reversed)"),
+    ("[wheels]\n", "wheels: not a section of a calibration (use throttle and steering)"),
+    ("steering = 3\n", "steering: must be a table of trim_us"),
     ("[steering\n", "not valid TOML"),
-    ("[throttle]\nreversed = \"yes\"\n", "throttle.reversed"),
+    ("[throttle]\nreversed = \"yes\"\n", "throttle.reversed: must be true or false, got 'yes'"),
+    ("[throttle]\ntrim_us = 1500.0\n", "throttle.trim_us: must be an integer [us], got 1500.0"),
+    ("[throttle]\ntrim_us = 1530\n", "throttle trim_us 1530 is more than 25 us from 1500"),
 ])
 def test_bad_files_give_one_line_errors(tmp_path, text, words):
     path = tmp_path / "c.toml"

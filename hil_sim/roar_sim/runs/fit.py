@@ -187,7 +187,7 @@ def _trim(args, profile) -> str:
     """Put the steering trim that makes the car drive straight into the calibration file."""
     import math
 
-    from roar.calibration import HI, LO, MID, Calibration, ChannelCalibration, default_path
+    from roar.calibration import HI, LO, MID, Calibration, default_path
 
     path = args.calibration or default_path()
     calibration = Calibration.load(path) if Path(path).exists() else Calibration()
@@ -202,7 +202,7 @@ def _trim(args, profile) -> str:
     if not steering.min_us < trim_us < steering.max_us:
         return f"calibration left as it is: a steering trim of {trim_us} us is outside its end-points"
     new = Calibration(throttle=calibration.throttle,
-                      steering=ChannelCalibration(**{**steering.model_dump(), "trim_us": trim_us}))
+                      steering=dataclasses.replace(steering, trim_us=trim_us))
     new.save(path)
     return f"calibration: steering trim {steering.trim_us} -> {trim_us} us in {path} (the car now drives straight)"
 

@@ -10,10 +10,8 @@ import sys
 from pathlib import Path
 from typing import TextIO
 
-from pydantic import ValidationError
-
 from roar.cli.sdk import ArgumentParser, UserError, add_url, path_option
-from roar.calibration import ARM_WINDOW, THROTTLE_TRIM_RANGE, Calibration, ChannelCalibration, first_error
+from roar.calibration import ARM_WINDOW, THROTTLE_TRIM_RANGE, Calibration, ChannelCalibration
 from roar.protocol import spec
 from roar.vehicle import Vehicle
 
@@ -95,9 +93,9 @@ def walk(car: Vehicle, path: Path, inp: TextIO, out: TextIO) -> int:
     try:
         new = Calibration(throttle=ChannelCalibration(trim_us=t_trim, min_us=t_min, max_us=t_max, reversed=t_rev),
                           steering=ChannelCalibration(trim_us=s_trim, min_us=s_min, max_us=s_max, reversed=s_rev))
-    except ValidationError as e:
+    except ValueError as e:
         out.write("\n")
-        raise UserError(f"calibration not saved: {first_error(e)}") from None
+        raise UserError(f"calibration not saved: {e}") from None
     new.save(path)
     out.write(f"\nsaved {path}:\n  throttle {t_min}/{t_trim}/{t_max} us{' reversed' if t_rev else ''}\n"
               f"  steering {s_min}/{s_trim}/{s_max} us{' reversed' if s_rev else ''}\n")
