@@ -112,7 +112,7 @@ def test_installed_packages_add_transports_through_entry_points(monkeypatch):
 
     registry = transports.registry
     monkeypatch.setattr(registry, "_entry_points_loaded", False)
-    monkeypatch.setattr(registry, "entry_points", lambda group: [
+    monkeypatch.setattr("importlib.metadata.entry_points", lambda group: [
         EntryPoint("plugin", "test_transports:Recorder", group)] if group == registry.ENTRY_POINT_GROUP else [])
     try:
         assert isinstance(open_url("plugin://x"), Recorder)

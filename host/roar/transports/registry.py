@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import importlib
-from importlib.metadata import entry_points
 from urllib.parse import parse_qsl, unquote, urlsplit
 
 from roar.transports.base import Transport, TransportError
@@ -62,6 +61,8 @@ def _load_entry_points() -> None:
     global _entry_points_loaded
     if not _entry_points_loaded:
         _entry_points_loaded = True
+        from importlib.metadata import entry_points  # (~25 ms to import: only where a URL is opened)
+
         for ep in entry_points(group=ENTRY_POINT_GROUP):
             _REGISTRY.setdefault(ep.name.lower(), ep.value)
 
