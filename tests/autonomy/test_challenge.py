@@ -107,10 +107,22 @@ def test_the_planners_minimum_turning_radius_is_the_cars():
     assert math.sqrt(c + cx ** 2 + cy ** 2) == pytest.approx(R_MIN_M, rel=0.05)
 
 
-def test_a_short_challenge_run_touches_no_cone_and_counts_each_object_once():
+@pytest.fixture(scope="module")
+def short_run(tmp_path_factory):
+    """(result, its MCAP or None) of one run for two tests (xdist_group "short_challenge"): tunnel:3
+    to 14 m along its route, recorded where the record extra is installed."""
+    try:
+        import foxglove  # noqa: F401
+        path = tmp_path_factory.mktemp("challenge") / "challenge.mcap"
+    except ImportError:
+        path = None
+    return challenge(get("tunnel:3"), goal_m=14.0, seed=2, log=path), path
+
+
+@pytest.mark.xdist_group("short_challenge")
+def test_a_short_challenge_run_touches_no_cone_and_counts_each_object_once(short_run):
     """tunnel:3 to 14 m along its route: a cone to pass, two markers within the bonus rule's reach."""
-    track = get("tunnel:3")
-    result = challenge(track, goal_m=14.0, seed=2)
+    result, _ = short_run
     assert result.finished and result.time_s < 14.0 / 0.7, result.report()
     assert not result.cones_touched and result.wall_contacts == 0, result.report()
     (cone_p, cone_r), (marker_p, marker_r) = result.precision_recall().values()
@@ -143,15 +155,15 @@ def test_two_teams_run_the_course_concurrently_each_seeing_the_other_as_an_obsta
     assert math.dist(second.true_path[0], first.true_path[0]) < 0.1  # the same start; its time from its own
 
 
-def test_a_challenge_run_records_its_detections_plans_trees_and_grid(tmp_path):
+@pytest.mark.xdist_group("short_challenge")
+def test_a_challenge_run_records_its_detections_plans_trees_and_grid(short_run):
     """The run's record (roar_sim.links.sim_log): the plans, their trees, the local grid, the camera
     at its rate, a filter step per firmware step, and the cones found, also as Foxglove's scene.
     (In lockstep, as every challenge run: it keeps to no clock.)"""
     pytest.importorskip("foxglove", reason="pip install foxglove-sdk (the project's record extra)")
     from roar.replay import messages, read_log
 
-    path = tmp_path / "challenge.mcap"
-    result = challenge(get("tunnel:3"), goal_m=8.0, seed=2, log=path)
+    result, path = short_run
     assert result.finished
     c = read_log(path).channels
     assert c["/planning/path"].count == len(result.paths) and c["/planning/tree"].count >= 5
