@@ -125,3 +125,9 @@ elif [[ ! -f $warmed || -n $(find host hil_sim -name '*.py' -newer "$warmed" -ex
   .venv/bin/python scripts/warm_kernels.py && touch "$warmed" ||
     { echo "setup: Numba's kernels did not compile (scripts/warm_kernels.py says why)" >&2; exit 1; }
 fi
+# The native programs the suite runs (the core for this machine in each variant, the fuzz targets),
+# built where stale, so that no worker builds one on first use (scripts/build_ahead.py).
+if [[ $level == test ]]; then
+  .venv/bin/python scripts/build_ahead.py ||
+    { echo "setup: a native build failed (scripts/build_ahead.py says why)" >&2; exit 1; }
+fi
