@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from roar.compiled import compiled
 from roar.vision.geometry import CameraModel
 
 CELL_M = 0.1  # [m]
@@ -28,6 +29,7 @@ STRIDE = 2  # use every STRIDE-th pixel each way
 RANSAC_ROUNDS = 40
 RANSAC_TOLERANCE_M = 0.02  # [m]
 RANSAC_SCORED = 2000  # low points each candidate plane is scored on, at most (all of a frame's: 8 ms a frame)
+MIN_LEVEL = 0.8  # the floor is roughly level: its normal's upward part at least this
 
 
 @dataclass(frozen=True)
@@ -84,48 +86,37 @@ def camera_points(depth: np.ndarray, camera: CameraModel, stride: int = STRIDE) 
 
 
 def fit_floor(points: np.ndarray, rng: np.random.Generator | None = None) -> tuple[float, float, float, float]:
-    """The floor as a plane through the points: RANSAC among the low points, then least squares
-    on its inliers. Falls back to z = 0 when there are too few points."""
+    """The floor as a plane (nx, ny, nz, d), n . p + d = 0: RANSAC among the low points (RANSAC_ROUNDS
+    planes through three drawn points, each scored on an even sample of RANSAC_SCORED of them),
+    then least squares on the best one's inliers; z = 0 when there are too few points or no plane
+    is roughly level. (Compiled: roar.vision.floor_kernel.)"""
     rng = rng or np.random.default_rng(0)
-    low = points[points[:, 2] < 0.1]
+    low = np.ascontiguousarray(points[points[:, 2] < 0.1], dtype=np.float64)
     if len(low) < 20:
         return 0.0, 0.0, 1.0, 0.0
-    # all rounds at once: three points each (a repeated point makes no plane and is skipped)
-    a, b, c = np.moveaxis(low[rng.integers(0, len(low), (RANSAC_ROUNDS, 3))], 1, 0)
-    n = np.cross(b - a, c - a)
-    norm = np.linalg.norm(n, axis=1)
-    usable = norm > 1e-9
-    n[usable] /= norm[usable, None]
-    usable &= np.abs(n[:, 2]) >= 0.8  # the floor is roughly level
-    if not usable.any():
-        return 0.0, 0.0, 1.0, 0.0
-    a, n = a[usable], n[usable]
-    scored = low[::max(1, len(low) // RANSAC_SCORED)]  # the planes scored on an even sample, refitted on all
-    counts = (np.abs(scored @ n.T - np.sum(a * n, axis=1)) < RANSAC_TOLERANCE_M).sum(axis=0)
-    best = int(np.argmax(counts))  # the first of the best, as rounds one by one would keep it
-    n, a = n[best], a[best]
-    inliers = low[np.abs((low - a) @ n) < RANSAC_TOLERANCE_M]
-    # least squares z = p x + q y + r on the inliers
-    A = np.column_stack([inliers[:, 0], inliers[:, 1], np.ones(len(inliers))])
-    (p, q, r), *_ = np.linalg.lstsq(A, inliers[:, 2], rcond=None)
-    n = np.array([-p, -q, 1.0])
-    scale = np.linalg.norm(n)
-    return float(n[0] / scale), float(n[1] / scale), float(n[2] / scale), float(-r / scale)
+    picks = rng.integers(0, len(low), (RANSAC_ROUNDS, 3))
+    return _kernels().fit_floor(low, picks, max(1, len(low) // RANSAC_SCORED), RANSAC_TOLERANCE_M, MIN_LEVEL)
 
 
 def occupancy(depth: np.ndarray, camera: CameraModel, cell_m: float = CELL_M) -> Occupancy:
-    points = camera_points(depth, camera)
+    points = np.ascontiguousarray(camera_points(depth, camera))
     plane = fit_floor(points)
-    height = points @ np.array(plane[:3]) + plane[3]
-    standing = points[(height > MIN_HEIGHT_M) & (height < MAX_HEIGHT_M)]
     rows = int(round((X_RANGE_M[1] - X_RANGE_M[0]) / cell_m))
     cols = int(round(2 * Y_HALF_M / cell_m))
-    r = np.floor((standing[:, 0] - X_RANGE_M[0]) / cell_m).astype(int)
-    c = np.floor((Y_HALF_M - standing[:, 1]) / cell_m).astype(int)
-    inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
     counts = np.zeros((rows, cols), np.int32)
-    np.add.at(counts, (r[inside], c[inside]), 1)
+    _kernels().count_cells(points, np.array(plane), MIN_HEIGHT_M, MAX_HEIGHT_M, X_RANGE_M[0], Y_HALF_M, cell_m,
+                           counts)
     return Occupancy(counts >= MIN_POINTS, counts, plane, cell_m)
+
+
+def _kernels():
+    return compiled("the depth grid's floor fit", _build_kernels, "vision")
+
+
+def _build_kernels(_numba):
+    from roar.vision import floor_kernel
+
+    return floor_kernel
 
 
 def figure(rgb: np.ndarray, grid: Occupancy):
