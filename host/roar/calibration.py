@@ -78,6 +78,9 @@ class Calibration:
     steering: ChannelCalibration = field(default_factory=ChannelCalibration)
 
     def __post_init__(self) -> None:
+        for name in CHANNELS:
+            if not isinstance(getattr(self, name), ChannelCalibration):
+                raise ValueError(f"{name}: must be a ChannelCalibration, got {getattr(self, name)!r}")
         th = self.throttle
         lo, hi = THROTTLE_TRIM_RANGE
         if not lo <= th.trim_us <= hi:

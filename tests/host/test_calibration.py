@@ -68,6 +68,11 @@ def test_a_channel_has_no_other_keys():
         ChannelCalibration(offset=3)
 
 
+def test_a_calibration_is_made_of_channels():
+    with pytest.raises(ValueError, match="steering: must be a ChannelCalibration"):
+        Calibration(steering={"trim_us": 1500})
+
+
 def test_file_round_trip(tmp_path):
     c = Calibration(throttle=ChannelCalibration(trim_us=1490, min_us=1200, max_us=1800, reversed=True),
                     steering=ChannelCalibration(trim_us=1520))
