@@ -19,6 +19,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # fuzz/ is the repository's, not a package's
 
+from roar_sim import CoreBuildError  # noqa: E402
 from roar_sim.toolchains import native  # noqa: E402
 
 CORE_BUILDS = [("library", "release"), ("library", "sanitize"),
@@ -29,7 +30,7 @@ def main() -> int:
     start = time.perf_counter()
     try:
         native.compiler()
-    except native.CoreBuildError as e:
+    except CoreBuildError as e:
         print(f"build_ahead: the core's host builds skipped: {e}")
     else:
         with concurrent.futures.ThreadPoolExecutor(os.cpu_count() or 1) as pool:  # one compiler call each
